@@ -1,0 +1,87 @@
+"""Options-driven linear solves with one factorization of the stiffness.
+
+Defaults: KSP preonly + LU with MUMPS and MUMPS null-pivot detection (ICNTL(24) = 1) so
+that a singular stiffness is reported instead of solved. Anything can be overridden
+with PETSc options (command line or the config's [petsc] table), e.g.
+`-ksp_type cg -pc_type gamg` or `-pc_factor_mat_solver_type superlu_dist`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from petsc4py import PETSc
+
+from app.errors import SolveError
+
+DEFAULT_OPTIONS = {
+    "ksp_type": "preonly",
+    "pc_type": "lu",
+    "pc_factor_mat_solver_type": "mumps",
+    "mat_mumps_icntl_24": "1",
+}
+
+
+def set_default_options(extra: dict[str, str] | None = None) -> None:
+    """Put defaults, then the config's [petsc] table, into the options database.
+
+    Options already given on the command line win over both.
+    """
+    opts = PETSc.Options()
+    for table in (extra or {}, DEFAULT_OPTIONS):
+        for key, value in table.items():
+            if not opts.hasName(key):
+                opts.setValue(key, value)
+
+
+def apply_dirichlet(k: PETSc.Mat, dofs: np.ndarray) -> None:
+    """Zero the rows and columns of prescribed DOFs and put 1 on their diagonal."""
+    r0, r1 = k.getOwnershipRange()
+    own = dofs[(dofs >= r0) & (dofs < r1)].astype(PETSc.IntType)
+    k.zeroRowsColumns(own, diag=1.0)
+
+
+class LinearSolver:
+    """One factorization of K (after Dirichlet elimination), reused for every solve."""
+
+    def __init__(self, k: PETSc.Mat):
+        self.k = k
+        self.ksp = PETSc.KSP().create(comm=k.getComm())
+        self.ksp.setOperators(k)
+        self.ksp.setFromOptions()
+        self.is_mumps = False
+        pc = self.ksp.getPC()
+        if pc.getType() in ("lu", "cholesky"):
+            self.is_mumps = pc.getFactorSolverType() == "mumps"
+
+    def factor(self) -> None:
+        """Symbolic + numeric factorization (or preconditioner set-up)."""
+        self.ksp.setUp()
+        if self.is_mumps:
+            f = self.ksp.getPC().getFactorMatrix()
+            null = f.getMumpsInfog(28)
+            if null > 0:
+                raise SolveError(f"stiffness is singular ({null} null pivots in MUMPS)")
+            info = f.getMumpsInfog(1)
+            if info < 0:
+                raise SolveError(f"MUMPS factorization failed (INFOG(1) = {info})")
+
+    def solve(self, b: PETSc.Vec, x: PETSc.Vec | None = None) -> PETSc.Vec:
+        """Solve K x = b; checks convergence and the residual."""
+        x = x or self.k.createVecLeft()
+        self.ksp.solve(b, x)
+        reason = self.ksp.getConvergedReason()
+        if reason < 0:
+            raise SolveError(f"linear solver diverged (KSP reason {reason}): try other "
+                             "PETSc options or the default MUMPS LU")
+        r = b.duplicate()
+        self.k.mult(x, r)
+        r.aypx(-1.0, b)
+        bn = b.norm()
+        if bn > 0 and r.norm() > 1e-6 * bn and not np.isnan(bn):
+            raise SolveError(
+                f"linear solve is inaccurate (relative residual {r.norm() / bn:.2e}): the "
+                "stiffness is probably singular"
+            )
+        if np.isnan(x.norm()):
+            raise SolveError("linear solve produced NaN: the stiffness is probably singular")
+        return x

@@ -1,0 +1,93 @@
+"""Command line: `python -m app run CONFIG ...` (also under `mpiexec -n 2`).
+
+Arguments the application does not know are PETSc options (-ksp_type, -pc_type,
+-pc_factor_mat_solver_type, -log_view, -mat_mumps_icntl_14 ...).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+DESCRIPTION = """\
+2D multi-body elastic contact with CS-FEM (1/2/3/4/8/16 smoothing domains per element) or
+FEM-Q4 on quadrilateral meshes, PETSc/MUMPS condensation onto the contact DOFs, and the
+modified Coulomb interface law as an LCP solved by Lemke's method.
+
+Any argument not listed below is passed to PETSc, for example
+  -ksp_type cg -pc_type gamg              (an iterative solver instead of MUMPS LU)
+  -pc_factor_mat_solver_type superlu_dist (another direct solver)
+  -log_view                               (PETSc profile with the stages mesh, assembly,
+                                           factorization, solve, compliance, lcp, output)
+Run in parallel with: mpiexec -n 2 python -m app run CONFIG
+"""
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="python -m app", description=DESCRIPTION,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    sub = p.add_subparsers(dest="command", required=True)
+    r = sub.add_parser("run", help="solve one scene (a TOML config)",
+                       description="Solve one scene and write OUT/results.xdmf, "
+                       "OUT/contact.xdmf (if any contact), step_*.h5 and summary.json. "
+                       "Unknown options go to PETSc.")
+    r.add_argument("config", type=Path, help="scene file, e.g. configs/cantilever.toml")
+    r.add_argument("--out", type=Path, default=None,
+                   help="output folder (default: out/<config name>)")
+    r.add_argument("--method", choices=["cs-fem", "fem-q4"], default=None,
+                   help="bulk discretisation (default: the config's analysis.method)")
+    r.add_argument("--sd", type=int, default=None,
+                   help="smoothing domains per element for cs-fem: 1, 2, 3, 4, 8 or 16")
+    r.add_argument("--mesh-size", type=float, default=None, metavar="H",
+                   help="global element size; every local refinement size is scaled by "
+                   "H / mesh.size")
+    r.add_argument("--mesh-cache", type=Path, default=None,
+                   help="folder where built meshes are cached and reused")
+    r.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    parser = _parser()
+    args, petsc_args = parser.parse_known_args(argv)
+    bad = [a for a in petsc_args if a.startswith("--")]
+    if bad:
+        parser.error(f"unknown option {bad[0]} (PETSc options take a single dash)")
+
+    import petsc4py
+
+    petsc4py.init([sys.argv[0]] + petsc_args)
+    from petsc4py import PETSc
+
+    from app.config import load_config
+    from app.errors import InputError, SolveError
+    from app.run import RunOptions, run
+
+    rank = PETSc.COMM_WORLD.getRank()
+    try:
+        cfg = load_config(args.config)
+        if args.mesh_size is not None and args.mesh_size <= 0:
+            raise InputError(f"--mesh-size must be > 0 (got {args.mesh_size})")
+        opts = RunOptions(
+            out=args.out or Path("out") / args.config.stem,
+            method=args.method,
+            sd=args.sd,
+            mesh_scale=(args.mesh_size / cfg.mesh_size) if args.mesh_size else 1.0,
+            quiet=args.quiet,
+            mesh_cache=args.mesh_cache,
+        )
+        if opts.method == "fem-q4" and args.sd is not None:
+            raise InputError("--sd applies to --method cs-fem only")
+        summary = run(cfg, opts)
+    except (InputError, SolveError) as exc:
+        if rank == 0:
+            print(f"error: {exc}", file=sys.stderr)
+        return 2
+    if rank == 0 and not args.quiet:
+        t = summary["timings"]
+        print(f"{summary['label']}: {summary['n_dofs']} DOFs, {summary['n_elements']} "
+              f"elements, strain energy {summary['strain_energy']:.10g}, total "
+              f"{t['total']:.2f} s -> {opts.out}", file=sys.stderr)
+    return 0

@@ -1,0 +1,75 @@
+"""Closed-form solutions the results are checked against (METHOD.md section 6).
+
+All functions are plain numpy. Plane strain uses E' = E / (1 - nu^2), nu' = nu / (1 - nu).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def effective_moduli(E: float, nu: float, plane: str) -> tuple[float, float]:
+    """(E, nu) to use in plane-stress formulas for the given plane condition."""
+    if plane == "strain":
+        return E / (1.0 - nu**2), nu / (1.0 - nu)
+    return E, nu
+
+
+def timoshenko_cantilever(x, y, *, P: float, L: float, D: float, E: float, nu: float,
+                          plane: str = "strain", thickness: float = 1.0) -> dict:
+    """Timoshenko & Goodier cantilever: 0 <= x <= L, -D/2 <= y <= D/2, clamped at x = 0,
+    parabolic shear traction of resultant P (downward) at x = L.
+
+    Returns displacement ux, uy at (x, y), the tip deflection uy(L, 0) and the strain
+    energy U of the beam (thickness included).
+    """
+    e, n = effective_moduli(E, nu, plane)
+    inertia = D**3 / 12.0
+    x = np.asarray(x, dtype=float)
+    y = np.asarray(y, dtype=float)
+    p = P / thickness
+    ux = p * y / (6 * e * inertia) * ((6 * L - 3 * x) * x + (2 + n) * (y**2 - D**2 / 4))
+    uy = -p / (6 * e * inertia) * (3 * n * y**2 * (L - x) + (4 + 5 * n) * D**2 * x / 4
+                                   + (3 * L - x) * x**2)
+    tip = -(p * L**3 / (3 * e * inertia) + (4 + 5 * n) * p * L * D**2 / (24 * e * inertia))
+    g = e / (2 * (1 + n))
+    energy = thickness * (p**2 * L**3 / (6 * e * inertia) + 3 * p**2 * L / (5 * g * D))
+    return {"ux": ux, "uy": uy, "tip_deflection": tip, "strain_energy": energy}
+
+
+def hertz_cylinder(P: float, R: float, E1: float, nu1: float, E2: float, nu2: float,
+                   thickness: float = 1.0) -> dict:
+    """Hertz line contact of a cylinder (radius R) on a flat, plane strain.
+
+    P is the total force (per `thickness`). Returns E*, the half-width a and the peak
+    pressure p0.
+    """
+    e_star = 1.0 / ((1 - nu1**2) / E1 + (1 - nu2**2) / E2)
+    p = P / thickness
+    a = np.sqrt(4 * p * R / (np.pi * e_star))
+    p0 = 2 * p / (np.pi * a)
+    return {"E_star": e_star, "a": a, "p0": p0}
+
+
+def hertz_pressure(x, a: float, p0: float) -> np.ndarray:
+    """p(x) = p0 sqrt(1 - x^2 / a^2) inside |x| < a, 0 outside."""
+    x = np.asarray(x, dtype=float)
+    return p0 * np.sqrt(np.clip(1.0 - (x / a) ** 2, 0.0, None))
+
+
+def cattaneo_traction(x, a: float, p0: float, mu: float, Q_over_muP: float) -> np.ndarray:
+    """Cattaneo-Mindlin tangential traction magnitude for a tangential load Q < mu P.
+
+    Stick half-width c = a sqrt(1 - Q / (mu P)); q(x) = mu p0 [sqrt(1 - x^2/a^2)
+    - (c/a) sqrt(1 - x^2/c^2)] in |x| < c and mu p(x) in c <= |x| < a.
+    """
+    x = np.asarray(x, dtype=float)
+    c = a * np.sqrt(1.0 - Q_over_muP)
+    outer = mu * hertz_pressure(x, a, p0)
+    inner = mu * p0 * (c / a) * np.sqrt(np.clip(1.0 - (x / c) ** 2, 0.0, None)) if c > 0 else 0
+    return outer - inner
+
+
+def stick_half_width(a: float, Q_over_muP: float) -> float:
+    """Cattaneo-Mindlin stick-zone half-width c = a sqrt(1 - Q / (mu P))."""
+    return float(a * np.sqrt(1.0 - Q_over_muP))

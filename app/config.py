@@ -1,0 +1,333 @@
+"""Scene configuration: read a TOML file and check every key the solver uses.
+
+Geometry keys ([mesh], [[body]].shape/curves/size, [points]) are checked by the mesh
+builder; this module checks analysis settings, materials, supports, loads, interfaces,
+load steps and the [petsc] table, and turns them into plain dataclasses.
+Every problem raises InputError with a one-line message naming the key to fix.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from app.discretisation.elements import SMOOTHING_DOMAINS
+from app.errors import InputError
+
+
+@dataclass
+class Support:
+    """Prescribed displacement components on a named curve or point group."""
+
+    on: str
+    values: dict[int, float | str]  # component (0 = x, 1 = y) -> value or expression in x, y
+    history: np.ndarray  # (n_steps,) factor on the values per step
+
+
+@dataclass
+class Load:
+    """A surface load on a named curve (per unit length, times thickness)."""
+
+    on: str
+    kind: str  # "traction" | "pressure" | "total_force"
+    value: list  # traction [tx, ty] (numbers or expressions in x, y), [pressure], or [Fx, Fy]
+    history: np.ndarray  # (n_steps,)
+
+
+@dataclass
+class Interface:
+    """A contact interface between a slave and a master curve.
+
+    mu: friction coefficient; c: tangential strength and a: normal adhesion, both as
+    tractions (force per unit length of interface; pair values are c and a times the
+    slave node's tributary length and the thickness).
+    """
+
+    name: str
+    slave: str
+    master: str
+    mu: float
+    c: float
+    a: float
+    bonded: bool
+    search_distance: float
+    penetration_tol: float | None = None
+
+    @property
+    def frictional(self) -> bool:
+        """True when tangential unknowns are needed (friction or a bonded strength)."""
+        return self.mu > 0.0 or (self.bonded and self.c > 0.0)
+
+
+@dataclass
+class Config:
+    """A checked scene description (see README, 'Config files')."""
+
+    path: Path
+    raw: dict[str, Any]
+    plane: str
+    thickness: float
+    method: str
+    sd: int
+    n_steps: int
+    body_names: list[str]
+    E: np.ndarray
+    nu: np.ndarray
+    body_force: np.ndarray  # (n_bodies, 2) force per unit volume
+    supports: list[Support]
+    loads: list[Load]
+    interfaces: list[Interface]
+    petsc: dict[str, str] = field(default_factory=dict)
+    mesh_size: float = 1.0
+    parameters: dict[str, float] = field(default_factory=dict)
+
+
+def _num(value: Any, where: str, *, positive: bool = False, nonneg: bool = False) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+        raise InputError(f"{where} must be a finite number (got {value!r})")
+    if positive and value <= 0:
+        raise InputError(f"{where} must be > 0 (got {value!r})")
+    if nonneg and value < 0:
+        raise InputError(f"{where} must be >= 0 (got {value!r})")
+    return float(value)
+
+
+def _vec2(value: Any, where: str) -> np.ndarray:
+    if not isinstance(value, list) or len(value) != 2:
+        raise InputError(f"{where} must be a list of two numbers [x, y] (got {value!r})")
+    return np.array([_num(v, where) for v in value])
+
+
+def _table(raw: dict, key: str, where: str) -> dict:
+    v = raw.get(key, {})
+    if not isinstance(v, dict):
+        raise InputError(f"{where}{key} must be a table")
+    return v
+
+
+def _tables(raw: dict, key: str) -> list[dict]:
+    v = raw.get(key, [])
+    if not isinstance(v, list) or not all(isinstance(t, dict) for t in v):
+        raise InputError(f"[[{key}]] must be an array of tables")
+    return v
+
+
+def _history(t: dict, where: str, n_steps: int) -> np.ndarray:
+    """Load factor per step: `history = [...]` (one per step), `ramp = [k0, k1]`, or 1."""
+    if "history" in t and "ramp" in t:
+        raise InputError(f"{where}: give either history or ramp, not both")
+    if "history" in t:
+        h = t["history"]
+        if not isinstance(h, list) or not h:
+            raise InputError(f"{where}.history must be a non-empty list of numbers")
+        if len(h) != n_steps:
+            raise InputError(
+                f"{where}.history has {len(h)} entries but analysis.steps = {n_steps}"
+            )
+        return np.array([_num(v, f"{where}.history") for v in h])
+    if "ramp" in t:
+        r = t["ramp"]
+        if (
+            not isinstance(r, list)
+            or len(r) != 2
+            or not all(isinstance(k, int) and not isinstance(k, bool) for k in r)
+            or not 1 <= r[0] <= r[1] <= n_steps
+        ):
+            raise InputError(
+                f"{where}.ramp must be [first_step, last_step] with 1 <= first <= last <= "
+                f"analysis.steps = {n_steps} (got {r!r})"
+            )
+        k = np.arange(1, n_steps + 1)
+        return np.clip((k - r[0] + 1) / (r[1] - r[0] + 1), 0.0, 1.0)
+    return np.ones(n_steps)
+
+
+KNOWN_TOP = {"title", "analysis", "mesh", "body", "support", "load", "interface", "petsc",
+             "points", "parameters", "reference"}
+
+_EXPR_NAMES = {k: getattr(np, k) for k in ("sqrt", "sin", "cos", "tan", "exp", "log", "abs",
+                                           "arctan2", "sinh", "cosh", "tanh", "pi")}
+
+
+def evaluate(value: float | str, x: np.ndarray, y: np.ndarray, params: dict[str, float],
+             where: str) -> np.ndarray:
+    """Evaluate a number or an expression in x, y and the [parameters] at points."""
+    if not isinstance(value, str):
+        return np.full(np.shape(x), float(value))
+    names = {**_EXPR_NAMES, **params, "x": x, "y": y}
+    try:
+        out = eval(compile(value, where, "eval"), {"__builtins__": {}}, names)  # noqa: S307
+    except Exception as exc:  # a user expression: report any failure as bad input
+        raise InputError(f"{where}: cannot evaluate {value!r}: {exc}") from None
+    out = np.broadcast_to(np.asarray(out, dtype=float), np.shape(x)).copy()
+    if not np.all(np.isfinite(out)):
+        raise InputError(f"{where}: {value!r} gives non-finite values")
+    return out
+
+
+def _scalar_or_expr(value: Any, where: str, params: dict[str, float]) -> float | str:
+    """A number, or an expression string checked once on a sample point."""
+    if isinstance(value, str):
+        evaluate(value, np.zeros(1), np.zeros(1), params, where)
+        return value
+    return _num(value, where)
+
+
+def parse_config(raw: dict[str, Any], path: Path | str = "<config>") -> Config:
+    """Check a parsed TOML dict and build a Config."""
+    unknown = set(raw) - KNOWN_TOP
+    if unknown:
+        raise InputError(f"unknown top-level key(s) {sorted(unknown)}: allowed {sorted(KNOWN_TOP)}")
+    params = {}
+    for k, v in _table(raw, "parameters", "").items():
+        params[k] = _num(v, f"parameters.{k}")
+    an = _table(raw, "analysis", "")
+    plane = an.get("plane", "strain")
+    if plane not in ("strain", "stress"):
+        raise InputError(f"analysis.plane = {plane!r}: use 'strain' or 'stress'")
+    thickness = _num(an.get("thickness", 1.0), "analysis.thickness", positive=True)
+    method = an.get("method", "cs-fem")
+    if method not in ("cs-fem", "fem-q4"):
+        raise InputError(f"analysis.method = {method!r}: use 'cs-fem' or 'fem-q4'")
+    sd = an.get("sd", 4)
+    if isinstance(sd, bool) or not isinstance(sd, int) or sd not in SMOOTHING_DOMAINS:
+        raise InputError(f"analysis.sd = {sd!r}: choose one of {list(SMOOTHING_DOMAINS)}")
+    n_steps = an.get("steps", 1)
+    if isinstance(n_steps, bool) or not isinstance(n_steps, int) or n_steps < 1:
+        raise InputError(f"analysis.steps must be an integer >= 1 (got {n_steps!r})")
+
+    mesh = raw.get("mesh")
+    if not isinstance(mesh, dict):
+        raise InputError("missing [mesh] table (at least mesh.size)")
+    if "size" not in mesh:
+        raise InputError("missing key mesh.size (the global element size)")
+    mesh_size = _num(mesh["size"], "mesh.size", positive=True)
+
+    bodies = _tables(raw, "body")
+    if not bodies:
+        raise InputError("no [[body]] given: a scene needs at least one body")
+    names, E, nu, bf = [], [], [], []
+    for i, b in enumerate(bodies):
+        if "name" not in b or not isinstance(b["name"], str) or not b["name"]:
+            raise InputError(f"body #{i + 1}: missing key name")
+        nm = b["name"]
+        if nm in names:
+            raise InputError(f"body name '{nm}' is used twice")
+        for k in ("E", "nu"):
+            if k not in b:
+                raise InputError(f"body '{nm}': missing key {k}")
+        e = _num(b["E"], f"body '{nm}': E")
+        if e <= 0:
+            raise InputError(f"body '{nm}': E must be > 0 (got {b['E']!r})")
+        n = _num(b["nu"], f"body '{nm}': nu")
+        if not -1.0 < n < 0.5:
+            raise InputError(f"body '{nm}': nu must lie in (-1, 0.5) (got {b['nu']!r})")
+        names.append(nm)
+        E.append(e)
+        nu.append(n)
+        bf.append(_vec2(b.get("body_force", [0.0, 0.0]), f"body '{nm}': body_force"))
+
+    supports = []
+    for i, s in enumerate(_tables(raw, "support")):
+        where = f"support #{i + 1}"
+        if "on" not in s or not isinstance(s["on"], str):
+            raise InputError(f"{where}: missing key on (a curve or point group name)")
+        vals = {}
+        for comp, key in enumerate(("ux", "uy")):
+            if key in s:
+                vals[comp] = _scalar_or_expr(s[key], f"{where} ({s['on']}): {key}", params)
+        if not vals:
+            raise InputError(f"{where} ({s['on']}): give ux and/or uy")
+        extra = set(s) - {"on", "ux", "uy", "history", "ramp"}
+        if extra:
+            raise InputError(f"{where} ({s['on']}): unknown key(s) {sorted(extra)}")
+        supports.append(Support(s["on"], vals, _history(s, where, n_steps)))
+
+    loads = []
+    for i, ld in enumerate(_tables(raw, "load")):
+        where = f"load #{i + 1}"
+        if "on" not in ld or not isinstance(ld["on"], str):
+            raise InputError(f"{where}: missing key on (a curve name)")
+        kinds = [k for k in ("traction", "pressure", "total_force") if k in ld]
+        if len(kinds) != 1:
+            raise InputError(f"{where} ({ld['on']}): give exactly one of traction, pressure, "
+                             "total_force")
+        kind = kinds[0]
+        if kind == "pressure":
+            val = [_num(ld[kind], f"{where}: pressure")]
+        elif kind == "traction":
+            t = ld[kind]
+            if not isinstance(t, list) or len(t) != 2:
+                raise InputError(f"{where}: traction must be [tx, ty] (numbers or expressions)")
+            val = [_scalar_or_expr(v, f"{where}: traction", params) for v in t]
+        else:
+            val = list(_vec2(ld[kind], f"{where}: {kind}"))
+        extra = set(ld) - {"on", "traction", "pressure", "total_force", "history", "ramp"}
+        if extra:
+            raise InputError(f"{where} ({ld['on']}): unknown key(s) {sorted(extra)}")
+        loads.append(Load(ld["on"], kind, val, _history(ld, where, n_steps)))
+
+    interfaces = []
+    for i, it in enumerate(_tables(raw, "interface")):
+        nm = it.get("name", f"interface{i + 1}")
+        where = f"interface '{nm}'"
+        for k in ("slave", "master"):
+            if k not in it or not isinstance(it[k], str):
+                raise InputError(f"{where}: missing key {k} (a curve name)")
+        if it["slave"] == it["master"]:
+            raise InputError(f"{where}: slave and master are the same curve '{it['slave']}'")
+        if "search_distance" not in it:
+            raise InputError(f"{where}: missing key search_distance")
+        mu = _num(it.get("mu", 0.0), f"{where}: mu", nonneg=True)
+        c = _num(it.get("c", 0.0), f"{where}: c", nonneg=True)
+        a = _num(it.get("a", 0.0), f"{where}: a", nonneg=True)
+        bonded = it.get("bonded", a > 0.0 or c > 0.0)
+        if not isinstance(bonded, bool):
+            raise InputError(f"{where}: bonded must be true or false")
+        if c < mu * a:
+            raise InputError(f"{where}: c = {c} < mu * a = {mu * a}: need c >= mu a so the "
+                             "friction bound mu p + c stays >= 0 under tension")
+        sdist = _num(it["search_distance"], f"{where}: search_distance", positive=True)
+        ptol = it.get("penetration_tol")
+        if ptol is not None:
+            ptol = _num(ptol, f"{where}: penetration_tol", nonneg=True)
+        extra = set(it) - {"name", "slave", "master", "mu", "c", "a", "bonded",
+                           "search_distance", "penetration_tol"}
+        if extra:
+            raise InputError(f"{where}: unknown key(s) {sorted(extra)}")
+        interfaces.append(Interface(nm, it["slave"], it["master"], mu, c if bonded else 0.0,
+                                    a if bonded else 0.0, bonded, sdist, ptol))
+
+    petsc = _table(raw, "petsc", "")
+    petsc_opts = {}
+    for k, v in petsc.items():
+        if isinstance(v, bool):
+            v = "true" if v else "false"
+        petsc_opts[str(k).lstrip("-")] = str(v)
+
+    return Config(
+        path=Path(path), raw=raw, plane=plane, thickness=thickness, method=method, sd=sd,
+        n_steps=n_steps, body_names=names, E=np.array(E), nu=np.array(nu),
+        body_force=np.array(bf).reshape(-1, 2), supports=supports, loads=loads,
+        interfaces=interfaces, petsc=petsc_opts, mesh_size=mesh_size, parameters=params,
+    )
+
+
+def load_config(path: str | Path) -> Config:
+    """Read and check a TOML scene file."""
+    p = Path(path)
+    if not p.is_file():
+        raise InputError(f"config file '{p}' does not exist")
+    try:
+        with p.open("rb") as fh:
+            raw = tomllib.load(fh)
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(f"config file '{p}' is not valid TOML: {exc}") from None
+    except OSError as exc:
+        raise InputError(f"config file '{p}' cannot be read: {exc.strerror}") from None
+    return parse_config(raw, p)

@@ -1,0 +1,365 @@
+"""Contact kinematics: node-to-segment point-pairs between a slave and a master curve.
+
+Every node of the slave curve is paired with the closest segment (edge) of the master
+curve (METHOD.md section 2). The search is vectorised: a `cKDTree` over the master segment
+midpoints gives the candidate segments of all slave nodes at once, and the projection onto
+the candidates is done with numpy array operations (no Python loop over nodes or segments).
+
+Sign conventions (used by every later stage):
+
+- normal n: unit outward normal of the master body at the segment, i.e. pointing away from
+  the interior of the master element that owns the edge, towards the slave side.
+- tangent t: unit vector along A -> B. The master segment is ordered (A, B) as in the
+  counter-clockwise connectivity of its owning element, so the master body lies on the
+  left when walking A -> B and n = (t_y, -t_x) (t turned by -90 degrees); equivalently
+  t = (-n_y, n_x) (n turned by +90 degrees) and (n, t) is a right-handed frame. Example: a
+  master block below the interface has n = (0, +1) and t = (-1, 0).
+- gap: g0 = n . (x_s - x_p) >= 0 when open; negative = penetration.
+- relative displacement d = u_s - (1 - xi) u_A - xi u_B (slave minus master point).
+  Normal opening g_n = n . d (positive = separation). Tangential slip g_t = t . d
+  (positive = the slave moves relative to the master in the A -> B direction).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, fields
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.spatial import cKDTree
+
+from app.errors import InputError
+from app.mesh.model import Mesh
+
+XI_EPS = 1e-6
+"""Tolerance on the unclipped xi beyond a free end of the master curve (dimensionless)."""
+
+PENETRATION_REL_TOL = 1e-6
+"""Default penetration_tol = this x the mean master segment length (plus round-off floor)."""
+
+_K0 = 8  # first number of nearest midpoints queried per slave node
+
+
+@dataclass
+class ContactPairs:
+    """Node-to-segment contact pairs (m pairs), in the mesh's length unit.
+
+    interface: (m,) int, index of the interface each pair belongs to.
+    slave: (m,) int slave node.
+    master: (m, 2) int master segment nodes (A, B), master body on the left of A -> B.
+    xi: (m,) float in [0, 1]; projection x_p = (1 - xi) x_A + xi x_B.
+    normal: (m, 2) unit outward normal of the master body, pointing towards the slave.
+    tangent: (m, 2) unit tangent along A -> B; n = (t_y, -t_x).
+    g0: (m,) initial gap n . (x_s - x_p), positive = open (length).
+    position: (m, 2) slave node coordinates (length).
+    length: (m,) slave node tributary length: half the summed length of the slave-curve
+        edges at that node (length); traction x length = force per pair.
+    """
+
+    interface: np.ndarray
+    slave: np.ndarray
+    master: np.ndarray
+    xi: np.ndarray
+    normal: np.ndarray
+    tangent: np.ndarray
+    g0: np.ndarray
+    position: np.ndarray
+    length: np.ndarray
+
+    @property
+    def n_pairs(self) -> int:
+        """Number of pairs m."""
+        return int(self.slave.shape[0])
+
+    def __len__(self) -> int:
+        return self.n_pairs
+
+    @classmethod
+    def empty(cls) -> ContactPairs:
+        """A set of zero pairs with the right shapes and dtypes."""
+        i1 = np.zeros(0, dtype=np.int64)
+        f1 = np.zeros(0)
+        f2 = np.zeros((0, 2))
+        return cls(i1, i1.copy(), np.zeros((0, 2), dtype=np.int64), f1, f2, f2.copy(),
+                   f1.copy(), f2.copy(), f1.copy())
+
+    @classmethod
+    def concatenate(cls, pairs: Sequence[ContactPairs]) -> ContactPairs:
+        """Stack several pair sets (e.g. one per interface) in the given order."""
+        pairs = list(pairs)
+        if not pairs:
+            return cls.empty()
+        return cls(**{f.name: np.concatenate([getattr(p, f.name) for p in pairs], axis=0)
+                      for f in fields(cls)})
+
+    def select(self, mask: np.ndarray) -> ContactPairs:
+        """Subset of the pairs: `mask` is an (m,) bool mask or an array of pair indices."""
+        mask = np.asarray(mask)
+        if mask.dtype == bool and mask.shape != (self.n_pairs,):
+            raise ValueError(f"select: bool mask of shape {mask.shape}, expected "
+                             f"({self.n_pairs},)")
+        return ContactPairs(**{f.name: getattr(self, f.name)[mask] for f in fields(self)})
+
+
+def concatenate(pairs: Sequence[ContactPairs]) -> ContactPairs:
+    """Stack several pair sets in order (same as `ContactPairs.concatenate`)."""
+    return ContactPairs.concatenate(pairs)
+
+
+def _curve_edges(mesh: Mesh, name: str, role: str, label: str) -> np.ndarray:
+    """Validated (k, 2) int64 edges of a named curve, duplicates removed."""
+    if name not in mesh.curves:
+        avail = ", ".join(repr(c) for c in sorted(mesh.curves)) or "none"
+        raise InputError(f"interface '{label}': {role} curve '{name}' is not in the mesh "
+                         f"(available curves: {avail})")
+    e = np.asarray(mesh.curves[name])
+    if e.ndim != 2 or e.shape[1] != 2 or e.shape[0] == 0:
+        raise InputError(f"interface '{label}': {role} curve '{name}' must be a non-empty "
+                         f"(n_edges, 2) array of node pairs, got shape {e.shape}")
+    e = e.astype(np.int64)
+    if e.min() < 0 or e.max() >= mesh.n_nodes:
+        raise InputError(f"interface '{label}': {role} curve '{name}' refers to nodes outside "
+                         f"0..{mesh.n_nodes - 1}")
+    if np.any(e[:, 0] == e[:, 1]):
+        raise InputError(f"interface '{label}': {role} curve '{name}' has an edge with the "
+                         f"same node at both ends")
+    _, first = np.unique(np.sort(e, axis=1), axis=0, return_index=True)
+    return e[np.sort(first)]
+
+
+def tributary_length(points: np.ndarray, edges: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Nodes of a curve and their tributary lengths.
+
+    points: (n, 2) coordinates; edges: (k, 2) node pairs.
+    Returns (nodes (q,) sorted unique, length (q,)): half the summed length of the edges at
+    each node, so that length.sum() is the curve length.
+    """
+    edges = np.asarray(edges, dtype=np.int64)
+    le = np.linalg.norm(points[edges[:, 1]] - points[edges[:, 0]], axis=1)
+    nodes, inv = np.unique(edges.ravel(), return_inverse=True)
+    length = np.bincount(inv.ravel(), weights=np.repeat(0.5 * le, 2), minlength=nodes.size)
+    return nodes, length
+
+
+def _orient_edges(mesh: Mesh, edges: np.ndarray, name: str, label: str) -> np.ndarray:
+    """Order each boundary edge (A, B) so that its owning element lies on the left of A -> B.
+
+    The owning element is found by looking the edge up among the directed edges of the
+    elements that touch the curve. Raises InputError for an edge owned by no element or
+    shared by two elements (an interior edge).
+    """
+    n = mesh.n_nodes
+    quads = np.asarray(mesh.quads, dtype=np.int64)
+    on_curve = np.zeros(n, dtype=bool)
+    on_curve[edges.ravel()] = True
+    sel = np.flatnonzero(on_curve[quads].any(axis=1))
+    q = quads[sel]
+    keys = (q * n + np.roll(q, -1, axis=1)).ravel()
+    elem = np.repeat(sel, 4)
+    order = np.argsort(keys, kind="stable")
+    keys, elem = keys[order], elem[order]
+
+    def lookup(k: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        if keys.size == 0:
+            return np.zeros(k.shape, dtype=bool), np.zeros(k.shape, dtype=np.int64)
+        pos = np.minimum(np.searchsorted(keys, k), keys.size - 1)
+        return keys[pos] == k, elem[pos]
+
+    fwd, el_f = lookup(edges[:, 0] * n + edges[:, 1])
+    bwd, el_b = lookup(edges[:, 1] * n + edges[:, 0])
+    bad = ~(fwd | bwd)
+    if bad.any():
+        a, b = edges[np.argmax(bad)]
+        raise InputError(f"interface '{label}': {bad.sum()} edges of master curve '{name}' "
+                         f"are not element edges (first: nodes {a}-{b})")
+    inner = fwd & bwd
+    if inner.any():
+        a, b = edges[np.argmax(inner)]
+        raise InputError(f"interface '{label}': {inner.sum()} edges of master curve '{name}' "
+                         f"are interior edges shared by two elements (first: nodes {a}-{b})")
+    owner = np.where(fwd, el_f, el_b)
+    xy = mesh.points[quads[owner]]  # (k, 4, 2) owning element corners
+    area2 = np.sum(xy[:, :, 0] * np.roll(xy[:, :, 1], -1, axis=1)
+                   - np.roll(xy[:, :, 0], -1, axis=1) * xy[:, :, 1], axis=1)
+    # the owner lists (A, B) in its own node order; that order is CCW if its area is positive
+    keep = fwd == (area2 > 0)
+    return np.where(keep[:, None], edges, edges[:, ::-1])
+
+
+def closest_segments(x: np.ndarray, xa: np.ndarray, xb: np.ndarray,
+                     search_distance: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Closest segment to each point, among segments closer than `search_distance`.
+
+    x: (p, 2) points; xa, xb: (s, 2) segment ends (non-degenerate).
+    Returns seg (p,) int (-1 if no segment lies within search_distance), xi_raw (p,)
+    unclipped projection parameter on that segment, dist (p,) distance from the point to
+    the clipped projection (inf if none). Ties in distance: the smallest excursion of the
+    unclipped xi outside [0, 1], then the lowest segment index.
+    """
+    x = np.asarray(x, dtype=float)
+    ns, p = xa.shape[0], x.shape[0]
+    ab = xb - xa
+    len2 = np.einsum("ij,ij->i", ab, ab)
+    lens = np.sqrt(len2)
+    tie_abs = 1e-12 * float(lens.mean())
+    # sample points along the segments, at most a mean segment length apart, so that long
+    # segments among short ones do not widen the search (at most 2 s samples in all)
+    n_smp = np.maximum(np.ceil(lens / lens.mean() - 1e-9), 1).astype(np.int64)
+    owner = np.repeat(np.arange(ns), n_smp)
+    local = np.arange(owner.size) - np.repeat(np.cumsum(n_smp) - n_smp, n_smp)
+    frac = (local + 0.5) / n_smp[owner]
+    tree = cKDTree(xa[owner] + frac[:, None] * ab[owner])
+    half_gap = float(np.max(lens / (2 * n_smp)))  # any segment point is this near a sample
+    n_tot = owner.size
+
+    seg = np.full(p, -1, dtype=np.int64)
+    xi_raw = np.full(p, np.nan)
+    dist = np.full(p, np.inf)
+    todo = np.arange(p)
+    radius = None
+    k = min(_K0, n_tot)
+    while todo.size:
+        dm, im = tree.query(x[todo], k=k)
+        ic = owner[im.reshape(todo.size, k)]  # (q, k) candidate segments
+        dm = dm.reshape(todo.size, k)
+        a, e = xa[ic], ab[ic]  # (q, k, 2)
+        rel = x[todo][:, None, :] - a
+        xr = np.einsum("qkj,qkj->qk", rel, e) / len2[ic]
+        diff = rel - np.clip(xr, 0.0, 1.0)[..., None] * e
+        dd = np.hypot(diff[..., 0], diff[..., 1])
+        dmin = dd.min(axis=1)
+        tie = dd <= dmin[:, None] * (1 + 1e-9) + tie_abs
+        exc = np.where(tie, np.maximum(np.maximum(-xr, xr - 1.0), 0.0), np.inf)
+        tie &= exc <= exc.min(axis=1)[:, None] + 1e-12
+        j = np.argmin(np.where(tie, ic, ns), axis=1)
+        rows = np.arange(todo.size)
+        found = dmin <= search_distance
+        seg[todo] = np.where(found, ic[rows, j], -1)
+        xi_raw[todo] = np.where(found, xr[rows, j], np.nan)
+        dist[todo] = np.where(found, dmin, np.inf)
+        if radius is None:
+            # a closer segment (within search_distance) has a sample within this radius
+            radius = np.minimum(dmin, search_distance) * (1 + 1e-9) + half_gap + tie_abs
+        # all k samples inside the radius: there may be more candidates, query again
+        more = (dm[:, -1] <= radius) & (k < n_tot)
+        todo, radius = todo[more], radius[more]
+        k = min(2 * k, n_tot)
+    return seg, xi_raw, dist
+
+
+def contact_pairs(mesh: Mesh, slave: str, master: str, search_distance: float, *,
+                  interface: int = 0, penetration_tol: float | None = None,
+                  name: str | None = None) -> ContactPairs:
+    """Node-to-segment pairs of one interface: every slave-curve node with its closest
+    master-curve segment.
+
+    mesh: the scene; slave, master: names of boundary curves in mesh.curves (may be on
+    the same body if they are different curves; slave nodes that are also master-curve
+    nodes are skipped). search_distance (length, > 0): pairs whose slave node is farther
+    than this from its projection, or whose gap g0 exceeds it, are dropped. A slave node
+    that projects beyond a free end of the master curve (a node used by one master edge)
+    by more than XI_EPS in xi is dropped too. interface: index stored in the pairs.
+    penetration_tol (length): a kept pair with g0 < -penetration_tol is an initial
+    penetration and raises InputError; default PENETRATION_REL_TOL x the mean master
+    segment length (at least 1e-12 x the scene size, for round-off). Gaps in
+    [-penetration_tol, 0) are kept as computed. name: interface name for messages
+    (default 'slave/master').
+
+    Note: a slave node behind a thin master body (closer than search_distance to its far
+    side) would show as a penetration; keep search_distance below the body thicknesses.
+    See the module docstring for the sign conventions.
+    """
+    label = name if name is not None else f"{slave}/{master}"
+    if slave == master:
+        raise InputError(f"interface '{label}': slave and master are the same curve "
+                         f"'{slave}'; use two different curves")
+    sd = float(search_distance)
+    if not np.isfinite(sd) or sd <= 0:
+        raise InputError(f"interface '{label}': search_distance must be a positive length, "
+                         f"got {search_distance}")
+    s_edges = _curve_edges(mesh, slave, "slave", label)
+    m_edges = _curve_edges(mesh, master, "master", label)
+    pts = np.asarray(mesh.points, dtype=float)
+
+    m_edges = _orient_edges(mesh, m_edges, master, label)
+    xa, xb = pts[m_edges[:, 0]], pts[m_edges[:, 1]]
+    seg_len = np.linalg.norm(xb - xa, axis=1)
+    if penetration_tol is None:
+        scale = float(np.ptp(pts, axis=0).max()) if pts.size else 0.0
+        tol = max(PENETRATION_REL_TOL * float(seg_len.mean()), 1e-12 * scale)
+    else:
+        tol = float(penetration_tol)
+        if not np.isfinite(tol) or tol < 0:
+            raise InputError(f"interface '{label}': penetration_tol must be a non-negative "
+                             f"length, got {penetration_tol}")
+    if np.any(seg_len == 0):
+        raise InputError(f"interface '{label}': master curve '{master}' has an edge of zero "
+                         f"length (coincident nodes)")
+
+    nodes, trib = tributary_length(pts, s_edges)
+    m_degree = np.bincount(m_edges.ravel(), minlength=mesh.n_nodes)
+    keep_s = m_degree[nodes] == 0
+    nodes, trib = nodes[keep_s], trib[keep_s]
+    xs = pts[nodes]
+
+    seg, xr, dist = closest_segments(xs, xa, xb, sd)
+    found = seg >= 0
+    sg = np.where(found, seg, 0)
+    a_free = m_degree[m_edges[sg, 0]] == 1
+    b_free = m_degree[m_edges[sg, 1]] == 1
+    beyond = ((xr < -XI_EPS) & a_free) | ((xr > 1 + XI_EPS) & b_free)
+    xi = np.clip(np.nan_to_num(xr), 0.0, 1.0)
+
+    t = (xb - xa) / seg_len[:, None]
+    t = t[sg]
+    nrm = np.column_stack([t[:, 1], -t[:, 0]])
+    xp = (1 - xi)[:, None] * xa[sg] + xi[:, None] * xb[sg]
+    g0 = np.einsum("ij,ij->i", nrm, xs - xp)
+    keep = found & ~beyond & (dist <= sd) & (g0 <= sd)
+    if not keep.any():
+        raise InputError(f"interface '{label}': no slave node of '{slave}' lies within "
+                         f"search_distance={sd:g} of '{master}' (raise search_distance or "
+                         f"check the curves)")
+    pen = keep & (g0 < -tol)
+    if pen.any():
+        ip = np.flatnonzero(pen)
+        locs = "; ".join(f"x={xs[i, 0]:.6g}, y={xs[i, 1]:.6g}" for i in ip[:3])
+        raise InputError(f"interface '{label}': {ip.size} slave nodes penetrate the master by "
+                         f"more than {tol:.3g} (first at {locs}; deepest g0={g0[ip].min():.3g})"
+                         f": fix the geometry or raise penetration_tol")
+    k = np.flatnonzero(keep)
+    return ContactPairs(
+        interface=np.full(k.size, int(interface), dtype=np.int64),
+        slave=nodes[k].astype(np.int64),
+        master=m_edges[sg[k]].copy(),
+        xi=xi[k],
+        normal=nrm[k],
+        tangent=t[k],
+        g0=g0[k],
+        position=xs[k].copy(),
+        length=trib[k],
+    )
+
+
+def constraint_matrix(pairs: ContactPairs, n_nodes: int) -> sp.csr_matrix:
+    """Contact constraint matrix G, shape (2m, 2 n_nodes), DOF numbering 2 node + component.
+
+    Rows 0..m-1: normal rows, G_n . u = n . d; rows m..2m-1: tangential rows,
+    G_t . u = t . d, with d = u_s - (1 - xi) u_A - xi u_B (slave minus master point), so
+    G_n u > 0 is opening and G_t u > 0 is slip of the slave along A -> B.
+    """
+    m = pairs.n_pairs
+    if m and (pairs.slave.max() >= n_nodes or pairs.master.max() >= n_nodes):
+        raise InputError(f"constraint_matrix: pairs refer to nodes beyond n_nodes={n_nodes}")
+    nodes = np.column_stack([pairs.slave, pairs.master[:, 0], pairs.master[:, 1]])  # (m, 3)
+    w = np.column_stack([np.ones(m), -(1 - pairs.xi), -pairs.xi])  # (m, 3)
+    cols = (2 * nodes[:, :, None] + np.arange(2)).reshape(m, 6)  # (m, 6): node x, y
+    vals_n = (w[:, :, None] * pairs.normal[:, None, :]).reshape(m, 6)
+    vals_t = (w[:, :, None] * pairs.tangent[:, None, :]).reshape(m, 6)
+    rows = np.repeat(np.arange(2 * m), 6)
+    g = sp.csr_matrix((np.concatenate([vals_n, vals_t]).ravel(),
+                       (rows, np.concatenate([cols, cols]).ravel())),
+                      shape=(2 * m, 2 * n_nodes))
+    g.eliminate_zeros()
+    return g

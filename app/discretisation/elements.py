@@ -1,0 +1,171 @@
+"""Element kernels for Q4 meshes: CS-FEM smoothed strain matrices and FEM-Q4 (2x2 Gauss).
+
+Everything is vectorised over elements; the only Python loops run over the (at most 16)
+smoothing cells or Gauss points of the reference element.
+
+Conventions
+- Element node order is counter-clockwise; element DOFs are (u1, v1, u2, v2, u3, v3, u4, v4).
+- Strain vector is (eps_xx, eps_yy, gamma_xy) (engineering shear), stress (s_xx, s_yy, s_xy).
+- A "cell" is a smoothing cell (CS-FEM) or a Gauss point (FEM-Q4); `weights` are the cell
+  areas (CS-FEM) or det(J) * w_gauss (FEM-Q4), so that  K_e = t * sum_c w_c B_c^T D B_c.
+
+Smoothing-cell layouts in the parent square [-1, 1]^2 (xi along edge 1->2, eta along 1->4):
+  1SD: the element;            2SD: 2 x 1 (split at xi = 0);
+  3SD: the half xi < 0, plus the half xi > 0 split at eta = 0;
+  4SD: 2 x 2;                  8SD: 4 x 2 (4 along xi);      16SD: 4 x 4.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from app.errors import InputError
+
+SMOOTHING_DOMAINS = (1, 2, 3, 4, 8, 16)
+
+# Parent coordinates of the Q4 corners, counter-clockwise.
+_CORNERS = np.array([[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]])
+
+
+def shape_functions(xi: np.ndarray, eta: np.ndarray) -> np.ndarray:
+    """Bilinear Q4 shape functions at parent points; shape (..., 4)."""
+    xi = np.asarray(xi, dtype=float)[..., None]
+    eta = np.asarray(eta, dtype=float)[..., None]
+    return 0.25 * (1.0 + _CORNERS[:, 0] * xi) * (1.0 + _CORNERS[:, 1] * eta)
+
+
+def _grid(nx: int, ny: int) -> list[tuple[float, float, float, float]]:
+    xs = np.linspace(-1.0, 1.0, nx + 1)
+    ys = np.linspace(-1.0, 1.0, ny + 1)
+    return [(xs[i], xs[i + 1], ys[j], ys[j + 1]) for j in range(ny) for i in range(nx)]
+
+
+def smoothing_cells(sd: int) -> list[tuple[float, float, float, float]]:
+    """Smoothing cells of one element as parent rectangles (xi0, xi1, eta0, eta1)."""
+    layouts = {
+        1: _grid(1, 1),
+        2: _grid(2, 1),
+        3: [(-1.0, 0.0, -1.0, 1.0), (0.0, 1.0, -1.0, 0.0), (0.0, 1.0, 0.0, 1.0)],
+        4: _grid(2, 2),
+        8: _grid(4, 2),
+        16: _grid(4, 4),
+    }
+    if sd not in layouts:
+        raise InputError(f"sd = {sd} is not supported: choose one of {list(SMOOTHING_DOMAINS)}")
+    return layouts[sd]
+
+
+def element_coordinates(points: np.ndarray, quads: np.ndarray) -> np.ndarray:
+    """Corner coordinates per element, shape (n_elements, 4, 2)."""
+    return points[quads]
+
+
+def element_areas(xe: np.ndarray) -> np.ndarray:
+    """Signed areas (shoelace) of quadrilaterals xe (n, 4, 2); positive when counter-clockwise."""
+    x, y = xe[..., 0], xe[..., 1]
+    return 0.5 * np.sum(x * np.roll(y, -1, axis=-1) - np.roll(x, -1, axis=-1) * y, axis=-1)
+
+
+def _b_from_gradients(bx: np.ndarray, by: np.ndarray) -> np.ndarray:
+    """Assemble B (n, 3, 8) from shape-function x/y derivatives bx, by (n, 4)."""
+    n = bx.shape[0]
+    b = np.zeros((n, 3, 8))
+    b[:, 0, 0::2] = bx
+    b[:, 1, 1::2] = by
+    b[:, 2, 0::2] = by
+    b[:, 2, 1::2] = bx
+    return b
+
+
+def smoothed_strain_matrix(xe: np.ndarray, cell: tuple[float, float, float, float]):
+    """Smoothed strain-displacement matrix of one smoothing cell for every element.
+
+    xe: (n, 4, 2) element corners. cell: parent rectangle (xi0, xi1, eta0, eta1).
+    Returns (B, area): B (n, 3, 8) = (1/A) sum_edges l n N_I at the edge midpoint,
+    area (n,) the physical cell area.
+    """
+    xi0, xi1, eta0, eta1 = cell
+    corners = np.array([[xi0, eta0], [xi1, eta0], [xi1, eta1], [xi0, eta1]])
+    ncorner = shape_functions(corners[:, 0], corners[:, 1])  # (4 cell corners, 4 nodes)
+    xc = np.einsum("ka,nad->nkd", ncorner, xe)  # physical cell corners (n, 4, 2)
+    area = element_areas(xc)
+    mids = 0.5 * (corners + np.roll(corners, -1, axis=0))
+    nmid = shape_functions(mids[:, 0], mids[:, 1])  # (4 edges, 4 nodes)
+    d = np.roll(xc, -1, axis=1) - xc  # edge vectors (n, 4 edges, 2)
+    lnx = d[..., 1]  # l * n_x for a counter-clockwise boundary
+    lny = -d[..., 0]
+    inv_a = 1.0 / area
+    bx = (lnx @ nmid) * inv_a[:, None]
+    by = (lny @ nmid) * inv_a[:, None]
+    return _b_from_gradients(bx, by), area
+
+
+def gauss_strain_matrix(xe: np.ndarray, xi: float, eta: float):
+    """FEM-Q4 strain-displacement matrix at one parent point for every element.
+
+    Returns (B (n, 3, 8), detJ (n,)).
+    """
+    dn_dxi = 0.25 * _CORNERS[:, 0] * (1.0 + _CORNERS[:, 1] * eta)
+    dn_deta = 0.25 * _CORNERS[:, 1] * (1.0 + _CORNERS[:, 0] * xi)
+    j11 = xe[..., 0] @ dn_dxi
+    j12 = xe[..., 1] @ dn_dxi
+    j21 = xe[..., 0] @ dn_deta
+    j22 = xe[..., 1] @ dn_deta
+    det = j11 * j22 - j12 * j21
+    inv = 1.0 / det
+    bx = (j22 * inv)[:, None] * dn_dxi - (j12 * inv)[:, None] * dn_deta
+    by = (-j21 * inv)[:, None] * dn_dxi + (j11 * inv)[:, None] * dn_deta
+    return _b_from_gradients(bx, by), det
+
+
+def strain_matrices(xe: np.ndarray, method: str, sd: int = 4):
+    """Strain matrices and weights of every cell of every element.
+
+    method: "cs-fem" (with sd smoothing cells) or "fem-q4" (2x2 Gauss).
+    Returns (B (n, n_cells, 3, 8), weights (n, n_cells)).
+    """
+    if method == "cs-fem":
+        parts = [smoothed_strain_matrix(xe, c) for c in smoothing_cells(sd)]
+    elif method == "fem-q4":
+        g = 1.0 / np.sqrt(3.0)
+        parts = [gauss_strain_matrix(xe, a, b) for b in (-g, g) for a in (-g, g)]
+    else:
+        raise InputError(f"method '{method}' is not supported: use 'cs-fem' or 'fem-q4'")
+    b = np.stack([p[0] for p in parts], axis=1)
+    w = np.stack([p[1] for p in parts], axis=1)
+    return b, w
+
+
+def elasticity_matrix(E, nu, plane: str = "strain") -> np.ndarray:
+    """Isotropic elasticity matrices D, shape (..., 3, 3), for arrays of E and nu."""
+    E = np.asarray(E, dtype=float)
+    nu = np.asarray(nu, dtype=float)
+    d = np.zeros(E.shape + (3, 3))
+    if plane == "strain":
+        f = E / ((1.0 + nu) * (1.0 - 2.0 * nu))
+        d[..., 0, 0] = d[..., 1, 1] = f * (1.0 - nu)
+        d[..., 0, 1] = d[..., 1, 0] = f * nu
+        d[..., 2, 2] = f * (1.0 - 2.0 * nu) / 2.0
+    elif plane == "stress":
+        f = E / (1.0 - nu**2)
+        d[..., 0, 0] = d[..., 1, 1] = f
+        d[..., 0, 1] = d[..., 1, 0] = f * nu
+        d[..., 2, 2] = f * (1.0 - nu) / 2.0
+    else:
+        raise InputError(f"analysis.plane = '{plane}': use 'strain' or 'stress'")
+    return d
+
+
+def element_stiffness(b: np.ndarray, w: np.ndarray, d: np.ndarray, thickness: float = 1.0):
+    """K_e = t * sum_c w_c B_c^T D B_c, shape (n, 8, 8).
+
+    b: (n, nc, 3, 8); w: (n, nc); d: (n, 3, 3) per element.
+    """
+    db = np.matmul(d[:, None], b)  # (n, nc, 3, 8)
+    bw = b * (w * thickness)[..., None, None]
+    return np.einsum("ncia,ncib->nab", bw, db, optimize=True)
+
+
+def cell_strains(b: np.ndarray, ue: np.ndarray) -> np.ndarray:
+    """Strains per cell (n, nc, 3) from element displacements ue (n, 8)."""
+    return np.einsum("ncia,na->nci", b, ue, optimize=True)

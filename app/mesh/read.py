@@ -1,0 +1,171 @@
+"""Read a ready gmsh .msh file (MSH 2.2 or 4.1) with meshio into a `Mesh`.
+
+Physical surfaces are bodies (matched by name to the config's [[body]] names), physical
+curves (line elements) are named curves and physical points are point groups. Only
+linear quadrilaterals are accepted. Unused nodes are dropped, nodes renumbered in body
+order and quads oriented counter-clockwise.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from app.errors import InputError
+from app.mesh.build import orient_ccw
+from app.mesh.model import Mesh
+
+_KINDS = {"vertex": 0, "line": 1, "quad": 2}  # accepted cell types -> dimension
+_DIM_WORD = {0: "point", 1: "curve", 2: "surface"}
+_IGNORED_1D = ("line3", "line4", "line5")
+
+
+def _other_cell_error(fname: str, kind: str, n: int) -> InputError:
+    if kind.startswith("triangle"):
+        return InputError(
+            f"mesh file {fname} has {n} triangles: only quadrilaterals are supported"
+        )
+    if kind.startswith(("quad", "polygon")):
+        return InputError(
+            f"mesh file {fname} has {n} {kind} elements: only linear quadrilaterals "
+            "(4 nodes) are supported"
+        )
+    return InputError(
+        f"mesh file {fname} has {n} {kind} elements: only 2D quadrilateral meshes are supported"
+    )
+
+
+def _groups(m, fname: str) -> dict[tuple[int, str], list[tuple[int, np.ndarray]]]:
+    """(dim, name) -> [(cell block index, cell indices)] of every physical group."""
+    named = {(int(v[1]), int(v[0])): k for k, v in (m.field_data or {}).items() if len(v) >= 2}
+    out: dict[tuple[int, str], list[tuple[int, np.ndarray]]] = {}
+    phys = (m.cell_data or {}).get("gmsh:physical")
+    # Unnamed physical groups are an error (every group must be named).
+    if phys is not None:
+        for blk, tags in zip(m.cells, phys, strict=True):
+            if blk.type not in _KINDS:
+                continue
+            dim = _KINDS[blk.type]
+            for tag in np.unique(tags):
+                if tag != 0 and (dim, int(tag)) not in named:
+                    raise InputError(
+                        f"mesh file {fname}: physical {_DIM_WORD[dim]} {int(tag)} has no name: "
+                        "name every physical group"
+                    )
+    sets = m.cell_sets or {}
+    if any(name in sets for name in named.values()):  # MSH 4: exact per-group cell sets
+        for (dim, _), name in named.items():
+            for b, idx in enumerate(sets.get(name, [])):
+                blk = m.cells[b]
+                if idx is not None and len(idx) and _KINDS.get(blk.type) == dim:
+                    out.setdefault((dim, name), []).append((b, np.asarray(idx, np.int64)))
+    elif phys is not None:  # MSH 2: one physical tag per (duplicated) element
+        for b, (blk, tags) in enumerate(zip(m.cells, phys, strict=True)):
+            if blk.type not in _KINDS:
+                continue
+            dim = _KINDS[blk.type]
+            tags = np.asarray(tags)
+            for tag in np.unique(tags):
+                if tag != 0:
+                    out.setdefault((dim, named[(dim, int(tag))]), []).append(
+                        (b, np.flatnonzero(tags == tag))
+                    )
+    return out
+
+
+def read_mesh(path: str | Path, body_names: list[str]) -> Mesh:
+    """Read a gmsh .msh file of linear quadrilaterals into a Mesh.
+
+    path: the .msh file. body_names: the config's [[body]] names; every physical surface
+    must be one of them and every body needs one. Raises InputError (one line) naming the
+    file and the group or element type to fix.
+    """
+    import meshio
+
+    path = Path(path)
+    fname = str(path)
+    if not path.is_file():
+        raise InputError(f"mesh file {fname} not found (mesh.file)")
+    try:
+        m = meshio.read(path, file_format="gmsh")
+    except Exception as e:  # meshio raises assorted exception types on bad input
+        msg = str(e).splitlines()[0] if str(e) else type(e).__name__
+        raise InputError(f"mesh file {fname} is not a readable gmsh .msh file: {msg}") from None
+
+    for blk in m.cells:
+        if blk.type not in _KINDS and blk.type not in _IGNORED_1D:
+            raise _other_cell_error(fname, blk.type, len(blk.data))
+    pts = np.asarray(m.points, dtype=float)
+    if pts.shape[1] > 2 and np.any(np.abs(pts[:, 2]) > 1e-12 * max(1.0, np.abs(pts).max())):
+        raise InputError(f"mesh file {fname} is not planar: every node needs z = 0")
+    xy = pts[:, :2]
+
+    groups = _groups(m, fname)
+    surfaces = {name: v for (dim, name), v in groups.items() if dim == 2}
+    for name in surfaces:
+        if name not in body_names:
+            raise InputError(
+                f"mesh file {fname}: physical surface '{name}' is not a [[body]] name "
+                f"(bodies: {', '.join(body_names)})"
+            )
+    for name in body_names:
+        if name not in surfaces:
+            raise InputError(f"mesh file {fname} has no physical surface for body '{name}'")
+
+    n_quads = sum(len(blk.data) for blk in m.cells if blk.type == "quad")
+    quad_parts, body_parts = [], []
+    for i, name in enumerate(body_names):
+        q = np.concatenate([m.cells[b].data[idx] for b, idx in surfaces[name]]).astype(np.int64)
+        quad_parts.append(q)
+        body_parts.append(np.full(len(q), i, dtype=np.int64))
+    quads = np.concatenate(quad_parts) if quad_parts else np.zeros((0, 4), np.int64)
+    body = np.concatenate(body_parts) if body_parts else np.zeros(0, np.int64)
+    if len(quads) != n_quads:
+        raise InputError(
+            f"mesh file {fname}: {abs(n_quads - len(quads))} quadrilaterals are in no or in "
+            "several physical surfaces: put each in exactly one body surface"
+        )
+
+    owner = np.full(len(xy), -1, dtype=np.int64)  # body of every node, checked disjoint
+    for i, q in enumerate(quad_parts):
+        nodes = np.unique(q)
+        taken = owner[nodes] >= 0
+        if np.any(taken):
+            other = body_names[int(owner[nodes[taken][0]])]
+            raise InputError(
+                f"mesh file {fname}: bodies '{other}' and '{body_names[i]}' share nodes: "
+                "mesh each body separately so that bodies have their own nodes"
+            )
+        owner[nodes] = i
+
+    # Drop unused nodes; number nodes in order of first use by body.
+    used = np.flatnonzero(owner >= 0)
+    order = used[np.argsort(owner[used], kind="stable")]
+    new = np.full(len(xy), -1, dtype=np.int64)
+    new[order] = np.arange(len(order))
+    points = xy[order].copy()
+    quads = orient_ccw(points, new[quads])
+
+    curves: dict[str, np.ndarray] = {}
+    point_groups: dict[str, np.ndarray] = {}
+    for (dim, name), parts in groups.items():
+        if dim == 2:
+            continue
+        raw = np.concatenate([m.cells[b].data[idx] for b, idx in parts]).astype(np.int64)
+        ids = new[raw]
+        if np.any(ids < 0):
+            raise InputError(
+                f"mesh file {fname}: physical {_DIM_WORD[dim]} '{name}' has nodes on no "
+                "quadrilateral of a body"
+            )
+        if dim == 1:
+            curves[name] = ids.reshape(-1, 2)
+        else:
+            point_groups[name] = np.unique(ids.ravel())
+    for name in point_groups:
+        if name in curves:
+            raise InputError(
+                f"mesh file {fname}: '{name}' is both a physical curve and a physical point"
+            )
+    return Mesh(points, quads, body, list(body_names), curves, point_groups)

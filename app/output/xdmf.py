@@ -1,0 +1,125 @@
+"""XDMF3 + HDF5 time series that ParaView and meshio (TimeSeriesReader) open.
+
+Layout in the output folder (rank 0 writes; other ranks pass their data to rank 0):
+- mesh.h5: /points (n, 2), /quads (ne, 4), /body (ne,)
+- step_0001.h5, step_0002.h5, ...: one closed file per completed load step, with
+  /displacement (n, 3) (z = 0 for ParaView's warp filter), /stress (ne, 4)
+  (s_xx, s_yy, s_xy, s_zz), /von_mises (ne,), /energy_density (ne,), and, with contact,
+  the group /contact (see `ResultWriter.write_step`).
+- results.xdmf: temporal collection of the bulk fields (one Uniform grid per step).
+- contact.xdmf: temporal collection of the contact pairs as points (when there is contact).
+Both XDMF files are rewritten after every step through a temporary file and a rename,
+so a run stopped at any moment leaves readable files with every completed step.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+_NUM = {np.dtype("float64"): ("Float", 8), np.dtype("int64"): ("Int", 8),
+        np.dtype("int32"): ("Int", 4)}
+
+
+def atomic_write_text(path: Path, text: str) -> None:
+    """Write a text file through a temporary file and a rename (never half-written)."""
+    tmp = path.with_name(path.name + ".tmp")
+    with open(tmp, "w") as fh:
+        fh.write(text)
+        fh.flush()
+        os.fsync(fh.fileno())
+    os.replace(tmp, path)
+
+
+def _item(fname: str, path: str, arr_shape: tuple, dtype: np.dtype) -> str:
+    kind, prec = _NUM[np.dtype(dtype)]
+    dims = " ".join(str(d) for d in arr_shape)
+    return (f'<DataItem Dimensions="{dims}" NumberType="{kind}" Precision="{prec}" '
+            f'Format="HDF">{fname}:{path}</DataItem>')
+
+
+def _attribute(name: str, center: str, fname: str, path: str, arr: np.ndarray) -> str:
+    kind = "Scalar" if arr.ndim == 1 else ("Vector" if arr.shape[1] == 3 else "Matrix")
+    return (f'<Attribute Name="{name}" AttributeType="{kind}" Center="{center}">'
+            f'{_item(fname, path, arr.shape, arr.dtype)}</Attribute>')
+
+
+class ResultWriter:
+    """Writes the mesh once and one HDF5 file per step; keeps the XDMF index current."""
+
+    def __init__(self, out_dir: Path, points: np.ndarray, quads: np.ndarray, body: np.ndarray):
+        self.out = Path(out_dir)
+        self.out.mkdir(parents=True, exist_ok=True)
+        self.points = np.ascontiguousarray(points, dtype=np.float64)
+        self.quads = np.ascontiguousarray(quads, dtype=np.int64)
+        with h5py.File(self.out / "mesh.h5", "w") as h5:
+            h5["points"] = self.points
+            h5["quads"] = self.quads
+            h5["body"] = np.asarray(body, dtype=np.int64)
+        self.bulk_grids: list[str] = []
+        self.contact_grids: list[str] = []
+
+    def write_step(self, step: int, time: float, point_data: dict[str, np.ndarray],
+                   cell_data: dict[str, np.ndarray],
+                   contact: dict[str, np.ndarray] | None = None) -> Path:
+        """Write one completed step and refresh the XDMF index files.
+
+        point_data / cell_data: name -> (n,) or (n, k) arrays on nodes / elements.
+        contact: name -> (m,) or (m, k) arrays per contact pair; must hold "position" (m, 2).
+        """
+        fname = f"step_{step:04d}.h5"
+        tmp = self.out / (fname + ".tmp")
+        with h5py.File(tmp, "w") as h5:
+            h5.attrs["step"] = step
+            h5.attrs["time"] = time
+            for k, v in {**point_data, **cell_data}.items():
+                h5[k] = np.ascontiguousarray(v)
+            if contact is not None:
+                g = h5.create_group("contact")
+                for k, v in contact.items():
+                    g[k] = np.ascontiguousarray(v)
+        os.replace(tmp, self.out / fname)
+
+        attrs = [_attribute(k, "Node", fname, f"/{k}", np.asarray(v))
+                 for k, v in point_data.items()]
+        attrs += [_attribute(k, "Cell", fname, f"/{k}", np.asarray(v))
+                  for k, v in cell_data.items()]
+        geo = _item("mesh.h5", "/points", self.points.shape, self.points.dtype)
+        topo = _item("mesh.h5", "/quads", self.quads.shape, self.quads.dtype)
+        self.bulk_grids.append(
+            f'<Grid Name="step_{step}" GridType="Uniform">'
+            f'<Time Value="{time:.17g}"/>'
+            f'<Topology TopologyType="Quadrilateral" NumberOfElements="{self.quads.shape[0]}">'
+            f"{topo}</Topology>"
+            f'<Geometry GeometryType="XY">{geo}</Geometry>' + "".join(attrs) + "</Grid>"
+        )
+        atomic_write_text(self.out / "results.xdmf", _document(self.bulk_grids))
+
+        if contact is not None and "position" in contact:
+            pos = np.asarray(contact["position"], dtype=np.float64)
+            m = pos.shape[0]
+            cattrs = [_attribute(k, "Node", fname, f"/contact/{k}", np.asarray(v))
+                      for k, v in contact.items() if k != "position"]
+            self.contact_grids.append(
+                f'<Grid Name="contact_{step}" GridType="Uniform">'
+                f'<Time Value="{time:.17g}"/>'
+                f'<Topology TopologyType="Polyvertex" NumberOfElements="{m}" '
+                f'NodesPerElement="1"/>'
+                f'<Geometry GeometryType="XY">'
+                f"{_item(fname, '/contact/position', pos.shape, pos.dtype)}</Geometry>"
+                + "".join(cattrs) + "</Grid>"
+            )
+            atomic_write_text(self.out / "contact.xdmf", _document(self.contact_grids))
+        return self.out / fname
+
+
+def _document(grids: list[str]) -> str:
+    return (
+        '<?xml version="1.0"?>\n<Xdmf Version="3.0" '
+        'xmlns:xi="http://www.w3.org/2001/XInclude"><Domain>'
+        '<Grid Name="TimeSeries" GridType="Collection" CollectionType="Temporal">\n'
+        + "\n".join(grids) + "\n</Grid></Domain></Xdmf>\n"
+    )
