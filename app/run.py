@@ -213,7 +213,8 @@ def run(cfg: Config, opts: RunOptions) -> dict:
     for b, modes in free.items():
         if mesh.body_names[b] not in contact_bodies:
             raise SolveError(
-                f"body '{mesh.body_names[b]}' is free to move ({describe_modes(modes)}): "
+                f"body '{mesh.body_names[b]}' is free to move "
+                f"({describe_modes(modes, _centroid(mesh, b))}): "
                 "nothing holds it; add a [[support]] on one of its curves"
             )
 
@@ -338,6 +339,10 @@ def _assemble_cell_fields(mesh: Mesh, gathered) -> dict[str, np.ndarray]:
         sed[el] = f["energy_density"]
     return {"stress": stress, "von_mises": vm, "strain_energy_density": sed,
             "body_id": mesh.body.astype(np.int64)}
+
+
+def _centroid(mesh: Mesh, body: int) -> np.ndarray:
+    return mesh.points[np.unique(mesh.quads[mesh.body == body])].mean(axis=0)
 
 
 def _point_values(mesh: Mesh, u: np.ndarray) -> dict:

@@ -177,12 +177,20 @@ def free_rigid_modes(mesh: Mesh, fixed: np.ndarray) -> dict[int, np.ndarray]:
     return out
 
 
-def describe_modes(modes: np.ndarray) -> str:
-    """Words for free rigid modes (3, r), e.g. 'translation y, rotation'."""
+def describe_modes(modes: np.ndarray, centroid: np.ndarray | None = None) -> str:
+    """Words for free rigid modes (3, r), e.g. 'translation y, rotation about (0, 1)'.
+
+    modes are coefficients of (tx, ty, rotation about `centroid`).
+    """
     if modes.shape[1] == 3:
         return "translation x, translation y, rotation"
     names = []
     for k in range(modes.shape[1]):
-        v = np.abs(modes[:, k] / np.abs(modes[:, k]).max())
-        names.append(" + ".join(MODE_NAMES[i] for i in range(3) if v[i] > 1e-6))
+        tx, ty, th = modes[:, k] / np.abs(modes[:, k]).max()
+        if abs(th) > 1e-6 and centroid is not None:
+            x0, y0 = centroid[0] - ty / th, centroid[1] + tx / th
+            names.append(f"rotation about (x={x0:.4g}, y={y0:.4g})")
+        else:
+            v = np.abs([tx, ty, th])
+            names.append(" + ".join(MODE_NAMES[i] for i in range(3) if v[i] > 1e-6))
     return ", ".join(names)

@@ -187,6 +187,15 @@ def _orient_edges(mesh: Mesh, edges: np.ndarray, name: str, label: str) -> np.nd
     return np.where(keep[:, None], edges, edges[:, ::-1])
 
 
+def _pick(dd: np.ndarray, exc: np.ndarray, idx: np.ndarray, tie_abs: float) -> np.ndarray:
+    """(q,) column of the best candidate per row of (q, k) distances dd, excursions exc and
+    segment indices idx: the smallest distance; ties: smallest excursion, lowest index."""
+    tie = dd <= dd.min(axis=1)[:, None] * (1 + 1e-9) + tie_abs
+    ex = np.where(tie, exc, np.inf)
+    tie &= ex <= ex.min(axis=1)[:, None] + 1e-12
+    return np.argmin(np.where(tie, idx, np.iinfo(np.int64).max), axis=1)
+
+
 def closest_segments(x: np.ndarray, xa: np.ndarray, xb: np.ndarray,
                      search_distance: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Closest segment to each point, among segments closer than `search_distance`.
@@ -196,55 +205,60 @@ def closest_segments(x: np.ndarray, xa: np.ndarray, xb: np.ndarray,
     unclipped projection parameter on that segment, dist (p,) distance from the point to
     the clipped projection (inf if none). Ties in distance: the smallest excursion of the
     unclipped xi outside [0, 1], then the lowest segment index.
+
+    Segments are grouped in length classes (lengths within a factor 2) with one cKDTree of
+    midpoints per class; a segment of half length <= H can only be closer than D if its
+    midpoint is within D + H, so each class is queried (k nearest, k doubled while needed)
+    with that radius. Vectorised over points; the loops run over classes and k-doublings.
     """
     x = np.asarray(x, dtype=float)
+    sd = float(search_distance)
     ns, p = xa.shape[0], x.shape[0]
     ab = xb - xa
     len2 = np.einsum("ij,ij->i", ab, ab)
     lens = np.sqrt(len2)
+    mid = 0.5 * (xa + xb)
     tie_abs = 1e-12 * float(lens.mean())
-    # sample points along the segments, at most a mean segment length apart, so that long
-    # segments among short ones do not widen the search (at most 2 s samples in all)
-    n_smp = np.maximum(np.ceil(lens / lens.mean() - 1e-9), 1).astype(np.int64)
-    owner = np.repeat(np.arange(ns), n_smp)
-    local = np.arange(owner.size) - np.repeat(np.cumsum(n_smp) - n_smp, n_smp)
-    frac = (local + 0.5) / n_smp[owner]
-    tree = cKDTree(xa[owner] + frac[:, None] * ab[owner])
-    half_gap = float(np.max(lens / (2 * n_smp)))  # any segment point is this near a sample
-    n_tot = owner.size
+    cls = np.floor(np.log2(lens / lens.min())).astype(np.int64)
 
     seg = np.full(p, -1, dtype=np.int64)
     xi_raw = np.full(p, np.nan)
     dist = np.full(p, np.inf)
-    todo = np.arange(p)
-    radius = None
-    k = min(_K0, n_tot)
-    while todo.size:
-        dm, im = tree.query(x[todo], k=k)
-        ic = owner[im.reshape(todo.size, k)]  # (q, k) candidate segments
-        dm = dm.reshape(todo.size, k)
-        a, e = xa[ic], ab[ic]  # (q, k, 2)
-        rel = x[todo][:, None, :] - a
-        xr = np.einsum("qkj,qkj->qk", rel, e) / len2[ic]
-        diff = rel - np.clip(xr, 0.0, 1.0)[..., None] * e
-        dd = np.hypot(diff[..., 0], diff[..., 1])
-        dmin = dd.min(axis=1)
-        tie = dd <= dmin[:, None] * (1 + 1e-9) + tie_abs
-        exc = np.where(tie, np.maximum(np.maximum(-xr, xr - 1.0), 0.0), np.inf)
-        tie &= exc <= exc.min(axis=1)[:, None] + 1e-12
-        j = np.argmin(np.where(tie, ic, ns), axis=1)
-        rows = np.arange(todo.size)
-        found = dmin <= search_distance
-        seg[todo] = np.where(found, ic[rows, j], -1)
-        xi_raw[todo] = np.where(found, xr[rows, j], np.nan)
-        dist[todo] = np.where(found, dmin, np.inf)
-        if radius is None:
-            # a closer segment (within search_distance) has a sample within this radius
-            radius = np.minimum(dmin, search_distance) * (1 + 1e-9) + half_gap + tie_abs
-        # all k samples inside the radius: there may be more candidates, query again
-        more = (dm[:, -1] <= radius) & (k < n_tot)
-        todo, radius = todo[more], radius[more]
-        k = min(2 * k, n_tot)
+    exc_best = np.full(p, np.inf)
+    for c in np.unique(cls):
+        ids = np.flatnonzero(cls == c)
+        nc = ids.size
+        half = 0.5 * float(lens[ids].max())
+        tree = cKDTree(mid[ids])
+        ub = (sd + half) * (1 + 1e-9) + tie_abs
+        todo = np.arange(p)
+        k = min(_K0, nc)
+        while todo.size:
+            dm, im = tree.query(x[todo], k=k, distance_upper_bound=ub)
+            dm, im = dm.reshape(todo.size, k), im.reshape(todo.size, k)
+            valid = im < nc
+            ic = ids[np.where(valid, im, 0)]  # (q, k) candidate segments
+            rel = x[todo][:, None, :] - xa[ic]
+            xr = np.einsum("qkj,qkj->qk", rel, ab[ic]) / len2[ic]
+            diff = rel - np.clip(xr, 0.0, 1.0)[..., None] * ab[ic]
+            dd = np.where(valid, np.hypot(diff[..., 0], diff[..., 1]), np.inf)
+            exc = np.maximum(np.maximum(-xr, xr - 1.0), 0.0)
+            # column 0: the best so far (from earlier classes or rounds)
+            dd = np.column_stack([dist[todo], dd])
+            xr = np.column_stack([xi_raw[todo], xr])
+            exc = np.column_stack([exc_best[todo], exc])
+            ic = np.column_stack([seg[todo], ic])
+            j = _pick(dd, exc, np.where(ic < 0, ns, ic), tie_abs)
+            rows = np.arange(todo.size)
+            dist[todo], xi_raw[todo] = dd[rows, j], xr[rows, j]
+            exc_best[todo], seg[todo] = exc[rows, j], ic[rows, j]
+            # all k midpoints inside the radius: there may be more candidates, query again
+            radius = np.minimum(dist[todo], sd) * (1 + 1e-9) + half + tie_abs
+            more = valid[:, -1] & (dm[:, -1] <= radius) & (k < nc)
+            todo = todo[more]
+            k = min(2 * k, nc)
+    far = ~(dist <= sd)
+    seg[far], xi_raw[far], dist[far] = -1, np.nan, np.inf
     return seg, xi_raw, dist
 
 

@@ -34,6 +34,13 @@ SHAPE_SIDES: dict[str, tuple[str, ...]] = {
     "disk": ("arc",),
     "polygon": (),  # side0, side1, ... one per polygon edge
 }
+SHAPE_KEYS: dict[str, tuple[str, ...]] = {
+    "rectangle": ("origin", "width", "height"),
+    "half_disk": ("center", "radius", "side"),
+    "disk": ("center", "radius"),
+    "polygon": ("points",),
+}
+REFINE_KEYS = ("curves", "points", "size", "distance", "flat")
 HALF_DISK_START = {"upper": 0.0, "left": 0.5 * math.pi, "lower": math.pi, "right": 1.5 * math.pi}
 POINT_TOL = 1e-6  # named points must lie within POINT_TOL * body size of a mesh node
 _MAX_ARC = 0.5 * math.pi  # longest arc piece (gmsh circle arcs must be < pi)
@@ -227,6 +234,11 @@ def _shape_sides(shape: dict, where: str) -> tuple[list[tuple[str, list[Piece]]]
             f"{where}shape.type must be one of {', '.join(SHAPE_SIDES)} (got {kind!r})"
         )
     w = f"{where}shape."
+    for key in shape:
+        if key not in ("type", "structured", *SHAPE_KEYS[kind]):
+            raise InputError(
+                f"{w}{key} is not a key of a {kind} (keys: {', '.join(SHAPE_KEYS[kind])})"
+            )
     structured = shape.get("structured", False)
     if not isinstance(structured, bool):
         raise InputError(f"{w}structured must be true or false (got {structured!r})")
@@ -311,7 +323,7 @@ def parse_scene(cfg: dict, *, need_shapes: bool = True) -> Scene:
         if any(x.name == name for x in bodies):
             raise InputError(f"body name '{name}' is used twice: body names must be unique")
         where = f"body '{name}': "
-        bsize = _number(b, "size", where, default=size) if "size" in b else size
+        bsize = _number(b, "size", where) if "size" in b else size
         if not need_shapes:
             bodies.append(BodySpec(name, bsize, {}, False, []))
             continue
@@ -357,6 +369,9 @@ def parse_scene(cfg: dict, *, need_shapes: bool = True) -> Scene:
     for i, r in enumerate(ref_cfg):
         where = f"mesh.refine[{i}]."
         r = _table(r, where[:-1])
+        for key in r:
+            if key not in REFINE_KEYS:
+                raise InputError(f"{where}{key} is not a refinement key ({', '.join(REFINE_KEYS)})")
         rc = r.get("curves", [])
         if not isinstance(rc, list) or not all(isinstance(c, str) for c in rc):
             raise InputError(f"{where}curves must be a list of curve names (got {rc!r})")
@@ -468,10 +483,10 @@ def _mesh_body(gmsh: Any, spec: BodySpec, scene: Scene, scale: float) -> tuple:
                 gmsh.model.mesh.embed(0, embed, 2, surf)
             fm = gmsh.model.mesh.field
             thresholds = []
-            for r, ptags, ctags, sampling in fields:
+            for r, rpoints, ctags, sampling in fields:
                 d = fm.add("Distance")
-                if ptags:
-                    fm.setNumbers(d, "PointsList", ptags)
+                if rpoints:
+                    fm.setNumbers(d, "PointsList", rpoints)
                 if ctags:
                     fm.setNumbers(d, "CurvesList", ctags)
                     fm.setNumber(d, "Sampling", sampling)
@@ -529,7 +544,8 @@ def _add_refinement(geo: Any, spec: BodySpec, scene: Scene, side_tags: list[list
             for other in scene.bodies:
                 pieces = other.curve_pieces(c)
                 if pieces and other is not spec:
-                    ctags.extend(_add_pieces(geo, pieces, closed=False)[0])
+                    for p in pieces:  # one by one: a curve's pieces need not be contiguous
+                        ctags.extend(_add_pieces(geo, [p], closed=False)[0])
                     lengths.extend(p.length for p in pieces)
         spacing = 0.5 * r.size * scale
         sampling = min(_MAX_SAMPLING, max(20, math.ceil(max(lengths, default=0) / spacing) + 1))

@@ -81,21 +81,24 @@ def read_mesh(path: str | Path, body_names: list[str]) -> Mesh:
     must be one of them and every body needs one. Raises InputError (one line) naming the
     file and the group or element type to fix.
     """
-    import meshio
+    import meshio.gmsh
 
     path = Path(path)
     fname = str(path)
     if not path.is_file():
         raise InputError(f"mesh file {fname} not found (mesh.file)")
     try:
-        m = meshio.read(path, file_format="gmsh")
+        m = meshio.gmsh.read(path)  # not meshio.read: that one calls sys.exit on failure
     except Exception as e:  # meshio raises assorted exception types on bad input
-        msg = str(e).splitlines()[0] if str(e) else type(e).__name__
+        msg = str(e).splitlines()[0] if str(e).strip() else type(e).__name__
         raise InputError(f"mesh file {fname} is not a readable gmsh .msh file: {msg}") from None
 
+    counts: dict[str, int] = {}
     for blk in m.cells:
-        if blk.type not in _KINDS and blk.type not in _IGNORED_1D:
-            raise _other_cell_error(fname, blk.type, len(blk.data))
+        counts[blk.type] = counts.get(blk.type, 0) + len(blk.data)
+    for kind, n in sorted(counts.items(), key=lambda kn: not kn[0].startswith("triangle")):
+        if kind not in _KINDS and kind not in _IGNORED_1D:
+            raise _other_cell_error(fname, kind, n)
     pts = np.asarray(m.points, dtype=float)
     if pts.shape[1] > 2 and np.any(np.abs(pts[:, 2]) > 1e-12 * max(1.0, np.abs(pts).max())):
         raise InputError(f"mesh file {fname} is not planar: every node needs z = 0")

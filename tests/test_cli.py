@@ -1,0 +1,155 @@
+"""The command line: parallel runs, output files, and one-line errors on bad input."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import h5py
+import meshio
+import numpy as np
+import pytest
+
+from support import CONFIGS, read_summary, run_cli
+
+CANTILEVER = CONFIGS / "cantilever.toml"
+
+
+@pytest.mark.mpi
+def test_two_ranks_match_one_rank(tmp_path):
+    outs = {}
+    for ranks in (1, 2):
+        out = tmp_path / f"r{ranks}"
+        res = run_cli(["run", str(CANTILEVER), "--out", str(out), "--mesh-size", "0.0625",
+                       "--quiet"], ranks=ranks)
+        assert res.returncode == 0, res.stderr
+        outs[ranks] = out
+    s1, s2 = read_summary(outs[1]), read_summary(outs[2])
+    assert s1["ranks"] == 1 and s2["ranks"] == 2
+    with h5py.File(outs[1] / "step_0001.h5") as a, h5py.File(outs[2] / "step_0001.h5") as b:
+        u1, u2 = a["displacement"][()], b["displacement"][()]
+        vm1, vm2 = a["von_mises"][()], b["von_mises"][()]
+    assert np.abs(u1 - u2).max() <= 1e-10 * np.abs(u1).max()
+    assert np.abs(vm1 - vm2).max() <= 1e-9 * np.abs(vm1).max()
+    assert abs(s1["strain_energy"] - s2["strain_energy"]) <= 1e-10 * s1["strain_energy"]
+
+
+def test_outputs_open_with_meshio_and_summary_keys(tmp_path):
+    out = tmp_path / "o"
+    res = run_cli(["run", str(CANTILEVER), "--out", str(out), "--sd", "2", "-ksp_type",
+                   "preonly", "-pc_type", "lu"])
+    assert res.returncode == 0, res.stderr
+    s = read_summary(out)
+    for key in ("method", "sd", "ranks", "n_dofs", "n_elements", "strain_energy",
+                "strain_energy_by_body", "timings"):
+        assert key in s
+    assert s["method"] == "cs-fem" and s["sd"] == 2
+    for key in ("mesh", "assembly", "factorization", "solve", "output", "total"):
+        assert s["timings"][key] >= 0.0
+    assert s["strain_energy_by_body"]["beam"] == pytest.approx(s["strain_energy"])
+    assert s["reference"]["tip_deflection_rel_error"] < 0.02
+    with meshio.xdmf.TimeSeriesReader(out / "results.xdmf") as reader:
+        points, cells = reader.read_points_cells()
+        _, point_data, cell_data = reader.read_data(0)
+    assert cells[0].type == "quad" and len(cells[0].data) == s["n_elements"]
+    assert point_data["displacement"].shape == (s["n_dofs"] // 2, 3)
+    for key in ("stress", "von_mises", "strain_energy_density", "body_id"):
+        assert key in cell_data
+    sed = cell_data["strain_energy_density"][0]
+    area = 10.0 / s["n_elements"]  # structured 10 x 1 beam, equal elements
+    assert sed.sum() * area == pytest.approx(s["strain_energy"], rel=1e-10)
+
+
+def test_petsc_options_pass_through(tmp_path):
+    out = tmp_path / "o"
+    res = run_cli(["run", str(CANTILEVER), "--out", str(out), "--quiet", "-ksp_type", "cg",
+                   "-pc_type", "jacobi", "-ksp_rtol", "1e-12", "-ksp_max_it", "20000",
+                   "-ksp_view"])
+    assert res.returncode == 0, res.stderr
+    assert "type: cg" in res.stdout
+    ref = tmp_path / "ref"
+    assert run_cli(["run", str(CANTILEVER), "--out", str(ref), "--quiet"]).returncode == 0
+    assert read_summary(out)["strain_energy"] == pytest.approx(
+        read_summary(ref)["strain_energy"], rel=1e-8)
+
+
+def test_help_explains_the_command():
+    res = run_cli(["--help"])
+    assert res.returncode == 0 and "PETSc" in res.stdout
+    res = run_cli(["run", "--help"])
+    assert "--mesh-size" in res.stdout and "--sd" in res.stdout
+
+
+def _write(tmp_path: Path, text: str) -> Path:
+    p = tmp_path / "scene.toml"
+    p.write_text(text)
+    return p
+
+
+BASE = CANTILEVER.read_text()
+
+
+def _bad_input_cases(tmp_path: Path) -> list[tuple[list[str], str]]:
+    tri = tmp_path / "tri.msh"
+    tri.write_text(
+        "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$PhysicalNames\n1\n2 1 \"beam\"\n"
+        "$EndPhysicalNames\n$Entities\n0 0 1 0\n1 0 0 0 1 1 0 1 1 0\n$EndEntities\n"
+        "$Nodes\n1 3 1 3\n2 1 0 3\n1\n2\n3\n0 0 0\n1 0 0\n0 1 0\n$EndNodes\n"
+        "$Elements\n1 1 1 1\n2 1 2 1\n1 1 2 3\n$EndElements\n"
+    )
+    unreadable = tmp_path / "garbage.msh"
+    unreadable.write_text("this is not a mesh\n")
+    return [
+        (BASE.replace("size = 0.125", "size_typo = 0.125"), "mesh.size"),
+        (BASE.replace('on = "tip_edge"', 'on = "tip_edg"'), "tip_edg"),
+        (BASE.replace("E = 1000.0\nnu", "E = -5.0\nnu"), "E must be > 0"),
+        (BASE.replace("nu = 0.3\n[body", "nu = 0.5\n[body"), "nu must lie in (-1, 0.5)"),
+        (BASE.replace("sd = 4", "sd = 5"), "analysis.sd"),
+        (BASE.replace("[mesh]\nsize = 0.125", f'[mesh]\nsize = 0.125\nfile = "{tri}"'),
+         "triangle"),
+        (BASE.replace("[mesh]\nsize = 0.125",
+                      f'[mesh]\nsize = 0.125\nfile = "{tmp_path / "nope.msh"}"'), "nope.msh"),
+        (BASE.replace("[mesh]\nsize = 0.125", f'[mesh]\nsize = 0.125\nfile = "{unreadable}"'),
+         "garbage.msh"),
+        (BASE + "\n[[support]]\non = \"clamp\"\nux = \"undefined_name * x\"\n",
+         "undefined_name"),
+        ("this is [ not toml", "not valid TOML"),
+    ]
+
+
+def test_bad_input_gives_one_line_error(tmp_path):
+    for text, needle in _bad_input_cases(tmp_path):
+        cfg = _write(tmp_path, text)
+        res = run_cli(["run", str(cfg), "--out", str(tmp_path / "o"), "--quiet"])
+        lines = [ln for ln in res.stderr.strip().splitlines() if ln.strip()]
+        assert res.returncode == 2, (needle, res.stderr)
+        assert len(lines) == 1 and lines[0].startswith("error: "), res.stderr
+        assert needle in lines[0], (needle, lines[0])
+        assert "Traceback" not in res.stderr
+
+
+def test_bad_command_line_values(tmp_path):
+    res = run_cli(["run", str(CANTILEVER), "--sd", "7", "--out", str(tmp_path / "o")])
+    assert res.returncode == 2 and "--sd 7" in res.stderr
+    res = run_cli(["run", str(tmp_path / "missing.toml")])
+    assert res.returncode == 2 and "missing.toml" in res.stderr
+
+
+def test_singular_stiffness_is_reported(tmp_path):
+    text = (
+        '[analysis]\nsd = 1\n[mesh]\nsize = 0.25\n[[body]]\nname = "plate"\nE = 100.0\n'
+        'nu = 0.3\n[body.shape]\ntype = "rectangle"\norigin = [0.0, 0.0]\nwidth = 1.0\n'
+        'height = 1.0\nstructured = true\n[body.curves]\ntop = "top"\n[points]\n'
+        'pin = [0.0, 0.0]\nroller = [1.0, 0.0]\n[[support]]\non = "pin"\nux = 0.0\nuy = 0.0\n'
+        '[[support]]\non = "roller"\nuy = 0.0\n[[load]]\non = "top"\ntraction = [0.0, -1.0]\n'
+    )
+    cfg = _write(tmp_path, text)
+    res = run_cli(["run", str(cfg), "--out", str(tmp_path / "o"), "--quiet"])
+    assert res.returncode == 2 and "hourglass" in res.stderr and "--sd 2" in res.stderr
+    res = run_cli(["run", str(cfg), "--out", str(tmp_path / "o"), "--quiet", "--sd", "2"])
+    assert res.returncode == 0, res.stderr
+    free = _write(tmp_path, text.replace('on = "roller"', 'on = "pin"'))
+    res = run_cli(["run", str(free), "--out", str(tmp_path / "o"), "--quiet", "--sd", "2"])
+    assert res.returncode == 2 and "body 'plate' is free to move" in res.stderr
+    assert "rotation about (x=0" in res.stderr
+    assert json.loads((tmp_path / "o" / "summary.json").read_text())["status"] == "completed"
