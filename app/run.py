@@ -19,16 +19,16 @@ from petsc4py import PETSc
 from app.assembly.loads import (
     body_force_vector,
     constrained_dofs,
-    describe_modes,
-    free_rigid_modes,
     load_vector,
     support_dofs,
 )
 from app.assembly.solve import LinearSolver, apply_dirichlet, set_default_options
 from app.assembly.stiffness import assemble_stiffness, node_ownership
+from app.condensation.compliance import compliance_schur, compliance_solve
 from app.config import Config
 from app.discretisation.bulk import Discretisation, check_elements, element_fields
 from app.errors import InputError, SolveError
+from app.interface.setup import ContactSetup, floating_modes
 from app.mesh.model import Mesh
 from app.output.xdmf import ResultWriter, atomic_write_text
 
@@ -134,7 +134,8 @@ def make_discretisation(cfg: Config, opts: RunOptions) -> Discretisation:
 def build_scene_mesh(cfg: Config, opts: RunOptions) -> Mesh:
     from app.mesh.build import build_mesh
 
-    mesh = build_mesh(cfg.raw, scale=opts.mesh_scale, cache_dir=opts.mesh_cache)
+    mesh = build_mesh(cfg.raw, scale=opts.mesh_scale, cache_dir=opts.mesh_cache,
+                      base_dir=cfg.path.parent)
     check_elements(mesh)
     return mesh
 
@@ -198,6 +199,7 @@ def run(cfg: Config, opts: RunOptions) -> dict:
         "n_elements": mesh.n_elements,
         "n_bodies": len(mesh.body_names),
         "bodies": mesh.body_names,
+        "n_steps": cfg.n_steps,
         "steps": [],
         "status": "running",
     }
@@ -208,15 +210,14 @@ def run(cfg: Config, opts: RunOptions) -> dict:
     # Checks that need the mesh, before any expensive work.
     cases = load_cases(mesh, cfg)
     fixed = constrained_dofs(mesh, cfg)
-    contact_bodies = set()
-    free = free_rigid_modes(mesh, fixed)
-    for b, modes in free.items():
-        if mesh.body_names[b] not in contact_bodies:
-            raise SolveError(
-                f"body '{mesh.body_names[b]}' is free to move "
-                f"({describe_modes(modes, _centroid(mesh, b))}): "
-                "nothing holds it; add a [[support]] on one of its curves"
-            )
+    contact = None
+    if cfg.interfaces:
+        with timer.phase("pair_search"):
+            contact = ContactSetup.build(mesh, cfg)
+        summary["n_pairs"] = contact.pairs.n_pairs
+    floating = floating_modes(mesh, cfg, fixed, contact)
+    pins = floating.pins if floating else np.zeros(0, dtype=np.int64)
+    fixed_all = np.union1d(fixed, pins)
 
     with timer.phase("assembly"):
         k = assemble_stiffness(mesh, disc, comm)
@@ -229,7 +230,7 @@ def run(cfg: Config, opts: RunOptions) -> dict:
                 prescribed_rhs.append(to_numpy_all(kud))
             else:
                 prescribed_rhs.append(None)
-        apply_dirichlet(k, fixed)
+        apply_dirichlet(k, fixed_all)
 
     solver = LinearSolver(k)
     with timer.phase("factorization"):
@@ -244,23 +245,61 @@ def run(cfg: Config, opts: RunOptions) -> dict:
             b = case.rhs.copy()
             if kud is not None:
                 b -= kud
-            b[fixed] = case.prescribed[fixed]
+            b[fixed_all] = case.prescribed[fixed_all]
             try:
                 x = solver.solve(from_numpy(k, b))
             except SolveError as exc:
                 raise SolveError(_singular_message(disc, mesh, str(exc))) from None
             unit.append(to_numpy_all(x))
 
+    stepper = None
+    if contact is not None:
+        with timer.phase("compliance"):
+            route = contact.compliance_route(solver)
+            if route == "schur":
+                c_mat = compliance_schur(k, contact.g, fixed_all)
+            else:
+                c_mat = compliance_solve(solver, k, contact.g, fixed_all, to_numpy_all)
+        summary["compliance_route"] = route
+        with timer.phase("lcp"):
+            stepper = contact.stepper(c_mat, cases, unit, floating, disc.thickness) \
+                if rank == 0 else None
+
     own = node_ownership(mesh.n_nodes, size)
     my_elements = np.flatnonzero(
         (mesh.quads[:, 0] >= own[rank]) & (mesh.quads[:, 0] < own[rank + 1])
     )
     writer = ResultWriter(out, mesh.points, mesh.quads, mesh.body) if rank == 0 else None
-    energy_total = 0.0
     for step in range(cfg.n_steps):
         u = np.zeros(n_dofs)
         for case, uc in zip(cases, unit, strict=True):
             u += case.history[step] * uc
+        step_info = {"step": step + 1,
+                     "load_factor": {c.name: float(c.history[step]) for c in cases}}
+        contact_data = None
+        if contact is not None:
+            with timer.phase("lcp"):
+                result = stepper.step(step, cases) if rank == 0 else None
+                result = mpi.bcast(result, root=0)
+            if result["status"] != "solved":
+                summary["status"] = "failed"
+                summary["failed_step"] = step + 1
+                summary["timings"] = timer.reduced()
+                reason = (f"no static equilibrium at step {step + 1}: Lemke ended on a "
+                          f"{result['status']} ({result['message']}); steps 1..{step} are "
+                          f"written in {out}")
+                summary["error"] = reason
+                if rank == 0:
+                    write_summary(out, summary)
+                raise SolveError(reason)
+            with timer.phase("recovery"):
+                u += contact.displacement(result["lam"], solver, k, fixed_all, to_numpy_all)
+                if floating is not None and floating.r.shape[1]:
+                    u += floating.r @ result["alpha"]
+            step_info.update(result["info"])
+            if rank == 0:
+                contact_data = contact.output_data(result, u, mesh)
+                step_info["kkt"] = contact_data.pop("_kkt")
         with timer.phase("output"):
             fields = element_fields(mesh, disc, u, my_elements)
             gathered = mpi.gather((my_elements, fields), root=0)
@@ -272,13 +311,11 @@ def run(cfg: Config, opts: RunOptions) -> dict:
                 cell = _assemble_cell_fields(mesh, gathered)
                 disp = np.zeros((mesh.n_nodes, 3))
                 disp[:, :2] = u.reshape(-1, 2)
-                writer.write_step(step + 1, float(step + 1), {"displacement": disp}, cell)
-        step_info = {
-            "step": step + 1,
-            "strain_energy": energy_total,
-            "strain_energy_by_body": dict(zip(mesh.body_names, map(float, energy_by_body),
-                                              strict=True)),
-        }
+                writer.write_step(step + 1, float(step + 1), {"displacement": disp}, cell,
+                                  contact_data)
+        step_info["strain_energy"] = energy_total
+        step_info["strain_energy_by_body"] = dict(
+            zip(mesh.body_names, map(float, energy_by_body), strict=True))
         summary["steps"].append(step_info)
         summary["strain_energy"] = energy_total
         summary["strain_energy_by_body"] = step_info["strain_energy_by_body"]

@@ -9,7 +9,6 @@ import h5py
 import meshio
 import numpy as np
 import pytest
-
 from support import CONFIGS, read_summary, run_cli
 
 CANTILEVER = CONFIGS / "cantilever.toml"

@@ -302,6 +302,27 @@ def test_closest_segments_long_and_short_segments():
     np.testing.assert_array_equal(seg, [-1, -1, -1])
 
 
+@pytest.mark.parametrize("sigma", [0.3, 2.0])
+def test_closest_segments_brute_force(sigma):
+    """Random wavy polyline with very uneven segment lengths against brute force."""
+    rng = np.random.default_rng(5)
+    x = np.cumsum(rng.lognormal(0, sigma, 400))
+    x /= x[-1]
+    pts = np.column_stack([x, 0.05 * np.sin(7 * x) + 0.01 * rng.normal(size=x.size)])
+    xa, xb = pts[:-1], pts[1:]
+    q = rng.uniform([-0.1, -0.2], [1.1, 0.2], size=(1500, 2))
+    sd = 0.08
+    seg, xr, dist = closest_segments(q, xa, xb, sd)
+    ab = xb - xa
+    t = np.clip(np.einsum("qsj,sj->qs", q[:, None] - xa, ab) / np.sum(ab**2, 1), 0, 1)
+    d = np.linalg.norm(q[:, None] - xa - t[..., None] * ab, axis=2).min(1)
+    np.testing.assert_array_equal(seg >= 0, d <= sd)
+    ok = seg >= 0
+    np.testing.assert_allclose(dist[ok], d[ok], rtol=1e-8)
+    xp = xa[seg[ok]] + np.clip(xr[ok], 0, 1)[:, None] * ab[seg[ok]]
+    np.testing.assert_allclose(np.linalg.norm(q[ok] - xp, axis=1), dist[ok], rtol=1e-12)
+
+
 def test_same_body_different_curves_allowed():
     mesh = stacked(3, 4)
     mesh.body[:] = 0

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import scipy.sparse as sp
+from support import CONFIGS
 
 from app.assembly.stiffness import assemble_stiffness
 from app.closed_form import timoshenko_cantilever
@@ -14,8 +15,6 @@ from app.discretisation.elements import smoothing_cells, strain_matrices
 from app.errors import InputError
 from app.mesh.model import Mesh
 from app.run import RunOptions, run
-
-from support import CONFIGS
 
 VARIANTS = [("cs-fem", 1), ("cs-fem", 2), ("cs-fem", 3), ("cs-fem", 4), ("cs-fem", 8),
             ("cs-fem", 16), ("fem-q4", 4)]

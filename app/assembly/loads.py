@@ -178,12 +178,15 @@ def free_rigid_modes(mesh: Mesh, fixed: np.ndarray) -> dict[int, np.ndarray]:
 
 
 def describe_modes(modes: np.ndarray, centroid: np.ndarray | None = None) -> str:
-    """Words for free rigid modes (3, r), e.g. 'translation y, rotation about (0, 1)'.
+    """Words for free rigid modes (3, r), e.g. 'translation y, rotation about (0, 1)'."""
+    return ", ".join(mode_names(modes, centroid))
 
-    modes are coefficients of (tx, ty, rotation about `centroid`).
-    """
+
+def mode_names(modes: np.ndarray, centroid: np.ndarray | None = None) -> list[str]:
+    """One name per free rigid mode; modes are coefficients of (tx, ty, rotation about
+    `centroid`), shape (3, r)."""
     if modes.shape[1] == 3:
-        return "translation x, translation y, rotation"
+        return ["translation x", "translation y", "rotation"]
     names = []
     for k in range(modes.shape[1]):
         tx, ty, th = modes[:, k] / np.abs(modes[:, k]).max()
@@ -193,4 +196,4 @@ def describe_modes(modes: np.ndarray, centroid: np.ndarray | None = None) -> str
         else:
             v = np.abs([tx, ty, th])
             names.append(" + ".join(MODE_NAMES[i] for i in range(3) if v[i] > 1e-6))
-    return ", ".join(names)
+    return names

@@ -114,23 +114,52 @@ def _pow2(x: np.ndarray) -> np.ndarray:
     return np.exp2(np.round(np.log2(x)))
 
 
-def _scaling(M: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, float, float]:
-    """Symmetric scaling D (n,), mu, nu so that D M D / mu and D q / nu are O(1).
+def _absmax(a: np.ndarray, axis: int | None = None):
+    """max |a| (along axis) without an |a| temporary."""
+    return np.maximum(a.max(axis=axis), -a.min(axis=axis))
+
+
+def _scaling(M: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, float, float]:
+    """Symmetric scaling: (M~, D, mu, nu) with M~ = D M D / mu (Fortran order), q~ = D q / nu.
 
     D_i = 1 / sqrt(s_i) with s_i = |M_ii| when that is at least 1e-6 times the largest
-    entry of row or column i, else that largest entry (1 for an all-zero row and column).
+    entry of row or column i, else that largest entry (1 for an all-zero row and column);
+    D, mu and nu are powers of two (exact scaling), mu = max|D M D|, nu = max|D q|.
     """
-    a = np.abs(M)
-    rc = np.maximum(a.max(axis=1), a.max(axis=0))
+    rc = np.maximum(_absmax(M, 1), _absmax(M, 0))
     dg = np.abs(np.diagonal(M))
     s = np.where(dg >= 1e-6 * rc, dg, rc)
     s[s == 0.0] = 1.0
     D = _pow2(1.0 / np.sqrt(s))
-    mu = float(np.max(np.abs(D) * (a * D).max(axis=1))) if M.size else 1.0
+    Ms = np.empty_like(M, order="F")  # the pivoting cores read columns of M~
+    np.multiply(M, D[None, :], out=Ms)
+    Ms *= D[:, None]
+    mu = float(_absmax(Ms))
     mu = float(_pow2(np.array(mu))) if mu > 0 else 1.0
-    nu = float(np.max(np.abs(D * q))) if q.size else 1.0
+    Ms *= 1.0 / mu
+    nu = float(np.abs(D * q).max())
     nu = float(_pow2(np.array(nu))) if nu > 0 else 1.0
-    return D, mu, nu
+    return Ms, D, mu, nu
+
+
+_RCOND_MIN = 1e-14
+"""A basis block whose estimated reciprocal condition number is below this is singular."""
+
+
+def _lu_or_none(A: np.ndarray):
+    """LU factors of square A (scipy lu_factor), or None when A is numerically singular."""
+    if A.shape[0] == 0:
+        return None
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", sla.LinAlgWarning)
+        try:
+            lu = sla.lu_factor(A, check_finite=False)
+        except (ValueError, np.linalg.LinAlgError):
+            return None
+    if not np.isfinite(lu[0]).all():
+        return None
+    rcond = sla.lapack.dgecon(lu[0], float(np.abs(A).sum(axis=0).max()))[0]
+    return lu if np.isfinite(rcond) and rcond >= _RCOND_MIN else None
 
 
 def _lexmin(V: np.ndarray) -> int:
@@ -178,10 +207,10 @@ def _core_tableau(
     basic = np.where(B0, n + idx, idx)  # variable basic in each tableau row
     start = basic.copy()  # lexicographic columns: the start basis, by position
     if B0.any():
-        try:
-            T = np.linalg.solve(T[:, basic], T)
-        except np.linalg.LinAlgError:
+        lu = _lu_or_none(T[:, basic])
+        if lu is None:
             return _CoreOut("singular", B0.copy(), np.zeros(n), 0.0, 0)
+        T = sla.lu_solve(lu, T, check_finite=False)
     z0col, qcol = 2 * n, 2 * n + 1
 
     def out(status: str, pivots: int) -> _CoreOut:
@@ -200,7 +229,7 @@ def _core_tableau(
         T[:] -= np.outer(col, T[r])
         basic[r] = e
 
-    r = _first_leaving(T[:, qcol], T[:, z0col], np.where(start >= n, start - n, start))
+    r = _first_leaving(T[:, qcol], T[:, z0col], idx)  # row i holds start position i
     if r is None:
         return out("solved", 0)
     if max_pivots < 1:
@@ -280,7 +309,7 @@ class _Revised:
         self.free_r: list[int] = []
         self.refactorizations = 0
         self.since_refactor = 0
-        self.xnorm = max(float(np.abs(M).max()) if n else 0.0, float(np.abs(d).max()), 1e-300)
+        self.xnorm = max(float(_absmax(M)) if n else 0.0, float(np.abs(d).max()), 1e-300)
         k = self.start_z.size
         if k:
             self._ensure_cap(k)
@@ -403,6 +432,7 @@ class _Revised:
         self.Yu[:h] = 0.0
         self.Gv[:h] = 0.0
         self.free_c, self.free_r = [], []
+        self.xs[:h] = 0.0
         self.h = k
         self.var_slot[:] = -1
         self.var_slot[self.slot_var[:k] - n] = np.arange(k)
@@ -413,12 +443,8 @@ class _Revised:
         if k:
             rows = self.row_slot[:k]
             XR = self.Xcols[:k, rows].T  # XR[p, c] = X[row_slot[p], slot c]
-            try:
-                lu = sla.lu_factor(XR, check_finite=False)
-            except (ValueError, np.linalg.LinAlgError):
-                return False
-            rcond = sla.lapack.dgecon(lu[0], np.abs(XR).sum(axis=0).max())[0]
-            if not np.isfinite(rcond) or rcond < 1e-14:
+            lu = _lu_or_none(XR)
+            if lu is None:
                 return False
             self.Xinv[:k, :k] = sla.lu_solve(lu, np.eye(k), check_finite=False)
         self.recompute_values()
@@ -594,12 +620,12 @@ def _pivot(S: _Revised, e: int, r: int, yR: np.ndarray, yW: np.ndarray) -> int:
     leave_w = r < n
     if leave_w:
         piv = yW[r]
-        theta = max(S.xw[r], 0.0) / piv
+        theta = max(S.xw[r] / piv, 0.0)
         leaving = r
     else:
         c = r - n
         piv = yR[c]
-        theta = max(S.xs[c], 0.0) / piv
+        theta = max(S.xs[c] / piv, 0.0)
         leaving = int(S.slot_var[c])
     # values: x_B -= theta y, the entering variable takes theta
     S.xw -= theta * yW
@@ -671,8 +697,8 @@ def _pivot(S: _Revised, e: int, r: int, yR: np.ndarray, yW: np.ndarray) -> int:
 
 
 def _validate(M, q) -> tuple[np.ndarray, np.ndarray]:
-    M = np.array(M, dtype=float, order="C")
-    q = np.array(q, dtype=float).reshape(-1)
+    M = np.asarray(M, dtype=float)
+    q = np.asarray(q, dtype=float).reshape(-1)
     n = q.size
     if M.shape != (n, n):
         raise ValueError(f"M must be ({n}, {n}) to match q of length {n}, got {M.shape}")
@@ -705,12 +731,9 @@ def _solve_on(Ms: np.ndarray, qs: np.ndarray, zset: np.ndarray) -> np.ndarray | 
     if Z.size == 0:
         return zt
     A = Ms[np.ix_(Z, Z)]
-    with warnings.catch_warnings():
-        warnings.simplefilter("error", sla.LinAlgWarning)
-        try:
-            lu = sla.lu_factor(A, check_finite=False)
-        except (sla.LinAlgWarning, ValueError, np.linalg.LinAlgError):
-            return None
+    lu = _lu_or_none(A)
+    if lu is None:
+        return None
     x = sla.lu_solve(lu, -qs[Z], check_finite=False)
     x -= sla.lu_solve(lu, A @ x + qs[Z], check_finite=False)
     if not np.isfinite(x).all():
@@ -724,9 +747,8 @@ class _Problem:
 
     def __init__(self, M: np.ndarray, q: np.ndarray, tol: float):
         self.M, self.q, self.tol = M, q, tol
-        self.D, self.mu, self.nu = _scaling(M, q)
+        self.Ms, self.D, self.mu, self.nu = _scaling(M, q)
         D = self.D
-        self.Ms = (D[:, None] * M * D[None, :]) / self.mu
         self.qs = D * q / self.nu
         self.zfac = self.D * (self.nu / self.mu)  # z = zfac * z~
 
@@ -780,7 +802,7 @@ def _run(
             if got is not None and got[2]:
                 z, w, _, comp, _ = got
                 return LCPResult(
-                    z, w, 0, "solved", comp, B0 & (z > 0) | B0, "warm-start basis solves it",
+                    z, w, 0, "solved", comp, B0.copy(), "warm-start basis solves it",
                     "accepted", 0,
                 )
             d = -(P.Ms[:, B0].sum(axis=1))
@@ -818,8 +840,8 @@ def _run(
         status = "secondary ray"
         msg = (
             f"{note}secondary ray after {pivots} pivots: no solution was found from this start "
-            f"(artificial z0 = {res.z0 * P.nu:.3g} could not be driven to 0); for contact this "
-            "means no static equilibrium"
+            "(the artificial variable z0 could not be driven to 0); for contact this means no "
+            "static equilibrium"
         )
     elif res.status == "singular":
         status = "inaccurate"

@@ -9,8 +9,10 @@ Local refinement (`[[mesh.refine]]`) uses gmsh Distance + Threshold fields combi
 Min field: the size is `size` within `flat` of the curves/points and grows linearly to
 the body size over the next `distance`. Refinement points act on every body; refinement
 curves act on the body owning them through the curve itself and on every other body
-through a free (unmeshed-surface) copy of the curve geometry, so both sides of a contact
-are refined. Structured bodies ignore refinement.
+through a free copy of the curve geometry (not part of its surface, its nodes are dropped),
+so both sides of a contact are refined. Structured bodies ignore refinement. Named
+[points] lying on a body side become geometry vertices (so a node sits there); inside an
+unstructured body they are embedded in the surface.
 """
 
 from __future__ import annotations
@@ -651,7 +653,10 @@ def build_mesh(cfg: dict, scale: float = 1.0, cache_dir: str | Path | None = Non
         attach_named_points(mesh, scene.points, sizes)
         return mesh
 
-    if not (_is_number(scale) and scale > 0):
+    if isinstance(scale, bool) or not isinstance(scale, int | float | np.floating):
+        raise InputError(f"mesh size scale must be a number > 0 (got {scale!r})")
+    scale = float(scale)
+    if not (math.isfinite(scale) and scale > 0):
         raise InputError(f"mesh size scale must be a number > 0 (got {scale!r})")
     scene = parse_scene(cfg)
     import gmsh
@@ -664,7 +669,7 @@ def build_mesh(cfg: dict, scale: float = 1.0, cache_dir: str | Path | None = Non
             ],
             "mesh": cfg["mesh"],
             "points": cfg.get("points", {}),
-            "scale": float(scale),
+            "scale": scale,
             "gmsh": gmsh.__version__,
         }
         cache_file = cache_path(cache_dir, cache_key(payload))
@@ -675,7 +680,7 @@ def build_mesh(cfg: dict, scale: float = 1.0, cache_dir: str | Path | None = Non
     parts = []
     with _gmsh_session() as g:
         for spec in scene.bodies:
-            parts.append(_mesh_body(g, spec, scene, float(scale)))
+            parts.append(_mesh_body(g, spec, scene, scale))
 
     offsets = np.cumsum([0] + [len(p[0]) for p in parts])
     curves: dict[str, np.ndarray] = {}

@@ -1,0 +1,150 @@
+"""Condensation onto the contact DOFs: the compliance C = G K^-1 G^T (dense, on rank 0).
+
+Two routes, both on the factorization PETSc already has:
+- "schur": MUMPS's Schur complement S = K_cc - K_ci K_ii^-1 K_ic on the contact DOFs c
+  (MatFactorSetSchurIS / MatFactorCreateSchurComplement through ctypes, since petsc4py
+  3.18 does not wrap them; the whole index set is given on rank 0), then
+  C = G_c S^-1 G_c^T densely on rank 0. Costs about one factorization, nearly
+  independent of the number of pairs.
+- "solve": X = K^-1 G^T by one solve per column with the existing factorization, then
+  C = G X. Works with any PETSc solver; cost grows with the number of pairs.
+Displacements are recovered as u = u0 + K^-1 (G^T lambda) with one more solve of the
+stored factorization per load step (never a refactorization).
+"""
+
+from __future__ import annotations
+
+import ctypes
+import ctypes.util
+
+import numpy as np
+import scipy.sparse as sp
+from petsc4py import PETSc
+
+from app.errors import SolveError
+
+_LIB = None
+
+
+def _petsc_lib():
+    global _LIB
+    if _LIB is None:
+        for name in ("libpetsc_real.so.3.18", "libpetsc_real.so", "libpetsc.so"):
+            try:
+                _LIB = ctypes.CDLL(name)
+                break
+            except OSError:
+                continue
+        if _LIB is None:
+            raise SolveError("cannot load the PETSc shared library for the Schur route: use "
+                             "-contact_compliance solve")
+    return _LIB
+
+
+def schur_complement(k: PETSc.Mat, dofs: np.ndarray) -> np.ndarray | None:
+    """Dense Schur complement of K onto `dofs` (sorted global indices), on rank 0.
+
+    Uses a separate MUMPS LU factorization with a Schur index set. Returns the
+    (len(dofs), len(dofs)) array on rank 0 and None on the other ranks.
+    """
+    lib = _petsc_lib()
+    comm = k.getComm()
+    rank = comm.getRank()
+    ksp = PETSc.KSP().create(comm=comm)
+    ksp.setOptionsPrefix("schur_")
+    ksp.setOperators(k)
+    ksp.setType("preonly")
+    pc = ksp.getPC()
+    pc.setType("lu")
+    pc.setFactorSolverType("mumps")
+    ksp.setFromOptions()
+    pc.setFactorSetUpSolverType()
+    f = pc.getFactorMatrix()
+    idx = dofs.astype(PETSc.IntType) if rank == 0 else np.zeros(0, dtype=PETSc.IntType)
+    iset = PETSc.IS().createGeneral(idx, comm=comm)
+    err = lib.MatFactorSetSchurIS(ctypes.c_void_p(f.handle), ctypes.c_void_p(iset.handle))
+    if err:
+        raise SolveError(f"MatFactorSetSchurIS failed (PETSc error {err})")
+    ksp.setUp()
+    s_handle = ctypes.c_void_p()
+    status = ctypes.c_int()
+    err = lib.MatFactorCreateSchurComplement(ctypes.c_void_p(f.handle), ctypes.byref(s_handle),
+                                             ctypes.byref(status))
+    if err:
+        raise SolveError(f"MatFactorCreateSchurComplement failed (PETSc error {err})")
+    out = None
+    n = dofs.size
+    if rank == 0:
+        rows, cols = PETSc.IntType(0), PETSc.IntType(0)
+        m_ = ctypes.c_int64() if PETSc.IntType == np.int64 else ctypes.c_int()
+        n_ = ctypes.c_int64() if PETSc.IntType == np.int64 else ctypes.c_int()
+        lib.MatGetSize(s_handle, ctypes.byref(m_), ctypes.byref(n_))
+        rows, cols = m_.value, n_.value
+        if rows != n or cols != n:
+            raise SolveError(f"Schur complement has size {rows}x{cols}, expected {n}x{n}")
+        ptr = ctypes.POINTER(ctypes.c_double)()
+        lib.MatDenseGetArrayRead(s_handle, ctypes.byref(ptr))
+        lda = ctypes.c_int64() if PETSc.IntType == np.int64 else ctypes.c_int()
+        lib.MatDenseGetLDA(s_handle, ctypes.byref(lda))
+        raw = np.ctypeslib.as_array(ptr, shape=(cols, lda.value))  # column-major storage
+        out = np.array(raw[:, :rows].T, copy=True)
+        lib.MatDenseRestoreArrayRead(s_handle, ctypes.byref(ptr))
+    lib.MatDestroy(ctypes.byref(s_handle))
+    ksp.destroy()
+    iset.destroy()
+    return out
+
+
+def contact_dofs(g: sp.csr_matrix, fixed: np.ndarray) -> tuple[np.ndarray, sp.csr_matrix]:
+    """Free DOFs touched by G, and G with the columns of prescribed DOFs removed.
+
+    Returns (dofs (n_c,), G_c (2m, n_c)) where G u = G_c u[dofs] for any u that is zero
+    on the prescribed DOFs.
+    """
+    g = g.tocsc()
+    g.eliminate_zeros()
+    keep = np.ones(g.shape[1], dtype=bool)
+    keep[fixed] = False
+    touched = np.flatnonzero((np.diff(g.indptr) > 0) & keep)
+    return touched, g[:, touched].tocsr()
+
+
+def compliance_schur(k: PETSc.Mat, g: sp.csr_matrix, fixed: np.ndarray) -> np.ndarray | None:
+    """C = G K^-1 G^T through the Schur complement; dense (2m, 2m) on rank 0."""
+    dofs, gc = contact_dofs(g, fixed)
+    s = schur_complement(k, dofs)
+    if s is None:
+        return None
+    s = 0.5 * (s + s.T)
+    try:
+        from scipy.linalg import cho_factor, cho_solve
+
+        fac = cho_factor(s)
+        y = cho_solve(fac, gc.T.toarray())
+    except np.linalg.LinAlgError:
+        y = np.linalg.solve(s, gc.T.toarray())
+    c = gc @ y
+    return 0.5 * (c + c.T)
+
+
+def compliance_solve(solver, k: PETSc.Mat, g: sp.csr_matrix, fixed: np.ndarray,
+                     to_numpy_all) -> np.ndarray | None:
+    """C = G K^-1 G^T by one solve per row of G with the stored factorization."""
+    dofs, gc = contact_dofs(g, fixed)
+    rank = k.getComm().getRank()
+    r0, r1 = k.getOwnershipRange()
+    ncols = g.shape[0]
+    c = np.zeros((ncols, ncols)) if rank == 0 else None
+    b = k.createVecLeft()
+    gt = gc.T.tocsc()
+    for j in range(ncols):
+        col = np.zeros(k.getSize()[0])
+        lo, hi = gt.indptr[j], gt.indptr[j + 1]
+        col[dofs[gt.indices[lo:hi]]] = gt.data[lo:hi]
+        b.setArray(col[r0:r1])
+        x = to_numpy_all(solver.solve(b))
+        if rank == 0:
+            c[:, j] = gc @ x[dofs]
+    if rank == 0:
+        c = 0.5 * (c + c.T)
+    return c

@@ -1,0 +1,169 @@
+"""The modified Coulomb interface law as an LCP (METHOD.md sections 4 and 5).
+
+Plain numpy, runs on rank 0. Notation, per pair (m pairs; the `frictional` subset F of
+size mf has tangential unknowns; r rigid-body modes of floating bodies):
+- p (m): normal force on the slave, compression positive; q (mf): tangential force on
+  the slave along t; a, c: pair adhesion and strength forces (traction x tributary length
+  x thickness); mu: friction coefficient; F = mu p + c the friction bound.
+- gap = gap_free + C_nn p + C_nt q + N alpha, tau = tau_free + C_tn p + C_tt q + T alpha
+  (tau: relative tangential displacement, slave minus master, along t).
+- alpha (r): amplitudes of the floating bodies' rigid modes; equilibrium of those bodies
+  is e0 + N^T p + T^T q = 0 (e0 = R^T f, the external load on the modes).
+
+With H = C_tt^-1, A = C_nn - C_nt H C_tn, Bm = C_nt H, V = N - Bm T, W = H T,
+Z = T^T H T and D = mu on the frictional rows, the unknowns
+z = (p + a, s+, s-, alpha+, alpha-) >= 0 and w = (gap, F + q, F - q, -eq, +eq) >= 0 give
+
+    M = [[ A,        Bm,   -Bm,    V,    -V  ],
+         [ D - Bm^T,  H,    -H,   -W,     W  ],
+         [ D + Bm^T, -H,     H,    W,    -W  ],
+         [-V^T,      -W^T,   W^T,  Z,    -Z  ],
+         [ V^T,       W^T,  -W^T, -Z,     Z  ]]
+
+(the two last block rows hold the equality e0 + N^T p + T^T q = 0 as two inequalities
+with free alpha = alpha+ - alpha-). M depends only on C, mu and the rigid-mode coupling:
+it is built once per run; load steps and debonding iterations change only the vector q.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.linalg import cho_factor, cho_solve
+
+from app.errors import SolveError
+from app.lcp import lemke
+
+
+@dataclass
+class ContactSolution:
+    """Result of one LCP solve (forces on the slave, kinematics from the LCP)."""
+
+    p: np.ndarray  # (m,) normal force
+    q: np.ndarray  # (m,) tangential force (0 for frictionless pairs)
+    gap: np.ndarray  # (m,)
+    tau: np.ndarray  # (m,) relative tangential displacement (frictional pairs; else from C)
+    slip_plus: np.ndarray  # (m,)
+    slip_minus: np.ndarray  # (m,)
+    alpha: np.ndarray  # (r,)
+    pivots: int
+    status: str
+    basis: np.ndarray | None
+
+
+class ContactLCP:
+    """The LCP matrix of a run and the constant vector of each solve."""
+
+    def __init__(self, c: np.ndarray, mu: np.ndarray, frictional: np.ndarray,
+                 n_modes: np.ndarray | None = None, t_modes: np.ndarray | None = None):
+        """c: (2m, 2m) compliance, normal rows first then tangential; mu (m,);
+        frictional (m,) bool; n_modes = G_n R (m, r), t_modes = G_t R (m, r)."""
+        m = mu.size
+        self.m = m
+        self.fric = np.flatnonzero(frictional)
+        f = self.fric
+        mf = f.size
+        self.mf = mf
+        self.c = c
+        cnn = c[:m, :m]
+        cnt = c[:m, m:][:, f]
+        ctt = c[m:, m:][np.ix_(f, f)]
+        r = 0 if n_modes is None else n_modes.shape[1]
+        self.r = r
+        nm = np.zeros((m, 0)) if n_modes is None else n_modes
+        tm = np.zeros((mf, 0)) if t_modes is None else t_modes[f]
+        self.nm, self.tm = nm, tm
+        self.tm_all = np.zeros((m, 0)) if t_modes is None else t_modes
+        if mf:
+            try:
+                self.ctt_fac = cho_factor(ctt)
+            except np.linalg.LinAlgError:
+                raise SolveError("tangential compliance is not positive definite: two "
+                                 "frictional pairs act on the same DOFs (duplicate pairs?)"
+                                 ) from None
+            h = cho_solve(self.ctt_fac, np.eye(mf))
+            h = 0.5 * (h + h.T)
+        else:
+            h = np.zeros((0, 0))
+        self.h = h
+        bm = cnt @ h  # (m, mf)
+        self.bm = bm
+        a = cnn - bm @ cnt.T
+        a = 0.5 * (a + a.T)
+        d = np.zeros((mf, m))
+        d[np.arange(mf), f] = mu[f]
+        v = nm - bm @ tm
+        w = h @ tm
+        z = tm.T @ w
+        self.v, self.w, self.z = v, w, z
+        n = m + 2 * mf + 2 * r
+        big = np.zeros((n, n))
+        i0, i1, i2, i3 = m, m + mf, m + 2 * mf, m + 2 * mf + r
+        blocks = [
+            [a, bm, -bm, v, -v],
+            [d - bm.T, h, -h, -w, w],
+            [d + bm.T, -h, h, w, -w],
+            [-v.T, -w.T, w.T, z, -z],
+            [v.T, w.T, -w.T, -z, z],
+        ]
+        edges = [0, i0, i1, i2, i3, n]
+        for bi, row in enumerate(blocks):
+            for bj, blk in enumerate(row):
+                big[edges[bi]:edges[bi + 1], edges[bj]:edges[bj + 1]] = blk
+        self.M = big
+        self.edges = edges
+        # Symmetric diagonal scaling z = d z', w' = d w (complementarity is kept): brings
+        # compliance-sized and stiffness-sized blocks to unit diagonal for Lemke.
+        diag = np.abs(np.diag(big))
+        colmax = np.abs(big).max(axis=0) if n else np.zeros(0)
+        ref = np.where(diag > 1e-12 * colmax, diag, colmax)
+        ref = np.where(ref > 0, ref, 1.0)
+        self.scaling = 1.0 / np.sqrt(ref)
+
+    @property
+    def size(self) -> int:
+        return self.M.shape[0]
+
+    def constant(self, gap_free: np.ndarray, tau_free: np.ndarray, tau_prev: np.ndarray,
+                 a: np.ndarray, c: np.ndarray, mu: np.ndarray, e0: np.ndarray) -> np.ndarray:
+        """The LCP constant vector for one solve (all arguments per pair, (m,); e0 (r,))."""
+        f = self.fric
+        cnt_f = self.c[: self.m, self.m:][:, f]
+        xi = tau_prev[f] - tau_free[f] + cnt_f.T @ a
+        hxi = self.h @ xi
+        qg = gap_free - self.c[: self.m, : self.m] @ a + cnt_f @ hxi
+        base = c[f] - mu[f] * a[f]
+        eq = e0 - self.nm.T @ a + self.tm.T @ hxi
+        return np.concatenate([qg, base + hxi, base - hxi, -eq, eq])
+
+    def solve(self, gap_free, tau_free, tau_prev, a, c, mu, e0, *, basis=None,
+              max_pivots=None) -> ContactSolution:
+        """Solve the LCP and recover p, q, gap, tau and alpha."""
+        qv = self.constant(gap_free, tau_free, tau_prev, a, c, mu, e0)
+        d = self.scaling
+        res = lemke(d[:, None] * self.M * d[None, :], d * qv, basis=basis,
+                    max_pivots=max_pivots)
+        m, f, e = self.m, self.fric, self.edges
+        z = d * res.z
+        ptil = z[: e[1]]
+        sp_, sm_ = z[e[1]: e[2]], z[e[2]: e[3]]
+        alpha = z[e[3]: e[4]] - z[e[4]: e[5]]
+        p = ptil - a
+        q = np.zeros(m)
+        splus = np.zeros(m)
+        sminus = np.zeros(m)
+        if self.mf:
+            cnt_f = self.c[:m, m:][:, f]
+            rhs = tau_prev[f] - tau_free[f] - cnt_f.T @ p + sp_ - sm_ - self.tm @ alpha
+            q[f] = self.h @ rhs
+            splus[f], sminus[f] = sp_, sm_
+        cn = self.c[:m]
+        ct = self.c[m:]
+        lam = np.concatenate([p, q])
+        gap = gap_free + cn @ lam + self.nm @ alpha
+        tau = tau_free + ct @ lam
+        if self.r:
+            tau = tau + self.tm_all @ alpha
+        return ContactSolution(p, q, gap, tau, splus, sminus, alpha, res.pivots, res.status,
+                               res.basis)

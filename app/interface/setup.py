@@ -1,0 +1,279 @@
+"""Contact set-up for a run: pairs and G, floating bodies, the LCP stepper and its output.
+
+Distributed parts (the solves) take the PETSc objects; everything else runs on rank 0 on
+small dense data (m pairs).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg as sla
+import scipy.sparse as sp
+from petsc4py import PETSc
+
+from app.assembly.loads import describe_modes, free_rigid_modes, mode_names, rigid_modes
+from app.config import Config
+from app.contact.pairs import ContactPairs, constraint_matrix, contact_pairs
+from app.errors import InputError, SolveError
+from app.interface.coulomb import ContactLCP
+from app.interface.steps import STATE_NAMES, InterfaceHistory, solve_step
+from app.mesh.model import Mesh
+
+
+@dataclass
+class FloatingModes:
+    """Rigid-body modes of bodies held only by contact.
+
+    r: (2n, n_modes) displacement fields of the modes; pins: DOFs fixed to make the
+    factorization regular (their reactions vanish at equilibrium); names: per mode text.
+    """
+
+    r: np.ndarray
+    pins: np.ndarray
+    names: list[str]
+
+
+def floating_modes(mesh: Mesh, cfg: Config, fixed: np.ndarray,
+                   contact: ContactSetup | None) -> FloatingModes | None:
+    """Free rigid modes per body; bodies without contact must have none."""
+    free = free_rigid_modes(mesh, fixed)
+    if not free:
+        return None
+    in_contact = set() if contact is None else contact.bodies(mesh)
+    cols, pins, names = [], [], []
+    node_body = mesh.node_body()
+    for b, modes in free.items():
+        nodes = np.flatnonzero(node_body == b)
+        centroid = mesh.points[nodes].mean(axis=0)
+        text = describe_modes(modes, centroid)
+        if b not in in_contact:
+            raise SolveError(
+                f"body '{mesh.body_names[b]}' is free to move ({text}): nothing holds it; "
+                "add a [[support]] on one of its curves or an [[interface]] to another body"
+            )
+        rb = rigid_modes(mesh.points, nodes) @ modes  # (2 nb, r_b)
+        dofs = np.stack([2 * nodes, 2 * nodes + 1], axis=1).ravel()
+        _, _, piv = sla.qr(rb.T, pivoting=True, mode="economic")
+        pins.append(dofs[piv[: modes.shape[1]]])
+        full = np.zeros((2 * mesh.n_nodes, modes.shape[1]))
+        full[dofs] = rb
+        cols.append(full)
+        names += [f"{mesh.body_names[b]}: {t}" for t in mode_names(modes, centroid)]
+    return FloatingModes(np.hstack(cols), np.concatenate(pins).astype(np.int64), names)
+
+
+class ContactSetup:
+    """Pairs of every interface, the constraint matrix G and per-pair law parameters."""
+
+    def __init__(self, cfg: Config, pairs: ContactPairs, g: sp.csr_matrix):
+        self.cfg = cfg
+        self.pairs = pairs
+        self.g = g
+        it = pairs.interface
+        t = cfg.thickness
+        self.mu = np.array([cfg.interfaces[i].mu for i in it])
+        self.a = np.array([cfg.interfaces[i].a for i in it]) * pairs.length * t
+        self.c = np.array([cfg.interfaces[i].c for i in it]) * pairs.length * t
+        self.bonded = np.array([cfg.interfaces[i].bonded for i in it], dtype=bool)
+        self.frictional = np.array([cfg.interfaces[i].frictional for i in it], dtype=bool)
+
+    @classmethod
+    def build(cls, mesh: Mesh, cfg: Config) -> ContactSetup:
+        found = []
+        for i, itf in enumerate(cfg.interfaces):
+            for key in ("slave", "master"):
+                name = getattr(itf, key)
+                if name not in mesh.curves:
+                    raise InputError(f"interface '{itf.name}': {key} curve '{name}' is not in "
+                                     f"the mesh (curves: {sorted(mesh.curves)})")
+            found.append(contact_pairs(mesh, itf.slave, itf.master, itf.search_distance,
+                                       interface=i, penetration_tol=itf.penetration_tol,
+                                       name=itf.name))
+        pairs = ContactPairs.concatenate(found)
+        dup, counts = np.unique(pairs.slave, return_counts=True)
+        if np.any(counts > 1):
+            n = int(dup[counts > 1][0])
+            raise InputError(f"slave node at x={mesh.points[n, 0]:.4g}, "
+                             f"y={mesh.points[n, 1]:.4g} belongs to two interfaces: a slave "
+                             "curve may be slave on one interface only")
+        return cls(cfg, pairs, constraint_matrix(pairs, mesh.n_nodes))
+
+    def bodies(self, mesh: Mesh) -> set[int]:
+        nb = mesh.node_body()
+        return set(nb[self.pairs.slave].tolist()) | set(nb[self.pairs.master.ravel()].tolist())
+
+    def compliance_route(self, solver) -> str:
+        opts = PETSc.Options()
+        route = opts.getString("contact_compliance", self.cfg.raw.get("analysis", {}).get(
+            "compliance", "auto"))
+        if route not in ("auto", "schur", "solve"):
+            raise InputError(f"compliance route '{route}': use auto, schur or solve")
+        if route == "auto":
+            route = "schur" if solver.is_mumps else "solve"
+        if route == "schur" and not solver.is_mumps:
+            raise InputError("the schur compliance route needs MUMPS LU: use "
+                             "-contact_compliance solve with other solvers")
+        return route
+
+    def stepper(self, c_mat: np.ndarray, cases, unit, floating: FloatingModes | None,
+                thickness: float) -> ContactStepper:
+        return ContactStepper(self, c_mat, cases, unit, floating)
+
+    def displacement(self, lam: np.ndarray, solver, k: PETSc.Mat, fixed: np.ndarray,
+                     to_numpy_all) -> np.ndarray:
+        """K^-1 G^T lambda with the stored factorization (one solve, no refactorization)."""
+        b = self.g.T @ lam
+        b[fixed] = 0.0
+        r0, r1 = k.getOwnershipRange()
+        vec = k.createVecLeft()
+        vec.setArray(b[r0:r1])
+        return to_numpy_all(solver.solve(vec))
+
+    def output_data(self, result: dict, u: np.ndarray, mesh: Mesh) -> dict:
+        """Per-pair arrays for the HDF5 step file, plus the KKT check ('_kkt')."""
+        pr = self.pairs
+        m = pr.n_pairs
+        gu = self.g @ u
+        gap_u = pr.g0 + gu[:m]
+        tau_u = gu[m:]
+        p, q = result["lam"][:m], result["lam"][m:]
+        scale_len = pr.length * self.cfg.thickness
+        data = {
+            "position": pr.position,
+            "x": pr.position[:, 0],
+            "y": pr.position[:, 1],
+            "interface": pr.interface.astype(np.int64),
+            "slave": pr.slave.astype(np.int64),
+            "master": pr.master.astype(np.int64),
+            "xi": pr.xi,
+            "normal": pr.normal,
+            "tangent": pr.tangent,
+            "g0": pr.g0,
+            "length": pr.length,
+            "p": p / scale_len,
+            "q": q / scale_len,
+            "p_force": p,
+            "q_force": q,
+            "gap": gap_u,
+            "tau": tau_u,
+            "tau_prev": result["tau_prev"],
+            "slip_increment": tau_u - result["tau_prev"],
+            "slip": result["slip"],
+            "state": result["state"].astype(np.int64),
+            "debonded_step": result["debonded_step"].astype(np.int64),
+            "mu": self.mu,
+            "a_force": result["a"],
+            "c_force": result["c"],
+        }
+        data["_kkt"] = kkt_check(gap_u, tau_u, result["tau_prev"], p, q, self.mu,
+                                 result["a"], result["c"], self.frictional)
+        return data
+
+
+def kkt_check(gap, tau, tau_prev, p, q, mu, a, c, frictional) -> dict:
+    """Largest violations of METHOD section 4, relative to the data's scales."""
+    fs = max(np.abs(p).max(initial=0.0), np.abs(q).max(initial=0.0), np.abs(a).max(initial=0),
+             np.abs(c).max(initial=0.0), 1e-300)
+    us = max(np.abs(gap).max(initial=0.0), np.abs(tau).max(initial=0.0), 1e-300)
+    bound = mu * p + c
+    dtau = np.where(frictional, tau - tau_prev, 0.0)
+    slipping = np.abs(dtau) > 1e-6 * us
+    direction = np.where(slipping, np.abs(q + np.sign(dtau) * bound), 0.0)
+    return {
+        "gap": float(max(0.0, -gap.min(initial=0.0)) / us),
+        "normal_force": float(max(0.0, -(p + a).min(initial=0.0)) / fs),
+        "complementarity": float(np.abs(gap * (p + a)).max(initial=0.0) / (us * fs)),
+        "friction_bound": float(max(0.0, (np.abs(q) - bound).max(initial=0.0)) / fs),
+        "slip_direction": float(direction.max(initial=0.0) / fs),
+    }
+
+
+class ContactStepper:
+    """Rank-0 state of the contact problem over the load steps."""
+
+    def __init__(self, setup: ContactSetup, c_mat: np.ndarray, cases, unit,
+                 floating: FloatingModes | None):
+        self.setup = setup
+        pr = setup.pairs
+        m = pr.n_pairs
+        self.m = m
+        g = setup.g
+        self.gu = [g @ uc for uc in unit]  # (2m,) per load case
+        if floating is not None and floating.r.shape[1]:
+            gr = g @ floating.r  # (2m, r)
+            self.n_modes, self.t_modes = gr[:m], gr[m:]
+            self.e0 = [floating.r.T @ case.rhs for case in cases]
+            self.mode_names = floating.names
+        else:
+            self.n_modes = self.t_modes = None
+            self.e0 = [np.zeros(0) for _ in cases]
+            self.mode_names = []
+        self.lcp = ContactLCP(c_mat, setup.mu, setup.frictional, self.n_modes, self.t_modes)
+        self.hist = InterfaceHistory(
+            a=np.where(setup.bonded, setup.a, 0.0), c=np.where(setup.bonded, setup.c, 0.0),
+            bonded=setup.bonded.copy(), tau_prev=np.zeros(m),
+            debonded_step=np.zeros(m, dtype=np.int64),
+            warm_start=bool(setup.cfg.raw.get("analysis", {}).get("warm_start", True)))
+        self.slip = np.zeros(m)
+        scale = max(max((np.abs(x).max(initial=0.0) for x in self.gu), default=0.0),
+                    np.abs(pr.g0).max(initial=0.0), 1e-300)
+        self.tol = 1e-7 * scale
+
+    def step(self, step: int, cases) -> dict:
+        m = self.m
+        pr = self.setup.pairs
+        gap_free = pr.g0.copy()
+        tau_free = np.zeros(m)
+        e0 = np.zeros(self.lcp.r)
+        for case, gu, e in zip(cases, self.gu, self.e0, strict=True):
+            h = case.history[step]
+            gap_free += h * gu[:m]
+            tau_free += h * gu[m:]
+            if e.size:
+                e0 += h * e
+        tau_prev = self.hist.tau_prev.copy()
+        res = solve_step(self.lcp, self.hist, step + 1, gap_free, tau_free, self.setup.mu,
+                         e0, self.tol, self.tol)
+        sol = res.solution
+        out = {"status": res.status, "message": "",
+               "lam": np.concatenate([sol.p, sol.q]), "alpha": sol.alpha}
+        if res.status != "solved":
+            out["message"] = ("secondary ray: no solution from this start"
+                              if res.status == "secondary ray" else res.status)
+            return out
+        self.slip += sol.slip_plus - sol.slip_minus
+        it = pr.interface
+        counts = {name: int(np.sum(res.state == k)) for k, name in enumerate(STATE_NAMES)}
+        length_t = pr.length * self.setup.cfg.thickness
+        per_if = {}
+        for i, itf in enumerate(self.setup.cfg.interfaces):
+            sel = it == i
+            per_if[itf.name] = {
+                "n_pairs": int(sel.sum()),
+                "normal_force": float(sol.p[sel].sum()),
+                "tangential_force": float(sol.q[sel].sum()),
+                "max_pressure": float((sol.p[sel] / length_t[sel]).max(initial=0.0)),
+                "states": {name: int(np.sum(res.state[sel] == k))
+                           for k, name in enumerate(STATE_NAMES)},
+            }
+        info = {
+            "n_pairs": m,
+            "states": counts,
+            "interfaces": per_if,
+            "max_contact_pressure": float((sol.p / length_t).max(initial=0.0)),
+            "lcp_size": self.lcp.size,
+            "lemke_pivots": res.pivots,
+            "lcp_seconds": res.seconds,
+            "lcp_solves": res.iterations,
+            "debonded_this_step": int(np.sum(res.debonded_step == step + 1)),
+            "dissipation": res.dissipation,
+        }
+        if self.lcp.r:
+            info["rigid_modes"] = dict(zip(self.mode_names, map(float, sol.alpha),
+                                           strict=True))
+        out.update({"info": info, "state": res.state, "debonded_step": res.debonded_step,
+                    "tau_prev": tau_prev, "slip": self.slip.copy(),
+                    "a": self.hist.a.copy(), "c": self.hist.c.copy()})
+        return out

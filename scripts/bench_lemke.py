@@ -1,0 +1,92 @@
+"""Benchmark `app.lcp.lemke` on random frictional-contact-like LCPs; prints JSON lines.
+
+    .venv/bin/python scripts/bench_lemke.py            # n = 300, 1500, 3000
+    .venv/bin/python scripts/bench_lemke.py --large    # also n = 6000
+    .venv/bin/python scripts/bench_lemke.py --n 900 --reference   # also time the tableau
+
+The LCP (n = 3 m unknowns: m normal pressures, m forward and m backward slips) is built
+from an SPD compliance C (2m x 2m: normal block first, then tangential) of a 1D elastic
+strip: a Laplace kernel (10 / m) exp(-|x_i - x_j| / 0.1) on m equally spaced points for
+C_nn and C_tt plus 0.05 I, and a weak antisymmetric coupling for C_nt. With H = C_tt^-1,
+A = C_nn - C_nt H C_tn, Bm = C_nt H and D = mu I:
+
+    M = [[A, Bm, -Bm], [D - Bm^T, H, -H], [D + Bm^T, -H, H]],
+    q = [gap0, c + s, c - s]
+
+with gap0 partly negative (penetration) and a tangential load s.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+
+import numpy as np
+
+from app.lcp import lemke
+
+
+def frictional_lcp(m: int, *, mu: float = 0.3, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """(M, q) of a frictional-contact-like LCP with n = 3 m unknowns (see module docstring)."""
+    rng = np.random.default_rng(seed)
+    x = np.linspace(0.0, 1.0, m)
+    r = x[:, None] - x[None, :]
+    k = np.exp(-np.abs(r) / 0.1) * (10.0 / m)
+    c_nn = k + 0.05 * np.eye(m)
+    c_tt = 1.2 * k + 0.05 * np.eye(m)
+    c_nt = 0.03 * np.sign(r) * k  # spectral norm < 0.05: C stays SPD
+    C = np.block([[c_nn, c_nt], [c_nt.T, c_tt]])
+    assert np.linalg.eigvalsh(C).min() > 0.0
+    H = np.linalg.inv(c_tt)
+    H = 0.5 * (H + H.T)
+    A = c_nn - c_nt @ H @ c_nt.T
+    Bm = c_nt @ H
+    D = mu * np.eye(m)
+    M = np.block([[A, Bm, -Bm], [D - Bm.T, H, -H], [D + Bm.T, -H, H]])
+    gap0 = rng.uniform(-1.0, 0.5, m) * 1e-2
+    c = rng.uniform(0.0, 0.05, m)
+    s = rng.uniform(-0.1, 0.1, m)
+    q = np.concatenate([gap0, c + s, c - s])
+    return M, q
+
+
+def run(n: int, reference: bool = False, seed: int = 0) -> dict:
+    M, q = frictional_lcp(n // 3, seed=seed)
+    t0 = time.perf_counter()
+    res = lemke(M, q)
+    dt = time.perf_counter() - t0
+    out = {
+        "n": int(q.size),
+        "pivots": res.pivots,
+        "seconds": round(dt, 4),
+        "status": res.status,
+        "basic_z": int(res.basis.sum()),
+        "refactorizations": res.refactorizations,
+        "complementarity": res.complementarity,
+    }
+    if reference:
+        from app.lcp.lemke import _lemke_tableau
+
+        t0 = time.perf_counter()
+        ref = _lemke_tableau(M, q)
+        out["reference_seconds"] = round(time.perf_counter() - t0, 4)
+        out["reference_pivots"] = ref.pivots
+        out["max_abs_z_diff"] = float(np.abs(ref.z - res.z).max())
+    return out
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--large", action="store_true", help="also n = 6000")
+    ap.add_argument("--n", type=int, nargs="*", help="sizes to run (multiples of 3)")
+    ap.add_argument("--reference", action="store_true", help="also run the tableau version")
+    ap.add_argument("--seed", type=int, default=0)
+    args = ap.parse_args()
+    sizes = args.n or ([300, 1500, 3000] + ([6000] if args.large else []))
+    for n in sizes:
+        print(json.dumps(run(n, args.reference, args.seed)), flush=True)
+
+
+if __name__ == "__main__":
+    main()
