@@ -168,15 +168,21 @@ class ContactSetup:
             "c_force": result["c"],
         }
         data["_kkt"] = kkt_check(gap_u, tau_u, result["tau_prev"], p, q, self.mu,
-                                 result["a"], result["c"], self.frictional)
+                                 result["a"], result["c"], self.frictional,
+                                 u_scale=result["u_scale"], f_scale=result["f_scale"])
         return data
 
 
-def kkt_check(gap, tau, tau_prev, p, q, mu, a, c, frictional) -> dict:
-    """Largest violations of METHOD section 4, relative to the data's scales."""
+def kkt_check(gap, tau, tau_prev, p, q, mu, a, c, frictional, *, u_scale: float = 0.0,
+              f_scale: float = 0.0) -> dict:
+    """Largest violations of METHOD section 4, relative to the data's scales.
+
+    u_scale / f_scale: displacement and force scales of the problem (e.g. the largest
+    free relative displacement and the largest load), floors for the normalisation.
+    """
     fs = max(np.abs(p).max(initial=0.0), np.abs(q).max(initial=0.0), np.abs(a).max(initial=0),
-             np.abs(c).max(initial=0.0), 1e-300)
-    us = max(np.abs(gap).max(initial=0.0), np.abs(tau).max(initial=0.0), 1e-300)
+             np.abs(c).max(initial=0.0), f_scale, 1e-300)
+    us = max(np.abs(gap).max(initial=0.0), np.abs(tau).max(initial=0.0), u_scale, 1e-300)
     bound = mu * p + c
     dtau = np.where(frictional, tau - tau_prev, 0.0)
     slipping = np.abs(dtau) > 1e-6 * us
@@ -220,6 +226,9 @@ class ContactStepper:
         scale = max(max((np.abs(x).max(initial=0.0) for x in self.gu), default=0.0),
                     np.abs(pr.g0).max(initial=0.0), 1e-300)
         self.tol = 1e-7 * scale
+        self.f_scale = max(max((np.abs(case.rhs).sum() for case in cases), default=0.0),
+                           np.abs(self.hist.a).max(initial=0.0),
+                           np.abs(self.hist.c).max(initial=0.0))
 
     def step(self, step: int, cases) -> dict:
         m = self.m
@@ -275,5 +284,6 @@ class ContactStepper:
                                            strict=True))
         out.update({"info": info, "state": res.state, "debonded_step": res.debonded_step,
                     "tau_prev": tau_prev, "slip": self.slip.copy(),
-                    "a": self.hist.a.copy(), "c": self.hist.c.copy()})
+                    "a": self.hist.a.copy(), "c": self.hist.c.copy(),
+                    "u_scale": self.tol / 1e-7, "f_scale": self.f_scale})
         return out

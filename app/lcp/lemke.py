@@ -410,10 +410,14 @@ class _Revised:
             self.fold()
 
     def fold(self) -> None:
+        """Add the compact rank-1 terms into Xinv; clear the rows/columns of free slots."""
         h, t = self.h, self.t
         if t:
             self.Xinv[:h, :h] += self.Yu[:h, :t] @ self.Gv[:h, :t].T
             self.t = 0
+        if self.free_c:
+            self.Xinv[self.free_c, :h] = 0.0
+            self.Xinv[:h, self.free_r] = 0.0
 
     def refactor(self) -> bool:
         """Compact the slots, invert X_R afresh, recompute the basic values. False if singular."""
@@ -673,10 +677,7 @@ def _pivot(S: _Revised, e: int, r: int, yR: np.ndarray, yW: np.ndarray) -> int:
             S.xw[r] = 0.0
         else:  # deletion of column slot c and row slot p
             rowc = S.inv_row(c)
-            S.add_rank1(-yR, rowc / piv)
-            S.fold()
-            S.Xinv[c, :h] = 0.0
-            S.Xinv[:h, p] = 0.0
+            S.add_rank1(-yR, rowc / piv)  # zeroes row c and column p (up to rounding)
             S.Xcols[c] = 0.0
             S.var_slot[leaving - n] = -1
             S.slot_var[c] = -1
@@ -798,25 +799,23 @@ def _run(
         if B0.shape != (n,):
             raise ValueError(f"basis must have shape ({n},), got {B0.shape}")
         if B0.any():
-            got = P.finish(_solve_on(P.Ms, P.qs, B0))
-            if got is not None and got[2]:
-                z, w, _, comp, _ = got
-                return LCPResult(
-                    z, w, 0, "solved", comp, B0.copy(), "warm-start basis solves it",
-                    "accepted", 0,
-                )
+            # covering vector B0 @ 1: Lemke on the LCP transformed by the pivot on B0
             d = -(P.Ms[:, B0].sum(axis=1))
             d[~B0] += 1.0
             res = core(P.Ms, P.qs, d, B0, max_pivots)
             pivots += res.pivots
             refacts += res.refactorizations
             if res.status == "solved":
-                got = P.candidate(res)
-                if got[2]:
-                    z, w, _, comp, _ = got
+                z, w, ok, comp, _ = P.candidate(res)
+                if ok:
+                    how = "accepted" if res.pivots == 0 else "lemke"
+                    msg = (
+                        "the warm-start basis solves it"
+                        if res.pivots == 0
+                        else f"solved from the warm-start basis in {pivots} pivots"
+                    )
                     return LCPResult(
-                        z, w, pivots, "solved", comp, res.zset.copy(),
-                        f"solved from the warm-start basis in {pivots} pivots", "lemke", refacts,
+                        z, w, pivots, "solved", comp, res.zset.copy(), msg, how, refacts
                     )
             warm = "cold"
             note = f"warm start ended with '{res.status}' after {res.pivots} pivots; "

@@ -48,9 +48,9 @@ POINT_TOL = 1e-6  # named points must lie within POINT_TOL * body size of a mesh
 _MAX_ARC = 0.5 * math.pi  # longest arc piece (gmsh circle arcs must be < pi)
 _MAX_SAMPLING = 200_000  # cap on the sampling points of a Distance field curve
 # Frontal-Delaunay (6): unlike 8, it follows the background size field inside the surface.
-ALGORITHM = 6
+ALGORITHM = 5
 RECOMBINATION = 3  # blossom full-quad: no triangle left
-SMOOTHING = 1
+SMOOTHING = 5
 
 
 # ----------------------------------------------------------------------------- geometry

@@ -1,0 +1,448 @@
+"""Tests of the Lemke LCP solver (app.lcp.lemke) against brute force and the tableau reference."""
+
+from __future__ import annotations
+
+import itertools
+import sys
+
+import numpy as np
+import pytest
+
+from app.lcp import STATUSES, LCPResult, default_max_pivots, lemke
+from app.lcp.lemke import _lemke_tableau
+
+LM = sys.modules["app.lcp.lemke"]
+
+
+# --------------------------------------------------------------------------------------
+# helpers
+# --------------------------------------------------------------------------------------
+
+
+def brute_force(M: np.ndarray, q: np.ndarray, tol: float = 1e-9) -> list[np.ndarray]:
+    """All solutions on nonsingular complementary bases (2^n enumeration)."""
+    n = q.size
+    sols = []
+    for mask in itertools.product([False, True], repeat=n):
+        Z = np.flatnonzero(mask)
+        z = np.zeros(n)
+        if Z.size:
+            A = M[np.ix_(Z, Z)]
+            if np.linalg.matrix_rank(A) < Z.size:
+                continue
+            z[Z] = np.linalg.solve(A, -q[Z])
+        w = M @ z + q
+        scale = 1.0 + np.abs(q).max() + np.abs(M).max() * np.abs(z).max()
+        if z.min() >= -tol * scale and w.min() >= -tol * scale:
+            sols.append(z)
+    return sols
+
+
+def assert_solution(M: np.ndarray, q: np.ndarray, res: LCPResult, rtol: float = 1e-8) -> None:
+    """Independent check of a "solved" result (absolute tolerance from the data)."""
+    assert res.status == "solved" and res.ok
+    z, w = res.z, res.w
+    scale = np.abs(q).max() + np.abs(M).max() * max(np.abs(z).max(), 1e-300)
+    assert z.shape == w.shape == q.shape
+    np.testing.assert_allclose(w, M @ z + q, rtol=0, atol=1e-12 * scale)
+    assert z.min() >= 0.0
+    assert w.min() >= -rtol * scale
+    assert np.abs(z * w).max() <= rtol * scale * max(np.abs(z).max(), 1e-300)
+    assert res.complementarity == pytest.approx(np.abs(z * w).max(), abs=1e-300)
+
+
+def p_matrix(n: int, rng: np.random.Generator) -> np.ndarray:
+    """Random P-matrix: positive definite symmetric part plus a skew part."""
+    A = rng.standard_normal((n, n))
+    K = rng.standard_normal((n, n))
+    return A @ A.T + 0.1 * np.eye(n) + rng.uniform(0, 2) * (K - K.T)
+
+
+def friction_lcp(m: int, rng: np.random.Generator, mu: float = 0.3):
+    """Frictional-contact block LCP (n = 3 m) built from a random SPD compliance."""
+    G = rng.standard_normal((2 * m, 2 * m))
+    C = G @ G.T / (2 * m) + 0.2 * np.eye(2 * m)
+    c_nn, c_nt, c_tt = C[:m, :m], C[:m, m:], C[m:, m:]
+    H = np.linalg.inv(c_tt)
+    A = c_nn - c_nt @ H @ c_nt.T
+    Bm = c_nt @ H
+    D = mu * np.eye(m)
+    M = np.block([[A, Bm, -Bm], [D - Bm.T, H, -H], [D + Bm.T, -H, H]])
+    c = rng.uniform(0.0, 0.5, m)
+    s = rng.uniform(-1.0, 1.0, m)
+    q = np.concatenate([rng.uniform(-1.0, 1.0, m), c + s, c - s])
+    return M, q
+
+
+def contact_lcp(m: int, seed: int = 0, mu: float = 0.3):
+    """Larger contact-like LCP (as in scripts/bench_lemke.py): smooth SPD compliance."""
+    rng = np.random.default_rng(seed)
+    x = np.linspace(0.0, 1.0, m)
+    r = x[:, None] - x[None, :]
+    k = np.exp(-np.abs(r) / 0.1) * (10.0 / m)
+    c_nn = k + 0.05 * np.eye(m)
+    c_tt = 1.2 * k + 0.05 * np.eye(m)
+    c_nt = 0.03 * np.sign(r) * k
+    H = np.linalg.inv(c_tt)
+    H = 0.5 * (H + H.T)
+    A = c_nn - c_nt @ H @ c_nt.T
+    Bm = c_nt @ H
+    D = mu * np.eye(m)
+    M = np.block([[A, Bm, -Bm], [D - Bm.T, H, -H], [D + Bm.T, -H, H]])
+    c = rng.uniform(0.0, 0.05, m)
+    s = rng.uniform(-0.1, 0.1, m)
+    q = np.concatenate([rng.uniform(-1.0, 0.5, m) * 1e-2, c + s, c - s])
+    return M, q
+
+
+# --------------------------------------------------------------------------------------
+# trivial and special cases
+# --------------------------------------------------------------------------------------
+
+
+def test_q_nonnegative_returns_zero_without_pivots():
+    M = np.array([[1.0, 2.0], [-3.0, 4.0]])
+    q = np.array([0.0, 2.5])
+    res = lemke(M, q)
+    assert res.status == "solved" and res.ok and res.pivots == 0
+    np.testing.assert_array_equal(res.z, [0.0, 0.0])
+    np.testing.assert_array_equal(res.w, q)
+    assert res.basis.dtype == bool and not res.basis.any()
+
+
+def test_result_fields_and_one_dimensional_case():
+    res = lemke(np.array([[2.0]]), np.array([-4.0]))
+    assert isinstance(res, LCPResult)
+    assert res.status in STATUSES and res.ok
+    np.testing.assert_allclose(res.z, [2.0], rtol=1e-14)
+    np.testing.assert_allclose(res.w, [0.0], atol=1e-14)
+    assert res.pivots == 2  # z0 enters, then z_1 replaces it
+    assert res.basis.tolist() == [True]
+    assert isinstance(res.message, str) and res.message
+    assert isinstance(res.complementarity, float)
+    assert default_max_pivots(10) == 600
+
+
+def test_bad_input_raises():
+    with pytest.raises(ValueError):
+        lemke(np.eye(3), np.ones(2))
+    with pytest.raises(ValueError):
+        lemke(np.eye(2), np.array([np.nan, -1.0]))
+    with pytest.raises(ValueError):
+        lemke(np.eye(2), np.array([-1.0, -1.0]), basis=np.array([True]))
+
+
+@pytest.mark.parametrize(
+    "M, q",
+    [
+        (np.array([[-1.0]]), np.array([-1.0])),
+        (-np.eye(3), np.array([-1.0, -2.0, -0.5])),
+        (np.array([[0.0, 1.0], [-1.0, 0.0]]), np.array([-1.0, -1.0])),  # PSD, infeasible
+    ],
+)
+def test_no_solution_gives_secondary_ray(M, q):
+    assert brute_force(M, q) == []
+    res = lemke(M, q)
+    assert res.status == "secondary ray" and not res.ok
+    assert "no solution" in res.message
+    assert res.z.min() >= 0.0
+    np.testing.assert_allclose(res.w, M @ res.z + q)
+
+
+def test_pivot_limit():
+    rng = np.random.default_rng(3)
+    M = p_matrix(6, rng)
+    q = -np.abs(rng.standard_normal(6)) - 0.1
+    full = lemke(M, q)
+    assert full.ok and full.pivots > 2
+    res = lemke(M, q, max_pivots=1)
+    assert res.status == "pivot limit" and not res.ok and res.pivots == 1
+    assert res.z.min() >= 0.0
+    np.testing.assert_allclose(res.w, M @ res.z + q)
+    assert lemke(M, q, max_pivots=0).status == "pivot limit"
+
+
+# --------------------------------------------------------------------------------------
+# brute-force comparisons on small random LCPs
+# --------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_p_matrix_unique_solution_matches_brute_force(seed):
+    rng = np.random.default_rng(seed)
+    for _ in range(25):
+        n = int(rng.integers(1, 9))
+        M = p_matrix(n, rng)
+        q = rng.standard_normal(n)
+        sols = brute_force(M, q)
+        assert len(sols) == 1  # P-matrix: exactly one solution
+        res = lemke(M, q)
+        assert_solution(M, q, res)
+        np.testing.assert_allclose(res.z, sols[0], rtol=1e-8, atol=1e-10)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_symmetric_psd_solved_iff_feasible(seed):
+    rng = np.random.default_rng(100 + seed)
+    n_ray = 0
+    for _ in range(25):
+        n = int(rng.integers(2, 9))
+        G = rng.standard_normal((n, int(rng.integers(1, n + 1))))
+        M = G @ G.T  # positive semidefinite, often singular
+        q = rng.standard_normal(n)
+        sols = brute_force(M, q)
+        res = lemke(M, q)
+        if sols:  # copositive-plus: Lemke must find a solution when one exists
+            assert_solution(M, q, res)
+        else:
+            assert res.status == "secondary ray"
+            n_ray += 1
+    assert n_ray < 25
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_friction_block_matrix_matches_brute_force(seed):
+    rng = np.random.default_rng(200 + seed)
+    for _ in range(15):
+        m = int(rng.integers(1, 3))
+        M, q = friction_lcp(m, rng)
+        assert not np.allclose(M, M.T)
+        sols = brute_force(M, q)
+        assert sols
+        res = lemke(M, q)
+        assert_solution(M, q, res)
+        assert min(np.abs(res.z - s).max() for s in sols) <= 1e-7 * (1 + np.abs(res.z).max())
+
+
+def test_degenerate_q_zeros_ties_and_duplicate_rows():
+    rng = np.random.default_rng(11)
+    for k in range(60):
+        n = int(rng.integers(2, 8))
+        A = rng.integers(-2, 3, (n, n)).astype(float)
+        M = A @ A.T + (np.eye(n) if k % 2 else 0.0)  # PSD (or PD), integer entries
+        if k % 3 == 0:  # duplicate row and column (a repeated contact point)
+            M[:, -1] = M[:, 0]
+            M[-1] = M[0]
+        q = rng.integers(-2, 3, n).astype(float)  # zeros and many ratio ties
+        if k % 3 == 0:
+            q[-1] = q[0]
+        sols = brute_force(M, q)
+        res = lemke(M, q)
+        _agree(res, _lemke_tableau(M, q))
+        if sols:
+            assert_solution(M, q, res)
+        else:
+            assert res.status == "secondary ray"
+        B = rng.random(n) < 0.5  # degenerate warm starts: ties from the first pivot on
+        _agree(lemke(M, q, basis=B), _lemke_tableau(M, q, basis=B))
+
+
+def test_fully_degenerate_all_ties():
+    # every ratio ties at every step: identical rows and columns, equal q
+    n = 5
+    M = np.ones((n, n)) + np.eye(n)
+    q = -np.ones(n)
+    res = lemke(M, q)
+    assert_solution(M, q, res)
+    np.testing.assert_allclose(res.z, np.full(n, 1.0 / (n + 1)), rtol=1e-12)
+    M2 = np.ones((n, n))  # singular PSD, all rows duplicate
+    res2 = lemke(M2, q)
+    assert_solution(M2, q, res2)
+    assert res2.z.sum() == pytest.approx(1.0)
+
+
+# Degenerate LCPs (integer data, zeros in q) on which Lemke cycles with a naive tie-break;
+# found by a random search: the lexicographic rule must solve them.
+CYCLING_CASES = [
+    (
+        [
+            [1.5, -2.0, 0.0, 1.0, 2.0],
+            [1.0, 4.5, 1.0, 1.0, -2.0],
+            [2.0, -2.0, 1.5, -2.0, -2.0],
+            [-1.0, -1.0, 0.0, 2.5, -2.0],
+            [0.0, -2.0, 2.0, -2.0, 1.5],
+        ],
+        [-1.0, 0.0, -1.0, 1.0, -1.0],
+    ),
+    (
+        [[1.0, 1.0, 2.0, 0.0], [2.0, 2.0, -1.0, 0.0], [2.0, 2.0, 1.0, 1.0], [2.0, -2.0, -1.0, 0.0]],
+        [-1.0, -1.0, -1.0, -1.0],
+    ),
+]
+
+
+@pytest.mark.parametrize("case", range(len(CYCLING_CASES)))
+def test_lexicographic_rule_prevents_cycling(monkeypatch, case):
+    M = np.array(CYCLING_CASES[case][0])
+    q = np.array(CYCLING_CASES[case][1])
+    sols = brute_force(M, q)
+    res = lemke(M, q)
+    assert_solution(M, q, res)
+    assert any(np.allclose(res.z, s, atol=1e-9) for s in sols)
+    _agree(res, _lemke_tableau(M, q))
+    # the same problem with a naive tie-break (first or last tied row) cycles
+    outcomes = []
+    for naive in (lambda V: 0, lambda V: V.shape[0] - 1):
+        monkeypatch.setattr(LM, "_lexmin", naive)
+        outcomes.append(lemke(M, q, max_pivots=200).status)
+    assert "pivot limit" in outcomes
+
+
+def test_lexmin_picks_lexicographic_minimum():
+    V = np.array([[0.0, 1.0, 5.0], [0.0, 1.0, -2.0], [0.0, 3.0, -9.0], [1e-14, 1.0, -1.0]])
+    assert LM._lexmin(V) == 1
+    assert LM._lexmin(np.array([[2.0, 0.0], [1.0, 7.0]])) == 1
+    assert LM._lexmin(np.array([[1.0, -1.0]])) == 0
+
+
+# --------------------------------------------------------------------------------------
+# fast (revised) version against the tableau reference
+# --------------------------------------------------------------------------------------
+
+
+def _random_case(kind: int, rng: np.random.Generator):
+    if kind == 0:
+        n = int(rng.integers(10, 50))
+        A = rng.standard_normal((n, n))
+        M = A @ A.T / n + 0.05 * np.eye(n) + (A - A.T) / n
+        return M, rng.standard_normal(n)
+    if kind == 1:
+        n = int(rng.integers(10, 50))
+        G = rng.standard_normal((n, n // 2))
+        return G @ G.T, rng.standard_normal(n)
+    return contact_lcp(int(rng.integers(5, 20)), seed=int(rng.integers(1000)))
+
+
+def _agree(a: LCPResult, b: LCPResult) -> None:
+    assert a.status == b.status
+    assert a.pivots == b.pivots
+    np.testing.assert_array_equal(a.basis, b.basis)
+    scale = 1.0 + np.abs(b.z).max()
+    np.testing.assert_allclose(a.z, b.z, rtol=0, atol=1e-8 * scale)
+
+
+@pytest.mark.parametrize(
+    "knobs",
+    [
+        {},
+        {"_RES_REFACTOR": -1.0},  # refactorise before every pivot
+        {"_COMPACT_TERMS": 1, "_REFINE_EVERY": 1},  # fold every update, refine every pivot
+    ],
+)
+def test_revised_matches_tableau_reference(monkeypatch, knobs):
+    for name, value in knobs.items():
+        monkeypatch.setattr(LM, name, value)
+    rng = np.random.default_rng(42)
+    for trial in range(24):
+        M, q = _random_case(trial % 3, rng)
+        n = q.size
+        _agree(lemke(M, q), _lemke_tableau(M, q))
+        B = rng.random(n) < 0.3  # arbitrary warm start (may be singular or infeasible)
+        _agree(lemke(M, q, basis=B), _lemke_tableau(M, q, basis=B))
+
+
+def test_revised_matches_reference_on_contact_problem():
+    M, q = contact_lcp(100, seed=1)
+    fast = lemke(M, q)
+    ref = _lemke_tableau(M, q)
+    assert_solution(M, q, fast)
+    assert fast.pivots > 50
+    _agree(fast, ref)
+
+
+# --------------------------------------------------------------------------------------
+# warm start
+# --------------------------------------------------------------------------------------
+
+
+def test_warm_start_same_basis_needs_no_pivot():
+    rng = np.random.default_rng(5)
+    M = p_matrix(40, rng)
+    q = rng.standard_normal(40)
+    cold = lemke(M, q)
+    assert cold.ok and cold.pivots > 5
+    q2 = q + 1e-6 * rng.standard_normal(40)
+    warm = lemke(M, q2, basis=cold.basis)
+    assert_solution(M, q2, warm)
+    assert warm.pivots == 0 and warm.warm_start == "accepted"
+    np.testing.assert_allclose(warm.z, lemke(M, q2).z, rtol=1e-9, atol=1e-12)
+
+
+def test_warm_start_fewer_pivots_when_active_set_changes():
+    M, q = contact_lcp(60, seed=3)
+    m = q.size // 3
+    cold = lemke(M, q)
+    assert_solution(M, q, cold)
+    rng = np.random.default_rng(0)
+    q2 = q.copy()
+    q2[:m] += 2e-3 * rng.standard_normal(m)  # next load step: gaps change a little
+    warm = lemke(M, q2, basis=cold.basis)
+    cold2 = lemke(M, q2)
+    assert_solution(M, q2, warm)
+    assert_solution(M, q2, cold2)
+    assert not np.array_equal(cold2.basis, cold.basis)  # the active set did change
+    assert warm.warm_start == "lemke"
+    assert 0 < warm.pivots < cold2.pivots / 3
+    np.testing.assert_allclose(warm.z, cold2.z, rtol=0, atol=1e-9 * np.abs(cold2.z).max())
+
+
+def test_warm_start_bad_or_singular_basis_still_correct():
+    rng = np.random.default_rng(9)
+    for _ in range(20):
+        n = int(rng.integers(2, 8))
+        M = p_matrix(n, rng)
+        q = rng.standard_normal(n)
+        sol = brute_force(M, q)[0]
+        for B in (rng.random(n) < 0.5, np.ones(n, dtype=bool)):
+            res = lemke(M, q, basis=B)
+            assert_solution(M, q, res)
+            np.testing.assert_allclose(res.z, sol, rtol=1e-8, atol=1e-10)
+    # duplicate columns: M_BB singular -> cold start
+    M = np.array([[2.0, 2.0, 1.0], [2.0, 2.0, 1.0], [1.0, 1.0, 3.0]])
+    q = np.array([-1.0, -1.0, -1.0])
+    res = lemke(M, q, basis=np.array([True, True, False]))
+    assert_solution(M, q, res)
+    assert res.warm_start == "cold"
+
+
+# --------------------------------------------------------------------------------------
+# scaling and the final check
+# --------------------------------------------------------------------------------------
+
+
+def test_mixed_units_give_the_same_solution():
+    # rows/columns in very different units (gaps in m, forces in N): LCP(S M S, S q) has
+    # the solution z / S for any positive diagonal S
+    M, q = contact_lcp(40, seed=2)
+    base = lemke(M, q)
+    assert_solution(M, q, base)
+    m = q.size // 3
+    S = np.concatenate([np.full(m, 1e-5), np.full(2 * m, 3e4)])
+    Ms = S[:, None] * M * S[None, :]
+    qs = S * q
+    res = lemke(Ms, qs)
+    assert res.ok and res.pivots == base.pivots
+    np.testing.assert_allclose(res.z * S, base.z, rtol=1e-8, atol=1e-10 * np.abs(base.z).max())
+    np.testing.assert_allclose(res.w / S, base.w, rtol=1e-6, atol=1e-9 * np.abs(base.w).max())
+
+
+def test_a_wrong_candidate_is_never_reported_solved(monkeypatch):
+    M = np.array([[2.0, 1.0], [1.0, 2.0]])
+    q = np.array([-1.0, 1.0])  # solution z = (0.5, 0)
+
+    def wrong_core(M, q, d, B0, max_pivots):
+        zset = np.array([False, True])  # complementary but infeasible basis
+        return LM._CoreOut("solved", zset, np.array([0.0, 0.7]), 0.0, 3)
+
+    monkeypatch.setattr(LM, "_core_revised", wrong_core)
+    res = lemke(M, q)
+    assert res.status == "inaccurate" and not res.ok
+    assert "fails the check" in res.message
+
+
+def test_tolerance_controls_the_check():
+    M = np.array([[1.0]])
+    q = np.array([-1.0])
+    res = lemke(M, q, tol=1e-14)
+    assert_solution(M, q, res)
+    assert res.z[0] == pytest.approx(1.0, rel=1e-15)
