@@ -73,3 +73,64 @@ def cattaneo_traction(x, a: float, p0: float, mu: float, Q_over_muP: float) -> n
 def stick_half_width(a: float, Q_over_muP: float) -> float:
     """Cattaneo-Mindlin stick-zone half-width c = a sqrt(1 - Q / (mu P))."""
     return float(a * np.sqrt(1.0 - Q_over_muP))
+
+
+def _edges_from_states(x: np.ndarray, inside: np.ndarray) -> tuple[float, float]:
+    """Left/right edges of the zone where `inside` holds, as midpoints between the last
+    pair inside and the first pair outside on each side (x sorted ascending)."""
+    idx = np.flatnonzero(inside)
+    if idx.size == 0:
+        return float("nan"), float("nan")
+    lo, hi = idx[0], idx[-1]
+    left = 0.5 * (x[lo] + x[lo - 1]) if lo > 0 else x[lo]
+    right = 0.5 * (x[hi] + x[hi + 1]) if hi + 1 < x.size else x[hi]
+    return float(left), float(right)
+
+
+def hertz_errors(x, p, length, *, P: float, R: float, E_star: float, x0: float = 0.0,
+                 thickness: float = 1.0) -> dict:
+    """Compare a computed pressure p(x) (traction, per pair) with Hertz.
+
+    Half-width: the contact edges are the midpoints between the last loaded and the
+    first open pair on each side. L2 error of p over |x - x0| < a_H, weighted by the
+    pairs' tributary lengths, relative to the L2 norm of the Hertz pressure.
+    """
+    o = np.argsort(x)
+    x, p, length = np.asarray(x)[o] - x0, np.asarray(p)[o], np.asarray(length)[o]
+    a = float(np.sqrt(4 * (P / thickness) * R / (np.pi * E_star)))
+    p0 = 2 * (P / thickness) / (np.pi * a)
+    left, right = _edges_from_states(x, p > 1e-9 * max(p.max(), 1e-300))
+    half = 0.5 * (right - left)
+    zone = np.abs(x) < a
+    ph = hertz_pressure(x, a, p0)
+    l2 = np.sqrt(np.sum(length[zone] * (p[zone] - ph[zone]) ** 2)
+                 / np.sum(length[zone] * ph[zone] ** 2))
+    return {"P": P, "a_hertz": a, "p0_hertz": p0, "p_max": float(p.max()),
+            "p_max_rel_error": float(abs(p.max() - p0) / p0), "half_width": half,
+            "half_width_rel_error": float(abs(half - a) / a),
+            "contact_edges": [left + x0, right + x0], "pressure_l2_rel_error": float(l2)}
+
+
+def cattaneo_errors(x, p, q, length, stick, *, P: float, Q: float, mu: float, R: float,
+                    E_star: float, x0: float = 0.0, thickness: float = 1.0) -> dict:
+    """Compare the stick zone and q(x) with Cattaneo-Mindlin (|q| is compared).
+
+    stick: (m,) bool, pairs in contact that did not slip in the last step.
+    """
+    o = np.argsort(x)
+    x, q, length = np.asarray(x)[o] - x0, np.asarray(q)[o], np.asarray(length)[o]
+    stick = np.asarray(stick)[o]
+    a = float(np.sqrt(4 * (P / thickness) * R / (np.pi * E_star)))
+    p0 = 2 * (P / thickness) / (np.pi * a)
+    ratio = abs(Q) / (mu * P)
+    c_exact = stick_half_width(a, ratio)
+    left, right = _edges_from_states(x, stick)
+    half = 0.5 * (right - left)
+    zone = np.abs(x) < a
+    qc = cattaneo_traction(x, a, p0, mu, ratio)
+    l2 = np.sqrt(np.sum(length[zone] * (np.abs(q[zone]) - qc[zone]) ** 2)
+                 / np.sum(length[zone] * qc[zone] ** 2))
+    return {"P": P, "Q": Q, "Q_over_muP": ratio, "a_hertz": a,
+            "stick_half_width": half, "stick_half_width_exact": c_exact,
+            "stick_half_width_rel_error": float(abs(half - c_exact) / c_exact),
+            "stick_edges": [left + x0, right + x0], "traction_l2_rel_error": float(l2)}

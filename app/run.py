@@ -270,6 +270,7 @@ def run(cfg: Config, opts: RunOptions) -> dict:
         (mesh.quads[:, 0] >= own[rank]) & (mesh.quads[:, 0] < own[rank + 1])
     )
     writer = ResultWriter(out, mesh.points, mesh.quads, mesh.body) if rank == 0 else None
+    last_contact = None
     for step in range(cfg.n_steps):
         u = np.zeros(n_dofs)
         for case, uc in zip(cases, unit, strict=True):
@@ -300,6 +301,7 @@ def run(cfg: Config, opts: RunOptions) -> dict:
             if rank == 0:
                 contact_data = contact.output_data(result, u, mesh)
                 step_info["kkt"] = contact_data.pop("_kkt")
+                last_contact = contact_data
         with timer.phase("output"):
             fields = element_fields(mesh, disc, u, my_elements)
             gathered = mpi.gather((my_elements, fields), root=0)
@@ -324,7 +326,7 @@ def run(cfg: Config, opts: RunOptions) -> dict:
             write_summary(out, summary)
 
     summary["point_values"] = _point_values(mesh, u)
-    ref = reference_errors(cfg, disc, summary)
+    ref = collective(reference_errors, cfg, disc, summary, mesh, contact, last_contact)
     if ref:
         summary["reference"] = ref
     summary["status"] = "completed"
@@ -338,12 +340,45 @@ def run(cfg: Config, opts: RunOptions) -> dict:
     return summary
 
 
-def reference_errors(cfg: Config, disc: Discretisation, summary: dict) -> dict | None:
-    """Errors against the closed form named in the config's [reference] table."""
+def reference_errors(cfg: Config, disc: Discretisation, summary: dict, mesh: Mesh,
+                     contact=None, last_contact: dict | None = None) -> dict | None:
+    """Errors against the closed form named in the config's [reference] table (rank 0)."""
     ref = cfg.raw.get("reference")
     if not isinstance(ref, dict):
         return None
     kind = ref.get("type")
+    if kind in ("hertz", "cattaneo"):
+        from app.closed_form import cattaneo_errors, hertz_errors
+        from app.interface.steps import STICK
+
+        if contact is None or last_contact is None:
+            raise InputError(f"[reference] type '{kind}' needs an [[interface]]")
+        try:
+            radius = float(ref["radius"])
+            x0 = float(ref.get("center_x", 0.0))
+        except (KeyError, TypeError, ValueError):
+            raise InputError(f"[reference] type '{kind}' needs radius (and center_x)") from None
+        nb = mesh.node_body()
+        b1 = nb[contact.pairs.slave[0]]
+        b2 = nb[contact.pairs.master[0, 0]]
+        e_star = 1.0 / sum((1 - disc.nu[b] ** 2) / disc.E[b] for b in (b1, b2))
+        if disc.plane == "stress":
+            e_star = 1.0 / sum(1.0 / disc.E[b] for b in (b1, b2))
+        c = last_contact
+        sel = c["interface"] == 0
+        p_force = c["p_force"][sel]
+        total = float(p_force.sum())
+        out = {"type": kind, "interface": cfg.interfaces[0].name}
+        out |= {"hertz": hertz_errors(c["x"][sel], c["p"][sel], c["length"][sel], P=total,
+                                      R=radius, E_star=e_star, x0=x0,
+                                      thickness=disc.thickness)}
+        if kind == "cattaneo":
+            stick = (c["state"][sel] == STICK) & (c["p"][sel] > 0)
+            out["cattaneo"] = cattaneo_errors(
+                c["x"][sel], c["p"][sel], c["q"][sel], c["length"][sel], stick, P=total,
+                Q=float(c["q_force"][sel].sum()), mu=cfg.interfaces[0].mu, R=radius,
+                E_star=e_star, x0=x0, thickness=disc.thickness)
+        return out
     if kind == "timoshenko":
         from app.closed_form import timoshenko_cantilever
 

@@ -237,6 +237,22 @@ def test_degenerate_q_zeros_ties_and_duplicate_rows():
         _agree(lemke(M, q, basis=B), _lemke_tableau(M, q, basis=B))
 
 
+@pytest.mark.parametrize(
+    "M, q, B",
+    [
+        ([[1.5, 2.0, -1.0], [0.0, 0.5, -2.0], [2.0, 0.0, 1.5]], [-1.0, -1.0, 0.0], [1, 0, 0]),
+        ([[1.5, 0.0, -2.0], [-2.0, 0.5, -1.0], [-1.0, 2.0, 3.5]], [1.0, 0.0, -2.0], [1, 0, 0]),
+    ],
+)
+def test_degenerate_warm_start_follows_the_lexicographic_path(M, q, B):
+    # ties here are broken by the rows of B^-1 B0 (B0 = warm-start basis), not of B^-1
+    M, q, B = np.array(M), np.array(q), np.array(B, dtype=bool)
+    res = lemke(M, q, basis=B)
+    assert_solution(M, q, res)
+    assert res.warm_start == "lemke"
+    _agree(res, _lemke_tableau(M, q, basis=B))
+
+
 def test_fully_degenerate_all_ties():
     # every ratio ties at every step: identical rows and columns, equal q
     n = 5
