@@ -215,7 +215,7 @@ def run(cfg: Config, opts: RunOptions) -> dict:
         with timer.phase("pair_search"):
             contact = ContactSetup.build(mesh, cfg)
         summary["n_pairs"] = contact.pairs.n_pairs
-    floating = floating_modes(mesh, cfg, fixed, contact)
+    floating = floating_modes(mesh, cfg, fixed, contact, disc)
     pins = floating.pins if floating else np.zeros(0, dtype=np.int64)
     fixed_all = np.union1d(fixed, pins)
 
@@ -240,11 +240,12 @@ def run(cfg: Config, opts: RunOptions) -> dict:
             raise SolveError(_singular_message(disc, mesh, str(exc))) from None
 
     with timer.phase("solve"):
-        unit = []
+        unit, lifted = [], []
         for case, kud in zip(cases, prescribed_rhs, strict=True):
             b = case.rhs.copy()
             if kud is not None:
                 b -= kud
+            lifted.append(np.where(np.isin(np.arange(b.size), fixed), 0.0, b))
             b[fixed_all] = case.prescribed[fixed_all]
             try:
                 x = solver.solve(from_numpy(k, b))
@@ -262,7 +263,7 @@ def run(cfg: Config, opts: RunOptions) -> dict:
                 c_mat = compliance_solve(solver, k, contact.g, fixed_all, to_numpy_all)
         summary["compliance_route"] = route
         with timer.phase("lcp"):
-            stepper = contact.stepper(c_mat, cases, unit, floating, disc.thickness) \
+            stepper = contact.stepper(c_mat, cases, unit, lifted, floating) \
                 if rank == 0 else None
 
     own = node_ownership(mesh.n_nodes, size)
@@ -286,9 +287,12 @@ def run(cfg: Config, opts: RunOptions) -> dict:
                 summary["status"] = "failed"
                 summary["failed_step"] = step + 1
                 summary["timings"] = timer.reduced()
+                done = f"steps 1..{step} are written in {out}" if step else \
+                    "no step completed"
+                held = "" if floating is None else (
+                    "; held only by contact: " + ", ".join(floating.names))
                 reason = (f"no static equilibrium at step {step + 1}: Lemke ended on a "
-                          f"{result['status']} ({result['message']}); steps 1..{step} are "
-                          f"written in {out}")
+                          f"{result['status']} ({result['message']}{held}); {done}")
                 summary["error"] = reason
                 if rank == 0:
                     write_summary(out, summary)

@@ -38,3 +38,35 @@ def run_cli(args: list[str], ranks: int = 1, timeout: float = 600) -> subprocess
 
 def read_summary(out: Path) -> dict:
     return json.loads((Path(out) / "summary.json").read_text())
+
+
+def kkt_violations(out: Path, step: int) -> dict:
+    """Recompute gap, slip, p and q of one step from the written displacement field and
+    pair geometry, and return the largest violations of METHOD section 4 (relative)."""
+    import h5py
+    import numpy as np
+
+    with h5py.File(Path(out) / f"step_{step:04d}.h5") as f:
+        u = f["displacement"][()][:, :2]
+        c = {k: f["contact"][k][()] for k in f["contact"]}
+    s, (a_, b_), xi = c["slave"], c["master"].T, c["xi"]
+    d = u[s] - (1 - xi)[:, None] * u[a_] - xi[:, None] * u[b_]
+    gap = c["g0"] + np.sum(c["normal"] * d, axis=1)
+    tau = np.sum(c["tangent"] * d, axis=1)
+    p, q = c["p_force"], c["q_force"]
+    a, cc, mu = c["a_force"], c["c_force"], c["mu"]
+    bound = mu * p + cc
+    fs = max(np.abs(p).max(), np.abs(q).max(), np.abs(a).max(initial=0), 1e-300)
+    us = max(np.abs(u).max(), 1e-300)
+    dtau = tau - c["tau_prev"]
+    slipping = np.abs(dtau) > 1e-7 * us
+    return {
+        "gap": max(0.0, -gap.min()) / us,
+        "normal_force": max(0.0, -(p + a).min()) / fs,
+        "complementarity": np.abs(gap * (p + a)).max() / (us * fs),
+        "friction_bound": max(0.0, (np.abs(q) - bound).max()) / fs,
+        "slip_direction": (np.abs(q + np.sign(dtau) * bound)[slipping].max(initial=0.0)
+                           / fs),
+        "stick": np.abs(dtau[~slipping]).max(initial=0.0) / us,
+        "gap_vs_written": np.abs(gap - c["gap"]).max() / us,
+    }

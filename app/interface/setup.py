@@ -35,16 +35,61 @@ class FloatingModes:
     names: list[str]
 
 
+def zero_energy_modes(mesh: Mesh, disc, body: int, fixed: np.ndarray) -> np.ndarray:
+    """Null space of one body's stiffness with its supports, (2 n_body_nodes, r).
+
+    Rigid modes and, for CS-FEM-1SD, hourglass modes. Dense eigen-decomposition for small
+    bodies, shift-invert Lanczos otherwise. Rows follow the body's nodes in ascending
+    order, x and y interleaved.
+    """
+    import scipy.sparse.linalg as sla_sparse
+
+    from app.discretisation.bulk import element_matrices
+
+    el = np.flatnonzero(mesh.body == body)
+    nodes = np.unique(mesh.quads[el])
+    local = np.full(mesh.n_nodes, -1)
+    local[nodes] = np.arange(nodes.size)
+    ke = element_matrices(mesh, disc, el)
+    ld = np.stack([2 * local[mesh.quads[el]], 2 * local[mesh.quads[el]] + 1],
+                  axis=-1).reshape(el.size, 8)
+    n = 2 * nodes.size
+    k = sp.coo_matrix((ke.ravel(), (np.repeat(ld, 8, axis=1).ravel(),
+                                    np.tile(ld, (1, 8)).ravel())), shape=(n, n)).tocsr()
+    gdofs = np.stack([2 * nodes, 2 * nodes + 1], axis=1).ravel()
+    free = np.flatnonzero(~np.isin(gdofs, fixed))
+    kff = k[free][:, free]
+    scale = abs(kff.diagonal()).max()
+    if free.size <= 3000:
+        w, v = np.linalg.eigh(kff.toarray())
+        keep = w < 1e-9 * w[-1]
+        modes = v[:, keep]
+    else:
+        kk = min(free.size - 2, 12)
+        w, v = sla_sparse.eigsh(kff, k=kk, sigma=-1e-8 * scale, which="LM")
+        modes = v[:, w < 1e-9 * scale]
+    out = np.zeros((n, modes.shape[1]))
+    out[free] = modes
+    return out
+
+
 def floating_modes(mesh: Mesh, cfg: Config, fixed: np.ndarray,
-                   contact: ContactSetup | None) -> FloatingModes | None:
-    """Free rigid modes per body; bodies without contact must have none."""
+                   contact: ContactSetup | None, disc=None) -> FloatingModes | None:
+    """Zero-energy modes per body left by the supports; bodies without contact must have
+    none. Rigid modes come from geometry; with CS-FEM-1SD the hourglass modes of bodies
+    in contact are found from the body stiffness and handled the same way."""
     free = free_rigid_modes(mesh, fixed)
+    in_contact = set() if contact is None else contact.bodies(mesh)
+    hourglass = disc is not None and disc.method == "cs-fem" and disc.sd == 1
+    if hourglass:
+        for b in in_contact:
+            free.setdefault(b, np.zeros((3, 0)))
     if not free:
         return None
-    in_contact = set() if contact is None else contact.bodies(mesh)
+    _check_held(mesh, cfg, fixed, contact)
     cols, pins, names = [], [], []
     node_body = mesh.node_body()
-    for b, modes in free.items():
+    for b, modes in sorted(free.items()):
         nodes = np.flatnonzero(node_body == b)
         centroid = mesh.points[nodes].mean(axis=0)
         text = describe_modes(modes, centroid)
@@ -54,14 +99,50 @@ def floating_modes(mesh: Mesh, cfg: Config, fixed: np.ndarray,
                 "add a [[support]] on one of its curves or an [[interface]] to another body"
             )
         rb = rigid_modes(mesh.points, nodes) @ modes  # (2 nb, r_b)
+        labels = mode_names(modes, centroid) if modes.shape[1] else []
+        if hourglass:  # rigid and hourglass modes together, from the body stiffness
+            rb = zero_energy_modes(mesh, disc, b, fixed)
+            labels = [f"zero-energy mode {i + 1}" for i in range(rb.shape[1])]
+            if rb.shape[1] == 0:
+                continue
         dofs = np.stack([2 * nodes, 2 * nodes + 1], axis=1).ravel()
         _, _, piv = sla.qr(rb.T, pivoting=True, mode="economic")
-        pins.append(dofs[piv[: modes.shape[1]]])
-        full = np.zeros((2 * mesh.n_nodes, modes.shape[1]))
+        pins.append(dofs[piv[: rb.shape[1]]])
+        full = np.zeros((2 * mesh.n_nodes, rb.shape[1]))
         full[dofs] = rb
         cols.append(full)
-        names += [f"{mesh.body_names[b]}: {t}" for t in mode_names(modes, centroid)]
+        names += [f"{mesh.body_names[b]}: {t}" for t in labels]
+    if not cols:
+        return None
     return FloatingModes(np.hstack(cols), np.concatenate(pins).astype(np.int64), names)
+
+
+def _check_held(mesh: Mesh, cfg: Config, fixed: np.ndarray,
+                contact: ContactSetup | None) -> None:
+    """Bodies linked by interfaces must include at least one support among them."""
+    if contact is None:
+        return
+    nb = mesh.node_body()
+    n_b = len(mesh.body_names)
+    parent = list(range(n_b))
+
+    def find(i: int) -> int:
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    for s, m in zip(nb[contact.pairs.slave], nb[contact.pairs.master[:, 0]], strict=True):
+        parent[find(int(s))] = find(int(m))
+    supported = set(nb[np.unique(fixed // 2)].tolist()) if fixed.size else set()
+    groups: dict[int, list[int]] = {}
+    for b in range(n_b):
+        groups.setdefault(find(b), []).append(b)
+    for members in groups.values():
+        if not supported.intersection(members):
+            names = ", ".join(f"'{mesh.body_names[b]}'" for b in members)
+            raise SolveError(f"bodies {names} are free to move together: no support holds "
+                             "any of them; add a [[support]]")
 
 
 class ContactSetup:
@@ -117,9 +198,9 @@ class ContactSetup:
                              "-contact_compliance solve with other solvers")
         return route
 
-    def stepper(self, c_mat: np.ndarray, cases, unit, floating: FloatingModes | None,
-                thickness: float) -> ContactStepper:
-        return ContactStepper(self, c_mat, cases, unit, floating)
+    def stepper(self, c_mat: np.ndarray, cases, unit, rhs,
+                floating: FloatingModes | None) -> ContactStepper:
+        return ContactStepper(self, c_mat, cases, unit, rhs, floating)
 
     def displacement(self, lam: np.ndarray, solver, k: PETSc.Mat, fixed: np.ndarray,
                      to_numpy_all) -> np.ndarray:
@@ -199,8 +280,10 @@ def kkt_check(gap, tau, tau_prev, p, q, mu, a, c, frictional, *, u_scale: float 
 class ContactStepper:
     """Rank-0 state of the contact problem over the load steps."""
 
-    def __init__(self, setup: ContactSetup, c_mat: np.ndarray, cases, unit,
+    def __init__(self, setup: ContactSetup, c_mat: np.ndarray, cases, unit, rhs,
                  floating: FloatingModes | None):
+        """unit: K^-1 b per load case; rhs: the load cases' right-hand sides b (forces
+        with the Dirichlet lifting, zero on prescribed DOFs)."""
         self.setup = setup
         pr = setup.pairs
         m = pr.n_pairs
@@ -210,7 +293,7 @@ class ContactStepper:
         if floating is not None and floating.r.shape[1]:
             gr = g @ floating.r  # (2m, r)
             self.n_modes, self.t_modes = gr[:m], gr[m:]
-            self.e0 = [floating.r.T @ case.rhs for case in cases]
+            self.e0 = [floating.r.T @ b for b in rhs]
             self.mode_names = floating.names
         else:
             self.n_modes = self.t_modes = None
@@ -226,7 +309,7 @@ class ContactStepper:
         scale = max(max((np.abs(x).max(initial=0.0) for x in self.gu), default=0.0),
                     np.abs(pr.g0).max(initial=0.0), 1e-300)
         self.tol = 1e-7 * scale
-        self.f_scale = max(max((np.abs(case.rhs).sum() for case in cases), default=0.0),
+        self.f_scale = max(max((np.abs(b).sum() for b in rhs), default=0.0),
                            np.abs(self.hist.a).max(initial=0.0),
                            np.abs(self.hist.c).max(initial=0.0))
 
