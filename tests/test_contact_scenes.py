@@ -9,12 +9,12 @@ from pathlib import Path
 import h5py
 import numpy as np
 import pytest
+from support import CONFIGS, kkt_violations, read_summary, run_cli
 
 from app.closed_form import hertz_cylinder
 from app.config import load_config, parse_config
 from app.errors import InputError, SolveError
 from app.run import RunOptions, run
-from support import CONFIGS, kkt_violations, read_summary, run_cli
 
 KKT_TOL = 1e-7
 

@@ -119,27 +119,64 @@ def _absmax(a: np.ndarray, axis: int | None = None):
     return np.maximum(a.max(axis=axis), -a.min(axis=axis))
 
 
-def _scaling(M: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, float, float]:
-    """Symmetric scaling: (M~, D, mu, nu) with M~ = D M D / mu (Fortran order), q~ = D q / nu.
+_BLOCK_ROWS = 256
+"""Row-block size for passes over M that need an |M| temporary (no n x n temporaries)."""
+
+
+def _row_blocks(n: int):
+    return ((i, min(i + _BLOCK_ROWS, n)) for i in range(0, n, _BLOCK_ROWS))
+
+
+class _ScaledM:
+    """The scaled matrix M~ = D M D / mu, never formed: columns and blocks on demand.
+
+    (Forming it would cost an n x n allocation, slow to page in for n in the thousands.)
+    """
+
+    def __init__(self, M: np.ndarray, D: np.ndarray, mu: float):
+        self.M, self.D, self.mu = M, D, mu
+        self.n = D.size
+        self.absmax = 1.0  # max |M~| by the choice of mu
+
+    def col(self, j: int) -> np.ndarray:
+        return self.M[:, j] * (self.D * (self.D[j] / self.mu))
+
+    def cols(self, idx: np.ndarray) -> np.ndarray:
+        """M~[:, idx] as an (n, k) array."""
+        return self.M[:, idx] * self.D[:, None] * (self.D[idx] / self.mu)
+
+    def sub(self, idx: np.ndarray) -> np.ndarray:
+        """M~[idx][:, idx]."""
+        Di = self.D[idx]
+        return self.M[np.ix_(idx, idx)] * Di[:, None] * (Di / self.mu)
+
+    def matvec(self, v: np.ndarray) -> np.ndarray:
+        return self.D * (self.M @ (self.D * v)) / self.mu
+
+    def dense(self) -> np.ndarray:
+        return self.D[:, None] * self.M * (self.D / self.mu)
+
+
+def _scaling(M: np.ndarray, q: np.ndarray) -> tuple[_ScaledM, np.ndarray, float, float]:
+    """Symmetric scaling: (M~, D, mu, nu) with M~ = D M D / mu, q~ = D q / nu.
 
     D_i = 1 / sqrt(s_i) with s_i = |M_ii| when that is at least 1e-6 times the largest
     entry of row or column i, else that largest entry (1 for an all-zero row and column);
     D, mu and nu are powers of two (exact scaling), mu = max|D M D|, nu = max|D q|.
     """
+    n = q.size
     rc = np.maximum(_absmax(M, 1), _absmax(M, 0))
     dg = np.abs(np.diagonal(M))
     s = np.where(dg >= 1e-6 * rc, dg, rc)
     s[s == 0.0] = 1.0
     D = _pow2(1.0 / np.sqrt(s))
-    Ms = np.empty_like(M, order="F")  # the pivoting cores read columns of M~
-    np.multiply(M, D[None, :], out=Ms)
-    Ms *= D[:, None]
-    mu = float(_absmax(Ms))
+    mu = 0.0
+    for i0, i1 in _row_blocks(n):
+        mu = max(mu, float(((np.abs(M[i0:i1]) * D).max(axis=1) * D[i0:i1]).max()))
     mu = float(_pow2(np.array(mu))) if mu > 0 else 1.0
-    Ms *= 1.0 / mu
     nu = float(np.abs(D * q).max())
     nu = float(_pow2(np.array(nu))) if nu > 0 else 1.0
-    return Ms, D, mu, nu
+    return _ScaledM(M, D, mu), D, mu, nu
 
 
 _RCOND_MIN = 1e-14
@@ -198,10 +235,11 @@ def _first_leaving(xb: np.ndarray, y: np.ndarray, pos: np.ndarray) -> int | None
 
 
 def _core_tableau(
-    M: np.ndarray, q: np.ndarray, d: np.ndarray, B0: np.ndarray, max_pivots: int
+    Ms: _ScaledM, q: np.ndarray, d: np.ndarray, B0: np.ndarray, max_pivots: int
 ) -> _CoreOut:
     """Textbook Lemke on the full tableau T = B^-1 [I, -M, -d, q] (n x (2n + 2))."""
     n = q.size
+    M = Ms.dense()
     idx = np.arange(n)
     T = np.hstack([np.eye(n), -M, -d[:, None], q[:, None]])
     basic = np.where(B0, n + idx, idx)  # variable basic in each tableau row
@@ -285,7 +323,7 @@ class _Revised:
     slot-space inverse (bordering, column or row replacement, deletion).
     """
 
-    def __init__(self, M: np.ndarray, q: np.ndarray, d: np.ndarray, B0: np.ndarray):
+    def __init__(self, M: _ScaledM, q: np.ndarray, d: np.ndarray, B0: np.ndarray):
         n = q.size
         self.n, self.M, self.d = n, M, d
         self.qpad = np.append(q, 0.0)
@@ -309,7 +347,7 @@ class _Revised:
         self.free_r: list[int] = []
         self.refactorizations = 0
         self.since_refactor = 0
-        self.xnorm = max(float(_absmax(M)) if n else 0.0, float(np.abs(d).max()), 1e-300)
+        self.xnorm = max(M.absmax, float(np.abs(d).max()), 1e-300)
         k = self.start_z.size
         if k:
             self._ensure_cap(k)
@@ -319,7 +357,7 @@ class _Revised:
             self.row_slot[:k] = self.start_z
             self.row_pos[self.start_z] = np.arange(k)
             self.inW[self.start_z] = False
-            self.Xcols[:k, :n] = -M[:, self.start_z].T
+            self.Xcols[:k, :n] = -M.cols(self.start_z).T
             self.xw[self.start_z] = 0.0
 
     # ---- storage -------------------------------------------------------------------
@@ -363,7 +401,7 @@ class _Revised:
         """Basis-system column (n + 1,) of a z_j or z0 (last entry 0 for free slots)."""
         n = self.n
         a = np.empty(n + 1)
-        a[:n] = -self.M[:, var - n] if var < 2 * n else -self.d
+        a[:n] = -self.M.col(var - n) if var < 2 * n else -self.d
         a[n] = 0.0
         return a
 
@@ -537,12 +575,12 @@ class _Revised:
                 out[k, rows] = self.inv_row(i)
         out = out[:, :n]
         if self.start_z.size:
-            out[:, self.start_z] = -(out @ self.M[:, self.start_z])
+            out[:, self.start_z] = -(out @ self.M.cols(self.start_z))
         return out
 
 
 def _core_revised(
-    M: np.ndarray, q: np.ndarray, d: np.ndarray, B0: np.ndarray, max_pivots: int
+    M: _ScaledM, q: np.ndarray, d: np.ndarray, B0: np.ndarray, max_pivots: int
 ) -> _CoreOut:
     """Revised Lemke (same pivoting rules as `_core_tableau`, see `_Revised`)."""
     n = q.size
@@ -703,7 +741,7 @@ def _validate(M, q) -> tuple[np.ndarray, np.ndarray]:
     n = q.size
     if M.shape != (n, n):
         raise ValueError(f"M must be ({n}, {n}) to match q of length {n}, got {M.shape}")
-    if not (np.isfinite(M).all() and np.isfinite(q).all()):
+    if n and not (np.isfinite(M.max()) and np.isfinite(M.min()) and np.isfinite(q).all()):
         raise ValueError("M and q must be finite")
     return M, q
 
@@ -711,8 +749,10 @@ def _validate(M, q) -> tuple[np.ndarray, np.ndarray]:
 def _check(M: np.ndarray, q: np.ndarray, z: np.ndarray, tol: float):
     """w = M z + q and whether (z, w) passes the final check; returns (w, ok, comp, worst)."""
     w = M @ z + q
-    supp = np.flatnonzero(z)
-    s = np.abs(q) + (np.abs(M[:, supp]) @ z[supp] if supp.size else 0.0)
+    s = np.abs(q)
+    if z.any():
+        for i0, i1 in _row_blocks(q.size):
+            s[i0:i1] += np.abs(M[i0:i1]) @ z
     neg = np.maximum(-w, 0.0)
     comp_res = np.where(z > 0, np.abs(w), 0.0)
     viol = np.maximum(neg, comp_res)
@@ -724,14 +764,14 @@ def _check(M: np.ndarray, q: np.ndarray, z: np.ndarray, tol: float):
     return w, ok, comp, worst
 
 
-def _solve_on(Ms: np.ndarray, qs: np.ndarray, zset: np.ndarray) -> np.ndarray | None:
+def _solve_on(Ms: _ScaledM, qs: np.ndarray, zset: np.ndarray) -> np.ndarray | None:
     """z~ with z~_Z = -M~_ZZ^-1 q~_Z (LU + one refinement), 0 elsewhere; None if singular."""
     n = qs.size
     Z = np.flatnonzero(zset)
     zt = np.zeros(n)
     if Z.size == 0:
         return zt
-    A = Ms[np.ix_(Z, Z)]
+    A = Ms.sub(Z)
     lu = _lu_or_none(A)
     if lu is None:
         return None
@@ -800,7 +840,7 @@ def _run(
             raise ValueError(f"basis must have shape ({n},), got {B0.shape}")
         if B0.any():
             # covering vector B0 @ 1: Lemke on the LCP transformed by the pivot on B0
-            d = -(P.Ms[:, B0].sum(axis=1))
+            d = -P.Ms.matvec(B0.astype(float))
             d[~B0] += 1.0
             res = core(P.Ms, P.qs, d, B0, max_pivots)
             pivots += res.pivots

@@ -1,0 +1,61 @@
+"""Benchmark: assembly rate and MUMPS factorization time of the cantilever on 1 and 2 ranks.
+
+Runs `python -m app run configs/cantilever.toml --mesh-size H` (under mpiexec for 2 ranks)
+and prints one JSON line per run with elements, DOFs, assembly seconds, elements per second,
+factorization seconds and the ratio assembly / factorization.
+
+    .venv/bin/python scripts/bench_bulk.py --mesh-size 0.003162 --ranks 1 2
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--config", default=str(ROOT / "configs" / "cantilever.toml"))
+    ap.add_argument("--mesh-size", type=float, default=0.003162,
+                    help="element size; 0.003162 gives about 10^6 elements (3162 x 316)")
+    ap.add_argument("--ranks", type=int, nargs="+", default=[1, 2])
+    ap.add_argument("--sd", type=int, default=4)
+    args, extra = ap.parse_known_args()
+    env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
+               OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1")
+    for ranks in args.ranks:
+        out = Path(tempfile.mkdtemp(prefix="bench_bulk_"))
+        cmd = [sys.executable, "-m", "app", "run", args.config, "--out", str(out),
+               "--mesh-size", str(args.mesh_size), "--sd", str(args.sd), "--quiet", *extra]
+        if ranks > 1:
+            cmd = [shutil.which("mpiexec") or "mpiexec", "-n", str(ranks), *cmd]
+        res = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True)
+        if res.returncode != 0:
+            print(json.dumps({"ranks": ranks, "error": res.stderr.strip()[-500:]}))
+            continue
+        s = json.loads((out / "summary.json").read_text())
+        t = s["timings"]
+        print(json.dumps({
+            "ranks": ranks, "method": s["label"], "n_elements": s["n_elements"],
+            "n_dofs": s["n_dofs"], "assembly_s": round(t["assembly"], 3),
+            "assembly_elements_per_s": round(s["n_elements"] / t["assembly"]),
+            "assembly_elements_per_s_per_rank": round(s["n_elements"] / t["assembly"] / ranks),
+            "factorization_s": round(t["factorization"], 3),
+            "assembly_over_factorization": round(t["assembly"] / t["factorization"], 3),
+            "mesh_s": round(t["mesh"], 3), "solve_s": round(t["solve"], 3),
+            "output_s": round(t["output"], 3), "total_s": round(t["total"], 3),
+            "tip_deflection_rel_error": s.get("reference", {}).get("tip_deflection_rel_error"),
+        }), flush=True)
+        shutil.rmtree(out, ignore_errors=True)
+
+
+if __name__ == "__main__":
+    main()
