@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
+import importlib
 import itertools
-import sys
 
 import numpy as np
 import pytest
@@ -11,7 +11,7 @@ import pytest
 from app.lcp import STATUSES, LCPResult, default_max_pivots, lemke
 from app.lcp.lemke import _lemke_tableau
 
-LM = sys.modules["app.lcp.lemke"]
+LM = importlib.import_module("app.lcp.lemke")  # the module (app.lcp.lemke is the function)
 
 
 # --------------------------------------------------------------------------------------

@@ -53,7 +53,7 @@ _LEX_REL = 1e-9
 """Lexicographic comparisons: entries equal within this x the largest compared entry."""
 _RES_REFACTOR = 1e-10
 """Revised method: refactorise when a solve's relative residual exceeds this."""
-_REFINE_EVERY = 20
+_REFINE_EVERY = 40
 """Revised method: refine the basic values by one residual correction every this many pivots."""
 _COMPACT_TERMS = 32
 """Revised method: rank-1 updates kept in compact form before folding them into the inverse."""
@@ -607,6 +607,7 @@ def _core_revised(
         return out("pivot limit", 0)
     leaving = _pivot(S, z0var, r, yR, yW)
     pivots = 1
+    refactor_gap = 1
     while True:
         e = leaving + n if leaving < n else leaving - n
         if pivots >= max_pivots:
@@ -614,10 +615,13 @@ def _core_revised(
         if S.since_refactor and S.since_refactor % _REFINE_EVERY == 0:
             S.refine_values()
         yR, yW, res = S.ftran(e)
-        if res > _RES_REFACTOR and S.since_refactor > 0:
+        if res > _RES_REFACTOR and S.since_refactor >= refactor_gap:
             if not S.refactor():
                 return out("singular", pivots)
             yR, yW, res = S.ftran(e)
+            # still above the threshold on a fresh inverse: ill-conditioned basis, where
+            # refactorising at every pivot would not help; wait a while before the next one
+            refactor_gap = 50 if res > _RES_REFACTOR else 1
         h = S.h
         inW = S.inW
         active = S.slot_var[:h] >= 0
