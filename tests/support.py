@@ -40,9 +40,10 @@ def read_summary(out: Path) -> dict:
     return json.loads((Path(out) / "summary.json").read_text())
 
 
-def kkt_violations(out: Path, step: int) -> dict:
+def kkt_violations(out: Path, step: int, f_scale: float = 0.0) -> dict:
     """Recompute gap, slip, p and q of one step from the written displacement field and
-    pair geometry, and return the largest violations of METHOD section 4 (relative)."""
+    pair geometry, and return the largest violations of METHOD section 4, relative to the
+    displacement scale and to max(f_scale, the step's largest pair force)."""
     import h5py
     import numpy as np
 
@@ -56,7 +57,7 @@ def kkt_violations(out: Path, step: int) -> dict:
     p, q = c["p_force"], c["q_force"]
     a, cc, mu = c["a_force"], c["c_force"], c["mu"]
     bound = mu * p + cc
-    fs = max(np.abs(p).max(), np.abs(q).max(), np.abs(a).max(initial=0), 1e-300)
+    fs = max(np.abs(p).max(), np.abs(q).max(), np.abs(a).max(initial=0), f_scale, 1e-300)
     us = max(np.abs(u).max(), 1e-300)
     dtau = tau - c["tau_prev"]
     slipping = np.abs(dtau) > 1e-7 * us

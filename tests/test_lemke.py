@@ -341,7 +341,7 @@ def _agree(a: LCPResult, b: LCPResult) -> None:
     "knobs",
     [
         {},
-        {"_RES_REFACTOR": -1.0},  # refactorise before every pivot
+        {"_RES_REFACTOR": -1.0, "_ILL_GAP": 1},  # refactorise before every pivot
         {"_RES_REFACTOR": np.inf},  # never refactorise: the rank-1 updates alone
         {"_COMPACT_TERMS": 1, "_REFINE_EVERY": 1},  # fold every update, refine every pivot
     ],
@@ -350,12 +350,20 @@ def test_revised_matches_tableau_reference(monkeypatch, knobs):
     for name, value in knobs.items():
         monkeypatch.setattr(LM, name, value)
     rng = np.random.default_rng(42)
+    refactorizations = pivots = 0
     for trial in range(24):
         M, q = _random_case(trial % 3, rng)
         n = q.size
-        _agree(lemke(M, q), _lemke_tableau(M, q))
+        fast = lemke(M, q)
+        _agree(fast, _lemke_tableau(M, q))
+        refactorizations += fast.refactorizations
+        pivots += fast.pivots
         B = rng.random(n) < 0.3  # arbitrary warm start (may be singular or infeasible)
         _agree(lemke(M, q, basis=B), _lemke_tableau(M, q, basis=B))
+    if knobs.get("_RES_REFACTOR") == -1.0:
+        assert refactorizations > pivots / 2
+    else:
+        assert refactorizations == 0
 
 
 def test_revised_matches_reference_on_contact_problem():

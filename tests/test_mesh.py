@@ -55,12 +55,12 @@ def edge_lengths(m: Mesh, curve: str) -> tuple[np.ndarray, np.ndarray]:
     return p.mean(axis=1), np.linalg.norm(p[:, 1] - p[:, 0], axis=1)
 
 
-def check_valid(m: Mesh, min_angle: float = 20.0) -> None:
+def check_valid(m: Mesh, min_angle: float = 15.0) -> None:
     """All-quad, counter-clockwise, decent angles, disjoint bodies, curves on boundaries."""
     assert m.quads.shape == (m.n_elements, 4) and m.points.shape == (m.n_nodes, 2)
     assert np.all(quad_areas(m) > 0)
     ang = interior_angles(m)
-    # Delaunay + blossom full-quad recombination keeps angles in (20, 170) degrees;
+    # Delaunay + blossom full-quad recombination keeps angles in (15, 170) degrees;
     # structured grids are checked to be near-rectangular
     max_angle = 180.0 - min_angle if min_angle >= 45.0 else 170.0
     assert ang.min() > min_angle

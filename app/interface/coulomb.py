@@ -135,7 +135,13 @@ class ContactLCP:
         qg = gap_free - self.c[: self.m, : self.m] @ a + cnt_f @ hxi
         base = c[f] - mu[f] * a[f]
         eq = e0 - self.nm.T @ a + self.tm.T @ hxi
-        return np.concatenate([qg, base + hxi, base - hxi, -eq, eq])
+        out = np.concatenate([qg, base + hxi, base - hxi, -eq, eq])
+        # entries that are round-off of exact cancellations (e.g. F = 0 and no tangential
+        # motion) are set to zero, so that Lemke does not pivot on them
+        d = self.scaling
+        big = np.abs(d * out).max(initial=0.0)
+        out[np.abs(d * out) < 1e-14 * big] = 0.0
+        return out
 
     def solve(self, gap_free, tau_free, tau_prev, a, c, mu, e0, *, basis=None,
               max_pivots=None) -> ContactSolution:

@@ -53,6 +53,9 @@ _LEX_REL = 1e-9
 """Lexicographic comparisons: entries equal within this x the largest compared entry."""
 _RES_REFACTOR = 1e-10
 """Revised method: refactorise when a solve's relative residual exceeds this."""
+_ILL_GAP = 50
+"""Revised method: pivots between refactorisations when even a fresh inverse misses the
+residual threshold (ill-conditioned basis)."""
 _REFINE_EVERY = 40
 """Revised method: refine the basic values by one residual correction every this many pivots."""
 _COMPACT_TERMS = 32
@@ -621,7 +624,7 @@ def _core_revised(
             yR, yW, res = S.ftran(e)
             # still above the threshold on a fresh inverse: ill-conditioned basis, where
             # refactorising at every pivot would not help; wait a while before the next one
-            refactor_gap = 50 if res > _RES_REFACTOR else 1
+            refactor_gap = _ILL_GAP if res > _RES_REFACTOR else 1
         h = S.h
         inW = S.inW
         active = S.slot_var[:h] >= 0
@@ -754,9 +757,18 @@ def _check(M: np.ndarray, q: np.ndarray, z: np.ndarray, tol: float):
     """w = M z + q and whether (z, w) passes the final check; returns (w, ok, comp, worst)."""
     w = M @ z + q
     s = np.abs(q)
-    if z.any():
-        for i0, i1 in _row_blocks(q.size):
-            s[i0:i1] += np.abs(M[i0:i1]) @ z
+    row_max = np.zeros(q.size)
+    for i0, i1 in _row_blocks(q.size):
+        a = np.abs(M[i0:i1])
+        row_max[i0:i1] = a.max(axis=1) if a.size else 0.0
+        if z.any():
+            s[i0:i1] += a @ z
+    # Floor for rows whose terms all cancel at round-off level (e.g. q_i = -1e-17 where the
+    # rest of q is O(1)): 1e-4 x the row's largest coefficient x the problem's z scale.
+    m_max = row_max.max(initial=0.0)
+    z_scale = max(float(z.max(initial=0.0)),
+                  float(np.abs(q).max(initial=0.0)) / m_max if m_max > 0 else 0.0)
+    s = np.maximum(s, 1e-4 * row_max * z_scale)
     neg = np.maximum(-w, 0.0)
     comp_res = np.where(z > 0, np.abs(w), 0.0)
     viol = np.maximum(neg, comp_res)
