@@ -26,7 +26,12 @@ from app.assembly.solve import LinearSolver, apply_dirichlet, set_default_option
 from app.assembly.stiffness import assemble_stiffness, node_ownership
 from app.condensation.compliance import compliance_schur, compliance_solve
 from app.config import Config
-from app.discretisation.bulk import Discretisation, check_elements, element_fields
+from app.discretisation.bulk import (
+    Discretisation,
+    check_elements,
+    element_fields,
+    zero_energy_modes,
+)
 from app.errors import InputError, SolveError
 from app.interface.setup import ContactSetup, floating_modes
 from app.mesh.model import Mesh
@@ -237,7 +242,7 @@ def run(cfg: Config, opts: RunOptions) -> dict:
         try:
             solver.factor()
         except SolveError as exc:
-            raise SolveError(_singular_message(disc, mesh, str(exc))) from None
+            raise SolveError(_singular_message(disc, mesh, str(exc), fixed_all)) from None
 
     with timer.phase("solve"):
         unit, lifted = [], []
@@ -250,7 +255,7 @@ def run(cfg: Config, opts: RunOptions) -> dict:
             try:
                 x = solver.solve(from_numpy(k, b))
             except SolveError as exc:
-                raise SolveError(_singular_message(disc, mesh, str(exc))) from None
+                raise SolveError(_singular_message(disc, mesh, str(exc), fixed_all)) from None
             unit.append(to_numpy_all(x))
 
     stepper = None
@@ -431,9 +436,18 @@ def _point_values(mesh: Mesh, u: np.ndarray) -> dict:
     return out
 
 
-def _singular_message(disc: Discretisation, mesh: Mesh, detail: str) -> str:
+def _singular_message(disc: Discretisation, mesh: Mesh, detail: str,
+                      fixed: np.ndarray | None = None) -> str:
+    """Name the bodies whose stiffness keeps zero-energy modes under their supports."""
+    names = []
+    if fixed is not None:
+        for b in range(len(mesh.body_names)):
+            if np.sum(mesh.body == b) <= 20000:
+                if zero_energy_modes(mesh, disc, b, fixed).shape[1] > 0:
+                    names.append(f"'{mesh.body_names[b]}'")
+    where = f" in body {', '.join(names)}" if names else ""
     if disc.method == "cs-fem" and disc.sd == 1:
-        return (f"{detail}: CS-FEM-1SD has hourglass (zero-energy) modes that the supports "
-                "do not suppress; use --sd 2 or more (hourglass-free smoothing) or --method "
-                "fem-q4")
-    return f"{detail}: check that every body is held by supports"
+        return (f"{detail}: CS-FEM-1SD has hourglass (zero-energy) modes{where} that the "
+                "supports do not suppress; use --sd 2 or more (hourglass-free smoothing) or "
+                "--method fem-q4")
+    return f"{detail}: check that every body is held by supports{where}"

@@ -145,6 +145,7 @@ def test_singular_stiffness_is_reported(tmp_path):
     cfg = _write(tmp_path, text)
     res = run_cli(["run", str(cfg), "--out", str(tmp_path / "o"), "--quiet"])
     assert res.returncode == 2 and "hourglass" in res.stderr and "--sd 2" in res.stderr
+    assert "in body 'plate'" in res.stderr
     res = run_cli(["run", str(cfg), "--out", str(tmp_path / "o"), "--quiet", "--sd", "2"])
     assert res.returncode == 0, res.stderr
     free = _write(tmp_path, text.replace('on = "roller"', 'on = "pin"'))

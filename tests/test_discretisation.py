@@ -116,3 +116,23 @@ def test_energy_ordering_and_convergence_to_timoshenko(tmp_path):
         assert tip_err[-1] < tip_err[0] / 8
         assert rate_tip > 1.7 and rate_en > 1.7
         assert tip_err[-1] / abs(exact["tip_deflection"]) < 5e-3
+
+
+def test_body_force_and_traction_vectors_sum_to_resultants():
+    from app.assembly.loads import body_force_vector, traction_vector
+    from app.config import parse_config
+
+    mesh = distorted_grid(4, 3)
+    raw = {"mesh": {"size": 0.25}, "analysis": {"thickness": 0.5},
+           "body": [{"name": "plate", "E": 1.0, "nu": 0.3, "body_force": [2.0, -9.81]}]}
+    cfg = parse_config(raw)
+    f = body_force_vector(mesh, cfg)
+    assert f[0::2].sum() == pytest.approx(2.0 * 1.0 * 0.5)
+    assert f[1::2].sum() == pytest.approx(-9.81 * 1.0 * 0.5)
+    # a linear traction on the bottom edge y = 0: consistent forces reproduce its moment
+    bottom = np.flatnonzero(mesh.points[:, 1] < 1e-12)
+    bottom = bottom[np.argsort(mesh.points[bottom, 0])]
+    edges = np.c_[bottom[:-1], bottom[1:]]
+    fv = traction_vector(mesh, edges, lambda x, y: np.c_[0 * x, 3.0 * x])
+    assert fv[1::2].sum() == pytest.approx(1.5)  # integral of 3x over [0, 1]
+    assert (fv[1::2] * mesh.points[:, 0]).sum() == pytest.approx(1.0)  # integral of 3x^2

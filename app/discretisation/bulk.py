@@ -92,3 +92,40 @@ def element_fields(mesh: Mesh, disc: Discretisation, u: np.ndarray, elements: np
         out["energy_density"].append(energy / (area * disc.thickness))
     return {k: np.concatenate(v) if v else np.zeros((0, 4) if k == "stress" else 0)
             for k, v in out.items()}
+
+
+def zero_energy_modes(mesh: Mesh, disc, body: int, fixed: np.ndarray) -> np.ndarray:
+    """Null space of one body's stiffness with its supports, (2 n_body_nodes, r).
+
+    Rigid modes and, for CS-FEM-1SD, hourglass modes. Dense eigen-decomposition for small
+    bodies, shift-invert Lanczos otherwise. Rows follow the body's nodes in ascending
+    order, x and y interleaved.
+    """
+    import scipy.sparse as sp
+    import scipy.sparse.linalg as sla_sparse
+
+    el = np.flatnonzero(mesh.body == body)
+    nodes = np.unique(mesh.quads[el])
+    local = np.full(mesh.n_nodes, -1)
+    local[nodes] = np.arange(nodes.size)
+    ke = element_matrices(mesh, disc, el)
+    ld = np.stack([2 * local[mesh.quads[el]], 2 * local[mesh.quads[el]] + 1],
+                  axis=-1).reshape(el.size, 8)
+    n = 2 * nodes.size
+    k = sp.coo_matrix((ke.ravel(), (np.repeat(ld, 8, axis=1).ravel(),
+                                    np.tile(ld, (1, 8)).ravel())), shape=(n, n)).tocsr()
+    gdofs = np.stack([2 * nodes, 2 * nodes + 1], axis=1).ravel()
+    free = np.flatnonzero(~np.isin(gdofs, fixed))
+    kff = k[free][:, free]
+    scale = abs(kff.diagonal()).max()
+    if free.size <= 3000:
+        w, v = np.linalg.eigh(kff.toarray())
+        keep = w < 1e-9 * w[-1]
+        modes = v[:, keep]
+    else:
+        kk = min(free.size - 2, 12)
+        w, v = sla_sparse.eigsh(kff, k=kk, sigma=-1e-8 * scale, which="LM")
+        modes = v[:, w < 1e-9 * scale]
+    out = np.zeros((n, modes.shape[1]))
+    out[free] = modes
+    return out
