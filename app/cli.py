@@ -45,6 +45,21 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--mesh-cache", type=Path, default=None,
                    help="folder where built meshes are cached and reused")
     r.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+    s = sub.add_parser("study", help="convergence study: methods x refinement levels",
+                       description="Refine level by level (each level halves every element "
+                       "size) and run every method; writes OUT/study.csv and the plots "
+                       "error_vs_dofs.png, error_vs_time.png, energy_vs_sd.png. The config "
+                       "needs a [reference] table (timoshenko, hertz or cattaneo). Unknown "
+                       "options go to PETSc.")
+    s.add_argument("config", type=Path)
+    s.add_argument("--levels", type=int, default=4, help="number of levels (default 4)")
+    s.add_argument("--first-level", type=int, default=0, help="first level (default 0)")
+    s.add_argument("--methods", default="1,2,3,4,8,16,q4",
+                   help="comma list of 1, 2, 3, 4, 8, 16 (CS-FEM SD) and q4 (FEM-Q4)")
+    s.add_argument("--mesh-size", type=float, default=None, metavar="H",
+                   help="global element size at level 0 (default: the config's mesh.size)")
+    s.add_argument("--out", type=Path, default=None, help="default: out/study_<config>")
+    s.add_argument("--quiet", action="store_true", help="no progress lines")
     return p
 
 
@@ -66,6 +81,26 @@ def main(argv: list[str] | None = None) -> int:
     from app.run import RunOptions, run
 
     rank = PETSc.COMM_WORLD.getRank()
+    if args.command == "study":
+        from app.study import parse_methods, run_study
+
+        try:
+            cfg = load_config(args.config)
+            if args.levels < 1 or args.first_level < 0:
+                raise InputError("--levels must be >= 1 and --first-level >= 0")
+            if args.mesh_size is not None and args.mesh_size <= 0:
+                raise InputError(f"--mesh-size must be > 0 (got {args.mesh_size})")
+            scale = args.mesh_size / cfg.mesh_size if args.mesh_size else 1.0
+            out = args.out or Path("out") / f"study_{args.config.stem}"
+            rows = run_study(cfg, out, args.levels, parse_methods(args.methods), scale,
+                             args.quiet, args.first_level)
+        except (InputError, SolveError) as exc:
+            if rank == 0:
+                print(f"error: {exc}", file=sys.stderr)
+            return 2
+        if rank == 0 and not args.quiet:
+            print(f"{len(rows)} runs -> {out / 'study.csv'}", file=sys.stderr)
+        return 0
     try:
         cfg = load_config(args.config)
         if args.mesh_size is not None and args.mesh_size <= 0:

@@ -48,6 +48,7 @@ class RunOptions:
     mesh_scale: float = 1.0
     quiet: bool = False
     mesh_cache: Path | None = None
+    progress_prefix: str = ""  # e.g. "level 2/5 CS-FEM-4SD" in a study
 
 
 @dataclass
@@ -56,6 +57,7 @@ class Timer:
 
     seconds: dict[str, float] = field(default_factory=dict)
     quiet: bool = False
+    prefix: str = ""
     start: float = field(default_factory=time.perf_counter)
     _stages: dict = field(default_factory=dict)
 
@@ -75,7 +77,8 @@ class Timer:
             self.seconds[name] = self.seconds.get(name, 0.0) + dt
             if not self.quiet and comm.getRank() == 0:
                 el = time.perf_counter() - self.start
-                print(f"[{el:8.2f} s] {name:<14s} {dt:8.3f} s", file=sys.stderr, flush=True)
+                print(f"[{el:8.2f} s] {self.prefix}{name:<14s} {dt:8.3f} s", file=sys.stderr,
+                      flush=True)
 
     def reduced(self) -> dict[str, float]:
         comm = PETSc.COMM_WORLD.tompi4py()
@@ -182,7 +185,8 @@ def run(cfg: Config, opts: RunOptions) -> dict:
     comm = PETSc.COMM_WORLD
     mpi = comm.tompi4py()
     rank, size = comm.getRank(), comm.getSize()
-    timer = Timer(quiet=opts.quiet)
+    timer = Timer(quiet=opts.quiet,
+                  prefix=f"{opts.progress_prefix}: " if opts.progress_prefix else "")
     set_default_options(cfg.petsc)
     disc = make_discretisation(cfg, opts)
     out = Path(opts.out)
