@@ -7,6 +7,7 @@ distributed; the contact LCP is solved on rank 0 and its result broadcast.
 from __future__ import annotations
 
 import json
+import resource
 import sys
 import time
 from contextlib import contextmanager
@@ -56,6 +57,7 @@ class Timer:
     """Wall-clock seconds per phase (max over ranks is reported) and PETSc log stages."""
 
     seconds: dict[str, float] = field(default_factory=dict)
+    peak_mb: dict[str, float] = field(default_factory=dict)
     quiet: bool = False
     prefix: str = ""
     start: float = field(default_factory=time.perf_counter)
@@ -75,6 +77,7 @@ class Timer:
             stage.pop()
             dt = time.perf_counter() - t0
             self.seconds[name] = self.seconds.get(name, 0.0) + dt
+            self.peak_mb[name] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
             if not self.quiet and comm.getRank() == 0:
                 el = time.perf_counter() - self.start
                 print(f"[{el:8.2f} s] {self.prefix}{name:<14s} {dt:8.3f} s", file=sys.stderr,
@@ -86,6 +89,12 @@ class Timer:
         for k in sorted(self.seconds):
             out[k] = comm.allreduce(self.seconds[k], op=_mpi_max())
         return out
+
+    def memory(self) -> dict[str, float]:
+        """Peak resident memory (MB) of the whole job, summed over ranks, at the end of
+        each phase's first completion order (a running maximum)."""
+        comm = PETSc.COMM_WORLD.tompi4py()
+        return {k: round(comm.allreduce(v), 1) for k, v in sorted(self.peak_mb.items())}
 
 
 def _mpi_max():
@@ -348,6 +357,7 @@ def run(cfg: Config, opts: RunOptions) -> dict:
     summary["timings"] = {k: timings.get(k, 0.0) for k in
                           ("mesh", "assembly", "factorization", "solve", "output")} | timings
     summary["assembly_rate_elements_per_s"] = mesh.n_elements / max(timings["assembly"], 1e-12)
+    summary["peak_memory_mb"] = timer.memory()
     if rank == 0:
         write_summary(out, summary)
     return summary

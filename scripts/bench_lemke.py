@@ -3,6 +3,7 @@
     .venv/bin/python scripts/bench_lemke.py            # n = 300, 1500, 3000
     .venv/bin/python scripts/bench_lemke.py --large    # also n = 6000
     .venv/bin/python scripts/bench_lemke.py --n 900 --reference   # also time the tableau
+    .venv/bin/python scripts/bench_lemke.py --n 1500 3000 6000 --siconos   # side by side
 
 The LCP (n = 3 m unknowns: m normal pressures, m forward and m backward slips) is built
 from an SPD compliance C (2m x 2m: normal block first, then tangential) of a 1D elastic
@@ -51,7 +52,21 @@ def frictional_lcp(m: int, *, mu: float = 0.3, seed: int = 0) -> tuple[np.ndarra
     return M, q
 
 
-def run(n: int, reference: bool = False, seed: int = 0) -> dict:
+def siconos_lemke(M: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, int, int, float]:
+    """Siconos's compiled Lemke (Debian python3-siconos, optional): z, info, pivots, s."""
+    import siconos.numerics as sn
+
+    n = q.size
+    z, w = np.zeros(n), np.zeros(n)
+    opts = sn.SolverOptions(sn.SICONOS_LCP_LEMKE)
+    opts.iparam[sn.SICONOS_IPARAM_MAX_ITER] = 50 * n + 100
+    t0 = time.perf_counter()
+    info = sn.linearComplementarity_driver(sn.LCP(M, q), z, w, opts)
+    dt = time.perf_counter() - t0
+    return z, int(info), int(opts.iparam[sn.SICONOS_IPARAM_ITER_DONE]), dt
+
+
+def run(n: int, reference: bool = False, seed: int = 0, siconos: bool = False) -> dict:
     M, q = frictional_lcp(n // 3, seed=seed)
     t0 = time.perf_counter()
     res = lemke(M, q)
@@ -65,6 +80,13 @@ def run(n: int, reference: bool = False, seed: int = 0) -> dict:
         "refactorizations": res.refactorizations,
         "complementarity": res.complementarity,
     }
+    if siconos:
+        z, info, piv, dt_s = siconos_lemke(M, q)
+        out["siconos_seconds"] = round(dt_s, 4)
+        out["siconos_pivots"] = piv
+        out["siconos_info"] = info  # 0 = solved
+        out["speedup_vs_siconos"] = round(dt_s / max(dt, 1e-12), 2)
+        out["max_abs_z_diff_siconos"] = float(np.abs(z - res.z).max())
     if reference:
         from app.lcp.lemke import _lemke_tableau
 
@@ -82,10 +104,12 @@ def main() -> None:
     ap.add_argument("--n", type=int, nargs="*", help="sizes to run (multiples of 3)")
     ap.add_argument("--reference", action="store_true", help="also run the tableau version")
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--siconos", action="store_true",
+                    help="also run Siconos's Lemke on the same LCP (apt install python3-siconos)")
     args = ap.parse_args()
     sizes = args.n or ([300, 1500, 3000] + ([6000] if args.large else []))
     for n in sizes:
-        print(json.dumps(run(n, args.reference, args.seed)), flush=True)
+        print(json.dumps(run(n, args.reference, args.seed, args.siconos)), flush=True)
 
 
 if __name__ == "__main__":

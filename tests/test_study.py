@@ -5,9 +5,9 @@ from __future__ import annotations
 import csv
 
 import numpy as np
+from support import CONFIGS, run_cli
 
 from app.study import fitted_rate, parse_methods
-from support import CONFIGS, run_cli
 
 
 def test_study_writes_csv_and_plots_and_reuses_meshes(tmp_path):

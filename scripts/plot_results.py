@@ -1,0 +1,126 @@
+"""Pictures of a result folder: the deformed mesh coloured by von Mises stress, and p(x),
+q(x) along each interface with the closed form overlaid where the config names one.
+
+    .venv/bin/python scripts/plot_results.py out/hertz [--step K] [--zoom X0 X1 Y0 Y1]
+        [--scale S] [--prefix NAME]
+
+Writes OUT/<prefix>deformed_von_mises.png and OUT/<prefix>contact_<interface>.png.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import h5py
+import matplotlib
+import numpy as np
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+from matplotlib.collections import PolyCollection  # noqa: E402
+
+from app.closed_form import cattaneo_traction, hertz_pressure  # noqa: E402
+
+
+def deformed_mesh(out: Path, step: int, zoom, scale: float | None, prefix: str) -> Path:
+    with h5py.File(out / "mesh.h5") as f:
+        pts, quads = f["points"][()], f["quads"][()]
+    with h5py.File(out / f"step_{step:04d}.h5") as f:
+        u = f["displacement"][()][:, :2]
+        vm = f["von_mises"][()]
+    size = np.ptp(pts, axis=0).max()
+    umax = np.abs(u).max()
+    if scale is None:
+        scale = 0.05 * size / umax if umax > 0 else 1.0
+    xy = pts + scale * u
+    keep = np.ones(len(quads), dtype=bool)
+    if zoom:
+        c = xy[quads].mean(axis=1)
+        keep = (c[:, 0] > zoom[0]) & (c[:, 0] < zoom[1]) & (c[:, 1] > zoom[2]) & (
+            c[:, 1] < zoom[3])
+    fig, ax = plt.subplots(figsize=(8, 5))
+    pc = PolyCollection(xy[quads[keep]], array=vm[keep], cmap="viridis",
+                        edgecolors="k", linewidths=0.05 if keep.sum() > 5000 else 0.2)
+    ax.add_collection(pc)
+    ax.autoscale()
+    if zoom:
+        ax.set_xlim(zoom[0], zoom[1])
+        ax.set_ylim(zoom[2], zoom[3])
+    ax.set_aspect("equal")
+    fig.colorbar(pc, ax=ax, label="von Mises stress")
+    ax.set_title(f"step {step}: deformed x {scale:.3g}, coloured by von Mises")
+    path = out / f"{prefix}deformed_von_mises.png"
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def contact_plots(out: Path, step: int, summary: dict, prefix: str) -> list[Path]:
+    with h5py.File(out / f"step_{step:04d}.h5") as f:
+        if "contact" not in f:
+            return []
+        c = {k: f["contact"][k][()] for k in f["contact"]}
+    names = list(summary["steps"][step - 1].get("interfaces", {}))
+    ref = summary.get("reference", {}) if step == len(summary["steps"]) else {}
+    paths = []
+    for i, name in enumerate(names):
+        sel = c["interface"] == i
+        x, y = c["x"][sel], c["y"][sel]
+        coord, label = (x, "x") if np.ptp(x) >= np.ptp(y) else (y, "y")
+        o = np.argsort(coord)
+        fig, axes = plt.subplots(2, 1, figsize=(7, 5.5), sharex=True)
+        axes[0].plot(coord[o], c["p"][sel][o], "o-", ms=3, label="p (computed)")
+        axes[1].plot(coord[o], c["q"][sel][o], "o-", ms=3, label="q (computed)")
+        if i == 0 and "hertz" in ref:
+            h = ref["hertz"]
+            xx = np.linspace(coord.min(), coord.max(), 400)
+            axes[0].plot(xx, hertz_pressure(xx, h["a_hertz"], h["p0_hertz"]), "k--", lw=1,
+                         label="Hertz")
+        if i == 0 and "cattaneo" in ref:
+            h, ca = ref["hertz"], ref["cattaneo"]
+            xx = np.linspace(coord.min(), coord.max(), 400)
+            mu = float(np.max(c["mu"][sel]))
+            sign = np.sign(np.sum(c["q"][sel])) or 1.0
+            axes[1].plot(xx, sign * cattaneo_traction(xx, h["a_hertz"], h["p0_hertz"], mu,
+                                                       ca["Q_over_muP"]), "k--", lw=1,
+                         label="Cattaneo-Mindlin")
+        state = c["state"][sel][o]
+        for code, col in ((2, "tab:red"), (3, "tab:red"), (4, "0.7")):
+            m = state == code
+            axes[1].plot(coord[o][m], c["q"][sel][o][m], "s", ms=4, mfc="none", color=col)
+        axes[0].set_ylabel("normal traction p")
+        axes[1].set_ylabel("tangential traction q")
+        axes[1].set_xlabel(f"{label} (red squares: slip, grey: open)")
+        for ax in axes:
+            ax.grid(True, alpha=0.3)
+            ax.legend(fontsize=8)
+        axes[0].set_title(f"interface '{name}', step {step}")
+        path = out / f"{prefix}contact_{name}.png"
+        fig.tight_layout()
+        fig.savefig(path, dpi=110)
+        plt.close(fig)
+        paths.append(path)
+    return paths
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("out", type=Path)
+    ap.add_argument("--step", type=int, default=None, help="default: the last step")
+    ap.add_argument("--zoom", type=float, nargs=4, default=None, metavar=("X0", "X1", "Y0", "Y1"))
+    ap.add_argument("--scale", type=float, default=None, help="displacement magnification")
+    ap.add_argument("--prefix", default="")
+    args = ap.parse_args()
+    summary = json.loads((args.out / "summary.json").read_text())
+    step = args.step or len(summary["steps"])
+    paths = [deformed_mesh(args.out, step, args.zoom, args.scale, args.prefix)]
+    paths += contact_plots(args.out, step, summary, args.prefix)
+    for p in paths:
+        print(p)
+
+
+if __name__ == "__main__":
+    main()
