@@ -81,6 +81,8 @@ class ResultWriter:
                 g = h5.create_group("contact")
                 for k, v in contact.items():
                     g[k] = np.ascontiguousarray(v)
+                if "position" in contact:
+                    g["vertices"] = np.arange(len(contact["position"]), dtype=np.int64)
         os.replace(tmp, self.out / fname)
 
         attrs = [_attribute(k, "Node", fname, f"/{k}", np.asarray(v))
@@ -103,11 +105,12 @@ class ResultWriter:
             m = pos.shape[0]
             cattrs = [_attribute(k, "Node", fname, f"/contact/{k}", np.asarray(v))
                       for k, v in contact.items() if k != "position"]
+            verts = _item(fname, "/contact/vertices", (m,), np.dtype("int64"))
             self.contact_grids.append(
                 f'<Grid Name="contact_{step}" GridType="Uniform">'
                 f'<Time Value="{time:.17g}"/>'
                 f'<Topology TopologyType="Polyvertex" NumberOfElements="{m}" '
-                f'NodesPerElement="1"/>'
+                f'NodesPerElement="1">{verts}</Topology>'
                 f'<Geometry GeometryType="XY">'
                 f"{_item(fname, '/contact/position', pos.shape, pos.dtype)}</Geometry>"
                 + "".join(cattrs) + "</Grid>"
