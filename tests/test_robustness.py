@@ -15,11 +15,11 @@ import meshio
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from support import CONFIGS, ROOT, mpi_env
 
 from app.config import parse_config
 from app.errors import InputError, SolveError
 from app.run import RunOptions, run
-from support import CONFIGS, ROOT, mpi_env
 
 
 def test_kill_9_keeps_completed_steps(tmp_path):

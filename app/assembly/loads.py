@@ -12,7 +12,7 @@ import numpy as np
 from app.config import Config, Load, Support, evaluate
 from app.discretisation.elements import gauss_strain_matrix, shape_functions
 from app.errors import InputError
-from app.mesh.model import Mesh
+from app.mesh.model import Mesh, orient_boundary_edges
 
 
 def _curve(mesh: Mesh, name: str, where: str) -> np.ndarray:
@@ -35,28 +35,6 @@ def group_nodes(mesh: Mesh, name: str, where: str) -> np.ndarray:
     )
 
 
-def outward_edges(mesh: Mesh, edges: np.ndarray) -> np.ndarray:
-    """Orient boundary edges (k, 2) as their owning element does (counter-clockwise).
-
-    For an oriented edge (a, b) the outward unit normal is (dy, -dx) / length.
-    """
-    n = mesh.n_nodes
-    el_a = mesh.quads.ravel()
-    el_b = np.roll(mesh.quads, -1, axis=1).ravel()
-    keys = np.minimum(el_a, el_b).astype(np.int64) * n + np.maximum(el_a, el_b)
-    order = np.argsort(keys, kind="stable")
-    skeys = keys[order]
-    ek = np.minimum(edges[:, 0], edges[:, 1]).astype(np.int64) * n + np.maximum(
-        edges[:, 0], edges[:, 1]
-    )
-    pos = np.searchsorted(skeys, ek)
-    pos = np.minimum(pos, skeys.size - 1)
-    if np.any(skeys[pos] != ek):
-        raise InputError("a named curve has an edge that is not an element edge")
-    idx = order[pos]
-    return np.stack([el_a[idx], el_b[idx]], axis=1)
-
-
 def traction_vector(mesh: Mesh, edges: np.ndarray, traction) -> np.ndarray:
     """Consistent nodal forces of a traction on edges (k, 2), by 2-point Gauss per edge.
 
@@ -77,7 +55,7 @@ def traction_vector(mesh: Mesh, edges: np.ndarray, traction) -> np.ndarray:
 def load_vector(mesh: Mesh, cfg: Config, load: Load) -> np.ndarray:
     """Nodal force vector of one load at factor 1 (including the thickness)."""
     where = f"load on '{load.on}'"
-    edges = outward_edges(mesh, _curve(mesh, load.on, where))
+    edges = orient_boundary_edges(mesh, _curve(mesh, load.on, where), where)
     d = mesh.points[edges[:, 1]] - mesh.points[edges[:, 0]]
     length = np.linalg.norm(d, axis=1)
     if load.kind == "traction":

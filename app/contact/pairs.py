@@ -30,7 +30,7 @@ import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
 from app.errors import InputError
-from app.mesh.model import Mesh
+from app.mesh.model import Mesh, orient_boundary_edges
 
 XI_EPS = 1e-6
 """Tolerance on the unclipped xi beyond a free end of the master curve (dimensionless)."""
@@ -142,51 +142,6 @@ def tributary_length(points: np.ndarray, edges: np.ndarray) -> tuple[np.ndarray,
     return nodes, length
 
 
-def _orient_edges(mesh: Mesh, edges: np.ndarray, name: str, label: str) -> np.ndarray:
-    """Order each boundary edge (A, B) so that its owning element lies on the left of A -> B.
-
-    The owning element is found by looking the edge up among the directed edges of the
-    elements that touch the curve. Raises InputError for an edge owned by no element or
-    shared by two elements (an interior edge).
-    """
-    n = mesh.n_nodes
-    quads = np.asarray(mesh.quads, dtype=np.int64)
-    on_curve = np.zeros(n, dtype=bool)
-    on_curve[edges.ravel()] = True
-    sel = np.flatnonzero(on_curve[quads].any(axis=1))
-    q = quads[sel]
-    keys = (q * n + np.roll(q, -1, axis=1)).ravel()
-    elem = np.repeat(sel, 4)
-    order = np.argsort(keys, kind="stable")
-    keys, elem = keys[order], elem[order]
-
-    def lookup(k: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        if keys.size == 0:
-            return np.zeros(k.shape, dtype=bool), np.zeros(k.shape, dtype=np.int64)
-        pos = np.minimum(np.searchsorted(keys, k), keys.size - 1)
-        return keys[pos] == k, elem[pos]
-
-    fwd, el_f = lookup(edges[:, 0] * n + edges[:, 1])
-    bwd, el_b = lookup(edges[:, 1] * n + edges[:, 0])
-    bad = ~(fwd | bwd)
-    if bad.any():
-        a, b = edges[np.argmax(bad)]
-        raise InputError(f"interface '{label}': {bad.sum()} edges of master curve '{name}' "
-                         f"are not element edges (first: nodes {a}-{b})")
-    inner = fwd & bwd
-    if inner.any():
-        a, b = edges[np.argmax(inner)]
-        raise InputError(f"interface '{label}': {inner.sum()} edges of master curve '{name}' "
-                         f"are interior edges shared by two elements (first: nodes {a}-{b})")
-    owner = np.where(fwd, el_f, el_b)
-    xy = mesh.points[quads[owner]]  # (k, 4, 2) owning element corners
-    area2 = np.sum(xy[:, :, 0] * np.roll(xy[:, :, 1], -1, axis=1)
-                   - np.roll(xy[:, :, 0], -1, axis=1) * xy[:, :, 1], axis=1)
-    # the owner lists (A, B) in its own node order; that order is CCW if its area is positive
-    keep = fwd == (area2 > 0)
-    return np.where(keep[:, None], edges, edges[:, ::-1])
-
-
 def _pick(dd: np.ndarray, exc: np.ndarray, idx: np.ndarray, tie_abs: float) -> np.ndarray:
     """(q,) column of the best candidate per row of (q, k) distances dd, excursions exc and
     segment indices idx: the smallest distance; ties: smallest excursion, lowest index."""
@@ -296,7 +251,8 @@ def contact_pairs(mesh: Mesh, slave: str, master: str, search_distance: float, *
     m_edges = _curve_edges(mesh, master, "master", label)
     pts = np.asarray(mesh.points, dtype=float)
 
-    m_edges = _orient_edges(mesh, m_edges, master, label)
+    m_edges = orient_boundary_edges(mesh, m_edges,
+                                    f"interface '{label}': master curve '{master}'")
     xa, xb = pts[m_edges[:, 0]], pts[m_edges[:, 1]]
     seg_len = np.linalg.norm(xb - xa, axis=1)
     if penetration_tol is None:

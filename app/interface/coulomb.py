@@ -150,11 +150,6 @@ class ContactLCP:
         d = self.scaling
         res = lemke(d[:, None] * self.M * d[None, :], d * qv, basis=basis,
                     max_pivots=max_pivots)
-        if res.status != "solved":
-            import os
-            if os.environ.get("CSFEM_DUMP_LCP"):
-                np.savez(os.environ["CSFEM_DUMP_LCP"], M=d[:, None] * self.M * d[None, :],
-                         q=d * qv, basis=basis if basis is not None else np.zeros(0))
         m, f, e = self.m, self.fric, self.edges
         z = d * res.z
         ptil = z[: e[1]]

@@ -11,6 +11,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from app.errors import InputError
+
 
 @dataclass
 class Mesh:
@@ -54,3 +56,50 @@ class Mesh:
         if name in self.curves:
             return self.curve_nodes(name)
         return np.unique(self.point_groups[name])
+
+
+def orient_boundary_edges(mesh: Mesh, edges: np.ndarray, what: str) -> np.ndarray:
+    """Order each boundary edge (A, B) so that its owning element lies on the left of A -> B.
+
+    The owning element is found by looking the edge up among the directed edges of the
+    elements that touch the curve. Raises InputError for an edge owned by no element or
+    shared by two elements (an interior edge); `what` names the curve in the message,
+    e.g. "interface 'contact': master curve 'block_top'". For an oriented edge (A, B) the
+    outward unit normal of the body is (dy, -dx) / length.
+    """
+    n = mesh.n_nodes
+    quads = np.asarray(mesh.quads, dtype=np.int64)
+    on_curve = np.zeros(n, dtype=bool)
+    on_curve[edges.ravel()] = True
+    sel = np.flatnonzero(on_curve[quads].any(axis=1))
+    q = quads[sel]
+    keys = (q * n + np.roll(q, -1, axis=1)).ravel()
+    elem = np.repeat(sel, 4)
+    order = np.argsort(keys, kind="stable")
+    keys, elem = keys[order], elem[order]
+
+    def lookup(k: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        if keys.size == 0:
+            return np.zeros(k.shape, dtype=bool), np.zeros(k.shape, dtype=np.int64)
+        pos = np.minimum(np.searchsorted(keys, k), keys.size - 1)
+        return keys[pos] == k, elem[pos]
+
+    fwd, el_f = lookup(edges[:, 0] * n + edges[:, 1])
+    bwd, el_b = lookup(edges[:, 1] * n + edges[:, 0])
+    bad = ~(fwd | bwd)
+    if bad.any():
+        a, b = edges[np.argmax(bad)]
+        raise InputError(f"{what}: {bad.sum()} edges are not element edges (first: nodes "
+                         f"{a}-{b})")
+    inner = fwd & bwd
+    if inner.any():
+        a, b = edges[np.argmax(inner)]
+        raise InputError(f"{what}: {inner.sum()} edges are interior edges shared by two "
+                         f"elements (first: nodes {a}-{b})")
+    owner = np.where(fwd, el_f, el_b)
+    xy = mesh.points[quads[owner]]  # (k, 4, 2) owning element corners
+    area2 = np.sum(xy[:, :, 0] * np.roll(xy[:, :, 1], -1, axis=1)
+                   - np.roll(xy[:, :, 0], -1, axis=1) * xy[:, :, 1], axis=1)
+    # the owner lists (A, B) in its own node order; that order is CCW if its area is positive
+    keep = fwd == (area2 > 0)
+    return np.where(keep[:, None], edges, edges[:, ::-1])
