@@ -70,10 +70,12 @@ class Timer:
             self._stages[name] = PETSc.Log.Stage(name)
         stage = self._stages[name]
         stage.push()
+        comm.barrier()  # a phase's time includes waiting for the slowest rank
         t0 = time.perf_counter()
         try:
             yield
         finally:
+            comm.barrier()
             stage.pop()
             dt = time.perf_counter() - t0
             self.seconds[name] = self.seconds.get(name, 0.0) + dt
