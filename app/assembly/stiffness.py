@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 from petsc4py import PETSc
 
-from app.discretisation.bulk import Discretisation, element_matrices
+from app.discretisation.bulk import Discretisation, element_blocks
 from app.mesh.model import Mesh
 
 
@@ -37,24 +37,29 @@ def assemble_stiffness(mesh: Mesh, disc: Discretisation, comm=None) -> PETSc.Mat
     quads = mesh.quads
     touches = np.any((quads >= n0) & (quads < n1), axis=1)
     elements = np.flatnonzero(touches)
-    ke = element_matrices(mesh, disc, elements)  # (ne, 8, 8)
+    kb = element_blocks(mesh, disc, elements)  # 4 x (ne, 4, 4): uu, uv, vu, vv
     conn = quads[elements]  # (ne, 4)
 
     # Node-pair entries (a, b) of every element whose row node lies in [n0, n1).
     rows = np.repeat(conn, 4, axis=1)  # (ne, 16): a-major
     cols = np.tile(conn, (1, 4))
     keep = (rows >= n0) & (rows < n1)
-    e_idx, pair = np.nonzero(keep)
-    a_loc, b_loc = pair // 4, pair % 4
-    key = (rows[e_idx, pair] - n0).astype(np.int64) * n_nodes + cols[e_idx, pair]
-    uniq, inv = np.unique(key, return_inverse=True)
+    pair = np.arange(16)
+    if keep.all():  # one rank, or every touching element entirely owned
+        key = ((rows - n0).astype(np.int64) * n_nodes + cols).ravel()
+        uniq, inv = np.unique(key, return_inverse=True)
+        sel = (slice(None), pair // 4, pair % 4)
+        vals = [kb[k][sel].ravel() for k in range(4)]
+    else:
+        e_idx, p_idx = np.nonzero(keep)
+        key = (rows[e_idx, p_idx] - n0).astype(np.int64) * n_nodes + cols[e_idx, p_idx]
+        uniq, inv = np.unique(key, return_inverse=True)
+        vals = [kb[k][e_idx, p_idx // 4, p_idx % 4] for k in range(4)]
     n_pairs = uniq.size
     # 2x2 block values of each entry, summed into the unique node pairs.
     blocks = np.empty((n_pairs, 2, 2))
-    for i in range(2):
-        for j in range(2):
-            vals = ke[e_idx, 2 * a_loc + i, 2 * b_loc + j]
-            blocks[:, i, j] = np.bincount(inv, weights=vals, minlength=n_pairs)
+    for k in range(4):
+        blocks[:, k // 2, k % 2] = np.bincount(inv, weights=vals[k], minlength=n_pairs)
     row_node = uniq // n_nodes  # local node index, sorted
     col_node = uniq % n_nodes
     n_local = n1 - n0

@@ -10,10 +10,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from app.discretisation.elements import (
+    cell_gradients,
     cell_strains,
     elasticity_matrix,
     element_areas,
-    element_stiffness,
+    stiffness_blocks,
     strain_matrices,
 )
 from app.errors import InputError
@@ -53,11 +54,20 @@ def check_elements(mesh: Mesh) -> None:
         )
 
 
+def element_blocks(mesh: Mesh, disc: Discretisation, elements: np.ndarray):
+    """Element stiffness of the given elements as (K_uu, K_uv, K_vu, K_vv), each (n, 4, 4)."""
+    xe = mesh.points[mesh.quads[elements]]
+    bx, by, w = cell_gradients(xe, disc.method, disc.sd)
+    return stiffness_blocks(bx, by, w, disc.d_matrices(mesh.body[elements]), disc.thickness)
+
+
 def element_matrices(mesh: Mesh, disc: Discretisation, elements: np.ndarray) -> np.ndarray:
     """Element stiffness matrices (n, 8, 8) of the given elements (thickness included)."""
-    xe = mesh.points[mesh.quads[elements]]
-    b, w = strain_matrices(xe, disc.method, disc.sd)
-    return element_stiffness(b, w, disc.d_matrices(mesh.body[elements]), disc.thickness)
+    kuu, kuv, kvu, kvv = element_blocks(mesh, disc, elements)
+    k = np.empty((len(elements), 8, 8))
+    k[:, 0::2, 0::2], k[:, 0::2, 1::2] = kuu, kuv
+    k[:, 1::2, 0::2], k[:, 1::2, 1::2] = kvu, kvv
+    return k
 
 
 def element_fields(mesh: Mesh, disc: Discretisation, u: np.ndarray, elements: np.ndarray,
