@@ -241,6 +241,7 @@ def run(cfg: Config, opts: RunOptions) -> dict:
 
     with timer.phase("assembly"):
         k = assemble_stiffness(mesh, disc, comm)
+    with timer.phase("boundary_conditions"):
         prescribed_rhs = []
         for case in cases:
             if np.any(case.prescribed):

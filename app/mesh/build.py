@@ -231,7 +231,7 @@ def _table(v: Any, what: str) -> dict:
 def _shape_sides(shape: dict, where: str) -> tuple[list[tuple[str, list[Piece]]], bool]:
     """Sides (name, pieces) counter-clockwise and the `structured` flag of a shape table."""
     kind = shape.get("type")
-    if kind not in SHAPE_SIDES:
+    if not isinstance(kind, str) or kind not in SHAPE_SIDES:
         raise InputError(
             f"{where}shape.type must be one of {', '.join(SHAPE_SIDES)} (got {kind!r})"
         )
@@ -263,7 +263,7 @@ def _shape_sides(shape: dict, where: str) -> tuple[list[tuple[str, list[Piece]]]
         if kind == "disk":
             return [("arc", _arc_pieces(center, r, 0.0, 2.0 * math.pi))], False
         side = shape.get("side")
-        if side not in HALF_DISK_START:
+        if not isinstance(side, str) or side not in HALF_DISK_START:
             raise InputError(
                 f"{w}side must be one of {', '.join(HALF_DISK_START)} (got {side!r})"
             )
