@@ -153,3 +153,11 @@ def test_singular_stiffness_is_reported(tmp_path):
     assert res.returncode == 2 and "body 'plate' is free to move" in res.stderr
     assert "rotation about (x=0" in res.stderr
     assert json.loads((tmp_path / "o" / "summary.json").read_text())["status"] == "completed"
+
+
+def test_log_view_shows_the_phases_as_stages(tmp_path):
+    res = run_cli(["run", str(CONFIGS / "hertz.toml"), "--out", str(tmp_path / "o"), "--quiet",
+                   "-log_view"])
+    assert res.returncode == 0, res.stderr
+    for stage in ("mesh", "assembly", "factorization", "compliance", "lcp", "output"):
+        assert f" {stage}: " in res.stdout, stage
