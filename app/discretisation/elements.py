@@ -55,11 +55,6 @@ def smoothing_cells(sd: int) -> list[tuple[float, float, float, float]]:
     return layouts[sd]
 
 
-def element_coordinates(points: np.ndarray, quads: np.ndarray) -> np.ndarray:
-    """Corner coordinates per element, shape (n_elements, 4, 2)."""
-    return points[quads]
-
-
 def element_areas(xe: np.ndarray) -> np.ndarray:
     """Signed areas (shoelace) of quadrilaterals xe (n, 4, 2); positive when counter-clockwise."""
     x, y = xe[..., 0], xe[..., 1]
@@ -77,38 +72,6 @@ def _b_from_gradients(bx: np.ndarray, by: np.ndarray) -> np.ndarray:
     return b
 
 
-def smoothed_gradients(xe: np.ndarray, cell: tuple[float, float, float, float]):
-    """Smoothed shape-function gradients of one smoothing cell for every element.
-
-    xe: (n, 4, 2) element corners. cell: parent rectangle (xi0, xi1, eta0, eta1).
-    Returns (bx, by, area): bx, by (n, 4) = (1/A) sum_edges l n_x,y N_I at the edge
-    midpoint, area (n,) the physical cell area.
-    """
-    xi0, xi1, eta0, eta1 = cell
-    corners = np.array([[xi0, eta0], [xi1, eta0], [xi1, eta1], [xi0, eta1]])
-    ncorner = shape_functions(corners[:, 0], corners[:, 1])  # (4 cell corners, 4 nodes)
-    xc = np.einsum("ka,nad->nkd", ncorner, xe)  # physical cell corners (n, 4, 2)
-    area = element_areas(xc)
-    mids = 0.5 * (corners + np.roll(corners, -1, axis=0))
-    nmid = shape_functions(mids[:, 0], mids[:, 1])  # (4 edges, 4 nodes)
-    d = np.roll(xc, -1, axis=1) - xc  # edge vectors (n, 4 edges, 2)
-    lnx = d[..., 1]  # l * n_x for a counter-clockwise boundary
-    lny = -d[..., 0]
-    inv_a = 1.0 / area
-    bx = (lnx @ nmid) * inv_a[:, None]
-    by = (lny @ nmid) * inv_a[:, None]
-    return bx, by, area
-
-
-def smoothed_strain_matrix(xe: np.ndarray, cell: tuple[float, float, float, float]):
-    """Smoothed strain-displacement matrix of one smoothing cell for every element.
-
-    Returns (B, area): B (n, 3, 8) built from `smoothed_gradients`, area (n,).
-    """
-    bx, by, area = smoothed_gradients(xe, cell)
-    return _b_from_gradients(bx, by), area
-
-
 def gauss_gradients(xe: np.ndarray, xi: float, eta: float):
     """FEM-Q4 shape-function gradients at one parent point: (bx (n, 4), by (n, 4), detJ)."""
     dn_dxi = 0.25 * _CORNERS[:, 0] * (1.0 + _CORNERS[:, 1] * eta)
@@ -124,12 +87,6 @@ def gauss_gradients(xe: np.ndarray, xi: float, eta: float):
     return bx, by, det
 
 
-def gauss_strain_matrix(xe: np.ndarray, xi: float, eta: float):
-    """FEM-Q4 strain-displacement matrix at one parent point: (B (n, 3, 8), detJ (n,))."""
-    bx, by, det = gauss_gradients(xe, xi, eta)
-    return _b_from_gradients(bx, by), det
-
-
 def cell_gradients(xe: np.ndarray, method: str, sd: int = 4):
     """Gradients and weights of every cell of every element.
 
@@ -137,7 +94,7 @@ def cell_gradients(xe: np.ndarray, method: str, sd: int = 4):
     Returns (bx (n, n_cells, 4), by (n, n_cells, 4), weights (n, n_cells)).
     """
     if method == "cs-fem":
-        return _all_smoothed_gradients(xe, smoothing_cells(sd))
+        return smoothed_gradients(xe, smoothing_cells(sd))
     if method == "fem-q4":
         g = 1.0 / np.sqrt(3.0)
         parts = [gauss_gradients(xe, a, b) for b in (-g, g) for a in (-g, g)]
@@ -146,8 +103,14 @@ def cell_gradients(xe: np.ndarray, method: str, sd: int = 4):
     return tuple(np.stack([p[k] for p in parts], axis=1) for k in range(3))
 
 
-def _all_smoothed_gradients(xe: np.ndarray, cells: list) -> tuple:
-    """`smoothed_gradients` of all cells at once: (bx, by (n, nc, 4), areas (n, nc))."""
+def smoothed_gradients(xe: np.ndarray, cells: list) -> tuple:
+    """Smoothed shape-function gradients of every smoothing cell of every element.
+
+    xe: (n, 4, 2) element corners; cells: parent rectangles (xi0, xi1, eta0, eta1).
+    On cell k with area A_k: b_I = (1/A_k) sum_edges l n N_I at the edge midpoint (the
+    boundary integral; exact since N_I is linear along the straight cell edges).
+    Returns (bx, by (n, nc, 4), areas (n, nc)).
+    """
     nc = len(cells)
     corners = np.array([[[c[0], c[2]], [c[1], c[2]], [c[1], c[3]], [c[0], c[3]]]
                         for c in cells])  # (nc, 4, 2) parent corners, counter-clockwise
@@ -183,7 +146,7 @@ def stiffness_blocks(bx: np.ndarray, by: np.ndarray, w: np.ndarray, d: np.ndarra
     bx, by: (n, nc, 4) cell gradients; w: (n, nc) weights; d: (n, 3, 3) elasticity with
     d13 = d23 = 0 (isotropic, plane strain or stress). K_uu[a, b] is the entry of
     (u_a, u_b), K_uv[a, b] of (u_a, v_b) and so on; the same numbers as
-    `element_stiffness`, at a fraction of the work.
+    t * sum_c w_c B_c^T D B_c with B_c from `strain_matrices`.
     """
     bxw = bx * (w * thickness)[..., None]
     byw = by * (w * thickness)[..., None]
@@ -215,16 +178,6 @@ def elasticity_matrix(E, nu, plane: str = "strain") -> np.ndarray:
     else:
         raise InputError(f"analysis.plane = '{plane}': use 'strain' or 'stress'")
     return d
-
-
-def element_stiffness(b: np.ndarray, w: np.ndarray, d: np.ndarray, thickness: float = 1.0):
-    """K_e = t * sum_c w_c B_c^T D B_c, shape (n, 8, 8).
-
-    b: (n, nc, 3, 8); w: (n, nc); d: (n, 3, 3) per element.
-    """
-    db = np.matmul(d[:, None], b)  # (n, nc, 3, 8)
-    bw = b * (w * thickness)[..., None, None]
-    return np.einsum("ncia,ncib->nab", bw, db, optimize=True)
 
 
 def cell_strains(b: np.ndarray, ue: np.ndarray) -> np.ndarray:
