@@ -11,14 +11,8 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
-import shutil
-import subprocess
-import sys
-import tempfile
-from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
+from app_runner import ROOT, run_app
 
 
 def main() -> None:
@@ -29,19 +23,12 @@ def main() -> None:
     ap.add_argument("--ranks", type=int, nargs="+", default=[1, 2])
     ap.add_argument("--sd", type=int, default=4)
     args, extra = ap.parse_known_args()
-    env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
-               OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1")
     for ranks in args.ranks:
-        out = Path(tempfile.mkdtemp(prefix="bench_bulk_"))
-        cmd = [sys.executable, "-m", "app", "run", args.config, "--out", str(out),
-               "--mesh-size", str(args.mesh_size), "--sd", str(args.sd), "--quiet", *extra]
-        if ranks > 1:
-            cmd = [shutil.which("mpiexec") or "mpiexec", "-n", str(ranks), *cmd]
-        res = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True)
-        if res.returncode != 0:
-            print(json.dumps({"ranks": ranks, "error": res.stderr.strip()[-500:]}))
+        s = run_app(args.config, ["--mesh-size", str(args.mesh_size), "--sd", str(args.sd),
+                                  *extra], ranks)
+        if "error" in s:
+            print(json.dumps({"ranks": ranks, **s}))
             continue
-        s = json.loads((out / "summary.json").read_text())
         t = s["timings"]
         print(json.dumps({
             "ranks": ranks, "method": s["label"], "n_elements": s["n_elements"],
@@ -54,7 +41,6 @@ def main() -> None:
             "output_s": round(t["output"], 3), "total_s": round(t["total"], 3),
             "tip_deflection_rel_error": s.get("reference", {}).get("tip_deflection_rel_error"),
         }), flush=True)
-        shutil.rmtree(out, ignore_errors=True)
 
 
 if __name__ == "__main__":

@@ -11,14 +11,8 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
-import shutil
-import subprocess
-import sys
-import tempfile
-from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
+from app_runner import ROOT, run_app
 
 
 def main() -> None:
@@ -27,19 +21,11 @@ def main() -> None:
     ap.add_argument("--mesh-size", type=float, nargs="+", default=[0.5, 0.25, 0.125])
     ap.add_argument("--ranks", type=int, default=1)
     args, extra = ap.parse_known_args()
-    env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
-               OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1")
     for h in args.mesh_size:
-        out = Path(tempfile.mkdtemp(prefix="bench_hertz_"))
-        cmd = [sys.executable, "-m", "app", "run", args.config, "--out", str(out),
-               "--mesh-size", str(h), "--quiet", *extra]
-        if args.ranks > 1:
-            cmd = [shutil.which("mpiexec") or "mpiexec", "-n", str(args.ranks), *cmd]
-        res = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True)
-        if res.returncode != 0:
-            print(json.dumps({"mesh_size": h, "error": res.stderr.strip()[-500:]}))
+        s = run_app(args.config, ["--mesh-size", str(h), *extra], args.ranks)
+        if "error" in s:
+            print(json.dumps({"mesh_size": h, **s}))
             continue
-        s = json.loads((out / "summary.json").read_text())
         st = s["steps"][-1]
         hz = s["reference"]["hertz"]
         print(json.dumps({
@@ -51,7 +37,6 @@ def main() -> None:
             "half_width_rel_error": round(hz["half_width_rel_error"], 5),
             "pressure_l2_rel_error": round(hz["pressure_l2_rel_error"], 5),
         }), flush=True)
-        shutil.rmtree(out, ignore_errors=True)
 
 
 if __name__ == "__main__":

@@ -25,6 +25,7 @@ import time
 
 import numpy as np
 
+from app.interface.coulomb import ContactLCP
 from app.lcp import lemke
 
 
@@ -39,12 +40,7 @@ def frictional_lcp(m: int, *, mu: float = 0.3, seed: int = 0) -> tuple[np.ndarra
     c_nt = 0.03 * np.sign(r) * k  # spectral norm < 0.05: C stays SPD
     C = np.block([[c_nn, c_nt], [c_nt.T, c_tt]])
     assert np.linalg.eigvalsh(C).min() > 0.0
-    H = np.linalg.inv(c_tt)
-    H = 0.5 * (H + H.T)
-    A = c_nn - c_nt @ H @ c_nt.T
-    Bm = c_nt @ H
-    D = mu * np.eye(m)
-    M = np.block([[A, Bm, -Bm], [D - Bm.T, H, -H], [D + Bm.T, -H, H]])
+    M = ContactLCP(C, np.full(m, mu), np.ones(m, dtype=bool)).M  # the application's M
     gap0 = rng.uniform(-1.0, 0.5, m) * 1e-2
     c = rng.uniform(0.0, 0.05, m)
     s = rng.uniform(-0.1, 0.1, m)

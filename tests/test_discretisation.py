@@ -136,3 +136,20 @@ def test_body_force_and_traction_vectors_sum_to_resultants():
     fv = traction_vector(mesh, edges, lambda x, y: np.c_[0 * x, 3.0 * x])
     assert fv[1::2].sum() == pytest.approx(1.5)  # integral of 3x over [0, 1]
     assert (fv[1::2] * mesh.points[:, 0]).sum() == pytest.approx(1.0)  # integral of 3x^2
+
+
+@pytest.mark.parametrize("method,sd", VARIANTS)
+def test_stiffness_blocks_equal_the_b_transpose_d_b_sum(method, sd):
+    from app.discretisation.elements import (
+        cell_gradients,
+        elasticity_matrix,
+        stiffness_blocks,
+    )
+
+    xe = distorted_grid(3, 2).points[distorted_grid(3, 2).quads]
+    b, w = strain_matrices(xe, method, sd)
+    d = np.broadcast_to(elasticity_matrix(210.0, 0.3, "stress"), (len(xe), 3, 3))
+    ref = np.einsum("ncia,nij,ncjb,nc->nab", b, d, b, 0.7 * w)
+    kuu, kuv, kvu, kvv = stiffness_blocks(*cell_gradients(xe, method, sd), d, 0.7)
+    for blk, (i, j) in ((kuu, (0, 0)), (kuv, (0, 1)), (kvu, (1, 0)), (kvv, (1, 1))):
+        assert np.allclose(blk, ref[:, i::2, j::2], rtol=1e-12, atol=1e-12 * np.abs(ref).max())

@@ -8,6 +8,7 @@ import itertools
 import numpy as np
 import pytest
 
+from app.interface.coulomb import ContactLCP
 from app.lcp import STATUSES, LCPResult, default_max_pivots, lemke
 from app.lcp.lemke import _lemke_tableau
 
@@ -58,16 +59,17 @@ def p_matrix(n: int, rng: np.random.Generator) -> np.ndarray:
     return A @ A.T + 0.1 * np.eye(n) + rng.uniform(0, 2) * (K - K.T)
 
 
+def coulomb_matrix(C: np.ndarray, mu: float) -> np.ndarray:
+    """The modified Coulomb LCP matrix of the application for compliance C (2m x 2m)."""
+    m = C.shape[0] // 2
+    return ContactLCP(C, np.full(m, mu), np.ones(m, dtype=bool)).M
+
+
 def friction_lcp(m: int, rng: np.random.Generator, mu: float = 0.3):
     """Frictional-contact block LCP (n = 3 m) built from a random SPD compliance."""
     G = rng.standard_normal((2 * m, 2 * m))
     C = G @ G.T / (2 * m) + 0.2 * np.eye(2 * m)
-    c_nn, c_nt, c_tt = C[:m, :m], C[:m, m:], C[m:, m:]
-    H = np.linalg.inv(c_tt)
-    A = c_nn - c_nt @ H @ c_nt.T
-    Bm = c_nt @ H
-    D = mu * np.eye(m)
-    M = np.block([[A, Bm, -Bm], [D - Bm.T, H, -H], [D + Bm.T, -H, H]])
+    M = coulomb_matrix(C, mu)
     c = rng.uniform(0.0, 0.5, m)
     s = rng.uniform(-1.0, 1.0, m)
     q = np.concatenate([rng.uniform(-1.0, 1.0, m), c + s, c - s])
@@ -80,15 +82,9 @@ def contact_lcp(m: int, seed: int = 0, mu: float = 0.3):
     x = np.linspace(0.0, 1.0, m)
     r = x[:, None] - x[None, :]
     k = np.exp(-np.abs(r) / 0.1) * (10.0 / m)
-    c_nn = k + 0.05 * np.eye(m)
-    c_tt = 1.2 * k + 0.05 * np.eye(m)
     c_nt = 0.03 * np.sign(r) * k
-    H = np.linalg.inv(c_tt)
-    H = 0.5 * (H + H.T)
-    A = c_nn - c_nt @ H @ c_nt.T
-    Bm = c_nt @ H
-    D = mu * np.eye(m)
-    M = np.block([[A, Bm, -Bm], [D - Bm.T, H, -H], [D + Bm.T, -H, H]])
+    C = np.block([[k + 0.05 * np.eye(m), c_nt], [c_nt.T, 1.2 * k + 0.05 * np.eye(m)]])
+    M = coulomb_matrix(C, mu)
     c = rng.uniform(0.0, 0.05, m)
     s = rng.uniform(-0.1, 0.1, m)
     q = np.concatenate([rng.uniform(-1.0, 0.5, m) * 1e-2, c + s, c - s])

@@ -1,0 +1,31 @@
+"""Shared by the benchmark scripts: run `python -m app run` (under mpiexec for > 1 rank)
+in a temporary output folder and return its summary.json."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
+           OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1")
+
+
+def run_app(config: str, args: list[str], ranks: int = 1) -> dict:
+    """Summary of one run, or {"error": last stderr line(s)} when it failed."""
+    out = Path(tempfile.mkdtemp(prefix="bench_"))
+    try:
+        cmd = [sys.executable, "-m", "app", "run", config, "--out", str(out), "--quiet", *args]
+        if ranks > 1:
+            cmd = [shutil.which("mpiexec") or "mpiexec", "-n", str(ranks), *cmd]
+        res = subprocess.run(cmd, cwd=ROOT, env=ENV, capture_output=True, text=True)
+        if res.returncode != 0:
+            return {"error": res.stderr.strip()[-500:]}
+        return json.loads((out / "summary.json").read_text())
+    finally:
+        shutil.rmtree(out, ignore_errors=True)
