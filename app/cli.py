@@ -24,6 +24,11 @@ Run in parallel with: mpiexec -n 2 python -m app run CONFIG
 """
 
 
+SET_HELP = ("override a config value (repeatable): a dotted key, entries of [[...]] arrays "
+            "by name or 0-based index, a TOML value; e.g. --set interface.contact.mu=5 "
+            "--set body.block.nu=0.499 --set analysis.steps=100")
+
+
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="python -m app", description=DESCRIPTION,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -45,6 +50,8 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--mesh-cache", type=Path, default=None,
                    help="folder where built meshes are cached and reused")
     r.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+    r.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                   help=SET_HELP)
     s = sub.add_parser("study", help="convergence study: methods x refinement levels",
                        description="Refine level by level (each level halves every element "
                        "size) and run every method; writes OUT/study.csv and the plots "
@@ -60,6 +67,7 @@ def _parser() -> argparse.ArgumentParser:
                    help="global element size at level 0 (default: the config's mesh.size)")
     s.add_argument("--out", type=Path, default=None, help="default: out/study_<config>")
     s.add_argument("--quiet", action="store_true", help="no progress lines")
+    s.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help=SET_HELP)
     return p
 
 
@@ -85,7 +93,7 @@ def main(argv: list[str] | None = None) -> int:
         from app.study import parse_methods, run_study
 
         try:
-            cfg = load_config(args.config)
+            cfg = load_config(args.config, args.set)
             if args.levels < 1 or args.first_level < 0:
                 raise InputError("--levels must be >= 1 and --first-level >= 0")
             if args.mesh_size is not None and args.mesh_size <= 0:
@@ -102,7 +110,7 @@ def main(argv: list[str] | None = None) -> int:
             print(f"{len(rows)} runs -> {out / 'study.csv'}", file=sys.stderr)
         return 0
     try:
-        cfg = load_config(args.config)
+        cfg = load_config(args.config, args.set)
         if args.mesh_size is not None and args.mesh_size <= 0:
             raise InputError(f"--mesh-size must be > 0 (got {args.mesh_size})")
         opts = RunOptions(

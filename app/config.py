@@ -57,6 +57,7 @@ class Interface:
     bonded: bool
     search_distance: float
     penetration_tol: float | None = None
+    interference: bool = False  # initial overlaps are an intended interference fit
 
     @property
     def frictional(self) -> bool:
@@ -296,12 +297,15 @@ def parse_config(raw: dict[str, Any], path: Path | str = "<config>") -> Config:
         ptol = it.get("penetration_tol")
         if ptol is not None:
             ptol = _num(ptol, f"{where}: penetration_tol", nonneg=True)
+        interference = it.get("interference", False)
+        if not isinstance(interference, bool):
+            raise InputError(f"{where}: interference must be true or false")
         extra = set(it) - {"name", "slave", "master", "mu", "c", "a", "bonded",
-                           "search_distance", "penetration_tol"}
+                           "search_distance", "penetration_tol", "interference"}
         if extra:
             raise InputError(f"{where}: unknown key(s) {sorted(extra)}")
         interfaces.append(Interface(nm, it["slave"], it["master"], mu, c if bonded else 0.0,
-                                    a if bonded else 0.0, bonded, sdist, ptol))
+                                    a if bonded else 0.0, bonded, sdist, ptol, interference))
 
     petsc = _table(raw, "petsc", "")
     petsc_opts = {}
@@ -318,8 +322,60 @@ def parse_config(raw: dict[str, Any], path: Path | str = "<config>") -> Config:
     )
 
 
-def load_config(path: str | Path) -> Config:
-    """Read and check a TOML scene file."""
+def _override_value(text: str) -> Any:
+    """A TOML value (number, bool, string, array, inline table); bare words are strings."""
+    try:
+        return tomllib.loads(f"v = {text}")["v"]
+    except tomllib.TOMLDecodeError:
+        return text
+
+
+def apply_overrides(raw: dict[str, Any], overrides: list[str]) -> dict[str, Any]:
+    """Set config values from `KEY=VALUE` strings (the `--set` option), in place.
+
+    KEY is a dotted path into the TOML tables; inside an array of tables ([[body]],
+    [[interface]], [[support]], [[mesh.refine]], ...) the next part is the entry's `name` or
+    its 0-based index (the index one past the end appends an entry). Examples:
+    `interface.contact.mu=5`, `body.block.nu=0.499`, `analysis.steps=100`,
+    `mesh.refine.0.size=0.002`, `support.1.on=corner` with `support.1.ux=0` (a new
+    support). VALUE is a TOML value.
+    """
+    for item in overrides:
+        key, sep, text = item.partition("=")
+        parts = [k for k in key.strip().split(".") if k]
+        if not sep or not parts:
+            raise InputError(f"--set {item!r}: use KEY=VALUE, e.g. interface.contact.mu=0.5")
+        node: Any = raw
+        for i, part in enumerate(parts[:-1]):
+            here = ".".join(parts[: i + 1])
+            if isinstance(node, dict):
+                if part not in node:
+                    node[part] = {}
+                node = node[part]
+            elif isinstance(node, list):
+                names = [t.get("name") for t in node if isinstance(t, dict)]
+                if part in names:
+                    node = node[names.index(part)]
+                elif part.isdigit() and int(part) < len(node):
+                    node = node[int(part)]
+                elif part.isdigit() and int(part) == len(node):  # append a new entry
+                    node.append({})
+                    node = node[-1]
+                else:
+                    where = here.rsplit(".", 1)[0]
+                    raise InputError(f"--set {item!r}: no entry '{part}' in {where} (names: "
+                                     f"{names}, or an index 0..{len(node)})")
+            if not isinstance(node, dict | list):
+                raise InputError(f"--set {item!r}: {here} is a value, not a table")
+        if isinstance(node, list):
+            raise InputError(f"--set {item!r}: name an entry of {'.'.join(parts[:-1])} "
+                             "(its name or 0-based index) before the key")
+        node[parts[-1]] = _override_value(text.strip())
+    return raw
+
+
+def load_config(path: str | Path, overrides: list[str] | None = None) -> Config:
+    """Read and check a TOML scene file; `overrides` are `--set KEY=VALUE` strings."""
     p = Path(path)
     if not p.is_file():
         raise InputError(f"config file '{p}' does not exist")
@@ -330,4 +386,6 @@ def load_config(path: str | Path) -> Config:
         raise InputError(f"config file '{p}' is not valid TOML: {exc}") from None
     except OSError as exc:
         raise InputError(f"config file '{p}' cannot be read: {exc.strerror}") from None
+    if overrides:
+        apply_overrides(raw, overrides)
     return parse_config(raw, p)

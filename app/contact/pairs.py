@@ -219,7 +219,7 @@ def closest_segments(x: np.ndarray, xa: np.ndarray, xb: np.ndarray,
 
 def contact_pairs(mesh: Mesh, slave: str, master: str, search_distance: float, *,
                   interface: int = 0, penetration_tol: float | None = None,
-                  name: str | None = None) -> ContactPairs:
+                  name: str | None = None, interference: bool = False) -> ContactPairs:
     """Node-to-segment pairs of one interface: every slave-curve node with its closest
     master-curve segment.
 
@@ -232,7 +232,9 @@ def contact_pairs(mesh: Mesh, slave: str, master: str, search_distance: float, *
     penetration_tol (length): a kept pair with g0 < -penetration_tol is an initial
     penetration and raises InputError; default PENETRATION_REL_TOL x the mean master
     segment length (at least 1e-12 x the scene size, for round-off). Gaps in
-    [-penetration_tol, 0) are kept as computed. name: interface name for messages
+    [-penetration_tol, 0) are kept as computed. interference: initial penetrations are an
+    intended interference fit, kept with their negative g0 (the contact law pushes the
+    bodies apart by -g0) instead of raising. name: interface name for messages
     (default 'slave/master').
 
     Note: a slave node behind a thin master body (closer than search_distance to its far
@@ -292,12 +294,13 @@ def contact_pairs(mesh: Mesh, slave: str, master: str, search_distance: float, *
                          f"search_distance={sd:g} of '{master}' (raise search_distance or "
                          f"check the curves)")
     pen = keep & (g0 < -tol)
-    if pen.any():
+    if pen.any() and not interference:
         ip = np.flatnonzero(pen)
         locs = "; ".join(f"x={xs[i, 0]:.6g}, y={xs[i, 1]:.6g}" for i in ip[:3])
         raise InputError(f"interface '{label}': {ip.size} slave nodes penetrate the master by "
                          f"more than {tol:.3g} (first at {locs}; deepest g0={g0[ip].min():.3g})"
-                         f": fix the geometry or raise penetration_tol")
+                         f": fix the geometry, raise penetration_tol, or set interference = true "
+                         f"if the overlap is an intended interference fit")
     k = np.flatnonzero(keep)
     return ContactPairs(
         interface=np.full(k.size, int(interface), dtype=np.int64),

@@ -50,6 +50,59 @@ class ContactSolution:
     pivots: int
     status: str
     basis: np.ndarray | None
+    residual: float = 0.0  # Lemke's relative check residual (scaled LCP)
+
+
+DEPENDENT_REL = 1e-10
+"""Tangential compliance eigenvalues below this x the largest span its null space."""
+
+NULL_STIFFNESS_REL = 1e9
+"""Stiffness on that null space, relative to the largest stiffness 1 / lambda_min kept."""
+
+
+class _Stiffness(np.ndarray):
+    """H with the number of dependent directions attached (see tangential_stiffness)."""
+
+    n_dependent: int = 0
+
+
+def tangential_stiffness(ctt: np.ndarray) -> np.ndarray:
+    """H = C_tt^-1, (mf, mf), and `H.n_dependent` the number of dependent directions.
+
+    C_tt is singular when tangential rows of G are dependent on the free DOFs: a pair
+    whose tangential motion is fixed by supports (a zero row), or two pairs whose slave
+    tangential DOFs are fixed and which project onto the same master point (equal rows).
+    The tangential forces along such a direction v do not move anything: they are not
+    unique. There H = V diag(1/lambda) V^T + k0 N0 N0^T, with k0 = NULL_STIFFNESS_REL x
+    the largest kept 1/lambda: a stiff tie on the null space N0, so the LCP stays regular
+    and picks one of the equivalent force splits, while the displacements, which come
+    from C, are exact.
+    """
+    try:
+        fac = cho_factor(ctt)
+        h = cho_solve(fac, np.eye(ctt.shape[0]))
+        h = 0.5 * (h + h.T)
+        ok = bool(np.all(np.isfinite(h)))
+        if ok:
+            lam_max = float(np.abs(np.diag(ctt)).max())
+            # Cholesky can pass a numerically singular C_tt: check the smallest pivot
+            ok = float(np.diag(fac[0]).min() ** 2) > DEPENDENT_REL * lam_max
+    except np.linalg.LinAlgError:
+        ok = False
+    if ok:
+        return h.view(_Stiffness)
+    lam, vec = np.linalg.eigh(0.5 * (ctt + ctt.T))
+    top = float(np.abs(lam).max(initial=0.0))
+    if top == 0.0:
+        raise SolveError("the tangential compliance of every frictional pair is zero: their "
+                         "tangential motion is fixed by supports; set mu = 0 on the interface")
+    keep = lam > DEPENDENT_REL * top
+    vk, vn = vec[:, keep], vec[:, ~keep]
+    k0 = NULL_STIFFNESS_REL / float(lam[keep].min())
+    h = (vk / lam[keep]) @ vk.T + k0 * (vn @ vn.T)
+    out = (0.5 * (h + h.T)).view(_Stiffness)
+    out.n_dependent = int((~keep).sum())
+    return out
 
 
 class ContactLCP:
@@ -75,17 +128,11 @@ class ContactLCP:
         tm = np.zeros((mf, 0)) if t_modes is None else t_modes[f]
         self.nm, self.tm = nm, tm
         self.tm_all = np.zeros((m, 0)) if t_modes is None else t_modes
+        self.dependent_tangential = 0
+        h = tangential_stiffness(ctt) if mf else np.zeros((0, 0))
         if mf:
-            try:
-                self.ctt_fac = cho_factor(ctt)
-            except np.linalg.LinAlgError:
-                raise SolveError("tangential compliance is not positive definite: two "
-                                 "frictional pairs act on the same DOFs (duplicate pairs?)"
-                                 ) from None
-            h = cho_solve(self.ctt_fac, np.eye(mf))
-            h = 0.5 * (h + h.T)
-        else:
-            h = np.zeros((0, 0))
+            self.dependent_tangential = int(getattr(h, "n_dependent", 0))
+            h = np.asarray(h)
         self.h = h
         bm = cnt @ h  # (m, mf)
         self.bm = bm
@@ -172,4 +219,4 @@ class ContactLCP:
         if self.r:
             tau = tau + self.tm_all @ alpha
         return ContactSolution(p, q, gap, tau, splus, sminus, alpha, res.pivots, res.status,
-                               res.basis)
+                               res.basis, res.residual)

@@ -134,7 +134,7 @@ class ContactSetup:
                                      f"the mesh (curves: {sorted(mesh.curves)})")
             found.append(contact_pairs(mesh, itf.slave, itf.master, itf.search_distance,
                                        interface=i, penetration_tol=itf.penetration_tol,
-                                       name=itf.name))
+                                       name=itf.name, interference=itf.interference))
         pairs = ContactPairs.concatenate(found)
         dup, counts = np.unique(pairs.slave, return_counts=True)
         if np.any(counts > 1):
@@ -240,6 +240,27 @@ def kkt_check(gap, tau, tau_prev, p, q, mu, a, c, frictional, *, u_scale: float 
     }
 
 
+def undetermined_modes(n_modes: np.ndarray, t_modes: np.ndarray, names: list[str],
+                       rel: float = 1e-9) -> list[str]:
+    """Floating-body modes (or combinations) that no contact force can resist.
+
+    n_modes (m, r), t_modes (mf, r): normal and tangential (frictional pairs) gap change per
+    unit mode amplitude. A combination v with [N; T] v = 0 moves no pair: under a load with
+    no component on it, every amplitude is an equilibrium (the answer is not unique; the LCP
+    returns one), and under a load with such a component there is none. Returns one text
+    per such direction, naming its dominant mode.
+    """
+    if not names:
+        return []
+    a = np.vstack([n_modes, t_modes])
+    if a.shape[0] == 0:
+        return list(names)
+    _, sv, vt = np.linalg.svd(a, full_matrices=True)
+    sv = np.concatenate([sv, np.zeros(vt.shape[0] - sv.size)])
+    null = vt[sv <= rel * max(sv.max(initial=0.0), 1e-300)]
+    return [names[int(np.argmax(np.abs(v)))] for v in null]
+
+
 class ContactStepper:
     """Rank-0 state of the contact problem over the load steps."""
 
@@ -263,6 +284,7 @@ class ContactStepper:
             self.e0 = [np.zeros(0) for _ in cases]
             self.mode_names = []
         self.lcp = ContactLCP(c_mat, setup.mu, setup.frictional, self.n_modes, self.t_modes)
+        self.undetermined = undetermined_modes(self.lcp.nm, self.lcp.tm, self.mode_names)
         self.hist = InterfaceHistory(
             a=np.where(setup.bonded, setup.a, 0.0), c=np.where(setup.bonded, setup.c, 0.0),
             bonded=setup.bonded.copy(), tau_prev=np.zeros(m),
@@ -297,6 +319,9 @@ class ContactStepper:
         if res.status != "solved":
             out["message"] = ("secondary ray: no solution from this start"
                               if res.status == "secondary ray" else res.status)
+            if self.undetermined:
+                out["message"] += ("; the contact cannot resist " +
+                                   ", ".join(self.undetermined))
             return out
         self.slip += sol.slip_plus - sol.slip_minus
         it = pr.interface
@@ -320,6 +345,8 @@ class ContactStepper:
             "max_contact_pressure": float((sol.p / length_t).max(initial=0.0)),
             "lcp_size": self.lcp.size,
             "lemke_pivots": res.pivots,
+            "lcp_residual": sol.residual,
+            "dependent_tangential_directions": self.lcp.dependent_tangential,
             "lcp_seconds": res.seconds,
             "lcp_solves": res.iterations,
             "debonded_this_step": int(np.sum(res.debonded_step == step + 1)),
@@ -328,6 +355,8 @@ class ContactStepper:
         if self.lcp.r:
             info["rigid_modes"] = dict(zip(self.mode_names, map(float, sol.alpha),
                                            strict=True))
+        if self.undetermined:
+            info["undetermined_modes"] = self.undetermined
         out.update({"info": info, "state": res.state, "debonded_step": res.debonded_step,
                     "tau_prev": tau_prev, "slip": self.slip.copy(),
                     "a": self.hist.a.copy(), "c": self.hist.c.copy(),

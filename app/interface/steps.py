@@ -47,11 +47,21 @@ class InterfaceHistory:
 
 
 def classify(sol: ContactSolution, bonded: np.ndarray, tol_gap: float,
-             tol_slip: float) -> np.ndarray:
-    """State code per pair from a solution."""
+             tol_slip: float, frictionless: np.ndarray | None = None,
+             tau_prev: np.ndarray | None = None) -> np.ndarray:
+    """State code per pair from a solution.
+
+    Frictional pairs slip when the LCP's slip variables are positive; frictionless pairs
+    (`frictionless` mask, no tangential unknowns) slip when their relative tangential
+    displacement changed from `tau_prev` by more than tol_slip.
+    """
     state = np.full(sol.p.size, STICK, dtype=np.int64)
     slip_p = sol.slip_plus > tol_slip
     slip_m = sol.slip_minus > tol_slip
+    if frictionless is not None and tau_prev is not None:
+        dtau = np.where(frictionless, sol.tau - tau_prev, 0.0)
+        slip_p |= dtau > tol_slip
+        slip_m |= dtau < -tol_slip
     state[slip_p] = SLIP_PLUS
     state[slip_m & ~slip_p] = SLIP_MINUS
     state[bonded & ~slip_p & ~slip_m] = BONDED
@@ -68,11 +78,14 @@ def solve_step(lcp: ContactLCP, hist: InterfaceHistory, step: int, gap_free: np.
     a, c, bonded = hist.a.copy(), hist.c.copy(), hist.bonded.copy()
     debonded_step = hist.debonded_step.copy()
     basis = hist.basis if hist.warm_start else None
+    frictionless = np.ones(lcp.m, dtype=bool)
+    frictionless[lcp.fric] = False
     for it in range(1, max_iterations + 1):
         sol = lcp.solve(gap_free, tau_free, hist.tau_prev, a, c, mu, e0, basis=basis)
         pivots += sol.pivots
         if sol.status != "solved":
-            return StepResult(sol, classify(sol, bonded, tol_gap, tol_slip), debonded_step,
+            return StepResult(sol, classify(sol, bonded, tol_gap, tol_slip, frictionless,
+                                            hist.tau_prev), debonded_step,
                               it, pivots, time.perf_counter() - t0, 0.0, sol.status)
         slipped = (sol.slip_plus + sol.slip_minus) > tol_slip
         new = bonded & ((sol.gap > tol_gap) | slipped)
@@ -84,7 +97,7 @@ def solve_step(lcp: ContactLCP, hist: InterfaceHistory, step: int, gap_free: np.
         debonded_step[new] = step
         if hist.warm_start:
             basis = sol.basis
-    state = classify(sol, bonded, tol_gap, tol_slip)
+    state = classify(sol, bonded, tol_gap, tol_slip, frictionless, hist.tau_prev)
     slip_inc = sol.slip_plus - sol.slip_minus
     dissipation = float(-np.sum(sol.q * slip_inc))
     hist.a, hist.c, hist.bonded = a, c, bonded

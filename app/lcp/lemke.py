@@ -88,6 +88,8 @@ class LCPResult:
     message: str
     warm_start: str = "none"
     refactorizations: int = field(default=0)
+    residual: float = 0.0
+    """Largest relative violation of the final check (see `lemke`, tol); 0 for q >= 0."""
 
     @property
     def ok(self) -> bool:
@@ -862,7 +864,7 @@ def _run(
             pivots += res.pivots
             refacts += res.refactorizations
             if res.status == "solved":
-                z, w, ok, comp, _ = P.candidate(res)
+                z, w, ok, comp, worst = P.candidate(res)
                 if ok:
                     how = "accepted" if res.pivots == 0 else "lemke"
                     msg = (
@@ -871,7 +873,7 @@ def _run(
                         else f"solved from the warm-start basis in {pivots} pivots"
                     )
                     return LCPResult(
-                        z, w, pivots, "solved", comp, res.zset.copy(), msg, how, refacts
+                        z, w, pivots, "solved", comp, res.zset.copy(), msg, how, refacts, worst
                     )
             warm = "cold"
             note = f"warm start ended with '{res.status}' after {res.pivots} pivots; "
@@ -882,15 +884,16 @@ def _run(
         z, w, ok, comp, worst = P.candidate(res)
         if ok:
             msg = f"{note}solved in {pivots} pivots"
-            return LCPResult(z, w, pivots, "solved", comp, res.zset.copy(), msg, warm, refacts)
+            return LCPResult(z, w, pivots, "solved", comp, res.zset.copy(), msg, warm, refacts,
+                             worst)
         msg = (
             f"{note}Lemke ended on a complementary basis after {pivots} pivots but the "
             f"solution fails the check (worst relative violation {worst:.3g} > tol {tol:.3g})"
         )
-        return LCPResult(z, w, pivots, "inaccurate", comp, res.zset.copy(), msg, warm, refacts)
+        return LCPResult(z, w, pivots, "inaccurate", comp, res.zset.copy(), msg, warm, refacts,
+                         worst)
     z = np.maximum(res.z * P.zfac, 0.0)
-    w = M @ z + q
-    comp = float(np.abs(z * w).max())
+    w, _, comp, worst = _check(M, q, z, tol)
     if res.status == "secondary ray":
         status = "secondary ray"
         msg = (
@@ -904,7 +907,7 @@ def _run(
     else:
         status = "pivot limit"
         msg = f"{note}pivot limit ({max_pivots}) reached; z, w are the last iterate"
-    return LCPResult(z, w, pivots, status, comp, res.zset.copy(), msg, warm, refacts)
+    return LCPResult(z, w, pivots, status, comp, res.zset.copy(), msg, warm, refacts, worst)
 
 
 def lemke(

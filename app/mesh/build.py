@@ -237,7 +237,7 @@ def _shape_sides(shape: dict, where: str) -> tuple[list[tuple[str, list[Piece]]]
         )
     w = f"{where}shape."
     for key in shape:
-        if key not in ("type", "structured", *SHAPE_KEYS[kind]):
+        if key not in ("type", "structured", "divisions", *SHAPE_KEYS[kind]):
             raise InputError(
                 f"{w}{key} is not a key of a {kind} (keys: {', '.join(SHAPE_KEYS[kind])})"
             )
@@ -246,6 +246,14 @@ def _shape_sides(shape: dict, where: str) -> tuple[list[tuple[str, list[Piece]]]
         raise InputError(f"{w}structured must be true or false (got {structured!r})")
     if structured and kind != "rectangle":
         raise InputError(f"{w}structured is only supported for type = \"rectangle\"")
+    if "divisions" in shape:
+        dv = shape["divisions"]
+        if not structured:
+            raise InputError(f"{w}divisions needs structured = true")
+        if (not isinstance(dv, list) or len(dv) != 2
+                or not all(isinstance(k, int) and not isinstance(k, bool) and k >= 1
+                           for k in dv)):
+            raise InputError(f"{w}divisions must be [nx, ny], two integers >= 1 (got {dv!r})")
     if kind == "rectangle":
         if "origin" not in shape:
             raise InputError(f"{w}origin is missing: it must be a point [x, y]")
@@ -468,8 +476,14 @@ def _mesh_body(gmsh: Any, spec: BodySpec, scene: Scene, scale: float) -> tuple:
             width = sum(p.length for p in spec.sides[0].pieces)
             height = sum(p.length for p in spec.sides[1].pieces)
             npieces = [len(s.pieces) for s in spec.sides]
-            nx = max(1, int(math.floor(width / h + 0.5)), npieces[0], npieces[2])
-            ny = max(1, int(math.floor(height / h + 0.5)), npieces[1], npieces[3])
+            if "divisions" in spec.shape:  # element counts, refined with the scale
+                fx, fy = (max(1, int(math.floor(k / scale + 0.5)))
+                          for k in spec.shape["divisions"])
+            else:
+                fx = int(math.floor(width / h + 0.5))
+                fy = int(math.floor(height / h + 0.5))
+            nx = max(1, fx, npieces[0], npieces[2])
+            ny = max(1, fy, npieces[1], npieces[3])
             for s, st, n in zip(spec.sides, side_tags, (nx, ny, nx, ny), strict=True):
                 for tag, m in zip(st, _intervals([p.length for p in s.pieces], n), strict=True):
                     geo.mesh.setTransfiniteCurve(tag, int(m) + 1)
