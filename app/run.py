@@ -34,7 +34,7 @@ from app.discretisation.bulk import (
     zero_energy_modes,
 )
 from app.errors import InputError, SolveError
-from app.interface.setup import ContactSetup, floating_modes
+from app.interface.setup import ContactSetup, floating_modes, mismatch
 from app.mesh.model import Mesh
 from app.output.xdmf import ResultWriter, atomic_write_text
 
@@ -187,6 +187,12 @@ def load_cases(mesh: Mesh, cfg: Config) -> list[LoadCase]:
     return cases
 
 
+CONSISTENCY_TOL = 1e-9
+"""Largest |G u - LCP kinematics| / max |u| accepted without a refinement re-solve."""
+MAX_REFINEMENTS = 5
+"""Consistency re-solves per step at most (each: one LCP solve and one back-substitution)."""
+
+
 def write_summary(out: Path, summary: dict) -> None:
     atomic_write_text(out / "summary.json", json.dumps(summary, indent=2) + "\n")
 
@@ -294,6 +300,7 @@ def run(cfg: Config, opts: RunOptions) -> dict:
     writer = ResultWriter(out, mesh.points, mesh.quads, mesh.body) if rank == 0 else None
     last_contact = None
     for step in range(cfg.n_steps):
+        t_step = time.perf_counter()
         u = np.zeros(n_dofs)
         for case, uc in zip(cases, unit, strict=True):
             u += case.history[step] * uc
@@ -318,10 +325,38 @@ def run(cfg: Config, opts: RunOptions) -> dict:
                 if rank == 0:
                     write_summary(out, summary)
                 raise SolveError(reason)
-            with timer.phase("recovery"):
-                u += contact.displacement(result["lam"], solver, k, fixed_all, to_numpy_all)
-                if floating is not None and floating.r.shape[1]:
-                    u += floating.r @ result["alpha"]
+            u_free = u.copy()
+            correction = np.zeros(2 * contact.pairs.n_pairs) if rank == 0 else None
+            refinements, previous = 0, np.inf
+            while True:
+                with timer.phase("recovery"):
+                    u = u_free + contact.displacement(result["lam"], solver, k, fixed_all,
+                                                      to_numpy_all)
+                    if floating is not None and floating.r.shape[1]:
+                        u += floating.r @ result["alpha"]
+                rel = again = None
+                if rank == 0:
+                    miss = mismatch(contact.g, u, result)
+                    scale = max(np.abs(u).max(initial=0.0), 1e-300)
+                    rel = float(np.abs(miss).max(initial=0.0) / scale)
+                    again = (rel > CONSISTENCY_TOL and refinements < MAX_REFINEMENTS
+                             and rel < 0.5 * previous)
+                again, rel = mpi.bcast((again, rel), root=0)
+                if not again:
+                    break
+                previous = rel
+                with timer.phase("lcp"):
+                    retry = None
+                    if rank == 0:
+                        correction += miss
+                        retry = stepper.refine(step, cases, correction)
+                    retry = mpi.bcast(retry, root=0)
+                if retry is None:
+                    break
+                result = retry
+                refinements += 1
+            result["info"]["consistency_refinements"] = refinements
+            result["info"]["lcp_displacement_mismatch"] = rel
             step_info.update(result["info"])
             if rank == 0:
                 contact_data = contact.output_data(result, u, mesh)
@@ -340,6 +375,7 @@ def run(cfg: Config, opts: RunOptions) -> dict:
                 disp[:, :2] = u.reshape(-1, 2)
                 writer.write_step(step + 1, float(step + 1), {"displacement": disp}, cell,
                                   contact_data)
+        step_info["step_seconds"] = time.perf_counter() - t_step
         step_info["strain_energy"] = energy_total
         step_info["strain_energy_by_body"] = dict(
             zip(mesh.body_names, map(float, energy_by_body), strict=True))

@@ -6,6 +6,7 @@ small dense data (m pairs).
 
 from __future__ import annotations
 
+import copy
 from dataclasses import dataclass
 
 import numpy as np
@@ -213,7 +214,8 @@ class ContactSetup:
         }
         data["_kkt"] = kkt_check(gap_u, tau_u, result["tau_prev"], p, q, self.mu,
                                  result["a"], result["c"], self.frictional,
-                                 u_scale=result["u_scale"], f_scale=result["f_scale"])
+                                 u_scale=float(np.abs(u).max(initial=0.0)),
+                                 f_scale=result["f_scale"])
         return data
 
 
@@ -221,8 +223,8 @@ def kkt_check(gap, tau, tau_prev, p, q, mu, a, c, frictional, *, u_scale: float 
               f_scale: float = 0.0) -> dict:
     """Largest violations of METHOD section 4, relative to the data's scales.
 
-    u_scale / f_scale: displacement and force scales of the problem (e.g. the largest
-    free relative displacement and the largest load), floors for the normalisation.
+    u_scale / f_scale: displacement and force scales of the problem (the largest
+    displacement of the step's field and the largest load), floors for the normalisation.
     """
     fs = max(np.abs(p).max(initial=0.0), np.abs(q).max(initial=0.0), np.abs(a).max(initial=0),
              np.abs(c).max(initial=0.0), f_scale, 1e-300)
@@ -238,6 +240,14 @@ def kkt_check(gap, tau, tau_prev, p, q, mu, a, c, frictional, *, u_scale: float 
         "friction_bound": float(max(0.0, (np.abs(q) - bound).max(initial=0.0)) / fs),
         "slip_direction": float(direction.max(initial=0.0) / fs),
     }
+
+
+def mismatch(g: sp.csr_matrix, u: np.ndarray, result: dict) -> np.ndarray:
+    """G u minus the LCP's (gap - g0, tau): (2m,), zero when the compliance C used by the
+    LCP agrees with the factorization that recovers u. An inexact C (round-off of the
+    Schur complement on an ill-conditioned K) shows here; adding it to the free gap and
+    tangential displacement and solving again converges to the consistent answer."""
+    return g @ u - result["kinematics"]
 
 
 def undetermined_modes(n_modes: np.ndarray, t_modes: np.ndarray, names: list[str],
@@ -298,9 +308,29 @@ class ContactStepper:
                            np.abs(self.hist.a).max(initial=0.0),
                            np.abs(self.hist.c).max(initial=0.0))
 
-    def step(self, step: int, cases) -> dict:
+    def refine(self, step: int, cases, correction: np.ndarray) -> dict | None:
+        """Re-solve step `step` with a consistency correction; None (and the state of the
+        last good solve kept) if that fails."""
+        kept = (copy.deepcopy(self.hist), self.slip.copy())
+        out = self.step(step, cases, correction)
+        if out["status"] != "solved":
+            self.hist, self.slip = kept
+            return None
+        return out
+
+    def step(self, step: int, cases, correction: np.ndarray | None = None) -> dict:
+        """Solve load step `step` (0-based). `correction` (2m,): a re-solve of the same
+        step with the free gap and tangential displacement shifted by it (the consistency
+        refinement, see `mismatch`); the step restarts from the history before its first
+        solve, warm-started from the last basis."""
         m = self.m
         pr = self.setup.pairs
+        if correction is None:
+            self._saved = (copy.deepcopy(self.hist), self.slip.copy())
+        else:
+            basis = self.hist.basis
+            self.hist, self.slip = copy.deepcopy(self._saved[0]), self._saved[1].copy()
+            self.hist.basis = basis
         gap_free = pr.g0.copy()
         tau_free = np.zeros(m)
         e0 = np.zeros(self.lcp.r)
@@ -310,12 +340,16 @@ class ContactStepper:
             tau_free += h * gu[m:]
             if e.size:
                 e0 += h * e
+        if correction is not None:
+            gap_free += correction[:m]
+            tau_free += correction[m:]
         tau_prev = self.hist.tau_prev.copy()
         res = solve_step(self.lcp, self.hist, step + 1, gap_free, tau_free, self.setup.mu,
                          e0, self.tol, self.tol)
         sol = res.solution
         out = {"status": res.status, "message": "",
-               "lam": np.concatenate([sol.p, sol.q]), "alpha": sol.alpha}
+               "lam": np.concatenate([sol.p, sol.q]), "alpha": sol.alpha,
+               "kinematics": np.concatenate([sol.gap - pr.g0, sol.tau])}
         if res.status != "solved":
             out["message"] = ("secondary ray: no solution from this start"
                               if res.status == "secondary ray" else res.status)
@@ -360,5 +394,5 @@ class ContactStepper:
         out.update({"info": info, "state": res.state, "debonded_step": res.debonded_step,
                     "tau_prev": tau_prev, "slip": self.slip.copy(),
                     "a": self.hist.a.copy(), "c": self.hist.c.copy(),
-                    "u_scale": self.tol / 1e-7, "f_scale": self.f_scale})
+                    "f_scale": self.f_scale})
         return out

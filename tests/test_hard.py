@@ -1,0 +1,274 @@
+"""The hard cases of configs/hard/: degenerate LCPs, ill-conditioning, friction extremes,
+floating bodies, non-uniqueness, near incompressibility, gaps and interference, many
+steps. Every run is checked against a closed form or an equivalent model, and the
+interface law is recomputed from the written displacement field."""
+
+from __future__ import annotations
+
+import tomllib
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+from support import CONFIGS, kkt_violations, run_cli
+
+from app.config import apply_overrides, parse_config
+from app.errors import InputError, SolveError
+from app.run import RunOptions, run
+
+HARD = CONFIGS / "hard"
+KKT_TOL = 1e-7
+LCP_TOL = 1e-9  # Lemke's own check (relative, scaled LCP)
+
+
+def solve(tmp_path: Path, name: str, *overrides: str, tag: str = "", **kw):
+    raw = tomllib.loads((HARD / f"{name}.toml").read_text())
+    apply_overrides(raw, list(overrides))
+    out = tmp_path / (name + tag)
+    return run(parse_config(raw, HARD / f"{name}.toml"), RunOptions(out=out, quiet=True,
+                                                                    **kw)), out
+
+
+def contact(out: Path, step: int) -> dict:
+    with h5py.File(out / f"step_{step:04d}.h5") as f:
+        data = {k: f["contact"][k][()] for k in f["contact"]}
+        data["u"] = f["displacement"][()][:, :2]
+    return data
+
+
+def check_law(s: dict, out: Path) -> float:
+    """The law on every step, from the displacement field and from the LCP; worst value."""
+    worst = 0.0
+    f_scale = max(max(np.abs(contact(out, st["step"])["p_force"]).max(),
+                      np.abs(contact(out, st["step"])["q_force"]).max()) for st in s["steps"])
+    for st in s["steps"]:
+        v = kkt_violations(out, st["step"], f_scale)
+        worst = max(worst, *v.values())
+        assert max(v.values()) < KKT_TOL, (st["step"], v)
+        assert st["lcp_residual"] < LCP_TOL, st
+        assert max(st["kkt"].values()) < KKT_TOL, st["kkt"]
+    return worst
+
+
+def constrained_modulus(E: float, nu: float) -> float:
+    """E' of uniaxial strain (plane strain with roller sides)."""
+    return E * (1 - nu) / ((1 + nu) * (1 - 2 * nu))
+
+
+def test_duplicate_pairs_and_master_corners(tmp_path):
+    s, out = solve(tmp_path, "duplicate_pairs")
+    c = contact(out, 1)
+    # the degeneracies are really there: two slave nodes at x = 0 on the same master
+    # point, and every slave node on a master node (xi = 0 or 1)
+    at0 = np.isclose(c["x"], 0.0)
+    assert at0.sum() == 2 and len(set(map(tuple, c["master"][at0]))) == 1
+    assert np.all(np.isclose(c["xi"], 0.0) | np.isclose(c["xi"], 1.0))
+    # closed form: p = 10 on every pair, no tangential force
+    np.testing.assert_allclose(c["p"], 10.0, rtol=1e-8)
+    assert np.abs(c["q"]).max() < 1e-8 * 10.0
+    st = s["steps"][0]
+    assert st["dependent_tangential_directions"] > 0  # C_tt singular: handled, not fatal
+    print(f"\nduplicate pairs: {st['n_pairs']} pairs, LCP {st['lcp_size']}, "
+          f"{st['lemke_pivots']} pivots, residual {st['lcp_residual']:.1e}, "
+          f"max |p - 10| / 10 = {np.abs(c['p'] - 10).max() / 10:.1e}, "
+          f"KKT {check_law(s, out):.1e}")
+
+
+def test_material_contrast_1e6(tmp_path):
+    s, out = solve(tmp_path, "contrast")
+    c = contact(out, 1)
+    np.testing.assert_allclose(c["p"], 10.0, rtol=1e-6)
+    top = c["u"][:, 1].min()
+    exact = -10.0 * (2 / constrained_modulus(1e3, 0.3) + 1 / constrained_modulus(1e9, 0.3))
+    assert top == pytest.approx(exact, rel=1e-9)
+    print(f"\ncontrast 1e6: max |p - 10| / 10 = {np.abs(c['p'] - 10).max() / 10:.1e}, top "
+          f"displacement error {abs(top / exact - 1):.1e}, residual "
+          f"{s['steps'][0]['lcp_residual']:.1e}, KKT {check_law(s, out):.1e}")
+
+
+def test_tolerances_scale_with_the_data(tmp_path):
+    """Stiffness and loads times 1e9 or 1e-9: the same states and displacements."""
+    ref, out0 = solve(tmp_path, "contrast", tag="1")
+    for f in (1e9, 1e-9):
+        s, out = solve(tmp_path, "contrast", f"body.soft_base.E={1e3 * f}",
+                       f"body.stiff_core.E={1e9 * f}", f"body.soft_top.E={1e3 * f}",
+                       f"load.0.pressure={10.0 * f}", tag=f"{f:g}")
+        assert s["steps"][0]["states"] == ref["steps"][0]["states"]
+        c, c0 = contact(out, 1), contact(out0, 1)
+        np.testing.assert_allclose(c["p"], f * c0["p"], rtol=1e-6)  # contrast 1e6: ~1e-8
+        np.testing.assert_allclose(c["u"], c0["u"], rtol=1e-6, atol=1e-7 * np.abs(c0["u"]).max())
+        check_law(s, out)
+
+
+def test_aspect_ratio_100_at_the_interface(tmp_path):
+    s, out = solve(tmp_path, "aspect_ratio")
+    c = contact(out, 1)
+    np.testing.assert_allclose(c["p"], 10.0, rtol=1e-6)
+    top = c["u"][:, 1].min()
+    exact = -10.0 * 1.1 / constrained_modulus(1e3, 0.3)
+    assert top == pytest.approx(exact, rel=1e-8)
+    check_law(s, out)
+    # non-matching meshes, still aspect ratio 100: total force exact, law holds
+    s2, out2 = solve(tmp_path, "aspect_ratio", "body.layer.shape.divisions=[30,150]",
+                     tag="nm")
+    c2 = contact(out2, 1)
+    assert s2["steps"][0]["interfaces"]["interface"]["normal_force"] == pytest.approx(20.0,
+                                                                                     rel=1e-9)
+    err, err2 = np.abs(c["p"] - 10).max() / 10, np.abs(c2["p"] - 10).max() / 10
+    print(f"\naspect ratio 100: matching max |p - 10| / 10 = {err:.1e}; non-matching "
+          f"{err2:.3f}, KKT {check_law(s2, out2):.1e}")
+
+
+@pytest.mark.parametrize("mu", [0.0, 0.01, 1.0, 5.0])
+def test_friction_extremes(tmp_path, mu):
+    s, out = solve(tmp_path, "friction", f"interface.contact.mu={mu}")
+    check_law(s, out)
+    last = s["steps"][-1]
+    itf = last["interfaces"]["contact"]
+    P, Q = itf["normal_force"], itf["tangential_force"]
+    states = last["states"]
+    if mu == 0.0:
+        assert Q == 0.0 and states["stick"] == 0
+    elif mu == 0.01:  # the shear steps slide fully: |Q| = mu P
+        for st in s["steps"][2:]:
+            i = st["interfaces"]["contact"]
+            assert st["states"]["stick"] == 0
+            assert abs(i["tangential_force"]) == pytest.approx(mu * i["normal_force"],
+                                                               rel=1e-9)
+    elif mu == 1.0:  # partial slip
+        assert states["stick"] > 0 and states["slip+"] + states["slip-"] > 0
+        assert abs(Q) < mu * P
+    else:  # mu = 5: the same answer as a much larger mu to 1%
+        big, _ = solve(tmp_path, "friction", "interface.contact.mu=1000", tag="big")
+        qb = big["steps"][-1]["interfaces"]["contact"]["tangential_force"]
+        assert Q == pytest.approx(qb, rel=0.01)
+    print(f"\nmu = {mu}: P = {P:.4f}, Q = {Q:.4f}, Q / (mu P) = "
+          f"{abs(Q) / (mu * P) if mu else 0:.4f}, states {states}")
+
+
+def middle_x_force(out: Path, step: int) -> float:
+    """Tangential forces on the middle block of the squeezed scene (x component)."""
+    c = contact(out, step)
+    fx = c["q_force"] * c["tangent"][:, 0] + c["p_force"] * c["normal"][:, 0]
+    # bottom interface: the middle block is the slave (gets +force); top: the master (-)
+    return float(fx[c["interface"] == 0].sum() - fx[c["interface"] == 1].sum())
+
+
+def test_floating_block_squeezed_between_two_blocks(tmp_path):
+    s, out = solve(tmp_path, "squeezed")
+    check_law(s, out)
+    for st in s["steps"]:
+        applied = 2.0 * [0, 0, 0.25, 0.5, 0.75, 1.0][st["step"] - 1]
+        assert middle_x_force(out, st["step"]) == pytest.approx(-applied, abs=1e-9)
+        assert set(st["rigid_modes"]) == {"middle: translation x", "middle: translation y",
+                                          "middle: rotation"}
+
+
+def test_squeezed_block_pushed_beyond_friction(tmp_path):
+    """2 mu P is about 3.2: a side force of 5 has no static equilibrium at step 5."""
+    with pytest.raises(SolveError, match="no static equilibrium at step 5") as err:
+        solve(tmp_path, "squeezed", "load.0.total_force=[5.0, 0.0]")
+    assert "steps 1..4 are written" in str(err.value)
+    out = tmp_path / "squeezed"
+    for k in range(1, 5):
+        assert (out / f"step_{k:04d}.h5").is_file()
+    assert not (out / "step_0005.h5").exists()
+
+
+def test_floating_block_under_gravity_equals_supported_model(tmp_path):
+    s1, out1 = solve(tmp_path, "floating_gravity")
+    s2, out2 = solve(tmp_path, "floating_gravity", "support.1.on=top_centre",
+                     "support.1.ux=0.0", tag="supported")
+    check_law(s1, out1)
+    check_law(s2, out2)
+    c1, c2 = contact(out1, 1), contact(out2, 1)
+    assert len(s1["steps"][0]["rigid_modes"]) == 3 and len(s2["steps"][0]["rigid_modes"]) == 2
+    diff = np.abs(c1["u"] - c2["u"]).max() / np.abs(c2["u"]).max()
+    assert diff < 1e-9
+    np.testing.assert_allclose(c1["p_force"], c2["p_force"], rtol=1e-9, atol=1e-12)
+    assert s1["steps"][0]["interfaces"]["contact"]["normal_force"] == pytest.approx(10.0,
+                                                                                  rel=1e-12)
+    print(f"\nfloating vs supported: max |u1 - u2| / max |u| = {diff:.1e}")
+
+
+def test_nonunique_answer_does_not_crash(tmp_path):
+    s, out = solve(tmp_path, "nonunique")
+    check_law(s, out)
+    for st in s["steps"]:
+        assert st["undetermined_modes"] == ["middle: translation x"]
+        f = st["interfaces"]
+        assert f["bottom"]["normal_force"] == pytest.approx(f["top"]["normal_force"], rel=1e-12)
+    # a load on the undetermined mode has no equilibrium, and the message names the mode
+    with pytest.raises(SolveError, match="cannot resist middle: translation x"):
+        solve(tmp_path, "nonunique", 'load=[{on = "middle_left", total_force = [0.1, 0.0]}]',
+              tag="pushed")
+
+
+def test_nearly_incompressible_hertz(tmp_path):
+    err = {}
+    for label, kw in [("1SD", {"sd": 1}), ("4SD", {"sd": 4}), ("16SD", {"sd": 16}),
+                      ("Q4", {"method": "fem-q4"})]:
+        s, out = solve(tmp_path, "hertz_incompressible", tag=label, **kw)
+        check_law(s, out)
+        hz = s["reference"]["hertz"]
+        assert hz["a_hertz"] == pytest.approx(0.09084, rel=1e-3)
+        err[label] = (hz["p_max_rel_error"], hz["pressure_l2_rel_error"])
+    print("\nnu = 0.499 Hertz (peak, L2 of p):", {k: tuple(round(x, 4) for x in v)
+                                                 for k, v in err.items()})
+    # 1SD does not lock; more smoothing domains tend to FEM-Q4, which locks
+    assert err["1SD"][0] < 0.03 and err["1SD"][1] < 0.05
+    assert err["1SD"][1] < err["4SD"][1] <= err["16SD"][1] <= err["Q4"][1]
+
+
+def test_initial_gap_closes_under_load(tmp_path):
+    s, out = solve(tmp_path, "initial_gap")
+    check_law(s, out)
+    e1 = constrained_modulus(1e3, 0.3)
+    for st, d in zip(s["steps"], (0.005, 0.01, 0.02, 0.03), strict=True):
+        c = contact(out, st["step"])
+        if d < 0.01:
+            assert st["states"]["open"] == st["n_pairs"]
+            np.testing.assert_allclose(c["gap"], 0.01 - d, rtol=1e-9)
+        p_exact = e1 * max(d - 0.01, 0.0) / 2.0
+        np.testing.assert_allclose(c["p"], p_exact, rtol=1e-9, atol=1e-9)
+
+
+def test_interference_fit_on_purpose(tmp_path):
+    s, out = solve(tmp_path, "interference")
+    check_law(s, out)
+    c = contact(out, 1)
+    np.testing.assert_allclose(c["g0"], -0.002, rtol=1e-9)
+    np.testing.assert_allclose(c["p"], constrained_modulus(1e3, 0.3) * 0.002 / 2, rtol=1e-9)
+    np.testing.assert_allclose(c["gap"], 0.0, atol=1e-12)
+    # the same overlap without the option is an input error that names the fix
+    with pytest.raises(InputError, match="interference = true"):
+        solve(tmp_path, "interference", "interface.contact.interference=false", tag="no")
+
+
+def test_interference_error_is_one_line_from_the_cli(tmp_path):
+    res = run_cli(["run", str(HARD / "interference.toml"), "--out", str(tmp_path / "o"),
+                   "--quiet", "--set", "interface.contact.interference=false"])
+    assert res.returncode == 2
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: interface 'contact'"), res.stderr
+
+
+def test_many_pairs_and_steps_short(tmp_path):
+    """The 2000-pair scene on a 3x coarser arc and 10 steps (the full run is slow)."""
+    s, out = solve(tmp_path, "cattaneo_many", "analysis.steps=10", "support.1.ramp=[1, 4]",
+                   "load.0.ramp=[5, 10]", "mesh.refine.1.size=0.0045")
+    assert s["status"] == "completed" and len(s["steps"]) == 10
+    assert s["n_pairs"] > 600
+    check_law(s, out)
+
+
+@pytest.mark.slow
+def test_many_pairs_and_steps_full(tmp_path):
+    s, out = solve(tmp_path, "cattaneo_many")
+    assert s["status"] == "completed" and len(s["steps"]) == 100
+    assert s["n_pairs"] >= 2000
+    check_law(s, out)
+    later = [st["step_seconds"] for st in s["steps"][1:]]
+    print(f"\n100 steps, {s['n_pairs']} pairs: first step {s['steps'][0]['step_seconds']:.2f} s,"
+          f" later steps mean {np.mean(later):.2f} s, max {np.max(later):.2f} s")
