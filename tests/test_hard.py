@@ -205,6 +205,16 @@ def test_nonunique_answer_does_not_crash(tmp_path):
               tag="pushed")
 
 
+def test_hourglass_modes_named_with_a_fix(tmp_path):
+    cfg = str(HARD / "hourglass_1sd.toml")
+    res = run_cli(["run", cfg, "--out", str(tmp_path / "o"), "--quiet"])
+    lines = res.stderr.strip().splitlines()
+    assert res.returncode == 2 and len(lines) == 1, res.stderr
+    assert "hourglass" in lines[0] and "body 'block'" in lines[0] and "--sd 2" in lines[0]
+    res = run_cli(["run", cfg, "--out", str(tmp_path / "o"), "--quiet", "--sd", "2"])
+    assert res.returncode == 0, res.stderr
+
+
 def test_nearly_incompressible_hertz(tmp_path):
     err = {}
     for label, kw in [("1SD", {"sd": 1}), ("4SD", {"sd": 4}), ("16SD", {"sd": 16}),
