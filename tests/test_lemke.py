@@ -468,3 +468,22 @@ def test_tolerance_controls_the_check():
     res = lemke(M, q, tol=1e-14)
     assert_solution(M, q, res)
     assert res.z[0] == pytest.approx(1.0, rel=1e-15)
+
+
+def test_warm_start_without_cold_fallback():
+    """cold_start=False: a failed warm start returns at once (for trying another basis);
+    the default goes on to a cold start and solves."""
+    M = np.array([[4.49, -1.58, 2.8, 0.54, -3.03], [-1.24, 9.48, -0.78, -1.07, 3.99],
+                  [2.07, -0.28, 2.89, 3.3, -1.08], [0.53, -0.56, 3.1, 4.21, 1.07],
+                  [-3.79, 3.87, -1.78, 1.18, 16.3]])
+    q = np.array([0.35, -0.59, -0.35, -0.5, 2.11])
+    bad = np.array([True, False, True, True, True])
+    r = lemke(M, q, basis=bad, cold_start=False)
+    assert r.status == "warm start failed" and r.warm_start == "failed" and not r.ok
+    full = lemke(M, q, basis=bad)
+    assert full.ok and full.warm_start == "cold" and full.pivots > r.pivots
+    w = M @ full.z + q
+    assert full.z.min() >= 0 and w.min() >= -1e-12 and abs(full.z @ w) < 1e-12
+    # a good basis as the second candidate of the contact solve: found without a cold start
+    again = lemke(M, q, basis=full.basis, cold_start=False)
+    assert again.ok and again.pivots == 0

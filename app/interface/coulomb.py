@@ -192,11 +192,26 @@ class ContactLCP:
 
     def solve(self, gap_free, tau_free, tau_prev, a, c, mu, e0, *, basis=None,
               max_pivots=None) -> ContactSolution:
-        """Solve the LCP and recover p, q, gap, tau and alpha."""
+        """Solve the LCP and recover p, q, gap, tau and alpha. basis: a warm-start basis,
+        or a list of them tried in order (newest first; the last one falls back to a
+        cold start)."""
         qv = self.constant(gap_free, tau_free, tau_prev, a, c, mu, e0)
         d = self.scaling
-        res = lemke(d[:, None] * self.M * d[None, :], d * qv, basis=basis,
-                    max_pivots=max_pivots)
+        ms, qs = d[:, None] * self.M * d[None, :], d * qv
+        # warm starts: each candidate basis in turn (the newest first), then a cold start
+        candidates = [b for b in (basis if isinstance(basis, list) else [basis])
+                      if b is not None]
+        pivots = 0
+        for k, b in enumerate(candidates):
+            res = lemke(ms, qs, basis=b, max_pivots=max_pivots,
+                        cold_start=k == len(candidates) - 1)
+            pivots += res.pivots
+            if res.status != "warm start failed":
+                break
+        else:
+            res = lemke(ms, qs, max_pivots=max_pivots)
+            pivots += res.pivots
+        res.pivots = pivots
         m, f, e = self.m, self.fric, self.edges
         z = d * res.z
         ptil = z[: e[1]]

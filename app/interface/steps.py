@@ -42,6 +42,7 @@ class InterfaceHistory:
     tau_prev: np.ndarray  # (m,) relative tangential displacement at the end of last step
     debonded_step: np.ndarray  # (m,) int
     basis: np.ndarray | None = None
+    older_basis: np.ndarray | None = None  # the basis before, tried when `basis` fails
     warm_start: bool = True
     pivots_log: list = field(default_factory=list)
 
@@ -77,7 +78,8 @@ def solve_step(lcp: ContactLCP, hist: InterfaceHistory, step: int, gap_free: np.
     pivots = 0
     a, c, bonded = hist.a.copy(), hist.c.copy(), hist.bonded.copy()
     debonded_step = hist.debonded_step.copy()
-    basis = hist.basis if hist.warm_start else None
+    basis = [b for b in (hist.basis, hist.older_basis) if b is not None] \
+        if hist.warm_start else None
     frictionless = np.ones(lcp.m, dtype=bool)
     frictionless[lcp.fric] = False
     for it in range(1, max_iterations + 1):
@@ -103,6 +105,9 @@ def solve_step(lcp: ContactLCP, hist: InterfaceHistory, step: int, gap_free: np.
     hist.a, hist.c, hist.bonded = a, c, bonded
     hist.debonded_step = debonded_step
     hist.tau_prev = sol.tau.copy()
+    if hist.basis is not None and sol.basis is not None and \
+            not np.array_equal(hist.basis, sol.basis):
+        hist.older_basis = hist.basis
     hist.basis = sol.basis
     return StepResult(sol, state, debonded_step, it, pivots, time.perf_counter() - t0,
                       dissipation, "solved")

@@ -837,6 +837,7 @@ def _run(
     max_pivots: int | None,
     tol: float | None,
     basis,
+    cold_start: bool = True,
 ) -> LCPResult:
     M, q = _validate(M, q)
     n = q.size
@@ -877,6 +878,12 @@ def _run(
                     )
             warm = "cold"
             note = f"warm start ended with '{res.status}' after {res.pivots} pivots; "
+            if not cold_start:
+                z = np.maximum(res.z * P.zfac, 0.0)
+                w, _, comp, worst = _check(M, q, z, tol)
+                return LCPResult(z, w, pivots, "warm start failed", comp, res.zset.copy(),
+                                 note + "no cold start (cold_start=False)", "failed",
+                                 refacts, worst)
     res = core(P.Ms, P.qs, np.ones(n), np.zeros(n, dtype=bool), max(max_pivots - pivots, 0))
     pivots += res.pivots
     refacts += res.refactorizations
@@ -917,6 +924,7 @@ def lemke(
     max_pivots: int | None = None,
     tol: float | None = None,
     basis: np.ndarray | None = None,
+    cold_start: bool = True,
 ) -> LCPResult:
     """Solve LCP(M, q): z >= 0, w = M z + q >= 0, z.w = 0, by Lemke's method.
 
@@ -935,6 +943,9 @@ def lemke(
         principal pivot transform of the LCP on B, covering vector 1 in transformed
         variables); if that fails (singular M_BB, secondary ray, pivot limit) a cold start
         follows. Pivots of all runs are counted.
+    cold_start: with a basis, False returns at once when the warm start fails (status
+        "warm start failed", warm_start "failed") instead of starting cold, so that a
+        caller can try another basis first.
 
     Returns an `LCPResult`. "solved" only after the check above passes (z on the final
     basis is recomputed by a fresh LU solve); "secondary ray": no solution was found from
@@ -942,7 +953,7 @@ def lemke(
     contact: no static equilibrium); "inaccurate": a candidate failed the check.
     q >= 0 returns z = 0 with 0 pivots.
     """
-    return _run(_core_revised, M, q, max_pivots, tol, basis)
+    return _run(_core_revised, M, q, max_pivots, tol, basis, cold_start)
 
 
 def _lemke_tableau(
