@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # One-command set-up on a fresh Debian 12 machine (run as root, or with sudo available).
 # Installs the Debian PETSc/MPI/HDF5 stack, makes .venv from /usr/bin/python3 with
-# --system-site-packages, and installs the project with its PyPI dependencies.
+# --system-site-packages, and installs the project with its PyPI dependencies (which also
+# compiles the C assembly kernel app/assembly/_kernel.c with gcc).
 # Running it twice is harmless.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -9,7 +10,7 @@ SUDO=""
 if [ "$(id -u)" != "0" ]; then SUDO="sudo"; fi
 export DEBIAN_FRONTEND=noninteractive
 PKGS="python3-petsc4py python3-mpi4py python3-h5py-mpi python3-numpy python3-scipy \
-  python3-venv python3-pip python3-dev openmpi-bin libopenmpi-dev \
+  python3-venv python3-pip python3-dev gcc openmpi-bin libopenmpi-dev \
   libglu1-mesa libxcursor1 libxft2 libxinerama1 libxrender1 libxext6 libx11-6 libgl1 libxi6 libxfixes3 libxmu6"
 missing=""
 for p in $PKGS; do
@@ -30,4 +31,7 @@ site=$(.venv/bin/python -c "import sysconfig; print(sysconfig.get_paths()['purel
 echo "$petsc_py" > "$site/debian_petsc4py.pth"
 .venv/bin/python -m pip install -q --upgrade pip
 .venv/bin/python -m pip install -q -e ".[dev]"
-.venv/bin/python -c "import petsc4py, mpi4py, h5py, gmsh, meshio; print('set-up OK: petsc4py', petsc4py.__version__, 'gmsh', gmsh.__version__)"
+.venv/bin/python -c "import petsc4py, mpi4py, h5py, gmsh, meshio
+from app.assembly.compiled import kernel
+print('set-up OK: petsc4py', petsc4py.__version__, 'gmsh', gmsh.__version__,
+      '; assembly kernel', 'built' if kernel() else 'NOT built (numpy fallback)')"

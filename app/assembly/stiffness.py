@@ -2,17 +2,25 @@
 
 Each rank owns a contiguous block of nodes (and so of DOFs 2*node + component), computes
 the element matrices of the elements touching its nodes, and builds the CSR rows of its
-own block with numpy (sort + bincount, no Python loop over elements). No rank ever holds
-the global matrix.
+own block. No rank ever holds the global matrix. Two routes give the same matrix:
+- compiled (the default when app/assembly/_kernel.c was built): the C kernel of
+  app/assembly/compiled.py builds the rows, and PETSc takes the arrays without copying
+  them (MatCreateSeqAIJWithArrays, or MatCreateMPIAIJWithSplitArrays through ctypes);
+- numpy (the reference, and the fallback without the kernel): sort + bincount, no
+  Python loop over elements, and PETSc copies the CSR.
 """
 
 from __future__ import annotations
 
+import ctypes
+
 import numpy as np
 from petsc4py import PETSc
 
+from app.assembly import compiled
 from app.discretisation.bulk import Discretisation, element_blocks
 from app.mesh.model import Mesh
+from app.petsc_lib import PETSC_INT, load_petsc, mpi_comm_handle
 
 
 def node_ownership(n_nodes: int, size: int) -> np.ndarray:
@@ -22,18 +30,67 @@ def node_ownership(n_nodes: int, size: int) -> np.ndarray:
     return np.concatenate([[0], np.cumsum(counts)])
 
 
-def assemble_stiffness(mesh: Mesh, disc: Discretisation, comm=None) -> PETSc.Mat:
+def assemble_stiffness(mesh: Mesh, disc: Discretisation, comm=None,
+                       route: str = "auto") -> PETSc.Mat:
     """Assemble the global stiffness as a distributed PETSc AIJ matrix.
 
     Rows/columns are DOFs 2*node + component; rank r owns nodes
-    node_ownership(n_nodes, size)[r:r+2].
+    node_ownership(n_nodes, size)[r:r+2]. route: "compiled", "numpy", or "auto" (compiled
+    when the kernel is built and, on several ranks, the PETSc library loads through ctypes).
     """
     comm = comm or PETSc.COMM_WORLD
     rank, size = comm.getRank(), comm.getSize()
     own = node_ownership(mesh.n_nodes, size)
     n0, n1 = int(own[rank]), int(own[rank + 1])
-    n_nodes = mesh.n_nodes
+    if route not in ("auto", "compiled", "numpy"):
+        raise ValueError(f"route = {route!r}: use 'auto', 'compiled' or 'numpy'")
+    if route == "auto":
+        ready = compiled.kernel() is not None and (size == 1 or _split_arrays_available())
+        route = "compiled" if ready else "numpy"
+    if route == "compiled":
+        csr = compiled.local_stiffness(mesh, disc, n0, n1, PETSc.IntType)
+        return petsc_matrix(csr, 2 * mesh.n_nodes, comm)
+    return _assemble_numpy(mesh, disc, comm, n0, n1)
 
+
+def _split_arrays_available() -> bool:
+    lib = load_petsc()
+    return lib is not None and all(
+        hasattr(lib, name) for name in ("MatCreateMPIAIJWithSplitArrays", "MatHeaderReplace"))
+
+
+def petsc_matrix(csr: compiled.SplitCSR, n_glob: int, comm) -> PETSc.Mat:
+    """An assembled AIJ matrix on `comm` that uses the arrays of `csr` without a copy.
+
+    The arrays are attached to the matrix and live as long as it does; PETSc may rewrite
+    csr.oind in place (to its compressed off-diagonal columns).
+    """
+    m = 2 * (csr.n1 - csr.n0)
+    if comm.getSize() == 1:
+        return PETSc.Mat().createAIJWithArrays(size=((m, n_glob), (m, n_glob)),
+                                               csr=(csr.dptr, csr.dind, csr.dval), comm=comm)
+    lib = load_petsc()
+    ptr = ctypes.c_void_p
+    handle = ptr()
+    arrays = (csr.dptr, csr.dind, csr.dval, csr.optr, csr.oind, csr.oval)
+    err = lib.MatCreateMPIAIJWithSplitArrays(
+        mpi_comm_handle(comm), PETSC_INT(m), PETSC_INT(m), PETSC_INT(n_glob),
+        PETSC_INT(n_glob), *(ptr(a.ctypes.data) for a in arrays), ctypes.byref(handle))
+    if err:
+        raise RuntimeError(f"MatCreateMPIAIJWithSplitArrays failed (PETSc error {err})")
+    # Move the new matrix into a petsc4py object: MatHeaderReplace swaps the headers
+    # and destroys the emptied one.
+    mat = PETSc.Mat().create(comm=comm)
+    err = lib.MatHeaderReplace(ptr(mat.handle), ctypes.byref(handle))
+    if err:
+        raise RuntimeError(f"MatHeaderReplace failed (PETSc error {err})")
+    mat.setAttr("__split_csr__", arrays)
+    return mat
+
+
+def _assemble_numpy(mesh: Mesh, disc: Discretisation, comm, n0: int, n1: int) -> PETSc.Mat:
+    """The reference route: numpy sort + bincount, PETSc copies the CSR."""
+    n_nodes = mesh.n_nodes
     quads = mesh.quads
     touches = np.any((quads >= n0) & (quads < n1), axis=1)
     elements = np.flatnonzero(touches)

@@ -15,30 +15,21 @@ stored factorization per load step (never a refactorization).
 from __future__ import annotations
 
 import ctypes
-import ctypes.util
 
 import numpy as np
 import scipy.sparse as sp
 from petsc4py import PETSc
 
 from app.errors import SolveError
+from app.petsc_lib import PETSC_INT, load_petsc
 
-_LIB = None
 
-
-def _petsc_lib():
-    global _LIB
-    if _LIB is None:
-        for name in ("libpetsc_real.so.3.18", "libpetsc_real.so", "libpetsc.so"):
-            try:
-                _LIB = ctypes.CDLL(name)
-                break
-            except OSError:
-                continue
-        if _LIB is None:
-            raise SolveError("cannot load the PETSc shared library for the Schur route: use "
-                             "-contact_compliance solve")
-    return _LIB
+def _petsc_lib() -> ctypes.CDLL:
+    lib = load_petsc()
+    if lib is None:
+        raise SolveError("cannot load the PETSc shared library for the Schur route: use "
+                         "-contact_compliance solve")
+    return lib
 
 
 def schur_complement(k: PETSc.Mat, dofs: np.ndarray) -> np.ndarray | None:
@@ -76,15 +67,15 @@ def schur_complement(k: PETSc.Mat, dofs: np.ndarray) -> np.ndarray | None:
     n = dofs.size
     if rank == 0:
         rows, cols = PETSc.IntType(0), PETSc.IntType(0)
-        m_ = ctypes.c_int64() if PETSc.IntType == np.int64 else ctypes.c_int()
-        n_ = ctypes.c_int64() if PETSc.IntType == np.int64 else ctypes.c_int()
+        m_ = PETSC_INT()
+        n_ = PETSC_INT()
         lib.MatGetSize(s_handle, ctypes.byref(m_), ctypes.byref(n_))
         rows, cols = m_.value, n_.value
         if rows != n or cols != n:
             raise SolveError(f"Schur complement has size {rows}x{cols}, expected {n}x{n}")
         ptr = ctypes.POINTER(ctypes.c_double)()
         lib.MatDenseGetArrayRead(s_handle, ctypes.byref(ptr))
-        lda = ctypes.c_int64() if PETSc.IntType == np.int64 else ctypes.c_int()
+        lda = PETSC_INT()
         lib.MatDenseGetLDA(s_handle, ctypes.byref(lda))
         raw = np.ctypeslib.as_array(ptr, shape=(cols, lda.value))  # column-major storage
         out = np.array(raw[:, :rows].T, copy=True)

@@ -72,10 +72,21 @@ def _b_from_gradients(bx: np.ndarray, by: np.ndarray) -> np.ndarray:
     return b
 
 
+def parent_derivatives(xi: float, eta: float) -> tuple[np.ndarray, np.ndarray]:
+    """Derivatives (dN/dxi (4,), dN/deta (4,)) of the Q4 shape functions at a parent point."""
+    return (0.25 * _CORNERS[:, 0] * (1.0 + _CORNERS[:, 1] * eta),
+            0.25 * _CORNERS[:, 1] * (1.0 + _CORNERS[:, 0] * xi))
+
+
+def gauss_points() -> list[tuple[float, float]]:
+    """The 2x2 Gauss points (xi, eta) of FEM-Q4, xi fastest; every weight is 1."""
+    g = 1.0 / np.sqrt(3.0)
+    return [(a, b) for b in (-g, g) for a in (-g, g)]
+
+
 def gauss_gradients(xe: np.ndarray, xi: float, eta: float):
     """FEM-Q4 shape-function gradients at one parent point: (bx (n, 4), by (n, 4), detJ)."""
-    dn_dxi = 0.25 * _CORNERS[:, 0] * (1.0 + _CORNERS[:, 1] * eta)
-    dn_deta = 0.25 * _CORNERS[:, 1] * (1.0 + _CORNERS[:, 0] * xi)
+    dn_dxi, dn_deta = parent_derivatives(xi, eta)
     j11 = xe[..., 0] @ dn_dxi
     j12 = xe[..., 1] @ dn_dxi
     j21 = xe[..., 0] @ dn_deta
@@ -92,15 +103,32 @@ def cell_gradients(xe: np.ndarray, method: str, sd: int = 4):
 
     method: "cs-fem" (with sd smoothing cells) or "fem-q4" (2x2 Gauss).
     Returns (bx (n, n_cells, 4), by (n, n_cells, 4), weights (n, n_cells)).
+    Gradients and weights do not change under a translation, so the corners are taken
+    relative to the first one: far from the origin, absolute coordinates would cost
+    digits in the differences of nearby corners (2e-10 relative at x = 10, h = 0.003).
     """
+    xe = xe - xe[:, :1, :]
     if method == "cs-fem":
         return smoothed_gradients(xe, smoothing_cells(sd))
     if method == "fem-q4":
-        g = 1.0 / np.sqrt(3.0)
-        parts = [gauss_gradients(xe, a, b) for b in (-g, g) for a in (-g, g)]
+        parts = [gauss_gradients(xe, a, b) for a, b in gauss_points()]
     else:
         raise InputError(f"method '{method}' is not supported: use 'cs-fem' or 'fem-q4'")
     return tuple(np.stack([p[k] for p in parts], axis=1) for k in range(3))
+
+
+def smoothing_tables(cells: list) -> tuple[np.ndarray, np.ndarray]:
+    """Shape functions of the element's 4 nodes at the smoothing cells' corners and edges.
+
+    cells: parent rectangles (xi0, xi1, eta0, eta1). Returns (ncorner, nmid), both
+    (nc, 4, 4): ncorner[c, k, a] = N_a at corner k of cell c (counter-clockwise),
+    nmid[c, k, a] = N_a at the midpoint of edge k (corner k to corner k + 1).
+    """
+    corners = np.array([[[c[0], c[2]], [c[1], c[2]], [c[1], c[3]], [c[0], c[3]]]
+                        for c in cells])  # (nc, 4, 2) parent corners, counter-clockwise
+    mids = 0.5 * (corners + np.roll(corners, -1, axis=1))
+    return (shape_functions(corners[..., 0], corners[..., 1]),
+            shape_functions(mids[..., 0], mids[..., 1]))
 
 
 def smoothed_gradients(xe: np.ndarray, cells: list) -> tuple:
@@ -112,12 +140,8 @@ def smoothed_gradients(xe: np.ndarray, cells: list) -> tuple:
     Returns (bx, by (n, nc, 4), areas (n, nc)).
     """
     nc = len(cells)
-    corners = np.array([[[c[0], c[2]], [c[1], c[2]], [c[1], c[3]], [c[0], c[3]]]
-                        for c in cells])  # (nc, 4, 2) parent corners, counter-clockwise
-    ncorner = shape_functions(corners[..., 0], corners[..., 1]).reshape(nc * 4, 4)
-    mids = 0.5 * (corners + np.roll(corners, -1, axis=1))
-    nmid = shape_functions(mids[..., 0], mids[..., 1])  # (nc, 4 edges, 4 nodes)
-    xc = np.matmul(ncorner, xe).reshape(-1, nc, 4, 2)  # physical cell corners
+    ncorner, nmid = smoothing_tables(cells)
+    xc = np.matmul(ncorner.reshape(nc * 4, 4), xe).reshape(-1, nc, 4, 2)  # cell corners
     d = np.roll(xc, -1, axis=2) - xc  # edge vectors (n, nc, 4, 2)
     x, y = xc[..., 0], xc[..., 1]
     area = 0.5 * np.sum(x * np.roll(y, -1, axis=2) - np.roll(x, -1, axis=2) * y, axis=2)
