@@ -46,6 +46,7 @@ REFINE_KEYS = ("curves", "points", "size", "distance", "flat")
 HALF_DISK_START = {"upper": 0.0, "left": 0.5 * math.pi, "lower": math.pi, "right": 1.5 * math.pi}
 POINT_TOL = 1e-6  # named points must lie within POINT_TOL * body size of a mesh node
 _MAX_ARC = 0.5 * math.pi  # longest arc piece (gmsh circle arcs must be < pi)
+MAX_BOUNDARY_ELEMENTS = 1e6  # a body's perimeter / element size at most this
 _MAX_SAMPLING = 200_000  # cap on the sampling points of a Distance field curve
 # Frontal-Delaunay (6): unlike 8, it follows the background size field inside the surface.
 ALGORITHM = 5
@@ -216,10 +217,24 @@ def _number(d: dict, key: str, where: str, *, minimum: float | None = 0.0,
     return float(v)
 
 
+MAX_COORDINATE = 1e30
+"""Largest coordinate or length accepted (squares of lengths must stay finite)."""
+
+
 def _xy(v: Any, what: str) -> np.ndarray:
     if not (isinstance(v, list | tuple) and len(v) == 2 and all(_is_number(c) for c in v)):
         raise InputError(f"{what} must be a point [x, y] (got {v!r})")
+    if max(abs(c) for c in v) > MAX_COORDINATE:
+        raise InputError(f"{what} = {v!r} is beyond +-{MAX_COORDINATE:g}: check the units")
     return np.array(v, dtype=float)
+
+
+def _length(d: dict, key: str, where: str) -> float:
+    """A positive length no larger than MAX_COORDINATE."""
+    v = _number(d, key, where)
+    if v > MAX_COORDINATE:
+        raise InputError(f"{where}{key} = {v:g} is above {MAX_COORDINATE:g}: check the units")
+    return v
 
 
 def _table(v: Any, what: str) -> dict:
@@ -258,8 +273,8 @@ def _shape_sides(shape: dict, where: str) -> tuple[list[tuple[str, list[Piece]]]
         if "origin" not in shape:
             raise InputError(f"{w}origin is missing: it must be a point [x, y]")
         x0, y0 = _xy(shape["origin"], f"{w}origin")
-        wd = _number(shape, "width", w)
-        ht = _number(shape, "height", w)
+        wd = _length(shape, "width", w)
+        ht = _length(shape, "height", w)
         c = [(x0, y0), (x0 + wd, y0), (x0 + wd, y0 + ht), (x0, y0 + ht)]
         names = SHAPE_SIDES["rectangle"]
         return [(names[i], [Piece.line(c[i], c[(i + 1) % 4])]) for i in range(4)], structured
@@ -267,7 +282,7 @@ def _shape_sides(shape: dict, where: str) -> tuple[list[tuple[str, list[Piece]]]
         if "center" not in shape:
             raise InputError(f"{w}center is missing: it must be a point [x, y]")
         center = _xy(shape["center"], f"{w}center")
-        r = _number(shape, "radius", w)
+        r = _length(shape, "radius", w)
         if kind == "disk":
             return [("arc", _arc_pieces(center, r, 0.0, 2.0 * math.pi))], False
         side = shape.get("side")
@@ -465,6 +480,13 @@ def _mesh_body(gmsh: Any, spec: BodySpec, scene: Scene, scale: float) -> tuple:
     try:
         geo = gmsh.model.geo
         pieces = [p for s in spec.sides for p in s.pieces]
+        perimeter = sum(p.length for p in pieces)
+        if not (math.isfinite(perimeter) and perimeter / h <= MAX_BOUNDARY_ELEMENTS):
+            raise InputError(
+                f"body '{spec.name}': its boundary ({perimeter:.3g}) over the element size "
+                f"({h:.3g}) would need more than {MAX_BOUNDARY_ELEMENTS:.0e} boundary "
+                "elements: check the body's dimensions and mesh.size / body size"
+            )
         tags, ptags = _add_pieces(geo, pieces, closed=True)
         side_tags, k = [], 0
         for s in spec.sides:
