@@ -60,14 +60,8 @@ NULL_STIFFNESS_REL = 1e9
 """Stiffness on that null space, relative to the largest stiffness 1 / lambda_min kept."""
 
 
-class _Stiffness(np.ndarray):
-    """H with the number of dependent directions attached (see tangential_stiffness)."""
-
-    n_dependent: int = 0
-
-
-def tangential_stiffness(ctt: np.ndarray) -> np.ndarray:
-    """H = C_tt^-1, (mf, mf), and `H.n_dependent` the number of dependent directions.
+def tangential_stiffness(ctt: np.ndarray) -> tuple[np.ndarray, int]:
+    """(H, n_dependent): H = C_tt^-1, (mf, mf), and the number of dependent directions.
 
     C_tt is singular when tangential rows of G are dependent on the free DOFs: a pair
     whose tangential motion is fixed by supports (a zero row), or two pairs whose slave
@@ -90,7 +84,7 @@ def tangential_stiffness(ctt: np.ndarray) -> np.ndarray:
     except np.linalg.LinAlgError:
         ok = False
     if ok:
-        return h.view(_Stiffness)
+        return h, 0
     lam, vec = np.linalg.eigh(0.5 * (ctt + ctt.T))
     top = float(np.abs(lam).max(initial=0.0))
     if top == 0.0:
@@ -100,9 +94,7 @@ def tangential_stiffness(ctt: np.ndarray) -> np.ndarray:
     vk, vn = vec[:, keep], vec[:, ~keep]
     k0 = NULL_STIFFNESS_REL / float(lam[keep].min())
     h = (vk / lam[keep]) @ vk.T + k0 * (vn @ vn.T)
-    out = (0.5 * (h + h.T)).view(_Stiffness)
-    out.n_dependent = int((~keep).sum())
-    return out
+    return 0.5 * (h + h.T), int((~keep).sum())
 
 
 class ContactLCP:
@@ -128,11 +120,7 @@ class ContactLCP:
         tm = np.zeros((mf, 0)) if t_modes is None else t_modes[f]
         self.nm, self.tm = nm, tm
         self.tm_all = np.zeros((m, 0)) if t_modes is None else t_modes
-        self.dependent_tangential = 0
-        h = tangential_stiffness(ctt) if mf else np.zeros((0, 0))
-        if mf:
-            self.dependent_tangential = int(getattr(h, "n_dependent", 0))
-            h = np.asarray(h)
+        h, self.dependent_tangential = tangential_stiffness(ctt) if mf else (np.zeros((0, 0)), 0)
         self.h = h
         bm = cnt @ h  # (m, mf)
         self.bm = bm
@@ -167,6 +155,7 @@ class ContactLCP:
         ref = np.where(diag > 1e-12 * colmax, diag, colmax)
         ref = np.where(ref > 0, ref, 1.0)
         self.scaling = 1.0 / np.sqrt(ref)
+        self.M_scaled = self.scaling[:, None] * big * self.scaling[None, :]  # what Lemke gets
 
     @property
     def size(self) -> int:
@@ -197,7 +186,7 @@ class ContactLCP:
         cold start)."""
         qv = self.constant(gap_free, tau_free, tau_prev, a, c, mu, e0)
         d = self.scaling
-        ms, qs = d[:, None] * self.M * d[None, :], d * qv
+        ms, qs = self.M_scaled, d * qv
         # warm starts: each candidate basis in turn (the newest first), then a cold start
         candidates = [b for b in (basis if isinstance(basis, list) else [basis])
                       if b is not None]

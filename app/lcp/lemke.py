@@ -963,6 +963,7 @@ def _lemke_tableau(
     max_pivots: int | None = None,
     tol: float | None = None,
     basis: np.ndarray | None = None,
+    cold_start: bool = True,
 ) -> LCPResult:
     """Reference: `lemke` with the full-tableau core (O(n^2) per pivot; for tests)."""
-    return _run(_core_tableau, M, q, max_pivots, tol, basis)
+    return _run(_core_tableau, M, q, max_pivots, tol, basis, cold_start)
