@@ -87,13 +87,39 @@ def _edges_from_states(x: np.ndarray, inside: np.ndarray) -> tuple[float, float]
     return float(left), float(right)
 
 
+INTERPOLATED_L2_RANGE = 1.5
+"""The interpolated L2 errors integrate over |x - x0| <= INTERPOLATED_L2_RANGE x a_Hertz."""
+
+
+def interpolated_l2_rel_error(x, values, exact, half_range: float, *,
+                              n_samples: int = 20001) -> float:
+    """L2 error of a pair profile against a closed form, the definition CalculiX results
+    are quoted in (../shared/design/CALCULIX-NOTES.md).
+
+    x: (m,) pair positions relative to the contact centre (length); values: (m,) traction
+    at those pairs; exact: callable giving the closed-form traction at given positions.
+    The pair values are interpolated linearly between pairs (sorted by x; constant beyond
+    the outermost pairs) and compared with `exact` over |x| <= half_range, by the
+    trapezoid rule on `n_samples` equidistant points. Returns ||f_h - f|| / ||f||.
+    """
+    o = np.argsort(x)
+    xs = np.linspace(-half_range, half_range, n_samples)
+    fh = np.interp(xs, np.asarray(x, dtype=float)[o], np.asarray(values, dtype=float)[o])
+    fe = np.asarray(exact(xs), dtype=float)
+    num = np.trapz((fh - fe) ** 2, xs)
+    den = np.trapz(fe**2, xs)
+    return float(np.sqrt(num / den)) if den > 0 else float("nan")
+
+
 def hertz_errors(x, p, length, *, P: float, R: float, E_star: float, x0: float = 0.0,
                  thickness: float = 1.0) -> dict:
     """Compare a computed pressure p(x) (traction, per pair) with Hertz.
 
     Half-width: the contact edges are the midpoints between the last loaded and the
     first open pair on each side. L2 error of p over |x - x0| < a_H, weighted by the
-    pairs' tributary lengths, relative to the L2 norm of the Hertz pressure.
+    pairs' tributary lengths, relative to the L2 norm of the Hertz pressure
+    (`pressure_l2_rel_error`); `pressure_l2_interp_rel_error` is the interpolated one
+    (see `interpolated_l2_rel_error`).
     """
     o = np.argsort(x)
     x, p, length = np.asarray(x)[o] - x0, np.asarray(p)[o], np.asarray(length)[o]
@@ -108,7 +134,9 @@ def hertz_errors(x, p, length, *, P: float, R: float, E_star: float, x0: float =
     return {"P": P, "a_hertz": a, "p0_hertz": p0, "p_max": float(p.max()),
             "p_max_rel_error": float(abs(p.max() - p0) / p0), "half_width": half,
             "half_width_rel_error": float(abs(half - a) / a),
-            "contact_edges": [left + x0, right + x0], "pressure_l2_rel_error": float(l2)}
+            "contact_edges": [left + x0, right + x0], "pressure_l2_rel_error": float(l2),
+            "pressure_l2_interp_rel_error": interpolated_l2_rel_error(
+                x, p, lambda s: hertz_pressure(s, a, p0), INTERPOLATED_L2_RANGE * a)}
 
 
 def cattaneo_errors(x, p, q, length, stick, *, P: float, Q: float, mu: float, R: float,
@@ -116,6 +144,8 @@ def cattaneo_errors(x, p, q, length, stick, *, P: float, Q: float, mu: float, R:
     """Compare the stick zone and q(x) with Cattaneo-Mindlin (|q| is compared).
 
     stick: (m,) bool, pairs in contact that did not slip in the last step.
+    `traction_l2_rel_error` is weighted by tributary lengths over |x| < a;
+    `traction_l2_interp_rel_error` is the interpolated one (`interpolated_l2_rel_error`).
     """
     o = np.argsort(x)
     x, q, length = np.asarray(x)[o] - x0, np.asarray(q)[o], np.asarray(length)[o]
@@ -133,4 +163,7 @@ def cattaneo_errors(x, p, q, length, stick, *, P: float, Q: float, mu: float, R:
     return {"P": P, "Q": Q, "Q_over_muP": ratio, "a_hertz": a,
             "stick_half_width": half, "stick_half_width_exact": c_exact,
             "stick_half_width_rel_error": float(abs(half - c_exact) / c_exact),
-            "stick_edges": [left + x0, right + x0], "traction_l2_rel_error": float(l2)}
+            "stick_edges": [left + x0, right + x0], "traction_l2_rel_error": float(l2),
+            "traction_l2_interp_rel_error": interpolated_l2_rel_error(
+                x, np.abs(q), lambda s: cattaneo_traction(s, a, p0, mu, ratio),
+                INTERPOLATED_L2_RANGE * a)}
