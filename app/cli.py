@@ -10,6 +10,8 @@ import argparse
 import sys
 from pathlib import Path
 
+from app.discretisation.methods import BULK_METHODS
+
 DESCRIPTION = """\
 2D multi-body elastic contact with CS-FEM (1/2/3/4/8/16 smoothing domains per element) or
 FEM-Q4 on quadrilateral meshes, PETSc/MUMPS condensation onto the contact DOFs, and the
@@ -40,7 +42,7 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("config", type=Path, help="scene file, e.g. configs/cantilever.toml")
     r.add_argument("--out", type=Path, default=None,
                    help="output folder (default: out/<config name>)")
-    r.add_argument("--method", choices=["cs-fem", "fem-q4"], default=None,
+    r.add_argument("--method", choices=list(BULK_METHODS), default=None,
                    help="bulk discretisation (default: the config's analysis.method)")
     r.add_argument("--sd", type=int, default=None,
                    help="smoothing domains per element for cs-fem: 1, 2, 3, 4, 8 or 16")
@@ -121,8 +123,8 @@ def main(argv: list[str] | None = None) -> int:
             quiet=args.quiet,
             mesh_cache=args.mesh_cache,
         )
-        if opts.method == "fem-q4" and args.sd is not None:
-            raise InputError("--sd applies to --method cs-fem only")
+        if opts.method and args.sd is not None and not BULK_METHODS[opts.method].sd_choices:
+            raise InputError(f"--sd does not apply to --method {opts.method}")
         summary = run(cfg, opts)
     except (InputError, SolveError) as exc:
         if rank == 0:

@@ -16,8 +16,8 @@ from typing import Any
 
 import numpy as np
 
-from app.discretisation.elements import SMOOTHING_DOMAINS
 from app.errors import InputError
+from app.references import reference
 
 
 @dataclass
@@ -86,6 +86,9 @@ class Config:
     petsc: dict[str, str] = field(default_factory=dict)
     mesh_size: float = 1.0
     parameters: dict[str, float] = field(default_factory=dict)
+    reference: dict | None = None  # the [reference] table, checked by app.references
+    compliance: str = "auto"  # analysis.compliance: auto | schur | solve
+    warm_start: bool = True  # analysis.warm_start: Lemke starts from the last basis
 
 
 def _num(value: Any, where: str, *, positive: bool = False, nonneg: bool = False) -> float:
@@ -192,12 +195,8 @@ def parse_config(raw: dict[str, Any], path: Path | str = "<config>") -> Config:
     if plane not in ("strain", "stress"):
         raise InputError(f"analysis.plane = {plane!r}: use 'strain' or 'stress'")
     thickness = _num(an.get("thickness", 1.0), "analysis.thickness", positive=True)
-    method = an.get("method", "cs-fem")
-    if method not in ("cs-fem", "fem-q4"):
-        raise InputError(f"analysis.method = {method!r}: use 'cs-fem' or 'fem-q4'")
-    sd = an.get("sd", 4)
-    if isinstance(sd, bool) or not isinstance(sd, int) or sd not in SMOOTHING_DOMAINS:
-        raise InputError(f"analysis.sd = {sd!r}: choose one of {list(SMOOTHING_DOMAINS)}")
+    method = an.get("method", "cs-fem")  # checked against the bulk-method registry
+    sd = an.get("sd", 4)  # by app.run.make_discretisation, before any meshing
     n_steps = an.get("steps", 1)
     if isinstance(n_steps, bool) or not isinstance(n_steps, int) or n_steps < 1:
         raise InputError(f"analysis.steps must be an integer >= 1 (got {n_steps!r})")
@@ -319,7 +318,35 @@ def parse_config(raw: dict[str, Any], path: Path | str = "<config>") -> Config:
         n_steps=n_steps, body_names=names, E=np.array(E), nu=np.array(nu),
         body_force=np.array(bf).reshape(-1, 2), supports=supports, loads=loads,
         interfaces=interfaces, petsc=petsc_opts, mesh_size=mesh_size, parameters=params,
+        reference=_reference_table(raw), compliance=_choice(an, "compliance", COMPLIANCE_ROUTES),
+        warm_start=_flag(an, "warm_start", True),
     )
+
+
+COMPLIANCE_ROUTES = ("auto", "schur", "solve")
+
+
+def _choice(table: dict, key: str, choices: tuple[str, ...]) -> str:
+    value = table.get(key, choices[0])
+    if value not in choices:
+        raise InputError(f"analysis.{key} = {value!r}: use one of {list(choices)}")
+    return value
+
+
+def _flag(table: dict, key: str, default: bool) -> bool:
+    value = table.get(key, default)
+    if not isinstance(value, bool):
+        raise InputError(f"analysis.{key} = {value!r}: use true or false")
+    return value
+
+
+def _reference_table(raw: dict) -> dict | None:
+    """The [reference] table, its type and keys checked against the registry."""
+    if "reference" not in raw:
+        return None
+    table = _table(raw, "reference", "")
+    reference(table.get("type")).params(table)
+    return dict(table)
 
 
 def _override_value(text: str) -> Any:

@@ -33,10 +33,12 @@ from app.discretisation.bulk import (
     element_fields,
     zero_energy_modes,
 )
+from app.discretisation.methods import bulk_method
 from app.errors import InputError, SolveError
 from app.interface.setup import ContactSetup, floating_modes, mismatch
 from app.mesh.model import Mesh
 from app.output.xdmf import ResultWriter, atomic_write_text
+from app.references import ContactProfile, RunFigures, reference
 
 
 @dataclass
@@ -139,15 +141,12 @@ def from_numpy(template: PETSc.Mat, values: np.ndarray) -> PETSc.Vec:
 
 
 def make_discretisation(cfg: Config, opts: RunOptions) -> Discretisation:
-    method = opts.method or cfg.method
-    sd = opts.sd if opts.sd is not None else cfg.sd
-    if method not in ("cs-fem", "fem-q4"):
-        raise InputError(f"--method {method}: use cs-fem or fem-q4")
-    from app.discretisation.elements import SMOOTHING_DOMAINS
-
-    if method == "cs-fem" and sd not in SMOOTHING_DOMAINS:
-        raise InputError(f"--sd {sd}: choose one of {list(SMOOTHING_DOMAINS)}")
-    return Discretisation(method, sd, cfg.plane, cfg.thickness, cfg.E, cfg.nu)
+    """The bulk method and materials; the method and sd checked against the registry."""
+    method = bulk_method(opts.method or cfg.method,
+                         "--method" if opts.method else "analysis.method")
+    sd = method.check_sd(opts.sd if opts.sd is not None else cfg.sd,
+                         "--sd" if opts.sd is not None else "analysis.sd")
+    return Discretisation(method.name, sd, cfg.plane, cfg.thickness, cfg.E, cfg.nu)
 
 
 def build_scene_mesh(cfg: Config, opts: RunOptions) -> Mesh:
@@ -216,7 +215,7 @@ def run(cfg: Config, opts: RunOptions) -> dict:
     summary = {
         "config": str(cfg.path),
         "method": disc.method,
-        "sd": disc.sd if disc.method == "cs-fem" else None,
+        "sd": disc.sd if disc.bulk.sd_choices else None,
         "label": disc.label,
         "plane": disc.plane,
         "ranks": size,
@@ -405,61 +404,34 @@ def run(cfg: Config, opts: RunOptions) -> dict:
 def reference_errors(cfg: Config, disc: Discretisation, summary: dict, mesh: Mesh,
                      contact=None, last_contact: dict | None = None) -> dict | None:
     """Errors against the closed form named in the config's [reference] table (rank 0)."""
-    ref = cfg.raw.get("reference")
-    if not isinstance(ref, dict):
+    if cfg.reference is None:
         return None
-    kind = ref.get("type")
-    if kind in ("hertz", "cattaneo"):
-        from app.closed_form import cattaneo_errors, hertz_errors
-        from app.interface.steps import STICK
+    profile = None
+    if contact is not None and last_contact is not None:
+        profile = _contact_profile(cfg, disc, mesh, contact, last_contact)
+    figures = RunFigures(E=float(disc.E[0]), nu=float(disc.nu[0]), plane=disc.plane,
+                         thickness=disc.thickness, strain_energy=summary["strain_energy"],
+                         point_values=summary["point_values"], contact=profile)
+    return reference(cfg.reference["type"]).compare(cfg.reference, figures)
 
-        if contact is None or last_contact is None:
-            raise InputError(f"[reference] type '{kind}' needs an [[interface]]")
-        try:
-            radius = float(ref["radius"])
-            x0 = float(ref.get("center_x", 0.0))
-        except (KeyError, TypeError, ValueError):
-            raise InputError(f"[reference] type '{kind}' needs radius (and center_x)") from None
-        nb = mesh.node_body()
-        b1 = nb[contact.pairs.slave[0]]
-        b2 = nb[contact.pairs.master[0, 0]]
-        e_star = 1.0 / sum((1 - disc.nu[b] ** 2) / disc.E[b] for b in (b1, b2))
-        if disc.plane == "stress":
-            e_star = 1.0 / sum(1.0 / disc.E[b] for b in (b1, b2))
-        c = last_contact
-        sel = c["interface"] == 0
-        p_force = c["p_force"][sel]
-        total = float(p_force.sum())
-        out = {"type": kind, "interface": cfg.interfaces[0].name}
-        out |= {"hertz": hertz_errors(c["x"][sel], c["p"][sel], c["length"][sel], P=total,
-                                      R=radius, E_star=e_star, x0=x0,
-                                      thickness=disc.thickness)}
-        if kind == "cattaneo":
-            stick = (c["state"][sel] == STICK) & (c["p"][sel] > 0)
-            out["cattaneo"] = cattaneo_errors(
-                c["x"][sel], c["p"][sel], c["q"][sel], c["length"][sel], stick, P=total,
-                Q=float(c["q_force"][sel].sum()), mu=cfg.interfaces[0].mu, R=radius,
-                E_star=e_star, x0=x0, thickness=disc.thickness)
-        return out
-    if kind == "timoshenko":
-        from app.closed_form import timoshenko_cantilever
 
-        try:
-            P, L, D = (float(ref[k]) for k in ("P", "L", "D"))
-            point = summary["point_values"][ref.get("point", "tip")]
-        except (KeyError, TypeError, ValueError) as exc:
-            raise InputError(f"[reference] type 'timoshenko' needs P, L, D and a point "
-                             f"group: {exc}") from None
-        exact = timoshenko_cantilever(L, 0.0, P=P, L=L, D=D, E=float(disc.E[0]),
-                                      nu=float(disc.nu[0]), plane=disc.plane,
-                                      thickness=disc.thickness)
-        tip, u_ex = point["uy"], exact["tip_deflection"]
-        energy, e_ex = summary["strain_energy"], exact["strain_energy"]
-        return {"type": kind, "tip_deflection": tip, "tip_deflection_exact": u_ex,
-                "tip_deflection_rel_error": abs(tip - u_ex) / abs(u_ex),
-                "strain_energy_exact": e_ex,
-                "strain_energy_rel_error": abs(energy - e_ex) / abs(e_ex)}
-    return {"type": kind}
+def _contact_profile(cfg: Config, disc: Discretisation, mesh: Mesh, contact,
+                     data: dict) -> ContactProfile:
+    """The first interface's pairs at the last step, with the bodies' effective modulus."""
+    from app.interface.steps import STICK
+
+    nb = mesh.node_body()
+    bodies = (nb[contact.pairs.slave[0]], nb[contact.pairs.master[0, 0]])
+    if disc.plane == "stress":
+        e_star = 1.0 / sum(1.0 / disc.E[b] for b in bodies)
+    else:
+        e_star = 1.0 / sum((1 - disc.nu[b] ** 2) / disc.E[b] for b in bodies)
+    sel = data["interface"] == 0
+    return ContactProfile(
+        x=data["x"][sel], p=data["p"][sel], q=data["q"][sel], length=data["length"][sel],
+        p_force=data["p_force"][sel], q_force=data["q_force"][sel],
+        stick=(data["state"][sel] == STICK) & (data["p"][sel] > 0),
+        mu=cfg.interfaces[0].mu, E_star=float(e_star), interface=cfg.interfaces[0].name)
 
 
 def _assemble_cell_fields(mesh: Mesh, gathered) -> dict[str, np.ndarray]:
@@ -473,10 +445,6 @@ def _assemble_cell_fields(mesh: Mesh, gathered) -> dict[str, np.ndarray]:
         sed[el] = f["energy_density"]
     return {"stress": stress, "von_mises": vm, "strain_energy_density": sed,
             "body_id": mesh.body.astype(np.int64)}
-
-
-def _centroid(mesh: Mesh, body: int) -> np.ndarray:
-    return mesh.points[np.unique(mesh.quads[mesh.body == body])].mean(axis=0)
 
 
 def _point_values(mesh: Mesh, u: np.ndarray) -> dict:
@@ -499,8 +467,8 @@ def _singular_message(disc: Discretisation, mesh: Mesh, detail: str,
                 if zero_energy_modes(mesh, disc, b, fixed).shape[1] > 0:
                     names.append(f"'{mesh.body_names[b]}'")
     where = f" in body {', '.join(names)}" if names else ""
-    if disc.method == "cs-fem" and disc.sd == 1:
-        return (f"{detail}: CS-FEM-1SD has hourglass (zero-energy) modes{where} that the "
+    if disc.hourglass:
+        return (f"{detail}: {disc.label} has hourglass (zero-energy) modes{where} that the "
                 "supports do not suppress; use --sd 2 or more (hourglass-free smoothing) or "
                 "--method fem-q4")
     return f"{detail}: check that every body is held by supports{where}"

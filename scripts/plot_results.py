@@ -21,7 +21,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 from matplotlib.collections import PolyCollection  # noqa: E402
 
-from app.closed_form import cattaneo_traction, hertz_pressure  # noqa: E402
+from app.references import REFERENCES  # noqa: E402
 
 
 def deformed_mesh(out: Path, step: int, zoom, scale: float | None, prefix: str) -> Path:
@@ -74,19 +74,13 @@ def contact_plots(out: Path, step: int, summary: dict, prefix: str) -> list[Path
         fig, axes = plt.subplots(2, 1, figsize=(7, 5.5), sharex=True)
         axes[0].plot(coord[o], c["p"][sel][o], "o-", ms=3, label="p (computed)")
         axes[1].plot(coord[o], c["q"][sel][o], "o-", ms=3, label="q (computed)")
-        if i == 0 and "hertz" in ref:
-            h = ref["hertz"]
+        if i == 0 and ref.get("type") in REFERENCES:
+            curves = REFERENCES[ref["type"]].overlay(ref, float(np.max(c["mu"][sel])))
             xx = np.linspace(coord.min(), coord.max(), 400)
-            axes[0].plot(xx, hertz_pressure(xx, h["a_hertz"], h["p0_hertz"]), "k--", lw=1,
-                         label="Hertz")
-        if i == 0 and "cattaneo" in ref:
-            h, ca = ref["hertz"], ref["cattaneo"]
-            xx = np.linspace(coord.min(), coord.max(), 400)
-            mu = float(np.max(c["mu"][sel]))
-            sign = np.sign(np.sum(c["q"][sel])) or 1.0
-            axes[1].plot(xx, sign * cattaneo_traction(xx, h["a_hertz"], h["p0_hertz"], mu,
-                                                       ca["Q_over_muP"]), "k--", lw=1,
-                         label="Cattaneo-Mindlin")
+            for ax, key in ((axes[0], "p"), (axes[1], "q")):
+                if key in curves:
+                    name, curve = curves[key]
+                    ax.plot(xx, curve(xx), "k--", lw=1, label=name)
         state = c["state"][sel][o]
         for code, col in ((2, "tab:red"), (3, "tab:red"), (4, "0.7")):
             m = state == code

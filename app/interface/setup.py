@@ -44,7 +44,7 @@ def floating_modes(mesh: Mesh, cfg: Config, fixed: np.ndarray,
     in contact are found from the body stiffness and handled the same way."""
     free = free_rigid_modes(mesh, fixed)
     in_contact = set() if contact is None else contact.bodies(mesh)
-    hourglass = disc is not None and disc.method == "cs-fem" and disc.sd == 1
+    hourglass = disc is not None and disc.hourglass
     if hourglass:
         for b in in_contact:
             free.setdefault(b, np.zeros((3, 0)))
@@ -151,8 +151,7 @@ class ContactSetup:
 
     def compliance_route(self, solver) -> str:
         opts = PETSc.Options()
-        route = opts.getString("contact_compliance", self.cfg.raw.get("analysis", {}).get(
-            "compliance", "auto"))
+        route = opts.getString("contact_compliance", self.cfg.compliance)
         if route not in ("auto", "schur", "solve"):
             raise InputError(f"compliance route '{route}': use auto, schur or solve")
         if route == "auto":
@@ -299,7 +298,7 @@ class ContactStepper:
             a=np.where(setup.bonded, setup.a, 0.0), c=np.where(setup.bonded, setup.c, 0.0),
             bonded=setup.bonded.copy(), tau_prev=np.zeros(m),
             debonded_step=np.zeros(m, dtype=np.int64),
-            warm_start=bool(setup.cfg.raw.get("analysis", {}).get("warm_start", True)))
+            warm_start=setup.cfg.warm_start)
         self.slip = np.zeros(m)
         scale = max(max((np.abs(x).max(initial=0.0) for x in self.gu), default=0.0),
                     np.abs(pr.g0).max(initial=0.0), 1e-300)
