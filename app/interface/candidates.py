@@ -89,6 +89,7 @@ class CandidateLCP:
                          None if self.n_modes is None else self.n_modes[idx],
                          None if self.t_modes is None else self.t_modes[idx])
         lay = self.layout(cand)
+        self._cols = np.ascontiguousarray(self.c[:, rows])  # (2m, 2 |cand|) for `_expand`
         self._sub = (key, lcp, lay)
         return lcp, lay
 
@@ -144,9 +145,8 @@ class CandidateLCP:
         m = self.m
         p, q = np.zeros(m), np.zeros(m)
         p[idx], q[idx] = s.p, s.q
-        cols = np.concatenate([idx, m + idx])
         lam = np.concatenate([s.p, s.q])
-        cl = self.c[:, cols] @ lam
+        cl = self._cols @ lam
         gap = gap_free + cl[:m] + self.nm @ s.alpha
         tau = tau_free + cl[m:] + self.tm_all @ s.alpha
         splus, sminus = np.zeros(m), np.zeros(m)
