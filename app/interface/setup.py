@@ -19,6 +19,7 @@ from app.config import Config
 from app.contact.pairs import ContactPairs, constraint_matrix, contact_pairs
 from app.discretisation.bulk import zero_energy_modes
 from app.errors import InputError, SolveError
+from app.interface.candidates import CandidateLCP, candidate_pairs
 from app.interface.coulomb import ContactLCP
 from app.interface.steps import STATE_NAMES, InterfaceHistory, solve_step
 from app.mesh.model import Mesh
@@ -292,7 +293,8 @@ class ContactStepper:
             self.n_modes = self.t_modes = None
             self.e0 = [np.zeros(0) for _ in cases]
             self.mode_names = []
-        self.lcp = ContactLCP(c_mat, setup.mu, setup.frictional, self.n_modes, self.t_modes)
+        lcp_class = CandidateLCP if candidate_pairs(setup.cfg) else ContactLCP
+        self.lcp = lcp_class(c_mat, setup.mu, setup.frictional, self.n_modes, self.t_modes)
         self.undetermined = undetermined_modes(self.lcp.nm, self.lcp.tm, self.mode_names)
         self.hist = InterfaceHistory(
             a=np.where(setup.bonded, setup.a, 0.0), c=np.where(setup.bonded, setup.c, 0.0),
@@ -377,6 +379,7 @@ class ContactStepper:
             "interfaces": per_if,
             "max_contact_pressure": float((sol.p / length_t).max(initial=0.0)),
             "lcp_size": self.lcp.size,
+            "lcp_size_full": getattr(self.lcp, "full_size", self.lcp.size),
             "lemke_pivots": res.pivots,
             "lcp_residual": sol.residual,
             "dependent_tangential_directions": self.lcp.dependent_tangential,
