@@ -23,9 +23,19 @@ from app.assembly.loads import (
     load_vector,
     support_dofs,
 )
-from app.assembly.solve import LinearSolver, apply_dirichlet, set_default_options
+from app.assembly.solve import (
+    LinearSolver,
+    SingularStiffnessError,
+    apply_dirichlet,
+    set_default_options,
+)
 from app.assembly.stiffness import assemble_stiffness, node_ownership
-from app.condensation.compliance import compliance_schur, compliance_solve
+from app.condensation.compliance import (
+    attach_schur,
+    compliance_from_factor,
+    compliance_solve,
+    request_schur,
+)
 from app.config import Config
 from app.discretisation.bulk import (
     Discretisation,
@@ -260,11 +270,15 @@ def run(cfg: Config, opts: RunOptions) -> dict:
         apply_dirichlet(k, fixed_all)
 
     solver = LinearSolver(k)
+    route = contact.compliance_route(solver) if contact is not None else None
     with timer.phase("factorization"):
+        schur_dofs = request_schur(solver, contact.g, fixed_all) if route == "schur" else None
         try:
             solver.factor()
-        except SolveError as exc:
+        except SingularStiffnessError as exc:
             raise SolveError(_singular_message(disc, mesh, str(exc), fixed_all)) from None
+        if schur_dofs is not None:  # the one factorization serves compliance and solves
+            attach_schur(solver, k, schur_dofs)
 
     with timer.phase("solve"):
         unit, lifted = [], []
@@ -276,16 +290,15 @@ def run(cfg: Config, opts: RunOptions) -> dict:
             b[fixed_all] = case.prescribed[fixed_all]
             try:
                 x = solver.solve(from_numpy(k, b))
-            except SolveError as exc:
+            except SingularStiffnessError as exc:
                 raise SolveError(_singular_message(disc, mesh, str(exc), fixed_all)) from None
             unit.append(to_numpy_all(x))
 
     stepper = None
     if contact is not None:
         with timer.phase("compliance"):
-            route = contact.compliance_route(solver)
             if route == "schur":
-                c_mat = compliance_schur(k, contact.g, fixed_all)
+                c_mat = compliance_from_factor(solver, contact.g, fixed_all)
             else:
                 c_mat = compliance_solve(solver, k, contact.g, fixed_all, to_numpy_all)
         summary["compliance_route"] = route
