@@ -75,13 +75,13 @@ class Timer:
 
     @contextmanager
     def phase(self, name: str):
+        t0 = time.perf_counter()  # the barriers count too: all of a run is in some phase
         comm = PETSc.COMM_WORLD
         if name not in self._stages:
             self._stages[name] = PETSc.Log.Stage(name)
         stage = self._stages[name]
         stage.push()
         comm.barrier()  # a phase's time includes waiting for the slowest rank
-        t0 = time.perf_counter()
         try:
             yield
         finally:
