@@ -127,7 +127,8 @@ def request_schur(solver, g: sp.csr_matrix, fixed: np.ndarray) -> np.ndarray:
     from app.condensation.schur_solver import set_schur_dofs
 
     dofs, _ = contact_dofs(g, fixed)
-    set_schur_dofs(solver.ksp.getPC(), dofs)
+    if dofs.size:  # no free contact DOF: a plain factorization, and C = 0
+        set_schur_dofs(solver.ksp.getPC(), dofs)
     return dofs
 
 
@@ -136,19 +137,26 @@ def attach_schur(solver, k: PETSc.Mat, dofs: np.ndarray) -> None:
     route every later `solver.solve` through the block elimination on that factor."""
     from app.condensation.schur_solver import SchurFactorization
 
-    solver.block = SchurFactorization(k, solver.ksp.getPC().getFactorMatrix(), dofs)
+    if dofs.size:
+        solver.block = SchurFactorization(k, solver.ksp.getPC().getFactorMatrix(), dofs)
 
 
 def compliance_from_factor(solver, g: sp.csr_matrix, fixed: np.ndarray) -> np.ndarray | None:
     """C = G_c S^-1 G_c^T with the S of `attach_schur`; dense (2m, 2m) on rank 0."""
     dofs, gc = contact_dofs(g, fixed)
     block = solver.block
+    if not dofs.size:
+        return np.zeros((g.shape[0], g.shape[0])) if k_rank(solver) == 0 else None
     if not np.array_equal(dofs, block.dofs):
         raise SolveError("the Schur set of the factorization is not the contact DOFs")
     if block.rank != 0:
         return None
     c = gc @ block.dense_solve(gc.T.toarray())
     return 0.5 * (c + c.T)
+
+
+def k_rank(solver) -> int:
+    return solver.k.getComm().getRank()
 
 
 def compliance_solve(solver, k: PETSc.Mat, g: sp.csr_matrix, fixed: np.ndarray,
