@@ -6,7 +6,6 @@ distributed; the contact LCP is solved on rank 0 and its result broadcast.
 
 from __future__ import annotations
 
-import json
 import resource
 import sys
 import time
@@ -23,9 +22,19 @@ from app.assembly.loads import (
     load_vector,
     support_dofs,
 )
-from app.assembly.solve import LinearSolver, apply_dirichlet, set_default_options
+from app.assembly.solve import (
+    LinearSolver,
+    SingularStiffnessError,
+    apply_dirichlet,
+    set_default_options,
+)
 from app.assembly.stiffness import assemble_stiffness, node_ownership
-from app.condensation.compliance import compliance_schur, compliance_solve
+from app.condensation.compliance import (
+    attach_schur,
+    compliance_from_factor,
+    compliance_solve,
+    request_schur,
+)
 from app.config import Config
 from app.discretisation.bulk import (
     Discretisation,
@@ -37,7 +46,8 @@ from app.discretisation.methods import bulk_method
 from app.errors import InputError, SolveError
 from app.interface.setup import ContactSetup, floating_modes, mismatch
 from app.mesh.model import Mesh
-from app.output.xdmf import ResultWriter, atomic_write_text
+from app.output.summary import write_summary as write_summary_file
+from app.output.xdmf import ResultWriter
 from app.references import ContactProfile, RunFigures, reference
 
 
@@ -67,21 +77,21 @@ class Timer:
 
     @contextmanager
     def phase(self, name: str):
+        t0 = time.perf_counter()  # the barriers count too: all of a run is in some phase
         comm = PETSc.COMM_WORLD
         if name not in self._stages:
             self._stages[name] = PETSc.Log.Stage(name)
         stage = self._stages[name]
         stage.push()
         comm.barrier()  # a phase's time includes waiting for the slowest rank
-        t0 = time.perf_counter()
         try:
             yield
         finally:
+            self.peak_mb[name] = peak_rss_mb()
             comm.barrier()
             stage.pop()
             dt = time.perf_counter() - t0
             self.seconds[name] = self.seconds.get(name, 0.0) + dt
-            self.peak_mb[name] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
             if not self.quiet and comm.getRank() == 0:
                 el = time.perf_counter() - self.start
                 print(f"[{el:8.2f} s] {self.prefix}{name:<14s} {dt:8.3f} s", file=sys.stderr,
@@ -99,6 +109,19 @@ class Timer:
         each phase's first completion order (a running maximum)."""
         comm = PETSc.COMM_WORLD.tompi4py()
         return {k: round(comm.allreduce(v), 1) for k, v in sorted(self.peak_mb.items())}
+
+
+def peak_rss_mb() -> float:
+    """Peak resident memory of this process (MB): VmHWM from /proc/self/status, which
+    stays cheap under load (getrusage took milliseconds a call on a busy machine)."""
+    try:
+        with open("/proc/self/status") as fh:
+            for line in fh:
+                if line.startswith("VmHWM:"):
+                    return int(line.split()[1]) / 1024.0
+    except OSError:
+        pass
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 
 
 def _mpi_max():
@@ -193,7 +216,8 @@ MAX_REFINEMENTS = 5
 
 
 def write_summary(out: Path, summary: dict) -> None:
-    atomic_write_text(out / "summary.json", json.dumps(summary, indent=2) + "\n")
+    """OUT/summary.json; later calls for the same run append (app/output/summary.py)."""
+    write_summary_file(out / "summary.json", summary)
 
 
 def run(cfg: Config, opts: RunOptions) -> dict:
@@ -233,16 +257,18 @@ def run(cfg: Config, opts: RunOptions) -> dict:
             raise InputError(f"body '{name}' has no elements in the mesh")
 
     # Checks that need the mesh, before any expensive work.
-    cases = load_cases(mesh, cfg)
-    fixed = constrained_dofs(mesh, cfg)
+    with timer.phase("setup"):
+        cases = load_cases(mesh, cfg)
+        fixed = constrained_dofs(mesh, cfg)
     contact = None
     if cfg.interfaces:
         with timer.phase("pair_search"):
             contact = ContactSetup.build(mesh, cfg)
         summary["n_pairs"] = contact.pairs.n_pairs
-    floating = floating_modes(mesh, cfg, fixed, contact, disc)
-    pins = floating.pins if floating else np.zeros(0, dtype=np.int64)
-    fixed_all = np.union1d(fixed, pins)
+    with timer.phase("floating_modes"):  # with CS-FEM-1SD: the hourglass eigen-solve
+        floating = floating_modes(mesh, cfg, fixed, contact, disc)
+        pins = floating.pins if floating else np.zeros(0, dtype=np.int64)
+        fixed_all = np.union1d(fixed, pins)
 
     with timer.phase("assembly"):
         k = assemble_stiffness(mesh, disc, comm)
@@ -258,12 +284,16 @@ def run(cfg: Config, opts: RunOptions) -> dict:
                 prescribed_rhs.append(None)
         apply_dirichlet(k, fixed_all)
 
-    solver = LinearSolver(k)
     with timer.phase("factorization"):
+        solver = LinearSolver(k)
+        route = contact.compliance_route(solver) if contact is not None else None
+        schur_dofs = request_schur(solver, contact.g, fixed_all) if route == "schur" else None
         try:
             solver.factor()
-        except SolveError as exc:
+        except SingularStiffnessError as exc:
             raise SolveError(_singular_message(disc, mesh, str(exc), fixed_all)) from None
+        if schur_dofs is not None:  # the one factorization serves compliance and solves
+            attach_schur(solver, k, schur_dofs)
 
     with timer.phase("solve"):
         unit, lifted = [], []
@@ -275,16 +305,15 @@ def run(cfg: Config, opts: RunOptions) -> dict:
             b[fixed_all] = case.prescribed[fixed_all]
             try:
                 x = solver.solve(from_numpy(k, b))
-            except SolveError as exc:
+            except SingularStiffnessError as exc:
                 raise SolveError(_singular_message(disc, mesh, str(exc), fixed_all)) from None
             unit.append(to_numpy_all(x))
 
     stepper = None
     if contact is not None:
         with timer.phase("compliance"):
-            route = contact.compliance_route(solver)
             if route == "schur":
-                c_mat = compliance_schur(k, contact.g, fixed_all)
+                c_mat = compliance_from_factor(solver, contact.g, fixed_all)
             else:
                 c_mat = compliance_solve(solver, k, contact.g, fixed_all, to_numpy_all)
         summary["compliance_route"] = route
@@ -292,17 +321,19 @@ def run(cfg: Config, opts: RunOptions) -> dict:
             stepper = contact.stepper(c_mat, cases, unit, lifted, floating) \
                 if rank == 0 else None
 
-    own = node_ownership(mesh.n_nodes, size)
-    my_elements = np.flatnonzero(
-        (mesh.quads[:, 0] >= own[rank]) & (mesh.quads[:, 0] < own[rank + 1])
-    )
-    writer = ResultWriter(out, mesh.points, mesh.quads, mesh.body) if rank == 0 else None
+    with timer.phase("output"):
+        own = node_ownership(mesh.n_nodes, size)
+        my_elements = np.flatnonzero(
+            (mesh.quads[:, 0] >= own[rank]) & (mesh.quads[:, 0] < own[rank + 1])
+        )
+        writer = ResultWriter(out, mesh.points, mesh.quads, mesh.body) if rank == 0 else None
     last_contact = None
     for step in range(cfg.n_steps):
         t_step = time.perf_counter()
-        u = np.zeros(n_dofs)
-        for case, uc in zip(cases, unit, strict=True):
-            u += case.history[step] * uc
+        with timer.phase("recovery"):  # superposition of the unit solutions
+            u = np.zeros(n_dofs)
+            for case, uc in zip(cases, unit, strict=True):
+                u += case.history[step] * uc
         step_info = {"step": step + 1,
                      "load_factor": {c.name: float(c.history[step]) for c in cases}}
         contact_data = None
@@ -333,14 +364,14 @@ def run(cfg: Config, opts: RunOptions) -> dict:
                                                       to_numpy_all)
                     if floating is not None and floating.r.shape[1]:
                         u += floating.r @ result["alpha"]
-                rel = again = None
-                if rank == 0:
-                    miss = mismatch(contact.g, u, result)
-                    scale = max(np.abs(u).max(initial=0.0), 1e-300)
-                    rel = float(np.abs(miss).max(initial=0.0) / scale)
-                    again = (rel > CONSISTENCY_TOL and refinements < MAX_REFINEMENTS
-                             and rel < 0.5 * previous)
-                again, rel = mpi.bcast((again, rel), root=0)
+                    rel = again = None
+                    if rank == 0:
+                        miss = mismatch(contact.g, u, result)
+                        scale = max(np.abs(u).max(initial=0.0), 1e-300)
+                        rel = float(np.abs(miss).max(initial=0.0) / scale)
+                        again = (rel > CONSISTENCY_TOL and refinements < MAX_REFINEMENTS
+                                 and rel < 0.5 * previous)
+                    again, rel = mpi.bcast((again, rel), root=0)
                 if not again:
                     break
                 previous = rel
@@ -357,11 +388,11 @@ def run(cfg: Config, opts: RunOptions) -> dict:
             result["info"]["consistency_refinements"] = refinements
             result["info"]["lcp_displacement_mismatch"] = rel
             step_info.update(result["info"])
-            if rank == 0:
+        with timer.phase("output"):
+            if contact is not None and rank == 0:
                 contact_data = contact.output_data(result, u, mesh)
                 step_info["kkt"] = contact_data.pop("_kkt")
                 last_contact = contact_data
-        with timer.phase("output"):
             fields = element_fields(mesh, disc, u, my_elements)
             gathered = mpi.gather((my_elements, fields), root=0)
             energy_by_body = np.bincount(mesh.body[my_elements], weights=fields["energy"],
@@ -374,21 +405,23 @@ def run(cfg: Config, opts: RunOptions) -> dict:
                 disp[:, :2] = u.reshape(-1, 2)
                 writer.write_step(step + 1, float(step + 1), {"displacement": disp}, cell,
                                   contact_data)
-        step_info["step_seconds"] = time.perf_counter() - t_step
-        step_info["strain_energy"] = energy_total
-        step_info["strain_energy_by_body"] = dict(
-            zip(mesh.body_names, map(float, energy_by_body), strict=True))
-        summary["steps"].append(step_info)
-        summary["strain_energy"] = energy_total
-        summary["strain_energy_by_body"] = step_info["strain_energy_by_body"]
-        summary["timings"] = timer.reduced()
-        if rank == 0:
-            write_summary(out, summary)
+            step_info["step_seconds"] = time.perf_counter() - t_step
+            step_info["elapsed_seconds"] = time.perf_counter() - timer.start
+            step_info["strain_energy"] = energy_total
+            step_info["strain_energy_by_body"] = dict(
+                zip(mesh.body_names, map(float, energy_by_body), strict=True))
+            summary["steps"].append(step_info)
+            summary["strain_energy"] = energy_total
+            summary["strain_energy_by_body"] = step_info["strain_energy_by_body"]
+            summary["timings"] = timer.reduced()
+            if rank == 0:
+                write_summary(out, summary)
 
-    summary["point_values"] = _point_values(mesh, u)
-    ref = collective(reference_errors, cfg, disc, summary, mesh, contact, last_contact)
-    if ref:
-        summary["reference"] = ref
+    with timer.phase("reference"):
+        summary["point_values"] = _point_values(mesh, u)
+        ref = collective(reference_errors, cfg, disc, summary, mesh, contact, last_contact)
+        if ref:
+            summary["reference"] = ref
     summary["status"] = "completed"
     timings = timer.reduced()
     timings["total"] = time.perf_counter() - timer.start
