@@ -18,6 +18,7 @@ import numpy as np
 
 from app.discretisation.elements import SMOOTHING_DOMAINS
 from app.errors import InputError
+from app.expressions import check_parameter_name, parse_expression
 
 
 @dataclass
@@ -151,30 +152,19 @@ def _history(t: dict, where: str, n_steps: int) -> np.ndarray:
 KNOWN_TOP = {"title", "analysis", "mesh", "body", "support", "load", "interface", "petsc",
              "points", "parameters", "reference"}
 
-_EXPR_NAMES = {k: getattr(np, k) for k in ("sqrt", "sin", "cos", "tan", "exp", "log", "abs",
-                                           "arctan2", "sinh", "cosh", "tanh", "pi")}
-
 
 def evaluate(value: float | str, x: np.ndarray, y: np.ndarray, params: dict[str, float],
              where: str) -> np.ndarray:
-    """Evaluate a number or an expression in x, y and the [parameters] at points."""
+    """Values at points (x, y) of a number or a math expression (see app/expressions.py)."""
     if not isinstance(value, str):
         return np.full(np.shape(x), float(value))
-    names = {**_EXPR_NAMES, **params, "x": x, "y": y}
-    try:
-        out = eval(compile(value, where, "eval"), {"__builtins__": {}}, names)  # noqa: S307
-    except Exception as exc:  # a user expression: report any failure as bad input
-        raise InputError(f"{where}: cannot evaluate {value!r}: {exc}") from None
-    out = np.broadcast_to(np.asarray(out, dtype=float), np.shape(x)).copy()
-    if not np.all(np.isfinite(out)):
-        raise InputError(f"{where}: {value!r} gives non-finite values")
-    return out
+    return parse_expression(value, where, params).evaluate(x, y)
 
 
 def _scalar_or_expr(value: Any, where: str, params: dict[str, float]) -> float | str:
-    """A number, or an expression string checked once on a sample point."""
+    """A number, or an expression string checked now (syntax, names, constant parts)."""
     if isinstance(value, str):
-        evaluate(value, np.zeros(1), np.zeros(1), params, where)
+        parse_expression(value, where, params)
         return value
     return _num(value, where)
 
@@ -186,6 +176,7 @@ def parse_config(raw: dict[str, Any], path: Path | str = "<config>") -> Config:
         raise InputError(f"unknown top-level key(s) {sorted(unknown)}: allowed {sorted(KNOWN_TOP)}")
     params = {}
     for k, v in _table(raw, "parameters", "").items():
+        check_parameter_name(k)
         params[k] = _num(v, f"parameters.{k}")
     an = _table(raw, "analysis", "")
     plane = an.get("plane", "strain")
