@@ -198,13 +198,13 @@ def _check_interface_bodies(raw: dict, name: str, slave: str, master: str,
 
 def parse_config(raw: dict[str, Any], path: Path | str = "<config>") -> Config:
     """Check a parsed TOML dict and build a Config."""
-    check_keys(raw, "top", "config (top level)")
+    check_keys(raw, "top", "")
     params = {}
     for k, v in _table(raw, "parameters", "").items():
         check_parameter_name(k)
         params[k] = _num(v, f"parameters.{k}")
     an = _table(raw, "analysis", "")
-    check_keys(an, "analysis", "[analysis]")
+    check_keys(an, "analysis", "analysis.")
     plane = an.get("plane", "strain")
     if plane not in ("strain", "stress"):
         raise InputError(f"analysis.plane = {plane!r}: use 'strain' or 'stress'")
@@ -227,11 +227,11 @@ def parse_config(raw: dict[str, Any], path: Path | str = "<config>") -> Config:
     mesh = raw.get("mesh")
     if not isinstance(mesh, dict):
         raise InputError("missing [mesh] table (at least mesh.size)")
-    check_keys(mesh, "mesh", "[mesh]")
+    check_keys(mesh, "mesh", "mesh.")
     refine = mesh.get("refine", [])
     for i, r in enumerate(refine if isinstance(refine, list) else []):
         if isinstance(r, dict):
-            check_keys(r, "mesh.refine", f"mesh.refine[{i}]")
+            check_keys(r, "mesh.refine", f"mesh.refine[{i}].")
             _check_refine_lengths(r, f"mesh.refine[{i}]")
     if "size" not in mesh:
         raise InputError("missing key mesh.size (the global element size)")
@@ -332,7 +332,7 @@ def parse_config(raw: dict[str, Any], path: Path | str = "<config>") -> Config:
 
     reference = raw.get("reference")
     if isinstance(reference, dict):
-        check_keys(reference, "reference", "[reference]")
+        check_keys(reference, "reference", "reference.")
     petsc = _table(raw, "petsc", "")
     petsc_opts = {}
     for k, v in petsc.items():

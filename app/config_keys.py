@@ -100,20 +100,24 @@ ALLOWED_KEYS: dict[str, tuple[str, ...]] = {
 def suggestion(key: str, allowed: tuple[str, ...] | list[str]) -> str:
     """' (did you mean X?)' for the closest allowed key, or ''."""
     lower = {a.lower(): a for a in allowed}
-    close = difflib.get_close_matches(str(key).lower(), list(lower), n=1, cutoff=0.6)
-    if not close and str(key).lower() in lower:
-        close = [str(key).lower()]
+    close = difflib.get_close_matches(str(key).lower(), list(lower), n=1, cutoff=0.5)
     return f" (did you mean {lower[close[0]]}?)" if close else ""
 
 
 def check_keys(table: dict, kind: str, where: str) -> None:
     """Raise InputError on the first key of `table` not allowed in a table of `kind`.
 
-    kind: a key of ALLOWED_KEYS. where: how the message names the table, e.g.
-    "[analysis]" or "body 'block'".
+    kind: a key of ALLOWED_KEYS. where: how the message names the table: a dotted prefix
+    such as "analysis." (message "unknown key analysis.sdd (did you mean analysis.sd?)")
+    or a label such as "body 'block'" (message "body 'block': unknown key 'young'").
     """
     allowed = ALLOWED_KEYS[kind]
     for key in table:
         if key not in allowed:
-            raise InputError(f"{where}: unknown key '{key}'{suggestion(key, allowed)}; "
-                             f"allowed keys: {', '.join(allowed)}")
+            hint = suggestion(key, allowed)
+            if where.endswith(".") or not where:
+                hint = hint.replace("mean ", f"mean {where}")
+                head = f"unknown key {where}{key}"
+            else:
+                head = f"{where}: unknown key '{key}'"
+            raise InputError(f"{head}{hint}; allowed keys: {', '.join(allowed)}")
