@@ -109,6 +109,8 @@ def test_size_estimate_is_within_a_factor_two(name):
     raw = tomllib.loads((CONFIGS / f"{name}.toml").read_text())
     est = estimate(raw, 1.0)
     mesh = build_mesh(raw, 1.0)
+    print(f"{name}: estimated {est.elements:.0f} elements, built {mesh.n_elements} "
+          f"(ratio {est.elements / mesh.n_elements:.2f})")
     assert 0.5 <= est.elements / mesh.n_elements <= 2.0, (est.elements, mesh.n_elements)
     assert est.dofs == pytest.approx(2 * est.elements)
 
@@ -183,3 +185,15 @@ def test_interface_on_one_body_is_an_error_for_read_meshes():
     with pytest.raises(InputError, match="both on body 'lower'"):
         check_interface_bodies(_two_blocks(1.0), [_It("lower_base", "lower_top")])
     check_interface_bodies(_two_blocks(1.0), [_It("upper_bottom", "lower_top")])
+
+
+def test_overlapping_bodies_in_a_scene_are_refused_after_meshing():
+    from app.run import RunOptions, build_scene_mesh
+
+    raw = _with(PATCH, ("body", 1, "shape", "origin"), [0.5, 0.5])
+    del raw["interface"]
+    with pytest.raises(InputError, match="overlap .* no \\[\\[interface\\]\\] joins them"):
+        build_scene_mesh(parse_config(raw, CONFIGS / "patch.toml"), RunOptions())
+    raw = _with(PATCH, ("body", 1, "shape", "origin"), [2.0, 0.0])  # side by side
+    del raw["interface"]
+    build_scene_mesh(parse_config(raw, CONFIGS / "patch.toml"), RunOptions())
