@@ -174,10 +174,12 @@ def make_discretisation(cfg: Config, opts: RunOptions) -> Discretisation:
 
 def build_scene_mesh(cfg: Config, opts: RunOptions) -> Mesh:
     from app.mesh.build import build_mesh
+    from app.mesh.checks import check_scene
 
     mesh = build_mesh(cfg.raw, scale=opts.mesh_scale, cache_dir=opts.mesh_cache,
                       base_dir=cfg.path.parent)
     check_elements(mesh)
+    check_scene(mesh, cfg.interfaces)
     return mesh
 
 

@@ -293,7 +293,7 @@ class ContactStepper:
             self.n_modes = self.t_modes = None
             self.e0 = [np.zeros(0) for _ in cases]
             self.mode_names = []
-        lcp_class = CandidateLCP if candidate_pairs(setup.cfg) else ContactLCP
+        lcp_class = CandidateLCP if candidate_pairs(setup.cfg.candidate_pairs) else ContactLCP
         self.lcp = lcp_class(c_mat, setup.mu, setup.frictional, self.n_modes, self.t_modes)
         self.undetermined = undetermined_modes(self.lcp.nm, self.lcp.tm, self.mode_names)
         self.hist = InterfaceHistory(
