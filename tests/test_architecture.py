@@ -15,7 +15,8 @@ import pytest
 
 APP = Path(__file__).resolve().parents[1] / "app"
 
-FOUNDATIONS = ("errors", "config", "closed_form", "references", "petsc_lib", "parallel",
+FOUNDATIONS = ("errors", "config", "config_keys", "closed_form", "references", "petsc_lib",
+               "parallel",
                "expressions")
 STAGES = ("mesh", "discretisation", "assembly", "contact", "condensation", "lcp",
           "interface", "output")
