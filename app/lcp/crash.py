@@ -59,8 +59,10 @@ class _BlockSolver:
 
     With the LU of a base block A0 = M~[Z0, Z0], a set Z = Z0 - R + A is solved through the
     bordered system [[A0, M~[Z0, A], E_R], [M~[A, Z0], M~[A, A], 0], [E_R^T, 0, 0]] (E_R
-    frees the rows R and fixes x_R = 0): one small dense solve, plus one solve with the
-    base LU per changed index, kept while that index stays changed.
+    frees the rows R and fixes x_R = 0): its Schur complement S = C - V A0^-1 U on the
+    changed indices, then one small dense solve. Every index changed since the last
+    factorization keeps its column A0^-1 u, row v and entries of S, so an iteration costs
+    base-LU solves only for the indices that changed for the first time.
     """
 
     def __init__(self, Ms: ScaledM, qs: np.ndarray):
@@ -68,39 +70,65 @@ class _BlockSolver:
         self.base = np.zeros(0, dtype=np.int64)
         self.lu = None
         self.factorizations = 0
-        self.ycache: dict[int, np.ndarray] = {}
-        self.schur = None
+        self._reset()
+
+    def _reset(self) -> None:
+        k0 = self.base.size
+        self.keys = np.zeros(0, dtype=np.int64)  # changed indices seen since the factor
+        self.key_pos = {}
+        self.YT = np.zeros((0, k0))  # rows: (A0^-1 u_key)^T
+        self.V = np.zeros((0, k0))
+        self.S = np.zeros((0, 0))
+        self.last = None  # (sel, LU of S[sel, sel]) of the last solve
 
     def factor(self, Z: np.ndarray) -> bool:
         self.base = Z.copy()
         self.lu = lu_or_none(self.Ms.sub(Z)) if Z.size else None
         self.factorizations += 1
-        self.ycache = {}
+        self._reset()
         return Z.size == 0 or self.lu is not None
 
-    def _columns(self, A: np.ndarray, R: np.ndarray) -> np.ndarray:
-        """A0^-1 [M~[Z0, A], E_R] (k0, |A| + |R|), from the cache where possible."""
+    def _add_keys(self, new: np.ndarray) -> None:
+        """Columns, rows and Schur entries of indices changed for the first time."""
         b0 = self.base
-        keys = np.concatenate([A, R])
-        miss = [k for k in range(keys.size) if int(keys[k]) not in self.ycache]
-        if miss:
-            miss = np.asarray(miss)
-            U = np.zeros((b0.size, miss.size))
-            am = miss[miss < A.size]
-            if am.size:
-                U[:, : am.size] = self.Ms.cols(A[am])[b0]
-            rm = miss[miss >= A.size] - A.size
-            if rm.size:
-                U[np.searchsorted(b0, R[rm]), am.size + np.arange(rm.size)] = 1.0
-            Y = sla.lu_solve(self.lu, U, check_finite=False)
-            for c, key in enumerate(np.concatenate([A[am], R[rm]])):
-                self.ycache[int(key)] = Y[:, c]
-        return np.stack([self.ycache[int(k)] for k in keys], axis=1)
+        inbase = np.isin(new, b0)
+        added = new[~inbase]
+        U = np.zeros((b0.size, new.size))
+        V = np.zeros((new.size, b0.size))
+        if added.size:
+            U[:, ~inbase] = self.Ms.cols(added)[b0]
+            V[~inbase] = self.Ms.rows(added)[:, b0]
+        pos = np.searchsorted(b0, new[inbase])  # base is sorted
+        U[pos, np.flatnonzero(inbase)] = 1.0
+        V[np.flatnonzero(inbase), pos] = 1.0
+        YT = sla.lu_solve(self.lu, U, check_finite=False).T
+        old_added = ~np.isin(self.keys, b0)
+        c_nn = np.zeros((new.size, new.size))
+        if added.size:
+            c_nn[np.ix_(~inbase, ~inbase)] = self.Ms.sub(added)
+        c_no = np.zeros((new.size, self.keys.size))
+        c_on = np.zeros((self.keys.size, new.size))
+        if added.size and old_added.any():
+            oa = self.keys[old_added]
+            c_no[np.ix_(~inbase, old_added)] = self.Ms.rows(added)[:, oa]
+            c_on[np.ix_(old_added, ~inbase)] = self.Ms.cols(added)[oa]
+        K = self.keys.size
+        S = np.empty((K + new.size, K + new.size))
+        S[:K, :K] = self.S
+        S[:K, K:] = c_on - self.V @ YT.T
+        S[K:, :K] = c_no - V @ self.YT.T
+        S[K:, K:] = c_nn - V @ YT.T
+        self.S = S
+        self.YT = np.vstack([self.YT, YT])
+        self.V = np.vstack([self.V, V])
+        for i, key in enumerate(new):
+            self.key_pos[int(key)] = K + i
+        self.keys = np.concatenate([self.keys, new])
 
     def solve(self, zset: np.ndarray, rhs: np.ndarray | None = None,
               refactor: bool = True) -> np.ndarray | None:
         """x (n,) with M~_ZZ x_Z = rhs_Z (default -q~), 0 elsewhere; None when singular.
-        refactor=False reuses the factors of the previous call (same set)."""
+        refactor=False: the same set as the previous call (its factors are reused)."""
         n = self.qs.size
         b = -self.qs if rhs is None else rhs
         Z = np.flatnonzero(zset)
@@ -109,37 +137,32 @@ class _BlockSolver:
         A = Z[~inbase[Z]]
         R = self.base[~zset[self.base]]
         k0 = self.base.size
-        if refactor and (A.size + R.size > _REFACTOR_FRACTION * max(k0, 1) or self.lu is None):
+        changed = np.concatenate([A, R])
+        if refactor and (changed.size > _REFACTOR_FRACTION * max(k0, 1) or self.lu is None):
             if not self.factor(Z):
                 return None
-            A = R = np.zeros(0, dtype=np.int64)
+            changed = np.zeros(0, dtype=np.int64)
         z = np.zeros(n)
         if Z.size == 0:
             return z
         b0 = self.base
         x0 = sla.lu_solve(self.lu, b[b0], check_finite=False)
-        if A.size + R.size:
-            if refactor or self.schur is None:
-                Y = self._columns(A, R)
-                pos = np.searchsorted(b0, R)
-                V = np.zeros((A.size + R.size, k0))
-                if A.size:
-                    V[: A.size] = self.Ms.rows(A)[:, b0]
-                V[A.size + np.arange(R.size), pos] = 1.0
-                C = np.zeros((A.size + R.size,) * 2)
-                if A.size:
-                    C[: A.size, : A.size] = self.Ms.sub(A)
-                lu_s = lu_or_none(C - V @ Y)
+        if changed.size:
+            if refactor or self.last is None:
+                new = np.array([k for k in changed if int(k) not in self.key_pos],
+                               dtype=np.int64)
+                if new.size:
+                    self._add_keys(new)
+                sel = np.array([self.key_pos[int(k)] for k in changed], dtype=np.int64)
+                lu_s = lu_or_none(self.S[np.ix_(sel, sel)])
                 if lu_s is None:
                     return None
-                self.schur = (Y, V, lu_s)
-            Y, V, lu_s = self.schur
-            rhs2 = np.concatenate([b[A], np.zeros(R.size)]) - V @ x0
+                self.last = (sel, lu_s)
+            sel, lu_s = self.last
+            rhs2 = np.concatenate([b[A], np.zeros(R.size)]) - self.V[sel] @ x0
             t = sla.lu_solve(lu_s, rhs2, check_finite=False)
-            x0 = x0 - Y @ t
+            x0 = x0 - self.YT[sel].T @ t
             z[A] = t[: A.size]
-        else:
-            self.schur = None
         z[b0] = x0
         z[R] = 0.0
         return z if np.isfinite(z).all() else None
