@@ -165,7 +165,7 @@ def check_run_input(cfg, args, finest_level: int = 0) -> float:
     from app.petsc_options import check_solver_options
 
     check_solver_options(cfg.petsc)
-    file = (cfg.raw.get("mesh") or {}).get("file")
+    file = cfg.scene.file
     if args.mesh_size is not None:
         if not args.mesh_size > 0 or args.mesh_size == float("inf"):
             raise InputError(f"--mesh-size must be a number > 0 (got {args.mesh_size})")
@@ -178,7 +178,7 @@ def check_run_input(cfg, args, finest_level: int = 0) -> float:
             raise InputError("--mesh-cache does not apply to a mesh read from mesh.file")
         output_folder(str(cache), cache, what="--mesh-cache")
     scale = args.mesh_size / cfg.mesh_size if args.mesh_size else 1.0
-    check_size(cfg.raw, scale * 2.0**-finest_level, allow_large=args.allow_large)
+    check_size(cfg.scene, scale * 2.0**-finest_level, allow_large=args.allow_large)
     return scale
 
 

@@ -20,6 +20,7 @@ from app.config_keys import ALLOWED_KEYS, check_keys
 from app.errors import InputError
 from app.expressions import check_parameter_name, parse_expression
 from app.references import reference
+from app.scene import Scene, parse_scene
 
 
 @dataclass
@@ -89,6 +90,7 @@ class Config:
     mesh_size: float = 1.0
     parameters: dict[str, float] = field(default_factory=dict)
     reference: dict | None = None  # the [reference] table, checked by app.references
+    scene: Scene | None = None  # geometry: [mesh], [[body]] shapes and curves, [points]
     compliance: str = "auto"  # analysis.compliance: auto | schur | solve
     warm_start: bool = True  # analysis.warm_start: Lemke starts from the last basis
     candidate_pairs: bool = True  # analysis.candidate_pairs: LCP over the pairs near contact
@@ -346,7 +348,8 @@ def parse_config(raw: dict[str, Any], path: Path | str = "<config>") -> Config:
         n_steps=n_steps, body_names=names, E=np.array(E), nu=np.array(nu),
         body_force=np.array(bf).reshape(-1, 2), supports=supports, loads=loads,
         interfaces=interfaces, petsc=petsc_opts, mesh_size=mesh_size, parameters=params,
-        reference=_reference_table(raw), compliance=an.get("compliance", "auto"),
+        reference=_reference_table(raw), scene=parse_scene(raw),
+        compliance=an.get("compliance", "auto"),
         warm_start=an.get("warm_start", True),
         candidate_pairs=an.get("candidate_pairs", True),
     )

@@ -17,6 +17,7 @@ from app.errors import InputError
 from app.mesh.checks import check_interface_bodies, check_overlaps, check_quads
 from app.mesh.estimate import check_size, estimate, machine_memory
 from app.mesh.model import Mesh
+from app.scene import parse_scene
 
 PATCH = tomllib.loads((CONFIGS / "patch.toml").read_text())
 HERTZ = tomllib.loads((CONFIGS / "hertz.toml").read_text())
@@ -107,8 +108,8 @@ def test_size_estimate_is_within_a_factor_two(name):
     from app.mesh.build import build_mesh
 
     raw = tomllib.loads((CONFIGS / f"{name}.toml").read_text())
-    est = estimate(raw, 1.0)
-    mesh = build_mesh(raw, 1.0)
+    est = estimate(parse_scene(raw), 1.0)
+    mesh = build_mesh(parse_scene(raw), 1.0)
     print(f"{name}: estimated {est.elements:.0f} elements, built {mesh.n_elements} "
           f"(ratio {est.elements / mesh.n_elements:.2f})")
     assert 0.5 <= est.elements / mesh.n_elements <= 2.0, (est.elements, mesh.n_elements)
@@ -118,13 +119,13 @@ def test_size_estimate_is_within_a_factor_two(name):
 def test_too_large_a_mesh_is_refused_quickly_and_allow_large_overrides():
     t0 = time.perf_counter()
     with pytest.raises(InputError) as info:
-        check_size(PATCH, 1e-4 / PATCH["mesh"]["size"])
+        check_size(parse_scene(PATCH), 1e-4 / PATCH["mesh"]["size"])
     assert time.perf_counter() - t0 < 1.0
     msg = str(info.value)
     assert "elements" in msg and "DOFs" in msg and "GB" in msg and "--allow-large" in msg
-    est = check_size(PATCH, 1e-4 / PATCH["mesh"]["size"], allow_large=True)
+    est = check_size(parse_scene(PATCH), 1e-4 / PATCH["mesh"]["size"], allow_large=True)
     assert est.memory > machine_memory()
-    assert check_size(PATCH, 1.0).elements == pytest.approx(82)
+    assert check_size(parse_scene(PATCH), 1.0).elements == pytest.approx(82)
 
 
 # ----------------------------------------------------------------------------- meshes

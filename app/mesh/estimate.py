@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from app.errors import InputError
-from app.mesh.build import BodySpec, Refine, parse_scene
+from app.scene import BodySpec, Refine, Scene
 
 BYTES_PER_DOF = 4000.0
 """Peak memory per DOF of a run with MUMPS LU (the Hertz scene at 1.12 M DOFs needed
@@ -98,12 +98,10 @@ def _refined(spec: BodySpec, r: Refine, bodies: list[BodySpec], h: float, scale:
     return min(n, area / s**2)
 
 
-def estimate(raw: dict, scale: float = 1.0) -> SizeEstimate | None:
-    """Estimated size of the mesh a config builds at this size scale; None for mesh.file."""
-    mesh = raw.get("mesh")
-    if isinstance(mesh, dict) and mesh.get("file") is not None:
+def estimate(scene: Scene, scale: float = 1.0) -> SizeEstimate | None:
+    """Estimated size of the mesh a scene builds at this size scale; None for mesh.file."""
+    if scene.file is not None:
         return None
-    scene = parse_scene(raw)
     elements = 0.0
     for spec in scene.bodies:
         h = spec.size * scale
@@ -122,10 +120,10 @@ def estimate(raw: dict, scale: float = 1.0) -> SizeEstimate | None:
     return SizeEstimate(elements, dofs, BYTES_PER_DOF * dofs)
 
 
-def check_size(raw: dict, scale: float = 1.0, *, allow_large: bool = False,
+def check_size(scene: Scene, scale: float = 1.0, *, allow_large: bool = False,
                option: str = "--allow-large") -> SizeEstimate | None:
     """Refuse (InputError, one line) a run whose estimated memory exceeds this machine's."""
-    est = estimate(raw, scale)
+    est = estimate(scene, scale)
     available = machine_memory()
     if est is not None and not allow_large and est.memory > available:
         raise InputError(f"the mesh would have {est.text()} of memory, more than this "
