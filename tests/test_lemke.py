@@ -450,7 +450,7 @@ def test_mixed_units_give_the_same_solution():
 
 
 def test_a_wrong_candidate_is_never_reported_solved(monkeypatch):
-    M = np.array([[2.0, 1.0], [1.0, 2.0]])
+    M = np.array([[2.0, 1.0], [0.5, 2.0]])  # not symmetric: no basis repair
     q = np.array([-1.0, 1.0])  # solution z = (0.5, 0)
 
     def wrong_core(M, q, d, B0, max_pivots):
@@ -566,3 +566,40 @@ def test_bordered_block_solve_matches_a_direct_solve():
     expect = np.zeros(40)
     expect[idx] = np.linalg.solve(Ms.dense()[np.ix_(idx, idx)], -qs[idx])
     np.testing.assert_allclose(z, expect, rtol=1e-10, atol=1e-12)
+
+
+def near_duplicate_lcp(seed: int, kernel: str, load: str):
+    """50 frictionless contacts on a line, 10 of them 1e-5 from another: a smooth SPD
+    compliance kernel, condition number 1e10 to 1e12, unique solution."""
+    rng = np.random.default_rng(seed)
+    x = np.linspace(-1.0, 1.0, 40)
+    x = np.sort(np.concatenate([x, x[rng.choice(40, 10, replace=False)] + 1e-5]))
+    d = np.abs(x[:, None] - x[None, :])
+    M = np.exp(-d / 0.3) * (1 + d / 0.3) if kernel == "matern" else 1 / np.sqrt(1 + (d / 0.1)**2)
+    q = -np.ones(50) if load == "flat" else 0.5 * x**2 - 0.3
+    return M, q
+
+
+@pytest.mark.parametrize("kernel", ["matern", "imq"])
+@pytest.mark.parametrize("load", ["flat", "parabolic"])
+def test_near_duplicate_contacts_are_solved(kernel, load):
+    """Before the basis repair, 17 of these 32 LCPs ended 'inaccurate' (numerically singular
+    basis, failed check) or on a false secondary ray with the textbook start."""
+    for seed in range(8):
+        M, q = near_duplicate_lcp(seed, kernel, load)
+        assert np.linalg.cond(M) > 1e10
+        for crash in (False, True):
+            res = lemke(M, q, crash=crash)
+            assert res.ok, (seed, crash, res.message)
+            assert res.residual <= 1e-9
+            rows = np.abs(q) + np.abs(M) @ res.z  # size of the terms of each w_i
+            np.testing.assert_allclose(res.w, M @ res.z + q, rtol=0, atol=1e-14 * rows.max())
+            assert res.z.min() >= 0 and (res.w >= -1e-9 * rows).all()
+            assert (np.abs(res.w[res.z > 0]) <= 1e-9 * rows[res.z > 0]).all()
+
+
+def test_a_symmetric_lcp_without_solution_still_ends_on_a_secondary_ray():
+    M = np.array([[1.0, -1.0], [-1.0, 1.0]])  # PSD, singular
+    q = np.array([-1.0, -1.0])  # z1 - z2 >= 1 and z2 - z1 >= 1: infeasible
+    res = lemke(M, q)
+    assert res.status == "secondary ray" and not res.ok

@@ -166,4 +166,4 @@ class CandidateLCP:
             basis[m + fr] = splus[slipping] > 0
             basis[m + self.mf + fr] = sminus[slipping] > 0
         return ContactSolution(p, q, gap, tau, splus, sminus, s.alpha, s.pivots, s.status,
-                               basis, s.residual)
+                               basis, s.residual, s.message)

@@ -37,6 +37,7 @@ import numpy as np
 import scipy.linalg as sla
 
 from app.lcp.crash import crash_basis
+from app.lcp.repair import is_symmetric, qp_basis
 from app.lcp.scaling import RCOND_MIN as _RCOND_MIN  # noqa: F401 (tests read it here)
 from app.lcp.scaling import ScaledM as _ScaledM
 from app.lcp.scaling import absmax as _absmax  # noqa: F401
@@ -860,6 +861,29 @@ def _run(
     return LCPResult(z, w, pivots, status, comp, res.zset.copy(), msg, warm, refacts, worst)
 
 
+def _solve(core, M, q, max_pivots, tol, basis, cold_start, crash) -> LCPResult:
+    """`_run`, then the basis repair of `app.lcp.repair` for a symmetric M when the run
+    ended inaccurate or on a secondary ray (the first result stands if that fails too)."""
+    res = _run(core, M, q, max_pivots, tol, basis, cold_start, crash)
+    if res.ok or res.status not in ("inaccurate", "secondary ray"):
+        return res
+    M, q = _validate(M, q)
+    if not is_symmetric(M):
+        return res
+    B = qp_basis(M, q)
+    if B is None:
+        return res
+    budget = None if max_pivots is None else max(int(max_pivots) - res.pivots, 0)
+    again = _run(core, M, q, budget, tol, B, False, False)
+    if not again.ok:
+        return res
+    again.pivots += res.pivots
+    again.warm_start = "qp"
+    again.message = (f"{res.message}; then solved from the positive set of the convex QP "
+                     f"(non-negative least squares) in {again.pivots - res.pivots} pivots")
+    return again
+
+
 def lemke(
     M: np.ndarray,
     q: np.ndarray,
@@ -898,10 +922,12 @@ def lemke(
     Returns an `LCPResult`. "solved" only after the check above passes (z on the final
     basis is recomputed by a fresh LU solve); "secondary ray": no solution was found from
     this start (for a copositive-plus M, e.g. positive semidefinite, there is none; for
-    contact: no static equilibrium); "inaccurate": a candidate failed the check.
+    contact: no static equilibrium); "inaccurate": a candidate failed the check. For a
+    symmetric M a run that ends "inaccurate" or on a secondary ray is repeated from the
+    positive set of the convex QP (`app.lcp.repair`; warm_start "qp" when that solves it).
     q >= 0 returns z = 0 with 0 pivots.
     """
-    return _run(_core_revised, M, q, max_pivots, tol, basis, cold_start, crash)
+    return _solve(_core_revised, M, q, max_pivots, tol, basis, cold_start, crash)
 
 
 def _lemke_tableau(
@@ -915,4 +941,4 @@ def _lemke_tableau(
     crash: bool = True,
 ) -> LCPResult:
     """Reference: `lemke` with the full-tableau core (O(n^2) per pivot; for tests)."""
-    return _run(_core_tableau, M, q, max_pivots, tol, basis, cold_start, crash)
+    return _solve(_core_tableau, M, q, max_pivots, tol, basis, cold_start, crash)
