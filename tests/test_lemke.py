@@ -13,6 +13,8 @@ from app.lcp import STATUSES, LCPResult, default_max_pivots, lemke
 from app.lcp.lemke import _lemke_tableau
 
 LM = importlib.import_module("app.lcp.lemke")  # the module (app.lcp.lemke is the function)
+PIV = importlib.import_module("app.lcp.pivoting")  # the pivoting rules of both cores
+REV = importlib.import_module("app.lcp.revised")  # the revised core and its knobs
 
 
 # --------------------------------------------------------------------------------------
@@ -295,7 +297,7 @@ def test_lexicographic_rule_prevents_cycling(monkeypatch, case):
     # the same problem with a naive tie-break (first or last tied row) cycles
     outcomes = []
     for naive in (lambda V: 0, lambda V: V.shape[0] - 1):
-        monkeypatch.setattr(LM, "_lexmin", naive)
+        monkeypatch.setattr(PIV, "_lexmin", naive)
         outcomes.append(lemke(M, q, max_pivots=200, crash=False).status)
     assert "pivot limit" in outcomes
 
@@ -344,7 +346,7 @@ def _agree(a: LCPResult, b: LCPResult) -> None:
 )
 def test_revised_matches_tableau_reference(monkeypatch, knobs):
     for name, value in knobs.items():
-        monkeypatch.setattr(LM, name, value)
+        monkeypatch.setattr(REV, name, value)
     rng = np.random.default_rng(42)
     refactorizations = pivots = 0
     for trial in range(24):
