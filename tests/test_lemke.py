@@ -245,10 +245,10 @@ def test_degenerate_q_zeros_ties_and_duplicate_rows():
 def test_degenerate_warm_start_follows_the_lexicographic_path(M, q, B):
     # ties here are broken by the rows of B^-1 B0 (B0 = warm-start basis), not of B^-1
     M, q, B = np.array(M), np.array(q), np.array(B, dtype=bool)
-    res = lemke(M, q, basis=B)
+    res = lemke(M, q, basis=B, crash=False)
     assert_solution(M, q, res)
     assert res.warm_start == "lemke"
-    _agree(res, _lemke_tableau(M, q, basis=B))
+    _agree(res, _lemke_tableau(M, q, basis=B, crash=False))
 
 
 def test_fully_degenerate_all_ties():
@@ -401,7 +401,7 @@ def test_warm_start_fewer_pivots_when_active_set_changes():
     rng = np.random.default_rng(0)
     q2 = q.copy()
     q2[:m] += 2e-3 * rng.standard_normal(m)  # next load step: gaps change a little
-    warm = lemke(M, q2, basis=cold.basis)
+    warm = lemke(M, q2, basis=cold.basis, crash=False)
     cold2 = lemke(M, q2, crash=False)
     assert_solution(M, q2, warm)
     assert_solution(M, q2, cold2)
@@ -481,9 +481,9 @@ def test_warm_start_without_cold_fallback():
                   [-3.79, 3.87, -1.78, 1.18, 16.3]])
     q = np.array([0.35, -0.59, -0.35, -0.5, 2.11])
     bad = np.array([True, False, True, True, True])
-    r = lemke(M, q, basis=bad, cold_start=False)
+    r = lemke(M, q, basis=bad, cold_start=False, crash=False)
     assert r.status == "warm start failed" and r.warm_start == "failed" and not r.ok
-    full = lemke(M, q, basis=bad)
+    full = lemke(M, q, basis=bad, crash=False)
     assert full.ok and full.warm_start == "cold" and full.pivots > r.pivots
     w = M @ full.z + q
     assert full.z.min() >= 0 and w.min() >= -1e-12 and abs(full.z @ w) < 1e-12
@@ -605,3 +605,18 @@ def test_a_symmetric_lcp_without_solution_still_ends_on_a_secondary_ray():
     q = np.array([-1.0, -1.0])  # z1 - z2 >= 1 and z2 - z1 >= 1: infeasible
     res = lemke(M, q)
     assert res.status == "secondary ray" and not res.ok
+
+
+def test_block_pivoting_from_a_warm_basis():
+    """A warm basis that is a few indices off: block pivoting from it finds the answer
+    without a Lemke pivot; the answer is the cold one."""
+    M, q = contact_lcp(60, seed=3)
+    m = q.size // 3
+    cold = lemke(M, q, crash=False)
+    q2 = q.copy()
+    q2[:m] += 2e-3 * np.random.default_rng(0).standard_normal(m)
+    res = lemke(M, q2, basis=cold.basis)
+    assert_solution(M, q2, res)
+    assert res.warm_start == "crash" and res.pivots == 0
+    ref = lemke(M, q2, crash=False)
+    np.testing.assert_allclose(res.z, ref.z, rtol=0, atol=1e-9 * np.abs(ref.z).max())

@@ -34,7 +34,7 @@ def candidate_pairs(cfg) -> bool:
     return bool(PETSc.Options().getBool("contact_candidate_pairs", value))
 
 
-MARGIN = 0.5
+MARGIN = 0.1
 """Pairs whose free gap is below MARGIN x the deepest free penetration are candidates."""
 
 

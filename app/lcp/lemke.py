@@ -59,6 +59,9 @@ from app.lcp.tableau import _core_tableau
 
 __all__ = ["LCPResult", "lemke", "default_max_pivots", "STATUSES"]
 
+_WARM_CRASH = 5
+"""Block pivoting iterations tried from a warm-start basis that does not solve the LCP."""
+
 
 def _validate(M, q) -> tuple[np.ndarray, np.ndarray]:
     M = np.asarray(M, dtype=float)
@@ -200,6 +203,14 @@ def _run(
             msg = ("the warm-start basis solves it" if given
                    else f"{note}the crash basis solves it")
             return LCPResult(z, w, 0, "solved", comp, B0.copy(), msg, how, 0, worst)
+        if given and crash:  # block pivoting from the warm-start basis, then its check
+            B1, iters, zt = crash_basis(P.Ms, P.qs, start=B0, max_iterations=_WARM_CRASH)
+            sol = _try_basis(P, B1, zt) if zt is not None else None
+            if sol is not None:
+                z, w, ok, comp, worst = sol
+                msg = (f"solved on the basis found by {iters} block pivoting iterations from "
+                       "the warm-start basis")
+                return LCPResult(z, w, 0, "solved", comp, B1.copy(), msg, "crash", 0, worst)
         # covering vector B0 @ 1: Lemke on the LCP transformed by the pivot on B0
         d = -P.Ms.matvec(B0.astype(float))
         d[~B0] += 1.0
@@ -305,8 +316,10 @@ def lemke(
         principal pivot transform of the LCP on B, covering vector 1 in transformed
         variables); if that fails (singular M_BB, secondary ray, pivot limit) a cold start
         follows. Pivots of all runs are counted.
-    crash: without a basis, guess one by block principal pivoting (`app.lcp.crash`) and
-        start from it as from a warm start (warm_start "crash" when the guess solves it,
+    crash: with a basis that does not solve the LCP, first a few block principal pivoting
+        iterations from it (warm_start "crash" when they end on the answer); without a
+        basis, guess one by block principal pivoting (`app.lcp.crash`) and start from it
+        as from a warm start (warm_start "crash" when the guess solves it,
         "crash+lemke" when Lemke finished from it, "cold" when that failed and a cold start
         followed). False: the textbook cold start (covering vector 1).
     cold_start: with a basis, False returns at once when the warm start fails (status
