@@ -250,8 +250,9 @@ def run(cfg: Config, opts: RunOptions) -> dict:
                     "no step completed"
                 held = "" if floating is None else (
                     "; held only by contact: " + ", ".join(floating.names))
-                reason = (f"no static equilibrium at step {step + 1}: Lemke ended on a "
-                          f"{result['status']} ({result['message']}{held}); {done}")
+                head = ("no static equilibrium" if result["status"] == "secondary ray"
+                        else "the contact problem could not be solved")
+                reason = f"{head} at step {step + 1}: {result['message']}{held}; {done}"
                 summary["error"] = reason
                 if rank == 0:
                     write_summary(out, summary)

@@ -352,8 +352,7 @@ class ContactStepper:
                "lam": np.concatenate([sol.p, sol.q]), "alpha": sol.alpha,
                "kinematics": np.concatenate([sol.gap - pr.g0, sol.tau])}
         if res.status != "solved":
-            out["message"] = ("secondary ray: no solution from this start"
-                              if res.status == "secondary ray" else res.status)
+            out["message"] = f"Lemke ended with '{res.status}': {sol.message}"
             if self.undetermined:
                 out["message"] += ("; the contact cannot resist " +
                                    ", ".join(self.undetermined))
@@ -378,8 +377,8 @@ class ContactStepper:
             "states": counts,
             "interfaces": per_if,
             "max_contact_pressure": float((sol.p / length_t).max(initial=0.0)),
-            "lcp_size": self.lcp.size,
-            "lcp_size_full": getattr(self.lcp, "full_size", self.lcp.size),
+            "lcp_size": getattr(self.lcp, "full_size", self.lcp.size),
+            "lcp_size_solved": self.lcp.size,
             "lemke_pivots": res.pivots,
             "lcp_residual": sol.residual,
             "dependent_tangential_directions": self.lcp.dependent_tangential,
