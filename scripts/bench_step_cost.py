@@ -4,7 +4,8 @@ Runs `python -m app run configs/patch.toml --set analysis.steps=N --set load.0.r
 (the pressure ramps over the N steps, so every step solves a new LCP) and prints one JSON
 line: the mean `step_seconds` of the first and the last 100 steps and their ratio, the
 same for the wall time between the ends of consecutive steps (`elapsed_seconds`
-differences: everything in the step loop, summary.json included), the sizes of
+differences: everything in the step loop, summary.json included), the ratio of the
+medians (less sensitive to a busy machine), the sizes of
 summary.json and the XDMF indexes at the end, and the phases' sum over the total.
 
     .venv/bin/python scripts/bench_step_cost.py [--steps 1000] [--config C] [--ranks N]
@@ -59,6 +60,8 @@ def main() -> None:
         "config": args.config, "steps": len(steps), "ranks": args.ranks, "status": s["status"],
         "step_seconds_first_mean": round(first, 5), "step_seconds_last_mean": round(last, 5),
         "step_seconds_last_over_first": round(last / first, 3),
+        "step_seconds_median_last_over_first": round(
+            statistics.median(step_s[-w:]) / statistics.median(step_s[:w]), 3),
         "wall_per_step_first_mean": round(wfirst, 5), "wall_per_step_last_mean": round(wlast, 5),
         "wall_per_step_last_over_first": round(wlast / wfirst, 3),
         "file_bytes": sizes, "total_s": round(t["total"], 2),

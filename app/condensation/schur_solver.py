@@ -54,43 +54,56 @@ def set_schur_dofs(pc: PETSc.PC, dofs: np.ndarray) -> PETSc.Mat:
 
 
 def schur_from_factor(f: PETSc.Mat, n: int) -> np.ndarray | None:
-    """The dense (n, n) Schur complement of a factorized MUMPS matrix, on rank 0."""
+    """The dense (n, n) Schur complement of a factorized MUMPS matrix, symmetrized, on
+    rank 0 (None elsewhere). Reads PETSc's own copy in place (MatFactorGetSchurComplement,
+    no duplicate), so the only new memory is the returned array."""
     lib = _lib()
     s_handle = ctypes.c_void_p()
     status = ctypes.c_int()
-    err = lib.MatFactorCreateSchurComplement(ctypes.c_void_p(f.handle), ctypes.byref(s_handle),
-                                             ctypes.byref(status))
+    err = lib.MatFactorGetSchurComplement(ctypes.c_void_p(f.handle), ctypes.byref(s_handle),
+                                          ctypes.byref(status))
     if err:
-        raise SolveError(f"MatFactorCreateSchurComplement failed (PETSc error {err})")
+        raise SolveError(f"MatFactorGetSchurComplement failed (PETSc error {err})")
     out = None
-    if f.getComm().getRank() == 0:
-        m_, n_ = PETSC_INT(), PETSC_INT()
-        lib.MatGetSize(s_handle, ctypes.byref(m_), ctypes.byref(n_))
-        if (m_.value, n_.value) != (n, n):
-            raise SolveError(f"Schur complement has size {m_.value}x{n_.value}, expected "
-                             f"{n}x{n}")
-        ptr = ctypes.POINTER(ctypes.c_double)()
-        lda = PETSC_INT()
-        lib.MatDenseGetLDA(s_handle, ctypes.byref(lda))
-        lib.MatDenseGetArrayRead(s_handle, ctypes.byref(ptr))
-        raw = np.ctypeslib.as_array(ptr, shape=(n, lda.value))  # column-major storage
-        out = np.array(raw[:, :n].T, copy=True)
-        lib.MatDenseRestoreArrayRead(s_handle, ctypes.byref(ptr))
-    lib.MatDestroy(ctypes.byref(s_handle))
+    try:
+        if f.getComm().getRank() == 0:
+            m_, n_ = PETSC_INT(), PETSC_INT()
+            lib.MatGetSize(s_handle, ctypes.byref(m_), ctypes.byref(n_))
+            if (m_.value, n_.value) != (n, n):
+                raise SolveError(f"Schur complement has size {m_.value}x{n_.value}, "
+                                 f"expected {n}x{n}")
+            ptr = ctypes.POINTER(ctypes.c_double)()
+            lda = PETSC_INT()
+            lib.MatDenseGetLDA(s_handle, ctypes.byref(lda))
+            lib.MatDenseGetArrayRead(s_handle, ctypes.byref(ptr))
+            raw = np.ctypeslib.as_array(ptr, shape=(n, lda.value))[:, :n]  # S^T, a view
+            out = np.empty((n, n))
+            np.add(raw, raw.T, out=out)
+            out *= 0.5
+            lib.MatDenseRestoreArrayRead(s_handle, ctypes.byref(ptr))
+    finally:
+        lib.MatFactorRestoreSchurComplement(ctypes.c_void_p(f.handle), ctypes.byref(s_handle),
+                                            status)
     return out
 
 
 class DenseFactor:
-    """Cholesky (or, if that fails, LU) factorization of a dense symmetric matrix."""
+    """Cholesky (or, if that fails, LU) factorization of a dense symmetric matrix.
 
-    def __init__(self, s: np.ndarray):
-        s = 0.5 * (s + s.T)
+    s: (n, n), overwritten by the factor when `overwrite`; `again` gives s anew for the
+    LU fallback (a failed Cholesky has overwritten it)."""
+
+    def __init__(self, s: np.ndarray, overwrite: bool = False, again=None):
         try:
-            self.chol = sla.cho_factor(s)
+            self.chol = sla.cho_factor(s, overwrite_a=overwrite, check_finite=False)
             self.lu = None
         except np.linalg.LinAlgError:
             self.chol = None
-            self.lu = sla.lu_factor(s, check_finite=False)
+            if overwrite:
+                s = again() if again is not None else None
+                if s is None:
+                    raise
+            self.lu = sla.lu_factor(s, overwrite_a=overwrite, check_finite=False)
 
     def solve(self, b: np.ndarray) -> np.ndarray:
         """S^-1 b for b of shape (n,) or (n, k)."""
@@ -111,8 +124,10 @@ class SchurFactorization:
         self.dofs = np.asarray(dofs, dtype=np.int64)
         comm = k.getComm()
         self.rank = comm.getRank()
-        s = schur_from_factor(f, self.dofs.size)
-        self.factor = DenseFactor(s) if self.rank == 0 else None
+        n = self.dofs.size
+        s = schur_from_factor(f, n)
+        self.factor = None if self.rank else DenseFactor(
+            s, overwrite=True, again=lambda: schur_from_factor(f, n))
         f.setMumpsIcntl(26, 0)  # interior solves from now on
         r0, r1 = k.getOwnershipRange()
         self.r0 = r0
