@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from app.config_keys import ALLOWED_KEYS, check_keys
+from app.config_keys import ALLOWED_KEYS, check_keys, suggestion
 from app.discretisation.elements import SMOOTHING_DOMAINS
 from app.errors import InputError
 from app.expressions import check_parameter_name, parse_expression
@@ -151,6 +151,7 @@ def _history(t: dict, where: str, n_steps: int) -> np.ndarray:
 
 
 KNOWN_TOP = set(ALLOWED_KEYS["top"])
+REFERENCE_TYPES = ("timoshenko", "hertz", "cattaneo")
 
 
 def evaluate(value: float | str, x: np.ndarray, y: np.ndarray, params: dict[str, float],
@@ -301,6 +302,9 @@ def parse_config(raw: dict[str, Any], path: Path | str = "<config>") -> Config:
     interfaces = []
     for i, it in enumerate(_tables(raw, "interface")):
         nm = it.get("name", f"interface{i + 1}")
+        if not isinstance(nm, str) or not nm.strip():
+            raise InputError(f"interface #{i + 1}: name must be a non-empty string "
+                             f"(got {nm!r})")
         where = f"interface '{nm}'"
         check_keys(it, "interface", where)
         for k in ("slave", "master"):
@@ -333,6 +337,11 @@ def parse_config(raw: dict[str, Any], path: Path | str = "<config>") -> Config:
     reference = raw.get("reference")
     if isinstance(reference, dict):
         check_keys(reference, "reference", "reference.")
+        kind = reference.get("type")
+        if kind not in REFERENCE_TYPES:
+            raise InputError(f"reference.type = {kind!r}: use one of "
+                             f"{', '.join(REFERENCE_TYPES)}"
+                             f"{suggestion(str(kind), REFERENCE_TYPES)}")
     petsc = _table(raw, "petsc", "")
     petsc_opts = {}
     for k, v in petsc.items():

@@ -85,6 +85,10 @@ def test_interface_accepts_discretisation_key():
     (("parameters", "sqrt"), 1.0, "parameters.sqrt"),
     (("parameters", "pi"), 3.0, "parameters.pi"),
     (("interface", 0, "master"), "upper_top", "both curves of body 'upper'"),
+    (("reference",), {"type": "hertzz", "radius": 1.0}, "did you mean hertz?"),
+    (("reference",), {"radius": 1.0}, "reference.type = None"),
+    (("interface", 0, "name"), 5, "name must be a non-empty string"),
+    (("interface", 0, "name"), "", "name must be a non-empty string"),
     (("mesh", "refine"), [{"points": [[0.0, 0.0]], "size": 0.1, "distance": 0.1,
                            "flat": 0.5}], "flat = 0.5 is larger than distance = 0.1"),
 ])
@@ -197,3 +201,15 @@ def test_overlapping_bodies_in_a_scene_are_refused_after_meshing():
     raw = _with(PATCH, ("body", 1, "shape", "origin"), [2.0, 0.0])  # side by side
     del raw["interface"]
     build_scene_mesh(parse_config(raw, CONFIGS / "patch.toml"), RunOptions())
+
+
+@pytest.mark.parametrize(("path", "value", "needle"), [
+    (("body", 0, "shape", "widht"), 2.0, "did you mean width?"),
+    (("body", 0, "shape", "orign"), [0.0, 0.0], "did you mean origin?"),
+    (("body", 0, "curves", "tpo"), "x", "did you mean top?"),
+])
+def test_shape_keys_and_sides_suggest_the_closest(path, value, needle):
+    from app.mesh.build import parse_scene
+
+    with pytest.raises(InputError, match=needle.replace("?", "\\?")):
+        parse_scene(_with(PATCH, path, value))

@@ -26,6 +26,7 @@ from typing import Any
 
 import numpy as np
 
+from app.config_keys import suggestion
 from app.errors import InputError
 from app.mesh.cache import cache_key, cache_path, load_mesh, save_mesh
 from app.mesh.model import Mesh
@@ -252,9 +253,11 @@ def _shape_sides(shape: dict, where: str) -> tuple[list[tuple[str, list[Piece]]]
         )
     w = f"{where}shape."
     for key in shape:
-        if key not in ("type", "structured", "divisions", *SHAPE_KEYS[kind]):
+        allowed = ("type", "structured", "divisions", *SHAPE_KEYS[kind])
+        if key not in allowed:
             raise InputError(
-                f"{w}{key} is not a key of a {kind} (keys: {', '.join(SHAPE_KEYS[kind])})"
+                f"{w}{key} is not a key of a {kind}{suggestion(key, allowed)} (keys: "
+                f"{', '.join(allowed)})"
             )
     structured = shape.get("structured", False)
     if not isinstance(structured, bool):
@@ -361,8 +364,8 @@ def parse_scene(cfg: dict, *, need_shapes: bool = True) -> Scene:
         for side, cname in curves.items():
             if side not in valid:
                 raise InputError(
-                    f"{where}curves.{side} is not a side of a {shape['type']} "
-                    f"(sides: {', '.join(valid)})"
+                    f"{where}curves.{side} is not a side of a {shape['type']}"
+                    f"{suggestion(side, valid)} (sides: {', '.join(valid)})"
                 )
             if not isinstance(cname, str) or not cname:
                 raise InputError(f"{where}curves.{side} must be a curve name (got {cname!r})")
