@@ -152,6 +152,8 @@ def _history(t: dict, where: str, n_steps: int) -> np.ndarray:
 
 KNOWN_TOP = set(ALLOWED_KEYS["top"])
 REFERENCE_TYPES = ("timoshenko", "hertz", "cattaneo")
+MAX_STEPS = 100_000
+"""Most load steps a config may ask for (each writes a step file)."""
 
 
 def evaluate(value: float | str, x: np.ndarray, y: np.ndarray, params: dict[str, float],
@@ -219,6 +221,9 @@ def parse_config(raw: dict[str, Any], path: Path | str = "<config>") -> Config:
     n_steps = an.get("steps", 1)
     if isinstance(n_steps, bool) or not isinstance(n_steps, int) or n_steps < 1:
         raise InputError(f"analysis.steps must be an integer >= 1 (got {n_steps!r})")
+    if n_steps > MAX_STEPS:
+        raise InputError(f"analysis.steps = {n_steps} is above {MAX_STEPS}: each step is "
+                         "solved and written; use fewer steps")
     if an.get("compliance", "auto") not in ("auto", "schur", "solve"):
         raise InputError(f"analysis.compliance = {an['compliance']!r}: use 'auto', 'schur' "
                          "or 'solve'")

@@ -80,6 +80,7 @@ def test_interface_accepts_discretisation_key():
 @pytest.mark.parametrize(("path", "value", "needle"), [
     (("analysis", "warm_start"), "no", "warm_start must be true or false"),
     (("analysis", "compliance"), "fast", "analysis.compliance"),
+    (("analysis", "steps"), 10**10, "analysis.steps = 10000000000 is above"),
     (("parameters", "x"), 1.0, "parameters.x: the name is reserved"),
     (("parameters", "y"), 1.0, "parameters.y"),
     (("parameters", "sqrt"), 1.0, "parameters.sqrt"),
@@ -129,6 +130,20 @@ def test_too_large_a_mesh_is_refused_quickly_and_allow_large_overrides():
     est = check_size(PATCH, 1e-4 / PATCH["mesh"]["size"], allow_large=True)
     assert est.memory > machine_memory()
     assert check_size(PATCH, 1.0).elements == pytest.approx(82)
+
+
+
+@pytest.mark.parametrize("scale", [1e-200, 1e-320, 0.0, 2.0**-1999])
+@pytest.mark.parametrize("raw", [PATCH, HERTZ], ids=["structured", "refined"])
+def test_underflowing_sizes_are_refused_not_a_traceback(raw, scale):
+    with pytest.raises(InputError, match="unbounded|more than this machine"):
+        check_size(raw, scale)
+
+
+def test_structured_divisions_count_in_the_estimate():
+    raw = _with(PATCH, ("body", 0, "shape", "divisions"), [100000, 100000])
+    with pytest.raises(InputError, match="about 1e\\+10 elements"):
+        check_size(raw, 1.0)
 
 
 # ----------------------------------------------------------------------------- meshes
