@@ -417,8 +417,10 @@ def apply_overrides(raw: dict[str, Any], overrides: list[str]) -> dict[str, Any]
 def load_config(path: str | Path, overrides: list[str] | None = None) -> Config:
     """Read and check a TOML scene file; `overrides` are `--set KEY=VALUE` strings."""
     p = Path(path)
-    if not p.is_file():
+    if not p.exists():
         raise InputError(f"config file '{p}' does not exist")
+    if not p.is_file():
+        raise InputError(f"config file '{p}' is not a regular file")
     try:
         with p.open("rb") as fh:
             raw = tomllib.load(fh)

@@ -175,6 +175,14 @@ def test_degenerate_quads_are_errors(points, quad, needle):
     assert needle in str(info.value) and "body 'a'" in str(info.value)
 
 
+@pytest.mark.parametrize("bad", [np.nan, np.inf, -1e31])
+def test_non_finite_or_huge_coordinates_are_errors(bad):
+    pts = np.array(SQUARE, float)
+    pts[2, 1] = bad
+    with pytest.raises(InputError, match="non-finite or huge coordinates"):
+        check_quads(_mesh(pts, [[0, 1, 2, 3]]))
+
+
 def test_good_quads_pass():
     check_quads(_mesh([[0, 0], [1, 0], [1.2, 1], [0, 0.8]], [[0, 1, 2, 3]]))
 
