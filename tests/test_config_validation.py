@@ -236,3 +236,11 @@ def test_shape_keys_and_sides_suggest_the_closest(path, value, needle):
 
     with pytest.raises(InputError, match=needle.replace("?", "\\?")):
         parse_scene(_with(PATCH, path, value))
+
+
+@pytest.mark.parametrize(("key", "value"), [("width", 2.5e-231), ("height", 1e-12)])
+def test_degenerate_shapes_are_errors(key, value):
+    from app.mesh.build import parse_scene
+
+    with pytest.raises(InputError, match="shape is degenerate"):
+        parse_scene(_with(PATCH, ("body", 0, "shape", key), value))

@@ -309,6 +309,20 @@ def _shape_sides(shape: dict, where: str) -> tuple[list[tuple[str, list[Piece]]]
     return [(f"side{i}", [Piece.line(p[i], q[i])]) for i in range(len(p))], False
 
 
+MIN_SIDE_RATIO = 1e-9
+"""Shortest side accepted, relative to the longest side of the same body."""
+
+
+def _check_side_lengths(sides: list[tuple[str, list[Piece]]], where: str) -> None:
+    """Every side of a shape has a finite length above MIN_SIDE_RATIO of the longest."""
+    lengths = {name: sum(p.length for p in pieces) for name, pieces in sides}
+    longest = max(lengths.values())
+    for name, length in lengths.items():
+        if not (math.isfinite(length) and length > MIN_SIDE_RATIO * longest):
+            raise InputError(f"{where}shape is degenerate: side {name} has length {length:.3g} "
+                             f"against {longest:.3g} for the longest: check its dimensions")
+
+
 def _split_at(pieces: list[Piece], xy: np.ndarray, tol: float) -> list[Piece]:
     out: list[Piece] = []
     for piece in pieces:
@@ -359,6 +373,7 @@ def parse_scene(cfg: dict, *, need_shapes: bool = True) -> Scene:
             raise InputError(f"{where}shape is missing: add a [body.shape] table with a type")
         shape = _table(b["shape"], f"{where}shape")
         raw_sides, structured = _shape_sides(shape, where)
+        _check_side_lengths(raw_sides, where)
         valid = [s for s, _ in raw_sides]
         curves = _table(b.get("curves", {}), f"{where}curves")
         for side, cname in curves.items():
