@@ -16,10 +16,10 @@ from typing import Any
 
 import numpy as np
 
-from app.config_keys import ALLOWED_KEYS, check_keys
+from app.config_keys import ALLOWED_KEYS, check_keys, suggestion
 from app.errors import InputError
 from app.expressions import check_parameter_name, parse_expression
-from app.references import reference
+from app.references import REFERENCES, reference
 from app.scene import Scene, parse_scene
 
 
@@ -157,6 +157,8 @@ def _history(t: dict, where: str, n_steps: int) -> np.ndarray:
 
 
 KNOWN_TOP = set(ALLOWED_KEYS["top"])
+MAX_STEPS = 100_000
+"""Most load steps a config may ask for (each writes a step file)."""
 
 
 def evaluate(value: float | str, x: np.ndarray, y: np.ndarray, params: dict[str, float],
@@ -220,6 +222,9 @@ def parse_config(raw: dict[str, Any], path: Path | str = "<config>") -> Config:
     n_steps = an.get("steps", 1)
     if isinstance(n_steps, bool) or not isinstance(n_steps, int) or n_steps < 1:
         raise InputError(f"analysis.steps must be an integer >= 1 (got {n_steps!r})")
+    if n_steps > MAX_STEPS:
+        raise InputError(f"analysis.steps = {n_steps} is above {MAX_STEPS}: each step is "
+                         "solved and written; use fewer steps")
     if an.get("compliance", "auto") not in ("auto", "schur", "solve"):
         raise InputError(f"analysis.compliance = {an['compliance']!r}: use 'auto', 'schur' "
                          "or 'solve'")
@@ -304,6 +309,9 @@ def parse_config(raw: dict[str, Any], path: Path | str = "<config>") -> Config:
     interfaces = []
     for i, it in enumerate(_tables(raw, "interface")):
         nm = it.get("name", f"interface{i + 1}")
+        if not isinstance(nm, str) or not nm.strip():
+            raise InputError(f"interface #{i + 1}: name must be a non-empty string "
+                             f"(got {nm!r})")
         where = f"interface '{nm}'"
         check_keys(it, "interface", where)
         for k in ("slave", "master"):
@@ -336,6 +344,10 @@ def parse_config(raw: dict[str, Any], path: Path | str = "<config>") -> Config:
     reference = raw.get("reference")
     if isinstance(reference, dict):
         check_keys(reference, "reference", "reference.")
+        kind = reference.get("type")
+        if kind not in REFERENCES:
+            raise InputError(f"reference.type = {kind!r}: use one of "
+                             f"{', '.join(REFERENCES)}{suggestion(str(kind), REFERENCES)}")
     petsc = _table(raw, "petsc", "")
     petsc_opts = {}
     for k, v in petsc.items():
@@ -420,8 +432,10 @@ def apply_overrides(raw: dict[str, Any], overrides: list[str]) -> dict[str, Any]
 def load_config(path: str | Path, overrides: list[str] | None = None) -> Config:
     """Read and check a TOML scene file; `overrides` are `--set KEY=VALUE` strings."""
     p = Path(path)
-    if not p.is_file():
+    if not p.exists():
         raise InputError(f"config file '{p}' does not exist")
+    if not p.is_file():
+        raise InputError(f"config file '{p}' is not a regular file")
     try:
         with p.open("rb") as fh:
             raw = tomllib.load(fh)

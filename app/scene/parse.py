@@ -10,6 +10,7 @@ from typing import Any
 
 import numpy as np
 
+from app.config_keys import suggestion
 from app.errors import InputError
 from app.scene.geometry import Piece
 from app.scene.geometry import number as _number
@@ -89,10 +90,12 @@ def _shape_sides(shape: dict, where: str) -> tuple[list[tuple[str, list[Piece]]]
         )
     spec = SHAPES[kind]
     w = f"{where}shape."
+    allowed = ("type", "structured", "divisions", *spec.keys)
     for key in shape:
-        if key not in ("type", "structured", "divisions", *spec.keys):
+        if key not in allowed:
             raise InputError(
-                f"{w}{key} is not a key of a {kind} (keys: {', '.join(spec.keys)})"
+                f"{w}{key} is not a key of a {kind}{suggestion(key, allowed)} (keys: "
+                f"{', '.join(allowed)})"
             )
     structured = shape.get("structured", False)
     if not isinstance(structured, bool):
@@ -109,6 +112,20 @@ def _shape_sides(shape: dict, where: str) -> tuple[list[tuple[str, list[Piece]]]
                            for k in dv)):
             raise InputError(f"{w}divisions must be [nx, ny], two integers >= 1 (got {dv!r})")
     return spec.sides(shape, w), structured
+
+
+MIN_SIDE_RATIO = 1e-9
+"""Shortest side accepted, relative to the longest side of the same body."""
+
+
+def _check_side_lengths(sides: list[tuple[str, list[Piece]]], where: str) -> None:
+    """Every side of a shape has a finite length above MIN_SIDE_RATIO of the longest."""
+    lengths = {name: sum(p.length for p in pieces) for name, pieces in sides}
+    longest = max(lengths.values())
+    for name, length in lengths.items():
+        if not (math.isfinite(length) and length > MIN_SIDE_RATIO * longest):
+            raise InputError(f"{where}shape is degenerate: side {name} has length {length:.3g} "
+                             f"against {longest:.3g} for the longest: check its dimensions")
 
 
 def _split_at(pieces: list[Piece], xy: np.ndarray, tol: float) -> list[Piece]:
@@ -163,13 +180,14 @@ def parse_scene(cfg: dict, *, need_shapes: bool | None = None) -> Scene:
             raise InputError(f"{where}shape is missing: add a [body.shape] table with a type")
         shape = _table(b["shape"], f"{where}shape")
         raw_sides, structured = _shape_sides(shape, where)
+        _check_side_lengths(raw_sides, where)
         valid = [s for s, _ in raw_sides]
         curves = _table(b.get("curves", {}), f"{where}curves")
         for side, cname in curves.items():
             if side not in valid:
                 raise InputError(
-                    f"{where}curves.{side} is not a side of a {shape['type']} "
-                    f"(sides: {', '.join(valid)})"
+                    f"{where}curves.{side} is not a side of a {shape['type']}"
+                    f"{suggestion(side, valid)} (sides: {', '.join(valid)})"
                 )
             if not isinstance(cname, str) or not cname:
                 raise InputError(f"{where}curves.{side} must be a curve name (got {cname!r})")
