@@ -86,6 +86,8 @@ def main(argv: list[str] | None = None) -> int:
 
     from app.config import load_config
     from app.errors import InputError, SolveError
+    from app.output.progress import final_line
+    from app.output.status import RunInterrupted
     from app.run import RunOptions, run
 
     rank = PETSc.COMM_WORLD.getRank()
@@ -106,6 +108,15 @@ def main(argv: list[str] | None = None) -> int:
             if rank == 0:
                 print(f"error: {exc}", file=sys.stderr)
             return 2
+        except RunInterrupted as exc:
+            if rank == 0:
+                print(f"error: {exc}", file=sys.stderr)
+            return exc.exit_code
+        if not rows:
+            if rank == 0:
+                print(f"error: every run of the study failed (see the lines above and "
+                      f"{out}/*/summary.json)", file=sys.stderr)
+            return 2
         if rank == 0 and not args.quiet:
             print(f"{len(rows)} runs -> {out / 'study.csv'}", file=sys.stderr)
         return 0
@@ -120,6 +131,7 @@ def main(argv: list[str] | None = None) -> int:
             mesh_scale=(args.mesh_size / cfg.mesh_size) if args.mesh_size else 1.0,
             quiet=args.quiet,
             mesh_cache=args.mesh_cache,
+            overrides=list(args.set),
         )
         if opts.method == "fem-q4" and args.sd is not None:
             raise InputError("--sd applies to --method cs-fem only")
@@ -128,9 +140,12 @@ def main(argv: list[str] | None = None) -> int:
         if rank == 0:
             print(f"error: {exc}", file=sys.stderr)
         return 2
+    except RunInterrupted as exc:
+        if rank == 0:
+            if exc.summary is not None and not args.quiet:
+                print(final_line(exc.summary, opts.out), file=sys.stderr)
+            print(f"error: {exc}", file=sys.stderr)
+        return exc.exit_code
     if rank == 0 and not args.quiet:
-        t = summary["timings"]
-        print(f"{summary['label']}: {summary['n_dofs']} DOFs, {summary['n_elements']} "
-              f"elements, strain energy {summary['strain_energy']:.10g}, total "
-              f"{t['total']:.2f} s -> {opts.out}", file=sys.stderr)
+        print(final_line(summary, opts.out), file=sys.stderr)
     return 0
