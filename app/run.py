@@ -39,7 +39,13 @@ from app.mesh.model import Mesh
 from app.output.progress import step_line
 from app.output.provenance import provenance
 from app.output.reactions import ReactionProbe, support_owner, unique_names
-from app.output.status import RunGuard, check_finite
+from app.output.status import (
+    RunGuard,
+    arm_signals,
+    check_finite,
+    hold_signals,
+    release_signals,
+)
 from app.output.xdmf import ResultWriter, atomic_write_text
 
 
@@ -216,7 +222,9 @@ def run(cfg: Config, opts: RunOptions) -> dict:
                "status": "running",
                "provenance": collective(provenance, cfg.raw, opts.overrides,
                                         PETSc.COMM_WORLD.getSize())}
-    with RunGuard(Path(opts.out), summary, write_summary, cfg.n_steps):
+    # inf and NaN from overflowing inputs are caught per step by check_finite
+    with RunGuard(Path(opts.out), summary, write_summary, cfg.n_steps), \
+            np.errstate(over="ignore", invalid="ignore"):
         return _run(cfg, opts, summary)
 
 
@@ -231,6 +239,7 @@ def _run(cfg: Config, opts: RunOptions, summary: dict) -> dict:
 
     with timer.phase("mesh"):
         mesh = collective(build_scene_mesh, cfg, opts)
+    arm_signals()  # gmsh.finalize() put back the default SIGTERM action
     n_dofs = 2 * mesh.n_nodes
     summary.update({
         "config": str(cfg.path),
@@ -397,6 +406,7 @@ def _run(cfg: Config, opts: RunOptions, summary: dict) -> dict:
             energy_by_body = mpi.allreduce(energy_by_body)
             energy_total = float(energy_by_body.sum())
             check_finite(step + 1, cfg.n_steps, u, energy_total)
+            hold_signals()  # the step's files and summary.json are written together
             if rank == 0:
                 cell = _assemble_cell_fields(mesh, gathered)
                 disp = np.zeros((mesh.n_nodes, 3))
@@ -416,6 +426,7 @@ def _run(cfg: Config, opts: RunOptions, summary: dict) -> dict:
             if not opts.quiet:
                 print(step_line(step_info, cfg.n_steps, timer.prefix), file=sys.stderr,
                       flush=True)
+        release_signals()
 
     summary["point_values"] = _point_values(mesh, u)
     ref = collective(reference_errors, cfg, disc, summary, mesh, contact, last_contact)

@@ -52,6 +52,51 @@ def _raise_sigterm(signum, frame):
     raise RunInterrupted("SIGTERM")
 
 
+def arm_signals():
+    """SIGTERM raises RunInterrupted, SIGINT KeyboardInterrupt; returns the previous SIGTERM
+    handler. Call again after gmsh ran: gmsh.finalize() resets both to the defaults."""
+    try:
+        old = signal.signal(signal.SIGTERM, _raise_sigterm)
+        if signal.getsignal(signal.SIGINT) is signal.default_int_handler:
+            signal.signal(signal.SIGINT, signal.default_int_handler)
+    except ValueError:  # not the main thread
+        return None
+    return old
+
+
+_PENDING: list[str] = []
+
+
+def _record_signal(signum, frame):
+    _PENDING.append(signal.Signals(signum).name)
+
+
+def hold_signals() -> None:
+    """Defer SIGINT and SIGTERM (while a step's files and summary.json are written, so
+    that the files on disk and the summary agree); `release_signals` acts on them."""
+    _PENDING.clear()
+    try:
+        signal.signal(signal.SIGINT, _record_signal)
+        signal.signal(signal.SIGTERM, _record_signal)
+    except ValueError:  # not the main thread
+        pass
+
+
+def release_signals() -> None:
+    """Put the run's handlers back; raise for a signal that came while they were held."""
+    try:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+    except ValueError:
+        return
+    arm_signals()
+    if _PENDING:
+        name = _PENDING[0]
+        _PENDING.clear()
+        if name == "SIGINT":
+            raise KeyboardInterrupt
+        raise RunInterrupted(name)
+
+
 def lock_folder(out: Path):
     """Create OUT, take its lock (non-blocking); returns the open lock file."""
     try:
@@ -119,6 +164,19 @@ def _os_reason(exc: OSError) -> str:
     return text.splitlines()[0] if text else type(exc).__name__
 
 
+PETSC_ERRORS = {55: "out of memory", 56: "no support for this operation", 62: "invalid "
+                "argument", 63: "argument out of range", 73: "object in the wrong state",
+                76: "error in an external library", 86: "unknown type"}
+
+
+def _petsc_reason(exc: Exception) -> str:
+    """One line for a PETSc.Error: its code, what the code means, the options in force."""
+    code = getattr(exc, "ierr", None)
+    opts = " ".join(f"-{k} {v}".rstrip() for k, v in sorted(PETSc.Options().getAll().items()))
+    return (f"PETSc error {code} ({PETSC_ERRORS.get(code, 'see the PETSc manual')}): check "
+            f"the PETSc options in force: {opts}")
+
+
 class RunGuard:
     """Context manager around a run: lock, stale files, signals, final status."""
 
@@ -142,10 +200,7 @@ class RunGuard:
         self.removed = collective(start) or []
         if self.rank == 0:
             self.write(self.out, self.summary)
-        try:
-            self._old_term = signal.signal(signal.SIGTERM, _raise_sigterm)
-        except ValueError:  # not the main thread
-            self._old_term = None
+        self._old_term = arm_signals()
         return self
 
     def __exit__(self, exc_type, exc, tb) -> bool:
@@ -154,6 +209,7 @@ class RunGuard:
         finally:
             if self._old_term is not None:
                 signal.signal(signal.SIGTERM, self._old_term)
+                signal.signal(signal.SIGINT, signal.default_int_handler)
             if self._lock is not None:
                 self._lock.close()
 
@@ -184,7 +240,7 @@ class RunGuard:
             self._record()
             raise InputError(s["error"]) from None
         if isinstance(exc, PETSc.Error):
-            s["error"] = f"PETSc error {exc.ierr}: check the PETSc options; {self._done()}"
+            s["error"] = f"{_petsc_reason(exc)}; {self._done()}"
             self._record()
             raise InputError(s["error"]) from None
         if isinstance(exc, InputError | SolveError):

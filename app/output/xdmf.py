@@ -14,6 +14,7 @@ so a run stopped at any moment leaves readable files with every completed step.
 
 from __future__ import annotations
 
+import io
 import os
 from pathlib import Path
 
@@ -26,12 +27,35 @@ _NUM = {np.dtype("float64"): ("Float", 8), np.dtype("int64"): ("Int", 8),
 
 def atomic_write_text(path: Path, text: str) -> None:
     """Write a text file through a temporary file and a rename (never half-written)."""
+    atomic_write_bytes(path, text.encode())
+
+
+def atomic_write_bytes(path: Path, data) -> None:
+    """Write bytes through a temporary file and a rename; on an OSError (a full disk)
+    the temporary file is removed and the error raised."""
     tmp = path.with_name(path.name + ".tmp")
-    with open(tmp, "w") as fh:
-        fh.write(text)
-        fh.flush()
-        os.fsync(fh.fileno())
+    try:
+        with open(tmp, "wb") as fh:
+            fh.write(data)
+            fh.flush()
+            os.fsync(fh.fileno())
+    except OSError:
+        tmp.unlink(missing_ok=True)
+        raise
     os.replace(tmp, path)
+
+
+def write_h5(path: Path, datasets: dict[str, np.ndarray], attrs: dict | None = None) -> None:
+    """An HDF5 file built in memory, then written with `atomic_write_bytes`: HDF5 never
+    writes to the disk itself, so a full disk is one OSError and no half-written file.
+    datasets: path inside the file ("a" or "group/a") -> array."""
+    buf = io.BytesIO()
+    with h5py.File(buf, "w") as h5:
+        for k, v in (attrs or {}).items():
+            h5.attrs[k] = v
+        for k, v in datasets.items():
+            h5[k] = np.ascontiguousarray(v)
+    atomic_write_bytes(path, buf.getbuffer())
 
 
 def _item(fname: str, path: str, arr_shape: tuple, dtype: np.dtype) -> str:
@@ -55,10 +79,8 @@ class ResultWriter:
         self.out.mkdir(parents=True, exist_ok=True)
         self.points = np.ascontiguousarray(points, dtype=np.float64)
         self.quads = np.ascontiguousarray(quads, dtype=np.int64)
-        with h5py.File(self.out / "mesh.h5", "w") as h5:
-            h5["points"] = self.points
-            h5["quads"] = self.quads
-            h5["body"] = np.asarray(body, dtype=np.int64)
+        write_h5(self.out / "mesh.h5", {"points": self.points, "quads": self.quads,
+                                        "body": np.asarray(body, dtype=np.int64)})
         self.bulk_grids: list[str] = []
         self.contact_grids: list[str] = []
 
@@ -71,19 +93,12 @@ class ResultWriter:
         contact: name -> (m,) or (m, k) arrays per contact pair; must hold "position" (m, 2).
         """
         fname = f"step_{step:04d}.h5"
-        tmp = self.out / (fname + ".tmp")
-        with h5py.File(tmp, "w") as h5:
-            h5.attrs["step"] = step
-            h5.attrs["time"] = time
-            for k, v in {**point_data, **cell_data}.items():
-                h5[k] = np.ascontiguousarray(v)
-            if contact is not None:
-                g = h5.create_group("contact")
-                for k, v in contact.items():
-                    g[k] = np.ascontiguousarray(v)
-                if "position" in contact:
-                    g["vertices"] = np.arange(len(contact["position"]), dtype=np.int64)
-        os.replace(tmp, self.out / fname)
+        data = {**point_data, **cell_data}
+        if contact is not None:
+            data |= {f"contact/{k}": v for k, v in contact.items()}
+            if "position" in contact:
+                data["contact/vertices"] = np.arange(len(contact["position"]), dtype=np.int64)
+        write_h5(self.out / fname, data, {"step": step, "time": time})
 
         attrs = [_attribute(k, "Node", fname, f"/{k}", np.asarray(v))
                  for k, v in point_data.items()]
