@@ -412,7 +412,7 @@ def _run(cfg: Config, opts: RunOptions, summary: dict) -> dict:
                 disp = np.zeros((mesh.n_nodes, 3))
                 disp[:, :2] = u.reshape(-1, 2)
                 writer.write_step(step + 1, float(step + 1), {"displacement": disp}, cell,
-                                  contact_data)
+                                  contact_data, load_factors=step_info["load_factor"])
         step_info["step_seconds"] = time.perf_counter() - t_step
         step_info["strain_energy"] = energy_total
         step_info["strain_energy_by_body"] = dict(

@@ -71,6 +71,45 @@ def _attribute(name: str, center: str, fname: str, path: str, arr: np.ndarray) -
             f'{_item(fname, path, arr.shape, arr.dtype)}</Attribute>')
 
 
+COMPONENTS = {"stress": ("s_xx", "s_yy", "s_xy", "s_zz")}
+"""Cell arrays also written as one named scalar per component (for ParaView)."""
+VECTORS_3D = ("normal", "tangent")
+"""Contact (m, 2) arrays exposed in contact.xdmf as 3-component vectors (z = 0), stored
+as /contact/<name>_3d, so that ParaView's Glyph filter can orient them."""
+
+
+def paraview_extras(point_data: dict, cell_data: dict, contact: dict | None):
+    """Derived arrays for ParaView: named stress components; the contact points' slave
+    displacement (m, 3) so that contact.xdmf warps with the mesh; 3-component normal and
+    tangent. Returns (cell_data additions, contact additions, contact XDMF renames)."""
+    cells = {}
+    for name, comps in COMPONENTS.items():
+        arr = cell_data.get(name)
+        if arr is not None and arr.ndim == 2 and arr.shape[1] == len(comps):
+            cells |= {c: arr[:, i] for i, c in enumerate(comps)}
+    extra, renames = {}, {}
+    if contact is not None:
+        disp = point_data.get("displacement")
+        if disp is not None and "slave" in contact and "displacement" not in contact:
+            extra["displacement"] = np.asarray(disp)[np.asarray(contact["slave"])]
+        for name in VECTORS_3D:
+            v = contact.get(name)
+            if v is not None and v.ndim == 2 and v.shape[1] == 2:
+                v3 = np.zeros((v.shape[0], 3))
+                v3[:, :2] = v
+                extra[f"{name}_3d"] = v3
+                renames[f"{name}_3d"] = name
+    return cells, extra, renames
+
+
+def _information(load_factors: dict[str, float] | None) -> str:
+    """The step's load factors as XDMF Information elements (ParaView: field data)."""
+    from xml.sax.saxutils import quoteattr
+
+    return "".join(f"<Information Name={quoteattr('load_factor ' + k)} "
+                   f"Value=\"{v:.17g}\"/>" for k, v in (load_factors or {}).items())
+
+
 class ResultWriter:
     """Writes the mesh once and one HDF5 file per step; keeps the XDMF index current."""
 
@@ -86,19 +125,32 @@ class ResultWriter:
 
     def write_step(self, step: int, time: float, point_data: dict[str, np.ndarray],
                    cell_data: dict[str, np.ndarray],
-                   contact: dict[str, np.ndarray] | None = None) -> Path:
+                   contact: dict[str, np.ndarray] | None = None,
+                   load_factors: dict[str, float] | None = None) -> Path:
         """Write one completed step and refresh the XDMF index files.
 
+        time: the XDMF time value (the run uses the step number).
         point_data / cell_data: name -> (n,) or (n, k) arrays on nodes / elements.
         contact: name -> (m,) or (m, k) arrays per contact pair; must hold "position" (m, 2).
+        load_factors: load case name -> factor at this step (/load_factor in the HDF5 file,
+        with the names in its attribute "names"; Information elements in the XDMF).
         """
         fname = f"step_{step:04d}.h5"
+        more_cells, more_contact, renames = paraview_extras(point_data, cell_data, contact)
+        cell_data = {**cell_data, **more_cells}
+        if contact is not None:
+            contact = {**contact, **more_contact}
         data = {**point_data, **cell_data}
+        if load_factors:
+            data["load_factor"] = np.array(list(load_factors.values()), dtype=np.float64)
         if contact is not None:
             data |= {f"contact/{k}": v for k, v in contact.items()}
             if "position" in contact:
                 data["contact/vertices"] = np.arange(len(contact["position"]), dtype=np.int64)
-        write_h5(self.out / fname, data, {"step": step, "time": time})
+        attrs = {"step": step, "time": time}
+        if load_factors:
+            attrs["load_factor_names"] = list(load_factors)
+        write_h5(self.out / fname, data, attrs)
 
         attrs = [_attribute(k, "Node", fname, f"/{k}", np.asarray(v))
                  for k, v in point_data.items()]
@@ -108,7 +160,7 @@ class ResultWriter:
         topo = _item("mesh.h5", "/quads", self.quads.shape, self.quads.dtype)
         self.bulk_grids.append(
             f'<Grid Name="step_{step}" GridType="Uniform">'
-            f'<Time Value="{time:.17g}"/>'
+            f'<Time Value="{time:.17g}"/>{_information(load_factors)}'
             f'<Topology TopologyType="Quadrilateral" NumberOfElements="{self.quads.shape[0]}">'
             f"{topo}</Topology>"
             f'<Geometry GeometryType="XY">{geo}</Geometry>' + "".join(attrs) + "</Grid>"
@@ -118,12 +170,14 @@ class ResultWriter:
         if contact is not None and "position" in contact:
             pos = np.asarray(contact["position"], dtype=np.float64)
             m = pos.shape[0]
-            cattrs = [_attribute(k, "Node", fname, f"/contact/{k}", np.asarray(v))
-                      for k, v in contact.items() if k != "position"]
+            hidden = {"position", *renames.values()}
+            cattrs = [_attribute(renames.get(k, k), "Node", fname, f"/contact/{k}",
+                                 np.asarray(v))
+                      for k, v in contact.items() if k not in hidden]
             verts = _item(fname, "/contact/vertices", (m,), np.dtype("int64"))
             self.contact_grids.append(
                 f'<Grid Name="contact_{step}" GridType="Uniform">'
-                f'<Time Value="{time:.17g}"/>'
+                f'<Time Value="{time:.17g}"/>{_information(load_factors)}'
                 f'<Topology TopologyType="Polyvertex" NumberOfElements="{m}" '
                 f'NodesPerElement="1">{verts}</Topology>'
                 f'<Geometry GeometryType="XY">'
