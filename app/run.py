@@ -240,6 +240,7 @@ def _run(cfg: Config, opts: RunOptions, summary: dict) -> dict:
     with timer.phase("mesh"):
         mesh = collective(build_scene_mesh, cfg, opts)
     arm_signals()  # gmsh.finalize() put back the default SIGTERM action
+    _mesh_quality(mesh, summary, opts.quiet or rank != 0)
     n_dofs = 2 * mesh.n_nodes
     summary.update({
         "config": str(cfg.path),
@@ -442,6 +443,15 @@ def _run(cfg: Config, opts: RunOptions, summary: dict) -> dict:
     if rank == 0:
         write_summary(out, summary)
     return summary
+
+
+def _mesh_quality(mesh: Mesh, summary: dict, quiet: bool) -> None:
+    """Degenerate or non-convex elements are an error; else one line and summary.json."""
+    from app.mesh.quality import mesh_quality, quality_line
+
+    summary["mesh_quality"] = mesh_quality(mesh)
+    if not quiet:
+        print(quality_line(summary["mesh_quality"]), file=sys.stderr, flush=True)
 
 
 def _prescribed_load_warnings(cases: list[LoadCase], fixed: np.ndarray, rank: int) -> list[str]:
