@@ -205,9 +205,10 @@ def parse_config(raw: dict[str, Any], path: Path | str = "<config>") -> Config:
     mesh = raw.get("mesh")
     if not isinstance(mesh, dict):
         raise InputError("missing [mesh] table (at least mesh.size)")
-    if "size" not in mesh:
+    if "size" not in mesh and mesh.get("file") is None:
         raise InputError("missing key mesh.size (the global element size)")
-    mesh_size = _num(mesh["size"], "mesh.size", positive=True)
+    # a ready mesh (mesh.file) needs no size; 1.0 keeps --mesh-size ratios defined
+    mesh_size = _num(mesh.get("size", 1.0), "mesh.size", positive=True)
 
     bodies = _tables(raw, "body")
     if not bodies:
