@@ -471,12 +471,14 @@ def _prescribed_load_warnings(cases: list[LoadCase], fixed: np.ndarray, rank: in
 
 def _reaction_setup(mesh: Mesh, cfg: Config, cases: list[LoadCase], probe: ReactionProbe):
     """A function (step, u, contact nodal forces) -> {"reactions", "balance"} for steps[k]."""
-    from app.output.reactions import step_reactions
+    from app.output.reactions import body_extents, step_reactions
 
     names = unique_names([f"support:{s.on}" for s in cfg.supports])
     owner = support_owner([support_dofs(mesh, s, cfg.parameters)[0] for s in cfg.supports],
                           2 * mesh.n_nodes)
     node_body = mesh.node_body()
+    extents = body_extents(mesh.points, node_body, len(mesh.body_names))
+    largest = [0.0]  # the largest force scale of the steps so far (balance floor)
 
     def at_step(step: int, u: np.ndarray, contact_force: np.ndarray | None) -> dict:
         applied = np.zeros_like(u)
@@ -485,7 +487,8 @@ def _reaction_setup(mesh: Mesh, cfg: Config, cases: list[LoadCase], probe: React
             target = body if c.name == "body_force" else applied
             target += c.history[step] * c.rhs
         r = step_reactions(probe, u, applied, body, contact_force, owner, names, mesh.points,
-                           node_body, mesh.body_names, to_numpy_all)
+                           node_body, mesh.body_names, to_numpy_all, extents, largest[0])
+        largest[0] = max(largest[0], r["balance"]["force_scale"])
         return {"reactions": r["supports"], "balance": r["balance"]}
 
     return at_step

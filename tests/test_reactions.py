@@ -46,6 +46,10 @@ def test_body_balance_flags_a_missing_force():
     bad = body_balance(pts, nb, ["a", "b"], {"loads": loads, "reactions": 0.5 * reactions})
     assert bad["max_relative_residual"] == pytest.approx(1 / 3)
     assert bad["bodies"]["a"]["residual"][1] == -1.0
+    # forces that are all round-off are judged against the run's earlier force scale
+    noise = {"loads": 1e-14 * loads, "reactions": -0.5e-14 * reactions}
+    assert body_balance(pts, nb, ["a", "b"], noise)["max_relative_residual"] > 0.1
+    assert body_balance(pts, nb, ["a", "b"], noise, floor=2.0)["max_relative_residual"] < 1e-13
 
 
 def test_interface_resultants_are_vectors_in_global_axes():

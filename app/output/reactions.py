@@ -19,6 +19,8 @@ import numpy as np
 from petsc4py import PETSc
 
 _BALANCE_FLOOR = 1e-300
+BALANCE_FLOOR_FRACTION = 1e-6
+"""The balance's force scale is at least this times max diag(K) times max |u|."""
 
 
 def unique_names(names: list[str]) -> list[str]:
@@ -68,42 +70,83 @@ def support_reactions(names: list[str], owner: np.ndarray, r: np.ndarray,
     return out
 
 
+def body_extents(points: np.ndarray, node_body: np.ndarray, n_bodies: int) -> np.ndarray:
+    """(n_bodies,) largest side of each body's bounding box (0 for a body without nodes)."""
+    out = np.zeros(n_bodies)
+    for b in range(n_bodies):
+        p = points[node_body == b]
+        if p.size:
+            out[b] = float(np.ptp(p, axis=0).max())
+    return out
+
+
+def _body_summer(node_body: np.ndarray, nb: int):
+    """A function (3, n) -> (nb, 3) of per-body row sums (nodes of no body skipped):
+    contiguous slices when the nodes are numbered body by body (as the mesh builder and
+    reader do), else bincount."""
+    if node_body.size and np.all(np.diff(node_body) >= 0):
+        bounds = np.searchsorted(node_body, np.arange(nb + 1))
+
+        def by_slices(f: np.ndarray) -> np.ndarray:
+            return np.array([f[:, bounds[b]:bounds[b + 1]].sum(axis=1) for b in range(nb)]
+                            ).reshape(nb, 3)
+        return by_slices
+    sel = node_body >= 0
+    idx = node_body[sel]
+
+    def by_bincount(f: np.ndarray) -> np.ndarray:
+        return np.stack([np.bincount(idx, f[k, sel], minlength=nb) for k in range(3)], 1)
+    return by_bincount
+
+
 def body_balance(points: np.ndarray, node_body: np.ndarray, body_names: list[str],
-                 terms: dict[str, np.ndarray]) -> dict:
+                 terms: dict[str, np.ndarray], extents: np.ndarray | None = None,
+                 floor: float = 0.0) -> dict:
     """Force and moment balance per body of the nodal force vectors in `terms` (2n,) each.
 
     Returns {"bodies": {name: {term: [Fx, Fy, Mz], ..., "residual": [..]}},
     "max_relative_residual": float}: the residual is the sum of the terms; its moment (about
     the origin) relative to the sums of |nodal moment| (or the force scale times the body's
     size), its force part relative to the larger of the sums of |Fx| and |Fy| over all
-    nodal forces of all terms of the body.
+    nodal forces of all terms of the body, or `floor` if larger (the run passes the largest
+    force scale of the steps before, so that a step where every force is round-off is not
+    judged against its own round-off). extents: `body_extents` (computed if None).
+    "force_scale": the largest body force scale of this step.
     """
     nb = len(body_names)
-    worst = 0.0
+    if extents is None:
+        extents = body_extents(points, node_body, nb)
+    per_body = _body_summer(node_body, nb)
+    x, y = np.ascontiguousarray(points[:, 0]), np.ascontiguousarray(points[:, 1])
+    total = np.zeros((nb, 3))
+    scale = np.zeros((nb, 3))
+    per_term = {}
+    for name, vec in terms.items():
+        f = np.empty((3, points.shape[0]))
+        f[0], f[1] = vec[0::2], vec[1::2]
+        np.multiply(x, f[1], out=f[2])
+        f[2] -= y * f[0]
+        res = per_body(f)
+        per_term[name] = res
+        total += res
+        np.abs(f, out=f)
+        scale += per_body(f)
+    step_scale = float(scale[:, :2].max(initial=0.0))
+    f_scale = np.maximum(scale[:, :2].max(axis=1), floor)
+    m_scale = np.maximum(scale[:, 2], f_scale * extents)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rel_f = np.where(f_scale > _BALANCE_FLOOR, np.abs(total[:, :2]).max(axis=1) / f_scale,
+                         0.0)
+        rel_m = np.where(m_scale > _BALANCE_FLOOR, np.abs(total[:, 2]) / m_scale, 0.0)
+    rel = np.maximum(rel_f, rel_m)
     bodies = {}
-    lever = points
-    for b in range(nb):
-        sel = node_body == b
-        row = {}
-        total = np.zeros(3)
-        scale = np.zeros(3)
-        for name, vec in terms.items():
-            f = vec.reshape(-1, 2)[sel]
-            mz = lever[sel, 0] * f[:, 1] - lever[sel, 1] * f[:, 0]
-            res = np.array([f[:, 0].sum(), f[:, 1].sum(), mz.sum()])
-            row[name] = [float(v) for v in res]
-            total += res
-            scale += [np.abs(f[:, 0]).sum(), np.abs(f[:, 1]).sum(), np.abs(mz).sum()]
-        f_scale = scale[:2].max()
-        extent = float(np.ptp(points[sel], axis=0).max()) if sel.any() else 0.0
-        m_scale = max(scale[2], f_scale * extent)
-        rel = max(np.abs(total[:2]).max() / f_scale if f_scale > _BALANCE_FLOOR else 0.0,
-                  abs(total[2]) / m_scale if m_scale > _BALANCE_FLOOR else 0.0)
-        row["residual"] = [float(v) for v in total]
-        row["relative_residual"] = float(rel)
-        worst = max(worst, float(rel))
-        bodies[body_names[b]] = row
-    return {"bodies": bodies, "max_relative_residual": worst}
+    for b, body in enumerate(body_names):
+        row = {name: [float(v) for v in res[b]] for name, res in per_term.items()}
+        row["residual"] = [float(v) for v in total[b]]
+        row["relative_residual"] = float(rel[b])
+        bodies[body] = row
+    return {"bodies": bodies, "max_relative_residual": float(rel.max(initial=0.0)),
+            "force_scale": step_scale}
 
 
 def interface_resultants(contact: dict[str, np.ndarray], names: list[str]) -> dict:
@@ -133,6 +176,9 @@ class ReactionProbe:
         cols = PETSc.IS().createStride(r1 - r0, first=r0, step=1, comm=comm)
         self.rows = k.createSubMatrix(rows, cols)
         self.range = (r0, r1)
+        diag = k.getDiagonal()
+        self.k_diag_max = float(diag.norm(PETSc.NormType.INFINITY))
+        diag.destroy()
         rows.destroy()
         cols.destroy()
 
@@ -154,7 +200,8 @@ class ReactionProbe:
 def step_reactions(probe: ReactionProbe, u: np.ndarray, applied: np.ndarray,
                    body_force: np.ndarray, contact_force: np.ndarray | None, owner: np.ndarray,
                    names: list[str], points: np.ndarray, node_body: np.ndarray,
-                   body_names: list[str], to_numpy_all) -> dict:
+                   body_names: list[str], to_numpy_all,
+                   extents: np.ndarray | None = None, floor: float = 0.0) -> dict:
     """Reactions per support and the balance per body at one step (every rank calls).
 
     applied, body_force, contact_force: (2n,) nodal forces (loads, body forces, G^T lambda).
@@ -165,9 +212,12 @@ def step_reactions(probe: ReactionProbe, u: np.ndarray, applied: np.ndarray,
     f = probe.fixed
     r[f] = ku[f] - applied[f] - body_force[f] - c[f]
     terms = {"loads": applied, "reactions": r}
+    # forces of a node moved by 1e-6 of the largest displacement: a floor for the balance
+    # when every force is round-off (a body moved rigidly by its supports)
+    floor = max(floor, BALANCE_FLOOR_FRACTION * probe.k_diag_max * float(np.abs(u).max()))
     if np.any(body_force):
         terms["body_force"] = body_force
     if contact_force is not None:
         terms["contact"] = c
     return {"supports": support_reactions(names, owner, r, points),
-            "balance": body_balance(points, node_body, body_names, terms)}
+            "balance": body_balance(points, node_body, body_names, terms, extents, floor)}
