@@ -6,7 +6,6 @@ distributed; the contact LCP is solved on rank 0 and its result broadcast.
 
 from __future__ import annotations
 
-import json
 import resource
 import sys
 import time
@@ -23,9 +22,19 @@ from app.assembly.loads import (
     load_vector,
     support_dofs,
 )
-from app.assembly.solve import LinearSolver, apply_dirichlet, set_default_options
+from app.assembly.solve import (
+    LinearSolver,
+    SingularStiffnessError,
+    apply_dirichlet,
+    set_default_options,
+)
 from app.assembly.stiffness import assemble_stiffness, node_ownership
-from app.condensation.compliance import compliance_schur, compliance_solve
+from app.condensation.compliance import (
+    attach_schur,
+    compliance_from_factor,
+    compliance_solve,
+    request_schur,
+)
 from app.config import Config
 from app.discretisation.bulk import (
     Discretisation,
@@ -33,6 +42,7 @@ from app.discretisation.bulk import (
     element_fields,
     zero_energy_modes,
 )
+from app.discretisation.methods import bulk_method
 from app.errors import InputError, SolveError
 from app.interface.setup import ContactSetup, floating_modes, mismatch
 from app.mesh.model import Mesh
@@ -46,7 +56,9 @@ from app.output.status import (
     hold_signals,
     release_signals,
 )
-from app.output.xdmf import ResultWriter, atomic_write_text
+from app.output.summary import write_summary as write_summary_file
+from app.output.xdmf import ResultWriter
+from app.references import ContactProfile, RunFigures, reference
 
 
 @dataclass
@@ -76,21 +88,21 @@ class Timer:
 
     @contextmanager
     def phase(self, name: str):
+        t0 = time.perf_counter()  # the barriers count too: all of a run is in some phase
         comm = PETSc.COMM_WORLD
         if name not in self._stages:
             self._stages[name] = PETSc.Log.Stage(name)
         stage = self._stages[name]
         stage.push()
         comm.barrier()  # a phase's time includes waiting for the slowest rank
-        t0 = time.perf_counter()
         try:
             yield
         finally:
+            self.peak_mb[name] = peak_rss_mb()
             comm.barrier()
             stage.pop()
             dt = time.perf_counter() - t0
             self.seconds[name] = self.seconds.get(name, 0.0) + dt
-            self.peak_mb[name] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
             if not self.quiet and comm.getRank() == 0:
                 el = time.perf_counter() - self.start
                 print(f"[{el:8.2f} s] {self.prefix}{name:<14s} {dt:8.3f} s", file=sys.stderr,
@@ -108,6 +120,19 @@ class Timer:
         each phase's first completion order (a running maximum)."""
         comm = PETSc.COMM_WORLD.tompi4py()
         return {k: round(comm.allreduce(v), 1) for k, v in sorted(self.peak_mb.items())}
+
+
+def peak_rss_mb() -> float:
+    """Peak resident memory of this process (MB): VmHWM from /proc/self/status, which
+    stays cheap under load (getrusage took milliseconds a call on a busy machine)."""
+    try:
+        with open("/proc/self/status") as fh:
+            for line in fh:
+                if line.startswith("VmHWM:"):
+                    return int(line.split()[1]) / 1024.0
+    except OSError:
+        pass
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 
 
 def _mpi_max():
@@ -150,23 +175,22 @@ def from_numpy(template: PETSc.Mat, values: np.ndarray) -> PETSc.Vec:
 
 
 def make_discretisation(cfg: Config, opts: RunOptions) -> Discretisation:
-    method = opts.method or cfg.method
-    sd = opts.sd if opts.sd is not None else cfg.sd
-    if method not in ("cs-fem", "fem-q4"):
-        raise InputError(f"--method {method}: use cs-fem or fem-q4")
-    from app.discretisation.elements import SMOOTHING_DOMAINS
-
-    if method == "cs-fem" and sd not in SMOOTHING_DOMAINS:
-        raise InputError(f"--sd {sd}: choose one of {list(SMOOTHING_DOMAINS)}")
-    return Discretisation(method, sd, cfg.plane, cfg.thickness, cfg.E, cfg.nu)
+    """The bulk method and materials; the method and sd checked against the registry."""
+    method = bulk_method(opts.method or cfg.method,
+                         "--method" if opts.method else "analysis.method")
+    sd = method.check_sd(opts.sd if opts.sd is not None else cfg.sd,
+                         "--sd" if opts.sd is not None else "analysis.sd")
+    return Discretisation(method.name, sd, cfg.plane, cfg.thickness, cfg.E, cfg.nu)
 
 
 def build_scene_mesh(cfg: Config, opts: RunOptions) -> Mesh:
     from app.mesh.build import build_mesh
+    from app.mesh.checks import check_scene
 
     mesh = build_mesh(cfg.raw, scale=opts.mesh_scale, cache_dir=opts.mesh_cache,
                       base_dir=cfg.path.parent)
     check_elements(mesh)
+    check_scene(mesh, cfg.interfaces)
     return mesh
 
 
@@ -208,7 +232,8 @@ MAX_REFINEMENTS = 5
 
 
 def write_summary(out: Path, summary: dict) -> None:
-    atomic_write_text(out / "summary.json", json.dumps(summary, indent=2) + "\n")
+    """OUT/summary.json; later calls for the same run append (app/output/summary.py)."""
+    write_summary_file(out / "summary.json", summary)
 
 
 def run(cfg: Config, opts: RunOptions) -> dict:
@@ -239,13 +264,13 @@ def _run(cfg: Config, opts: RunOptions, summary: dict) -> dict:
 
     with timer.phase("mesh"):
         mesh = collective(build_scene_mesh, cfg, opts)
-    arm_signals()  # gmsh.finalize() put back the default SIGTERM action
-    _mesh_quality(mesh, summary, opts.quiet or rank != 0)
+        arm_signals()  # gmsh.finalize() put back the default SIGTERM action
+        _mesh_quality(mesh, summary, opts.quiet or rank != 0)
     n_dofs = 2 * mesh.n_nodes
     summary.update({
         "config": str(cfg.path),
         "method": disc.method,
-        "sd": disc.sd if disc.method == "cs-fem" else None,
+        "sd": disc.sd if disc.bulk.sd_choices else None,
         "label": disc.label,
         "plane": disc.plane,
         "ranks": size,
@@ -263,19 +288,22 @@ def _run(cfg: Config, opts: RunOptions, summary: dict) -> dict:
             raise InputError(f"body '{name}' has no elements in the mesh")
 
     # Checks that need the mesh, before any expensive work.
-    cases = load_cases(mesh, cfg)
-    fixed = constrained_dofs(mesh, cfg)
+    with timer.phase("setup"):
+        cases = load_cases(mesh, cfg)
+        fixed = constrained_dofs(mesh, cfg)
     contact = None
     if cfg.interfaces:
         with timer.phase("pair_search"):
             contact = ContactSetup.build(mesh, cfg)
         summary["n_pairs"] = contact.pairs.n_pairs
-    floating = floating_modes(mesh, cfg, fixed, contact, disc)
-    pins = floating.pins if floating else np.zeros(0, dtype=np.int64)
-    fixed_all = np.union1d(fixed, pins)
-    warnings = _prescribed_load_warnings(cases, fixed, rank)
-    if warnings:
-        summary["warnings"] = summary.get("warnings", []) + warnings
+    with timer.phase("floating_modes"):  # with CS-FEM-1SD: the hourglass eigen-solve
+        floating = floating_modes(mesh, cfg, fixed, contact, disc)
+        pins = floating.pins if floating else np.zeros(0, dtype=np.int64)
+        fixed_all = np.union1d(fixed, pins)
+    with timer.phase("setup"):
+        warnings = _prescribed_load_warnings(cases, fixed, rank)
+        if warnings:
+            summary["warnings"] = summary.get("warnings", []) + warnings
 
     with timer.phase("assembly"):
         k = assemble_stiffness(mesh, disc, comm)
@@ -292,12 +320,16 @@ def _run(cfg: Config, opts: RunOptions, summary: dict) -> dict:
         probe = ReactionProbe(k, fixed)
         apply_dirichlet(k, fixed_all)
 
-    solver = LinearSolver(k)
     with timer.phase("factorization"):
+        solver = LinearSolver(k)
+        route = contact.compliance_route(solver) if contact is not None else None
+        schur_dofs = request_schur(solver, contact.g, fixed_all) if route == "schur" else None
         try:
             solver.factor()
-        except SolveError as exc:
+        except SingularStiffnessError as exc:
             raise SolveError(_singular_message(disc, mesh, str(exc), fixed_all)) from None
+        if schur_dofs is not None:  # the one factorization serves compliance and solves
+            attach_schur(solver, k, schur_dofs)
 
     with timer.phase("solve"):
         unit, lifted = [], []
@@ -309,16 +341,15 @@ def _run(cfg: Config, opts: RunOptions, summary: dict) -> dict:
             b[fixed_all] = case.prescribed[fixed_all]
             try:
                 x = solver.solve(from_numpy(k, b))
-            except SolveError as exc:
+            except SingularStiffnessError as exc:
                 raise SolveError(_singular_message(disc, mesh, str(exc), fixed_all)) from None
             unit.append(to_numpy_all(x))
 
     stepper = None
     if contact is not None:
         with timer.phase("compliance"):
-            route = contact.compliance_route(solver)
             if route == "schur":
-                c_mat = compliance_schur(k, contact.g, fixed_all)
+                c_mat = compliance_from_factor(solver, contact.g, fixed_all)
             else:
                 c_mat = compliance_solve(solver, k, contact.g, fixed_all, to_numpy_all)
         summary["compliance_route"] = route
@@ -326,18 +357,21 @@ def _run(cfg: Config, opts: RunOptions, summary: dict) -> dict:
             stepper = contact.stepper(c_mat, cases, unit, lifted, floating) \
                 if rank == 0 else None
 
-    own = node_ownership(mesh.n_nodes, size)
-    my_elements = np.flatnonzero(
-        (mesh.quads[:, 0] >= own[rank]) & (mesh.quads[:, 0] < own[rank + 1])
-    )
-    writer = ResultWriter(out, mesh.points, mesh.quads, mesh.body) if rank == 0 else None
+    with timer.phase("output"):
+        own = node_ownership(mesh.n_nodes, size)
+        my_elements = np.flatnonzero(
+            (mesh.quads[:, 0] >= own[rank]) & (mesh.quads[:, 0] < own[rank + 1])
+        )
+        writer = ResultWriter(out, mesh.points, mesh.quads, mesh.body) if rank == 0 else None
     last_contact = None
-    reactions = _reaction_setup(mesh, cfg, cases, probe)
+    with timer.phase("setup"):
+        reactions = _reaction_setup(mesh, cfg, cases, probe)
     for step in range(cfg.n_steps):
         t_step = time.perf_counter()
-        u = np.zeros(n_dofs)
-        for case, uc in zip(cases, unit, strict=True):
-            u += case.history[step] * uc
+        with timer.phase("recovery"):  # superposition of the unit solutions
+            u = np.zeros(n_dofs)
+            for case, uc in zip(cases, unit, strict=True):
+                u += case.history[step] * uc
         step_info = {"step": step + 1,
                      "load_factor": {c.name: float(c.history[step]) for c in cases}}
         contact_data = None
@@ -368,14 +402,14 @@ def _run(cfg: Config, opts: RunOptions, summary: dict) -> dict:
                                                       to_numpy_all)
                     if floating is not None and floating.r.shape[1]:
                         u += floating.r @ result["alpha"]
-                rel = again = None
-                if rank == 0:
-                    miss = mismatch(contact.g, u, result)
-                    scale = max(np.abs(u).max(initial=0.0), 1e-300)
-                    rel = float(np.abs(miss).max(initial=0.0) / scale)
-                    again = (rel > CONSISTENCY_TOL and refinements < MAX_REFINEMENTS
-                             and rel < 0.5 * previous)
-                again, rel = mpi.bcast((again, rel), root=0)
+                    rel = again = None
+                    if rank == 0:
+                        miss = mismatch(contact.g, u, result)
+                        scale = max(np.abs(u).max(initial=0.0), 1e-300)
+                        rel = float(np.abs(miss).max(initial=0.0) / scale)
+                        again = (rel > CONSISTENCY_TOL and refinements < MAX_REFINEMENTS
+                                 and rel < 0.5 * previous)
+                    again, rel = mpi.bcast((again, rel), root=0)
                 if not again:
                     break
                 previous = rel
@@ -392,14 +426,14 @@ def _run(cfg: Config, opts: RunOptions, summary: dict) -> dict:
             result["info"]["consistency_refinements"] = refinements
             result["info"]["lcp_displacement_mismatch"] = rel
             step_info.update(result["info"])
-            if rank == 0:
+        with timer.phase("output"):
+            if contact is not None and rank == 0:
                 contact_data = contact.output_data(result, u, mesh)
                 step_info["kkt"] = contact_data.pop("_kkt")
                 last_contact = contact_data
                 _add_interface_forces(step_info, contact_data, cfg)
-        step_info.update(reactions(step, u, None if contact is None else
-                                   contact.g.T @ result["lam"]))
-        with timer.phase("output"):
+            step_info.update(reactions(step, u, None if contact is None else
+                                       contact.g.T @ result["lam"]))
             fields = element_fields(mesh, disc, u, my_elements)
             gathered = mpi.gather((my_elements, fields), root=0)
             energy_by_body = np.bincount(mesh.body[my_elements], weights=fields["energy"],
@@ -414,25 +448,27 @@ def _run(cfg: Config, opts: RunOptions, summary: dict) -> dict:
                 disp[:, :2] = u.reshape(-1, 2)
                 writer.write_step(step + 1, float(step + 1), {"displacement": disp}, cell,
                                   contact_data, load_factors=step_info["load_factor"])
-        step_info["step_seconds"] = time.perf_counter() - t_step
-        step_info["strain_energy"] = energy_total
-        step_info["strain_energy_by_body"] = dict(
-            zip(mesh.body_names, map(float, energy_by_body), strict=True))
-        summary["steps"].append(step_info)
-        summary["strain_energy"] = energy_total
-        summary["strain_energy_by_body"] = step_info["strain_energy_by_body"]
-        summary["timings"] = timer.reduced()
-        if rank == 0:
-            write_summary(out, summary)
-            if not opts.quiet:
-                print(step_line(step_info, cfg.n_steps, timer.prefix), file=sys.stderr,
-                      flush=True)
+            step_info["step_seconds"] = time.perf_counter() - t_step
+            step_info["elapsed_seconds"] = time.perf_counter() - timer.start
+            step_info["strain_energy"] = energy_total
+            step_info["strain_energy_by_body"] = dict(
+                zip(mesh.body_names, map(float, energy_by_body), strict=True))
+            summary["steps"].append(step_info)
+            summary["strain_energy"] = energy_total
+            summary["strain_energy_by_body"] = step_info["strain_energy_by_body"]
+            summary["timings"] = timer.reduced()
+            if rank == 0:
+                write_summary(out, summary)
+                if not opts.quiet:
+                    print(step_line(step_info, cfg.n_steps, timer.prefix), file=sys.stderr,
+                          flush=True)
         release_signals()
 
-    summary["point_values"] = _point_values(mesh, u)
-    ref = collective(reference_errors, cfg, disc, summary, mesh, contact, last_contact)
-    if ref:
-        summary["reference"] = ref
+    with timer.phase("reference"):
+        summary["point_values"] = _point_values(mesh, u)
+        ref = collective(reference_errors, cfg, disc, summary, mesh, contact, last_contact)
+        if ref:
+            summary["reference"] = ref
     summary["status"] = "completed"
     timings = timer.reduced()
     timings["total"] = time.perf_counter() - timer.start
@@ -506,61 +542,34 @@ def _add_interface_forces(step_info: dict, contact_data: dict, cfg: Config) -> N
 def reference_errors(cfg: Config, disc: Discretisation, summary: dict, mesh: Mesh,
                      contact=None, last_contact: dict | None = None) -> dict | None:
     """Errors against the closed form named in the config's [reference] table (rank 0)."""
-    ref = cfg.raw.get("reference")
-    if not isinstance(ref, dict):
+    if cfg.reference is None:
         return None
-    kind = ref.get("type")
-    if kind in ("hertz", "cattaneo"):
-        from app.closed_form import cattaneo_errors, hertz_errors
-        from app.interface.steps import STICK
+    profile = None
+    if contact is not None and last_contact is not None:
+        profile = _contact_profile(cfg, disc, mesh, contact, last_contact)
+    figures = RunFigures(E=float(disc.E[0]), nu=float(disc.nu[0]), plane=disc.plane,
+                         thickness=disc.thickness, strain_energy=summary["strain_energy"],
+                         point_values=summary["point_values"], contact=profile)
+    return reference(cfg.reference["type"]).compare(cfg.reference, figures)
 
-        if contact is None or last_contact is None:
-            raise InputError(f"[reference] type '{kind}' needs an [[interface]]")
-        try:
-            radius = float(ref["radius"])
-            x0 = float(ref.get("center_x", 0.0))
-        except (KeyError, TypeError, ValueError):
-            raise InputError(f"[reference] type '{kind}' needs radius (and center_x)") from None
-        nb = mesh.node_body()
-        b1 = nb[contact.pairs.slave[0]]
-        b2 = nb[contact.pairs.master[0, 0]]
-        e_star = 1.0 / sum((1 - disc.nu[b] ** 2) / disc.E[b] for b in (b1, b2))
-        if disc.plane == "stress":
-            e_star = 1.0 / sum(1.0 / disc.E[b] for b in (b1, b2))
-        c = last_contact
-        sel = c["interface"] == 0
-        p_force = c["p_force"][sel]
-        total = float(p_force.sum())
-        out = {"type": kind, "interface": cfg.interfaces[0].name}
-        out |= {"hertz": hertz_errors(c["x"][sel], c["p"][sel], c["length"][sel], P=total,
-                                      R=radius, E_star=e_star, x0=x0,
-                                      thickness=disc.thickness)}
-        if kind == "cattaneo":
-            stick = (c["state"][sel] == STICK) & (c["p"][sel] > 0)
-            out["cattaneo"] = cattaneo_errors(
-                c["x"][sel], c["p"][sel], c["q"][sel], c["length"][sel], stick, P=total,
-                Q=float(c["q_force"][sel].sum()), mu=cfg.interfaces[0].mu, R=radius,
-                E_star=e_star, x0=x0, thickness=disc.thickness)
-        return out
-    if kind == "timoshenko":
-        from app.closed_form import timoshenko_cantilever
 
-        try:
-            P, L, D = (float(ref[k]) for k in ("P", "L", "D"))
-            point = summary["point_values"][ref.get("point", "tip")]
-        except (KeyError, TypeError, ValueError) as exc:
-            raise InputError(f"[reference] type 'timoshenko' needs P, L, D and a point "
-                             f"group: {exc}") from None
-        exact = timoshenko_cantilever(L, 0.0, P=P, L=L, D=D, E=float(disc.E[0]),
-                                      nu=float(disc.nu[0]), plane=disc.plane,
-                                      thickness=disc.thickness)
-        tip, u_ex = point["uy"], exact["tip_deflection"]
-        energy, e_ex = summary["strain_energy"], exact["strain_energy"]
-        return {"type": kind, "tip_deflection": tip, "tip_deflection_exact": u_ex,
-                "tip_deflection_rel_error": abs(tip - u_ex) / abs(u_ex),
-                "strain_energy_exact": e_ex,
-                "strain_energy_rel_error": abs(energy - e_ex) / abs(e_ex)}
-    return {"type": kind}
+def _contact_profile(cfg: Config, disc: Discretisation, mesh: Mesh, contact,
+                     data: dict) -> ContactProfile:
+    """The first interface's pairs at the last step, with the bodies' effective modulus."""
+    from app.interface.steps import STICK
+
+    nb = mesh.node_body()
+    bodies = (nb[contact.pairs.slave[0]], nb[contact.pairs.master[0, 0]])
+    if disc.plane == "stress":
+        e_star = 1.0 / sum(1.0 / disc.E[b] for b in bodies)
+    else:
+        e_star = 1.0 / sum((1 - disc.nu[b] ** 2) / disc.E[b] for b in bodies)
+    sel = data["interface"] == 0
+    return ContactProfile(
+        x=data["x"][sel], p=data["p"][sel], q=data["q"][sel], length=data["length"][sel],
+        p_force=data["p_force"][sel], q_force=data["q_force"][sel],
+        stick=(data["state"][sel] == STICK) & (data["p"][sel] > 0),
+        mu=cfg.interfaces[0].mu, E_star=float(e_star), interface=cfg.interfaces[0].name)
 
 
 def _assemble_cell_fields(mesh: Mesh, gathered) -> dict[str, np.ndarray]:
@@ -574,10 +583,6 @@ def _assemble_cell_fields(mesh: Mesh, gathered) -> dict[str, np.ndarray]:
         sed[el] = f["energy_density"]
     return {"stress": stress, "von_mises": vm, "strain_energy_density": sed,
             "body_id": mesh.body.astype(np.int64)}
-
-
-def _centroid(mesh: Mesh, body: int) -> np.ndarray:
-    return mesh.points[np.unique(mesh.quads[mesh.body == body])].mean(axis=0)
 
 
 def _point_values(mesh: Mesh, u: np.ndarray) -> dict:
@@ -600,8 +605,8 @@ def _singular_message(disc: Discretisation, mesh: Mesh, detail: str,
                 if zero_energy_modes(mesh, disc, b, fixed).shape[1] > 0:
                     names.append(f"'{mesh.body_names[b]}'")
     where = f" in body {', '.join(names)}" if names else ""
-    if disc.method == "cs-fem" and disc.sd == 1:
-        return (f"{detail}: CS-FEM-1SD has hourglass (zero-energy) modes{where} that the "
+    if disc.hourglass:
+        return (f"{detail}: {disc.label} has hourglass (zero-energy) modes{where} that the "
                 "supports do not suppress; use --sd 2 or more (hourglass-free smoothing) or "
                 "--method fem-q4")
     return f"{detail}: check that every body is held by supports{where}"

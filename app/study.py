@@ -17,53 +17,49 @@ import numpy as np
 from petsc4py import PETSc
 
 from app.config import Config
+from app.discretisation.methods import BULK_METHODS
 from app.errors import InputError, SolveError
+from app.references import REFERENCES
 from app.run import RunOptions, run
 
-METHOD_NAMES = {"q4": ("fem-q4", 4), "fem-q4": ("fem-q4", 4)}
-
-# error columns reported per reference type: summary path -> column name
-ERRORS = {
-    "timoshenko": [(("tip_deflection_rel_error",), "tip_deflection"),
-                   (("strain_energy_rel_error",), "strain_energy")],
-    "hertz": [(("hertz", "p_max_rel_error"), "peak_pressure"),
-              (("hertz", "half_width_rel_error"), "half_width"),
-              (("hertz", "pressure_l2_rel_error"), "pressure_l2")],
-    "cattaneo": [(("hertz", "p_max_rel_error"), "peak_pressure"),
-                 (("hertz", "pressure_l2_rel_error"), "pressure_l2"),
-                 (("cattaneo", "stick_half_width_rel_error"), "stick_zone"),
-                 (("cattaneo", "traction_l2_rel_error"), "traction_l2")],
-}
 PHASES = ("mesh", "assembly", "factorization", "solve", "pair_search", "compliance", "lcp",
           "recovery", "output", "total")
 
 
 def parse_methods(text: str) -> list[tuple[str, int]]:
-    """'1,2,4,q4' -> [("cs-fem", 1), ("cs-fem", 2), ("cs-fem", 4), ("fem-q4", 4)]."""
+    """'1,2,4,q4' -> [("cs-fem", 1), ("cs-fem", 2), ("cs-fem", 4), ("fem-q4", 4)].
+
+    A bare number is a CS-FEM smoothing-domain count; other names come from the
+    bulk-method registry (`BulkMethod.study_names`).
+    """
+    names = {n: (m.name, 4) for m in BULK_METHODS.values() for n in m.study_names}
+    sds = BULK_METHODS["cs-fem"].sd_choices
     out = []
     for item in text.split(","):
         item = item.strip().lower()
-        if item in METHOD_NAMES:
-            out.append(METHOD_NAMES[item])
-        elif item.isdigit() and int(item) in (1, 2, 3, 4, 8, 16):
+        if item in names:
+            out.append(names[item])
+        elif item.isdigit() and int(item) in sds:
             out.append(("cs-fem", int(item)))
         else:
-            raise InputError(f"--methods: '{item}' is not one of 1, 2, 3, 4, 8, 16, q4")
+            choices = ", ".join([*map(str, sds), *names])
+            raise InputError(f"--methods: '{item}' is not one of {choices}")
     return out
 
 
 def label(method: str, sd: int) -> str:
-    return "FEM-Q4" if method == "fem-q4" else f"{sd}SD"
+    """The study's short label, e.g. "4SD" or "FEM-Q4"."""
+    return BULK_METHODS[method].short(sd)
 
 
 def run_study(cfg: Config, out: Path, levels: int, methods: list[tuple[str, int]],
               base_scale: float = 1.0, quiet: bool = False, first_level: int = 0) -> list[dict]:
     """Run every (level, method); returns the rows written to OUT/study.csv."""
     rank = PETSc.COMM_WORLD.getRank()
-    kind = (cfg.raw.get("reference") or {}).get("type")
-    if kind not in ERRORS:
+    if cfg.reference is None:
         raise InputError(f"{cfg.path}: a study needs a [reference] table with type one of "
-                         f"{sorted(ERRORS)}")
+                         f"{sorted(REFERENCES)}")
+    columns = REFERENCES[cfg.reference["type"]].columns
     out = Path(out)
     cache = out / "mesh_cache"
     rows: list[dict] = []
@@ -89,7 +85,7 @@ def run_study(cfg: Config, out: Path, levels: int, methods: list[tuple[str, int]
                 row["lemke_pivots"] = sum(st["lemke_pivots"] for st in s["steps"])
                 row["lcp_size"] = s["steps"][-1]["lcp_size"]
             ref = s.get("reference", {})
-            for path, name in ERRORS[kind]:
+            for path, name in columns:
                 v = ref
                 for key in path:
                     v = v.get(key, {}) if isinstance(v, dict) else {}
@@ -102,7 +98,7 @@ def run_study(cfg: Config, out: Path, levels: int, methods: list[tuple[str, int]
                     print(f"[{time.perf_counter() - t0:8.2f} s] {tag}: {row['n_dofs']} DOFs, "
                           f"{row['t_total']:.2f} s, {errs}", flush=True)
     if rank == 0 and rows:
-        plot_study(rows, out, title=f"{cfg.path.stem} ({kind})")
+        plot_study(rows, out, title=f"{cfg.path.stem} ({cfg.reference['type']})")
     return rows
 
 

@@ -107,7 +107,7 @@ def test_q_nonnegative_returns_zero_without_pivots():
 
 
 def test_result_fields_and_one_dimensional_case():
-    res = lemke(np.array([[2.0]]), np.array([-4.0]))
+    res = lemke(np.array([[2.0]]), np.array([-4.0]), crash=False)
     assert isinstance(res, LCPResult)
     assert res.status in STATUSES and res.ok
     np.testing.assert_allclose(res.z, [2.0], rtol=1e-14)
@@ -116,7 +116,7 @@ def test_result_fields_and_one_dimensional_case():
     assert res.basis.tolist() == [True]
     assert isinstance(res.message, str) and res.message
     assert isinstance(res.complementarity, float)
-    assert default_max_pivots(10) == 600
+    assert default_max_pivots(10) == 600 + 2**10
 
 
 def test_bad_input_raises():
@@ -149,13 +149,13 @@ def test_pivot_limit():
     rng = np.random.default_rng(3)
     M = p_matrix(6, rng)
     q = -np.abs(rng.standard_normal(6)) - 0.1
-    full = lemke(M, q)
+    full = lemke(M, q, crash=False)
     assert full.ok and full.pivots > 2
-    res = lemke(M, q, max_pivots=1)
+    res = lemke(M, q, max_pivots=1, crash=False)
     assert res.status == "pivot limit" and not res.ok and res.pivots == 1
     assert res.z.min() >= 0.0
     np.testing.assert_allclose(res.w, M @ res.z + q)
-    assert lemke(M, q, max_pivots=0).status == "pivot limit"
+    assert lemke(M, q, max_pivots=0, crash=False).status == "pivot limit"
 
 
 # --------------------------------------------------------------------------------------
@@ -288,15 +288,15 @@ def test_lexicographic_rule_prevents_cycling(monkeypatch, case):
     M = np.array(CYCLING_CASES[case][0])
     q = np.array(CYCLING_CASES[case][1])
     sols = brute_force(M, q)
-    res = lemke(M, q)
+    res = lemke(M, q, crash=False)
     assert_solution(M, q, res)
     assert any(np.allclose(res.z, s, atol=1e-9) for s in sols)
-    _agree(res, _lemke_tableau(M, q))
+    _agree(res, _lemke_tableau(M, q, crash=False))
     # the same problem with a naive tie-break (first or last tied row) cycles
     outcomes = []
     for naive in (lambda V: 0, lambda V: V.shape[0] - 1):
         monkeypatch.setattr(LM, "_lexmin", naive)
-        outcomes.append(lemke(M, q, max_pivots=200).status)
+        outcomes.append(lemke(M, q, max_pivots=200, crash=False).status)
     assert "pivot limit" in outcomes
 
 
@@ -350,8 +350,9 @@ def test_revised_matches_tableau_reference(monkeypatch, knobs):
     for trial in range(24):
         M, q = _random_case(trial % 3, rng)
         n = q.size
-        fast = lemke(M, q)
-        _agree(fast, _lemke_tableau(M, q))
+        fast = lemke(M, q, crash=False)
+        _agree(fast, _lemke_tableau(M, q, crash=False))
+        _agree(lemke(M, q), _lemke_tableau(M, q))  # from the crash basis
         refactorizations += fast.refactorizations
         pivots += fast.pivots
         B = rng.random(n) < 0.3  # arbitrary warm start (may be singular or infeasible)
@@ -364,8 +365,8 @@ def test_revised_matches_tableau_reference(monkeypatch, knobs):
 
 def test_revised_matches_reference_on_contact_problem():
     M, q = contact_lcp(100, seed=1)
-    fast = lemke(M, q)
-    ref = _lemke_tableau(M, q)
+    fast = lemke(M, q, crash=False)
+    ref = _lemke_tableau(M, q, crash=False)
     assert_solution(M, q, fast)
     assert fast.pivots > 50
     assert fast.refactorizations == 0  # the updated inverse stayed accurate
@@ -381,7 +382,7 @@ def test_warm_start_same_basis_needs_no_pivot():
     rng = np.random.default_rng(5)
     M = p_matrix(40, rng)
     q = rng.standard_normal(40)
-    cold = lemke(M, q)
+    cold = lemke(M, q, crash=False)
     assert cold.ok and cold.pivots > 5
     q2 = q + 1e-6 * rng.standard_normal(40)
     warm = lemke(M, q2, basis=cold.basis)
@@ -393,13 +394,13 @@ def test_warm_start_same_basis_needs_no_pivot():
 def test_warm_start_fewer_pivots_when_active_set_changes():
     M, q = contact_lcp(60, seed=3)
     m = q.size // 3
-    cold = lemke(M, q)
+    cold = lemke(M, q, crash=False)
     assert_solution(M, q, cold)
     rng = np.random.default_rng(0)
     q2 = q.copy()
     q2[:m] += 2e-3 * rng.standard_normal(m)  # next load step: gaps change a little
     warm = lemke(M, q2, basis=cold.basis)
-    cold2 = lemke(M, q2)
+    cold2 = lemke(M, q2, crash=False)
     assert_solution(M, q2, warm)
     assert_solution(M, q2, cold2)
     assert not np.array_equal(cold2.basis, cold.basis)  # the active set did change
@@ -457,7 +458,7 @@ def test_a_wrong_candidate_is_never_reported_solved(monkeypatch):
         return LM._CoreOut("solved", zset, np.array([0.0, 0.7]), 0.0, 3)
 
     monkeypatch.setattr(LM, "_core_revised", wrong_core)
-    res = lemke(M, q)
+    res = lemke(M, q, crash=False)
     assert res.status == "inaccurate" and not res.ok
     assert "fails the check" in res.message
 
@@ -487,3 +488,81 @@ def test_warm_start_without_cold_fallback():
     # a good basis as the second candidate of the contact solve: found without a cold start
     again = lemke(M, q, basis=full.basis, cold_start=False)
     assert again.ok and again.pivots == 0
+
+
+# --------------------------------------------------------------------------------------
+# pivot budget and crash basis
+# --------------------------------------------------------------------------------------
+
+
+def test_default_budget_lets_a_long_lemke_path_finish():
+    """Murty's 12 x 12 triangular LCP: the textbook start needs 4096 pivots (2^n), more
+    than the old budget 50 n + 100; the default budget lets it finish, and the crash basis
+    solves it without a pivot."""
+    n = 12
+    M = np.tril(2.0 * np.ones((n, n)), -1) + np.eye(n)
+    q = -np.ones(n)
+    long_path = lemke(M, q, crash=False)
+    assert_solution(M, q, long_path)
+    assert long_path.pivots == 4096 > 50 * n + 100
+    crashed = lemke(M, q)
+    assert_solution(M, q, crashed)
+    assert crashed.warm_start == "crash" and crashed.pivots == 0
+    np.testing.assert_allclose(crashed.z, long_path.z, rtol=1e-12, atol=1e-14)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_crash_gives_the_textbook_answer(seed):
+    """P-matrices and contact LCPs (unique solutions): the crash start returns the same z
+    as the textbook cold start, and names the same basis."""
+    rng = np.random.default_rng(seed)
+    for M, q in (friction_lcp(int(rng.integers(3, 9)), rng), contact_lcp(60, seed=seed),
+                 (p_matrix(30, rng), rng.standard_normal(30))):
+        cold = lemke(M, q, crash=False)
+        res = lemke(M, q)
+        assert_solution(M, q, res)
+        assert res.warm_start in ("crash", "crash+lemke", "cold")
+        scale = 1.0 + np.abs(cold.z).max()
+        np.testing.assert_allclose(res.z, cold.z, rtol=0, atol=1e-9 * scale)
+
+
+def test_crash_on_a_contact_lcp_needs_no_pivot():
+    M, q = contact_lcp(200, seed=4)
+    res = lemke(M, q)
+    assert_solution(M, q, res)
+    assert res.warm_start == "crash" and res.pivots == 0
+
+
+def test_twins_are_the_slip_pairs():
+    from app.lcp.crash import find_twins
+    from app.lcp.scaling import scaling
+
+    M, q = contact_lcp(30, seed=0)
+    m = q.size // 3
+    twin = find_twins(scaling(M, q)[0])
+    np.testing.assert_array_equal(twin[:m], -1)  # normal unknowns have none
+    np.testing.assert_array_equal(twin[m:2 * m], np.arange(2 * m, 3 * m))
+    np.testing.assert_array_equal(twin[2 * m:], np.arange(m, 2 * m))
+
+
+def test_bordered_block_solve_matches_a_direct_solve():
+    from app.lcp.crash import _BlockSolver
+    from app.lcp.scaling import scaling
+
+    rng = np.random.default_rng(1)
+    M = p_matrix(40, rng)
+    q = rng.standard_normal(40)
+    Ms, D, mu, nu = scaling(M, q)
+    qs = D * q / nu
+    solver = _BlockSolver(Ms, qs)
+    Z0 = rng.random(40) < 0.5
+    solver.solve(Z0)
+    Z = Z0.copy()
+    Z[np.flatnonzero(Z0)[:2]] = False  # two leave
+    Z[np.flatnonzero(~Z0)[:1]] = True  # one joins
+    z = solver.solve(Z)
+    assert solver.factorizations == 1  # the change went through the bordered system
+    idx = np.flatnonzero(Z)
+    expect = np.zeros(40)
+    expect[idx] = np.linalg.solve(Ms.dense()[np.ix_(idx, idx)], -qs[idx])
+    np.testing.assert_allclose(z, expect, rtol=1e-10, atol=1e-12)

@@ -132,14 +132,16 @@ def test_huge_load_fails_the_step(tmp_path):
     assert not list(out.glob("step_*.h5"))
 
 
-def test_status_before_step_one_petsc_option_error(tmp_path):
+def test_status_before_step_one_petsc_error(tmp_path):
+    """A solver package PETSc knows but was not built with fails at the factorization."""
     out = tmp_path / "o"
     res = run_cli(["run", str(CONFIGS / "patch.toml"), "--out", str(out), "--quiet",
-                   "-ksp_type", "foo"])
+                   "-pc_factor_mat_solver_type", "pastix"])
     assert res.returncode == 2
     _assert_one_line(res.stderr)
     s = read_summary(out)
-    assert s["status"] == "failed" and "PETSc error" in s["error"]
+    assert s["status"] == "failed" and "PETSc" in s["error"] and "pastix" in s["error"]
+    assert s["failed_step"] == 1 and "no step completed" in s["error"]
 
 
 def test_a_locked_folder_is_refused(tmp_path):

@@ -19,6 +19,7 @@ from app.config import Config
 from app.contact.pairs import ContactPairs, constraint_matrix, contact_pairs
 from app.discretisation.bulk import zero_energy_modes
 from app.errors import InputError, SolveError
+from app.interface.candidates import CandidateLCP, candidate_pairs
 from app.interface.coulomb import ContactLCP
 from app.interface.steps import STATE_NAMES, InterfaceHistory, solve_step
 from app.mesh.model import Mesh
@@ -44,7 +45,7 @@ def floating_modes(mesh: Mesh, cfg: Config, fixed: np.ndarray,
     in contact are found from the body stiffness and handled the same way."""
     free = free_rigid_modes(mesh, fixed)
     in_contact = set() if contact is None else contact.bodies(mesh)
-    hourglass = disc is not None and disc.method == "cs-fem" and disc.sd == 1
+    hourglass = disc is not None and disc.hourglass
     if hourglass:
         for b in in_contact:
             free.setdefault(b, np.zeros((3, 0)))
@@ -151,8 +152,7 @@ class ContactSetup:
 
     def compliance_route(self, solver) -> str:
         opts = PETSc.Options()
-        route = opts.getString("contact_compliance", self.cfg.raw.get("analysis", {}).get(
-            "compliance", "auto"))
+        route = opts.getString("contact_compliance", self.cfg.compliance)
         if route not in ("auto", "schur", "solve"):
             raise InputError(f"compliance route '{route}': use auto, schur or solve")
         if route == "auto":
@@ -293,13 +293,14 @@ class ContactStepper:
             self.n_modes = self.t_modes = None
             self.e0 = [np.zeros(0) for _ in cases]
             self.mode_names = []
-        self.lcp = ContactLCP(c_mat, setup.mu, setup.frictional, self.n_modes, self.t_modes)
+        lcp_class = CandidateLCP if candidate_pairs(setup.cfg.candidate_pairs) else ContactLCP
+        self.lcp = lcp_class(c_mat, setup.mu, setup.frictional, self.n_modes, self.t_modes)
         self.undetermined = undetermined_modes(self.lcp.nm, self.lcp.tm, self.mode_names)
         self.hist = InterfaceHistory(
             a=np.where(setup.bonded, setup.a, 0.0), c=np.where(setup.bonded, setup.c, 0.0),
             bonded=setup.bonded.copy(), tau_prev=np.zeros(m),
             debonded_step=np.zeros(m, dtype=np.int64),
-            warm_start=bool(setup.cfg.raw.get("analysis", {}).get("warm_start", True)))
+            warm_start=setup.cfg.warm_start)
         self.slip = np.zeros(m)
         scale = max(max((np.abs(x).max(initial=0.0) for x in self.gu), default=0.0),
                     np.abs(pr.g0).max(initial=0.0), 1e-300)
@@ -378,6 +379,7 @@ class ContactStepper:
             "interfaces": per_if,
             "max_contact_pressure": float((sol.p / length_t).max(initial=0.0)),
             "lcp_size": self.lcp.size,
+            "lcp_size_full": getattr(self.lcp, "full_size", self.lcp.size),
             "lemke_pivots": res.pivots,
             "lcp_residual": sol.residual,
             "dependent_tangential_directions": self.lcp.dependent_tangential,

@@ -31,11 +31,18 @@ Conventions shared by both:
 
 from __future__ import annotations
 
-import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.linalg as sla
+
+from app.lcp.crash import crash_basis
+from app.lcp.scaling import RCOND_MIN as _RCOND_MIN  # noqa: F401 (tests read it here)
+from app.lcp.scaling import ScaledM as _ScaledM
+from app.lcp.scaling import absmax as _absmax  # noqa: F401
+from app.lcp.scaling import lu_or_none as _lu_or_none
+from app.lcp.scaling import row_blocks as _row_blocks
+from app.lcp.scaling import scaling as _scaling
 
 __all__ = ["LCPResult", "lemke", "default_max_pivots", "STATUSES"]
 
@@ -63,8 +70,12 @@ _COMPACT_TERMS = 32
 
 
 def default_max_pivots(n: int) -> int:
-    """Default pivot budget for an LCP of size n: 50 n + 100 (contact LCPs need about n)."""
-    return 50 * n + 100
+    """Default pivot budget for an LCP of size n: 50 n + 100 + 2^min(n, 20).
+
+    Contact LCPs need about n pivots; the 2^n term lets small LCPs with exponentially long
+    Lemke paths (Murty's triangular examples: 2^n pivots) finish.
+    """
+    return 50 * n + 100 + 2 ** min(n, 20)
 
 
 @dataclass
@@ -112,96 +123,6 @@ class _CoreOut:
     z0: float
     pivots: int
     refactorizations: int = 0
-
-
-def _pow2(x: np.ndarray) -> np.ndarray:
-    """Nearest powers of two (so that scaling is exact in floating point)."""
-    return np.exp2(np.round(np.log2(x)))
-
-
-def _absmax(a: np.ndarray, axis: int | None = None):
-    """max |a| (along axis) without an |a| temporary."""
-    return np.maximum(a.max(axis=axis), -a.min(axis=axis))
-
-
-_BLOCK_ROWS = 256
-"""Row-block size for passes over M that need an |M| temporary (no n x n temporaries)."""
-
-
-def _row_blocks(n: int):
-    return ((i, min(i + _BLOCK_ROWS, n)) for i in range(0, n, _BLOCK_ROWS))
-
-
-class _ScaledM:
-    """The scaled matrix M~ = D M D / mu, never formed: columns and blocks on demand.
-
-    (Forming it would cost an n x n allocation, slow to page in for n in the thousands.)
-    """
-
-    def __init__(self, M: np.ndarray, D: np.ndarray, mu: float):
-        self.M, self.D, self.mu = M, D, mu
-        self.n = D.size
-        self.absmax = 1.0  # max |M~| by the choice of mu
-
-    def col(self, j: int) -> np.ndarray:
-        return self.M[:, j] * (self.D * (self.D[j] / self.mu))
-
-    def cols(self, idx: np.ndarray) -> np.ndarray:
-        """M~[:, idx] as an (n, k) array."""
-        return self.M[:, idx] * self.D[:, None] * (self.D[idx] / self.mu)
-
-    def sub(self, idx: np.ndarray) -> np.ndarray:
-        """M~[idx][:, idx]."""
-        Di = self.D[idx]
-        return self.M[np.ix_(idx, idx)] * Di[:, None] * (Di / self.mu)
-
-    def matvec(self, v: np.ndarray) -> np.ndarray:
-        return self.D * (self.M @ (self.D * v)) / self.mu
-
-    def dense(self) -> np.ndarray:
-        return self.D[:, None] * self.M * (self.D / self.mu)
-
-
-def _scaling(M: np.ndarray, q: np.ndarray) -> tuple[_ScaledM, np.ndarray, float, float]:
-    """Symmetric scaling: (M~, D, mu, nu) with M~ = D M D / mu, q~ = D q / nu.
-
-    D_i = 1 / sqrt(s_i) with s_i = |M_ii| when that is at least 1e-6 times the largest
-    entry of row or column i, else that largest entry (1 for an all-zero row and column);
-    D, mu and nu are powers of two (exact scaling), mu = max|D M D|, nu = max|D q|.
-    """
-    n = q.size
-    rc = np.maximum(_absmax(M, 1), _absmax(M, 0))
-    dg = np.abs(np.diagonal(M))
-    s = np.where(dg >= 1e-6 * rc, dg, rc)
-    s[s == 0.0] = 1.0
-    D = _pow2(1.0 / np.sqrt(s))
-    mu = 0.0
-    for i0, i1 in _row_blocks(n):
-        mu = max(mu, float(((np.abs(M[i0:i1]) * D).max(axis=1) * D[i0:i1]).max()))
-    mu = float(_pow2(np.array(mu))) if mu > 0 else 1.0
-    nu = float(np.abs(D * q).max())
-    nu = float(_pow2(np.array(nu))) if nu > 0 else 1.0
-    return _ScaledM(M, D, mu), D, mu, nu
-
-
-_RCOND_MIN = 1e-14
-"""A basis block whose estimated reciprocal condition number is below this is singular."""
-
-
-def _lu_or_none(A: np.ndarray):
-    """LU factors of square A (scipy lu_factor), or None when A is numerically singular."""
-    if A.shape[0] == 0:
-        return None
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", sla.LinAlgWarning)
-        try:
-            lu = sla.lu_factor(A, check_finite=False)
-        except (ValueError, np.linalg.LinAlgError):
-            return None
-    if not np.isfinite(lu[0]).all():
-        return None
-    rcond = sla.lapack.dgecon(lu[0], float(np.abs(A).sum(axis=0).max()))[0]
-    return lu if np.isfinite(rcond) and rcond >= _RCOND_MIN else None
 
 
 def _lexmin(V: np.ndarray) -> int:
@@ -830,6 +751,19 @@ class _Problem:
         return first if first[4] <= second[4] else second
 
 
+def _try_basis(P: _Problem, B0: np.ndarray, zt: np.ndarray | None = None):
+    """The checked answer on the complementary basis B0 (z_B = -M_BB^-1 q_B, one LU and one
+    refinement step), or None when B0 is singular or its answer fails the check. This is
+    exactly what a Lemke run from B0 that needs no pivot returns. zt: z~ on B0 already
+    computed (e.g. by the crash, with one refinement step), tried first."""
+    if zt is not None:
+        out = P.finish(zt)
+        if out[2]:
+            return out
+    out = P.finish(_solve_on(P.Ms, P.qs, B0))
+    return out if out is not None and out[2] else None
+
+
 def _run(
     core,
     M,
@@ -838,6 +772,7 @@ def _run(
     tol: float | None,
     basis,
     cold_start: bool = True,
+    crash: bool = True,
 ) -> LCPResult:
     M, q = _validate(M, q)
     n = q.size
@@ -853,37 +788,45 @@ def _run(
     refacts = 0
     warm = "none"
     note = ""
-    if basis is not None:
+    given = basis is not None
+    zt = None
+    if given:
         B0 = np.asarray(basis, dtype=bool).reshape(-1)
         if B0.shape != (n,):
             raise ValueError(f"basis must have shape ({n},), got {B0.shape}")
-        if B0.any():
-            # covering vector B0 @ 1: Lemke on the LCP transformed by the pivot on B0
-            d = -P.Ms.matvec(B0.astype(float))
-            d[~B0] += 1.0
-            res = core(P.Ms, P.qs, d, B0, max_pivots)
-            pivots += res.pivots
-            refacts += res.refactorizations
-            if res.status == "solved":
-                z, w, ok, comp, worst = P.candidate(res)
-                if ok:
-                    how = "accepted" if res.pivots == 0 else "lemke"
-                    msg = (
-                        "the warm-start basis solves it"
-                        if res.pivots == 0
-                        else f"solved from the warm-start basis in {pivots} pivots"
-                    )
-                    return LCPResult(
-                        z, w, pivots, "solved", comp, res.zset.copy(), msg, how, refacts, worst
-                    )
-            warm = "cold"
-            note = f"warm start ended with '{res.status}' after {res.pivots} pivots; "
-            if not cold_start:
-                z = np.maximum(res.z * P.zfac, 0.0)
-                w, _, comp, worst = _check(M, q, z, tol)
-                return LCPResult(z, w, pivots, "warm start failed", comp, res.zset.copy(),
-                                 note + "no cold start (cold_start=False)", "failed",
-                                 refacts, worst)
+    elif crash:
+        B0, iters, zt = crash_basis(P.Ms, P.qs)
+        note = f"crash basis ({iters} block pivoting iterations); "
+    if (given or crash) and B0.any():
+        how = "accepted" if given else "crash"
+        sol = _try_basis(P, B0, zt)
+        if sol is not None:
+            z, w, ok, comp, worst = sol
+            msg = ("the warm-start basis solves it" if given
+                   else f"{note}the crash basis solves it")
+            return LCPResult(z, w, 0, "solved", comp, B0.copy(), msg, how, 0, worst)
+        # covering vector B0 @ 1: Lemke on the LCP transformed by the pivot on B0
+        d = -P.Ms.matvec(B0.astype(float))
+        d[~B0] += 1.0
+        res = core(P.Ms, P.qs, d, B0, max_pivots)
+        pivots += res.pivots
+        refacts += res.refactorizations
+        if res.status == "solved":
+            z, w, ok, comp, worst = P.candidate(res)
+            if ok:
+                msg = (f"{note}solved from the {'warm-start' if given else 'crash'} basis "
+                       f"in {pivots} pivots")
+                return LCPResult(z, w, pivots, "solved", comp, res.zset.copy(), msg,
+                                 "lemke" if given else "crash+lemke", refacts, worst)
+        warm = "cold"
+        note += (f"{'warm start' if given else 'the run from the crash basis'} ended with "
+                 f"'{res.status}' after {res.pivots} pivots; ")
+        if given and not cold_start:
+            z = np.maximum(res.z * P.zfac, 0.0)
+            w, _, comp, worst = _check(M, q, z, tol)
+            return LCPResult(z, w, pivots, "warm start failed", comp, res.zset.copy(),
+                             note + "no cold start (cold_start=False)", "failed",
+                             refacts, worst)
     res = core(P.Ms, P.qs, np.ones(n), np.zeros(n, dtype=bool), max(max_pivots - pivots, 0))
     pivots += res.pivots
     refacts += res.refactorizations
@@ -925,12 +868,13 @@ def lemke(
     tol: float | None = None,
     basis: np.ndarray | None = None,
     cold_start: bool = True,
+    crash: bool = True,
 ) -> LCPResult:
     """Solve LCP(M, q): z >= 0, w = M z + q >= 0, z.w = 0, by Lemke's method.
 
     M: (n, n) float array (need not be symmetric); q: (n,).
-    max_pivots: pivot budget, default `default_max_pivots(n)` = 50 n + 100; when it is used
-        up the status is "pivot limit" and z, w are the last iterate.
+    max_pivots: pivot budget, default `default_max_pivots(n)` (50 n + 100 + 2^min(n, 20));
+        when it is used up the status is "pivot limit" and z, w are the last iterate.
     tol: relative tolerance of the final check, default 1e-9. With the row sizes
         s_i = |q_i| + sum_j |M_ij| z_j (the size of the terms that make w_i), a returned
         "solved" pair satisfies z >= 0 exactly, w_i >= -tol s_i, and |w_i| <= tol s_i
@@ -943,6 +887,10 @@ def lemke(
         principal pivot transform of the LCP on B, covering vector 1 in transformed
         variables); if that fails (singular M_BB, secondary ray, pivot limit) a cold start
         follows. Pivots of all runs are counted.
+    crash: without a basis, guess one by block principal pivoting (`app.lcp.crash`) and
+        start from it as from a warm start (warm_start "crash" when the guess solves it,
+        "crash+lemke" when Lemke finished from it, "cold" when that failed and a cold start
+        followed). False: the textbook cold start (covering vector 1).
     cold_start: with a basis, False returns at once when the warm start fails (status
         "warm start failed", warm_start "failed") instead of starting cold, so that a
         caller can try another basis first.
@@ -953,7 +901,7 @@ def lemke(
     contact: no static equilibrium); "inaccurate": a candidate failed the check.
     q >= 0 returns z = 0 with 0 pivots.
     """
-    return _run(_core_revised, M, q, max_pivots, tol, basis, cold_start)
+    return _run(_core_revised, M, q, max_pivots, tol, basis, cold_start, crash)
 
 
 def _lemke_tableau(
@@ -964,6 +912,7 @@ def _lemke_tableau(
     tol: float | None = None,
     basis: np.ndarray | None = None,
     cold_start: bool = True,
+    crash: bool = True,
 ) -> LCPResult:
     """Reference: `lemke` with the full-tableau core (O(n^2) per pivot; for tests)."""
-    return _run(_core_tableau, M, q, max_pivots, tol, basis, cold_start)
+    return _run(_core_tableau, M, q, max_pivots, tol, basis, cold_start, crash)

@@ -171,10 +171,15 @@ PETSC_ERRORS = {55: "out of memory", 56: "no support for this operation", 62: "i
 
 def _petsc_reason(exc: Exception) -> str:
     """One line for a PETSc.Error: its code, what the code means, the options in force."""
+    from app.petsc_options import petsc_error_line
+
     code = getattr(exc, "ierr", None)
     opts = " ".join(f"-{k} {v}".rstrip() for k, v in sorted(PETSc.Options().getAll().items()))
-    return (f"PETSc error {code} ({PETSC_ERRORS.get(code, 'see the PETSc manual')}): check "
-            f"the PETSc options in force: {opts}")
+    line = petsc_error_line(exc)
+    meaning = PETSC_ERRORS.get(code, "see the PETSc manual")
+    detail = f"{line} ({meaning})" if line and not line.startswith("error code") else \
+        f"error {code} ({meaning})"
+    return f"PETSc: {detail}; check the PETSc options in force: {opts}"
 
 
 class RunGuard:

@@ -8,8 +8,10 @@ Layout in the output folder (rank 0 writes; other ranks pass their data to rank 
   the group /contact (see `ResultWriter.write_step`).
 - results.xdmf: temporal collection of the bulk fields (one Uniform grid per step).
 - contact.xdmf: temporal collection of the contact pairs as points (when there is contact).
-Both XDMF files are rewritten after every step through a temporary file and a rename,
-so a run stopped at any moment leaves readable files with every completed step.
+Both XDMF files are written whole through a temporary file and a rename at the first
+step, then extended by one in-place write per step (app/output/append.py): the cost of a
+step does not grow with the number of steps, and a run stopped at any moment leaves
+readable files with every completed step.
 """
 
 from __future__ import annotations
@@ -20,6 +22,8 @@ from pathlib import Path
 
 import h5py
 import numpy as np
+
+from app.output.append import AppendableDocument
 
 _NUM = {np.dtype("float64"): ("Float", 8), np.dtype("int64"): ("Int", 8),
         np.dtype("int32"): ("Int", 4)}
@@ -122,6 +126,8 @@ class ResultWriter:
                                         "body": np.asarray(body, dtype=np.int64)})
         self.bulk_grids: list[str] = []
         self.contact_grids: list[str] = []
+        self.bulk_doc = AppendableDocument(self.out / "results.xdmf")
+        self.contact_doc = AppendableDocument(self.out / "contact.xdmf")
 
     def write_step(self, step: int, time: float, point_data: dict[str, np.ndarray],
                    cell_data: dict[str, np.ndarray],
@@ -165,7 +171,7 @@ class ResultWriter:
             f"{topo}</Topology>"
             f'<Geometry GeometryType="XY">{geo}</Geometry>' + "".join(attrs) + "</Grid>"
         )
-        atomic_write_text(self.out / "results.xdmf", _document(self.bulk_grids))
+        _extend(self.bulk_doc, self.bulk_grids)
 
         if contact is not None and "position" in contact:
             pos = np.asarray(contact["position"], dtype=np.float64)
@@ -184,14 +190,24 @@ class ResultWriter:
                 f"{_item(fname, '/contact/position', pos.shape, pos.dtype)}</Geometry>"
                 + "".join(cattrs) + "</Grid>"
             )
-            atomic_write_text(self.out / "contact.xdmf", _document(self.contact_grids))
+            _extend(self.contact_doc, self.contact_grids)
         return self.out / fname
 
 
+_HEAD = ('<?xml version="1.0"?>\n<Xdmf Version="3.0" '
+         'xmlns:xi="http://www.w3.org/2001/XInclude"><Domain>'
+         '<Grid Name="TimeSeries" GridType="Collection" CollectionType="Temporal">\n')
+_TAIL = "\n</Grid></Domain></Xdmf>\n"
+
+
 def _document(grids: list[str]) -> str:
-    return (
-        '<?xml version="1.0"?>\n<Xdmf Version="3.0" '
-        'xmlns:xi="http://www.w3.org/2001/XInclude"><Domain>'
-        '<Grid Name="TimeSeries" GridType="Collection" CollectionType="Temporal">\n'
-        + "\n".join(grids) + "\n</Grid></Domain></Xdmf>\n"
-    )
+    return _HEAD + "\n".join(grids) + _TAIL
+
+
+def _extend(doc: AppendableDocument, grids: list[str]) -> None:
+    """Bring the XDMF index up to `grids`, the newest one last: one in-place write when the
+    file holds all the others, else a whole atomic rewrite."""
+    if doc.current() and doc.n_entries == len(grids) - 1:
+        doc.append(grids[-1:], _TAIL)
+    else:
+        doc.rewrite(_HEAD, grids, _TAIL)
