@@ -54,10 +54,11 @@ from app.output.status import (
     arm_signals,
     check_finite,
     hold_signals,
+    on_failure,
     release_signals,
 )
 from app.output.summary import write_summary as write_summary_file
-from app.output.xdmf import ResultWriter
+from app.output.xdmf import ResultWriter, restore_steps
 from app.references import ContactProfile, RunFigures, reference
 
 
@@ -363,6 +364,8 @@ def _run(cfg: Config, opts: RunOptions, summary: dict) -> dict:
             (mesh.quads[:, 0] >= own[rank]) & (mesh.quads[:, 0] < own[rank + 1])
         )
         writer = ResultWriter(out, mesh.points, mesh.quads, mesh.body) if rank == 0 else None
+        if writer is not None:  # files and summary.json agree after any failure
+            on_failure(lambda: restore_steps(writer, len(summary["steps"])))
     last_contact = None
     with timer.phase("setup"):
         reactions = _reaction_setup(mesh, cfg, cases, probe)

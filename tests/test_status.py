@@ -6,10 +6,12 @@ from __future__ import annotations
 import errno
 import fcntl
 import json
+import os
 import signal
 import subprocess
 import sys
 import time
+import xml.etree.ElementTree as ET
 
 import numpy as np
 import pytest
@@ -193,3 +195,36 @@ def test_study_where_every_run_fails_exits_2(tmp_path):
                    "--set", "load.0.traction=[0.0, 1e300]"])
     assert res.returncode == 2
     assert res.stderr.strip().splitlines()[-1].startswith("error: every run of the study")
+
+
+def test_a_cut_short_xdmf_append_is_restored_to_the_completed_steps(tmp_path, monkeypatch):
+    """A full disk can stop the in-place XDMF append part way: the failure handler
+    rewrites the indexes with the steps summary.json lists and removes later step files."""
+    import meshio
+
+    from app.output import append
+    from app.output.xdmf import restore_steps
+
+    pts = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], dtype=float)
+    w = ResultWriter(tmp_path, pts, np.array([[0, 1, 2, 3]]), np.zeros(1, dtype=np.int64))
+    disp = {"displacement": np.zeros((4, 3))}
+    for step in (1, 2):
+        w.write_step(step, float(step), disp, {"von_mises": np.zeros(1)})
+
+    real_pwrite = os.pwrite
+
+    def cut_short(fd, data, offset):
+        real_pwrite(fd, data[: len(data) // 2], offset)  # part of the entry, no closing tags
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(append.os, "pwrite", cut_short, raising=True)
+    with pytest.raises(OSError):
+        w.write_step(3, 3.0, disp, {"von_mises": np.zeros(1)})
+    monkeypatch.undo()
+    with pytest.raises(ET.ParseError):  # the index is broken now
+        ET.parse(tmp_path / "results.xdmf")
+    restore_steps(w, 2)
+    assert _written_steps(tmp_path) == [1, 2]
+    with meshio.xdmf.TimeSeriesReader(tmp_path / "results.xdmf") as r:
+        r.read_points_cells()
+        assert r.num_steps == 2 and r.read_data(1)[0] == 2.0

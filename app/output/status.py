@@ -65,6 +65,13 @@ def arm_signals():
 
 
 _PENDING: list[str] = []
+_ON_FAILURE: list = []
+
+
+def on_failure(fn) -> None:
+    """Call fn() (rank 0) when the run fails or is interrupted, before summary.json is
+    written (e.g. to put the XDMF indexes back to the completed steps)."""
+    _ON_FAILURE.append(fn)
 
 
 def _record_signal(signum, frame):
@@ -202,6 +209,7 @@ class RunGuard:
             self._lock = lock_folder(self.out)
             return clear_files(self.out)
 
+        _ON_FAILURE.clear()
         self.removed = collective(start) or []
         if self.rank == 0:
             self.write(self.out, self.summary)
@@ -212,6 +220,7 @@ class RunGuard:
         try:
             return self._finish(exc)
         finally:
+            _ON_FAILURE.clear()
             if self._old_term is not None:
                 signal.signal(signal.SIGTERM, self._old_term)
                 signal.signal(signal.SIGINT, signal.default_int_handler)
@@ -259,5 +268,11 @@ class RunGuard:
         if self.rank != 0:
             return
         clear_files(self.out, TEMPORARY)
+        for fn in _ON_FAILURE:
+            try:
+                fn()
+            except OSError:
+                pass
+        _ON_FAILURE.clear()
         if not write_summary_robust(self.write, self.out, self.summary):
             print(f"warning: could not update {self.out / 'summary.json'}", file=sys.stderr)

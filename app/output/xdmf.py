@@ -194,6 +194,26 @@ class ResultWriter:
         return self.out / fname
 
 
+def restore_steps(writer: ResultWriter, n_steps: int) -> None:
+    """After a failed write (a full disk can cut an in-place append short): step files
+    after `n_steps` (the steps summary.json lists) removed, and the XDMF indexes rewritten
+    whole with the first n_steps steps."""
+    import re
+
+    for p in writer.out.glob("step_*.h5"):
+        m = re.fullmatch(r"step_(\d+)\.h5", p.name)
+        if m and int(m.group(1)) > n_steps:
+            p.unlink(missing_ok=True)
+    writer.bulk_grids = writer.bulk_grids[:n_steps]
+    writer.contact_grids = writer.contact_grids[:n_steps]
+    for doc, grids in ((writer.bulk_doc, writer.bulk_grids),
+                       (writer.contact_doc, writer.contact_grids)):
+        if grids:
+            doc.rewrite(_HEAD, grids, _TAIL)
+        elif doc.path.exists():
+            doc.path.unlink()
+
+
 _HEAD = ('<?xml version="1.0"?>\n<Xdmf Version="3.0" '
          'xmlns:xi="http://www.w3.org/2001/XInclude"><Domain>'
          '<Grid Name="TimeSeries" GridType="Collection" CollectionType="Temporal">\n')
