@@ -94,6 +94,8 @@ def main(argv: list[str] | None = None) -> int:
 
     from app.config import load_config
     from app.errors import InputError, SolveError
+    from app.output.progress import final_line
+    from app.output.status import RunInterrupted
     from app.petsc_options import petsc_error_line
     from app.run import RunOptions, run
 
@@ -113,9 +115,18 @@ def main(argv: list[str] | None = None) -> int:
             if rank == 0:
                 print(f"error: {exc}", file=sys.stderr)
             return 2
+        except RunInterrupted as exc:
+            if rank == 0:
+                print(f"error: {exc}", file=sys.stderr)
+            return exc.exit_code
         except PETSc.Error as exc:
             if rank == 0:
                 print(f"error: PETSc: {petsc_error_line(exc)}", file=sys.stderr)
+            return 2
+        if not rows:
+            if rank == 0:
+                print(f"error: every run of the study failed (see the lines above and "
+                      f"{out}/*/summary.json)", file=sys.stderr)
             return 2
         if rank == 0 and not args.quiet:
             print(f"{len(rows)} runs -> {out / 'study.csv'}", file=sys.stderr)
@@ -130,6 +141,7 @@ def main(argv: list[str] | None = None) -> int:
             mesh_scale=scale,
             quiet=args.quiet,
             mesh_cache=args.mesh_cache,
+            overrides=list(args.set),
         )
         if opts.method and args.sd is not None and not BULK_METHODS[opts.method].sd_choices:
             raise InputError(f"--sd does not apply to --method {opts.method}")
@@ -138,6 +150,12 @@ def main(argv: list[str] | None = None) -> int:
         if rank == 0:
             print(f"error: {exc}", file=sys.stderr)
         return 2
+    except RunInterrupted as exc:
+        if rank == 0:
+            if exc.summary is not None and not args.quiet:
+                print(final_line(exc.summary, opts.out), file=sys.stderr)
+            print(f"error: {exc}", file=sys.stderr)
+        return exc.exit_code
     except PETSc.Error as exc:
         if rank == 0:
             print(f"error: PETSc: {petsc_error_line(exc)}", file=sys.stderr)
@@ -150,10 +168,7 @@ def main(argv: list[str] | None = None) -> int:
         if rank == 0:
             write_summary(opts.out, summary)
     if rank == 0 and not args.quiet:
-        t = summary["timings"]
-        print(f"{summary['label']}: {summary['n_dofs']} DOFs, {summary['n_elements']} "
-              f"elements, strain energy {summary['strain_energy']:.10g}, total "
-              f"{t['total']:.2f} s -> {opts.out}", file=sys.stderr)
+        print(final_line(summary, opts.out), file=sys.stderr)
     return 0
 
 

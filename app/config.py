@@ -241,9 +241,10 @@ def parse_config(raw: dict[str, Any], path: Path | str = "<config>") -> Config:
         if isinstance(r, dict):
             check_keys(r, "mesh.refine", f"mesh.refine[{i}].")
             _check_refine_lengths(r, f"mesh.refine[{i}]")
-    if "size" not in mesh:
+    if "size" not in mesh and mesh.get("file") is None:
         raise InputError("missing key mesh.size (the global element size)")
-    mesh_size = _num(mesh["size"], "mesh.size", positive=True)
+    # a ready mesh (mesh.file) needs no size; 1.0 keeps --mesh-size ratios defined
+    mesh_size = _num(mesh.get("size", 1.0), "mesh.size", positive=True)
 
     bodies = _tables(raw, "body")
     if not bodies:
