@@ -49,6 +49,9 @@ def _parser() -> argparse.ArgumentParser:
                    "H / mesh.size")
     r.add_argument("--mesh-cache", type=Path, default=None,
                    help="folder where built meshes are cached and reused")
+    r.add_argument("--refine", type=int, default=0, metavar="N",
+                   help="split every quad of the (gmsh) mesh into four, N times (nested, "
+                   "O(n); mid nodes on arcs go on the circle): N=4 gives 256x the elements")
     r.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     r.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help=SET_HELP)
@@ -65,6 +68,22 @@ def _parser() -> argparse.ArgumentParser:
                    help="comma list of 1, 2, 3, 4, 8, 16 (CS-FEM SD) and q4 (FEM-Q4)")
     s.add_argument("--mesh-size", type=float, default=None, metavar="H",
                    help="global element size at level 0 (default: the config's mesh.size)")
+    s.add_argument("--remesh", action="store_true",
+                   help="mesh every level with gmsh (sizes scaled by 2^-level) instead of "
+                   "splitting the level-0 mesh uniformly (the default: nested, O(n))")
+    s.add_argument("--reference-method", default=None, metavar="LABEL",
+                   help="method whose finest level is the model reference for the ref_* "
+                   "errors, e.g. 4SD or FEM-Q4 (default 4SD if run, else the last method)")
+    s.add_argument("--sweep", action="append", default=[], metavar="KEY=V1,V2,...",
+                   help="parameter study instead of a convergence study (repeatable; every "
+                   "combination runs once): KEY is a config path as in --set, e.g. "
+                   "interface.contact.mu=0.1,0.2,0.3; writes sweep.csv, sweep_steps.csv and "
+                   "sweep_<key>.png")
+    s.add_argument("--at-step", type=int, default=0, metavar="N",
+                   help="with --sweep: the step whose forces and zones sweep.csv reports "
+                   "(default 0: the last; negative counts back from the last)")
+    s.add_argument("--refine", type=int, default=0, metavar="N",
+                   help="with --sweep: uniform splits of the config mesh (as run --refine)")
     s.add_argument("--out", type=Path, default=None, help="default: out/study_<config>")
     s.add_argument("--quiet", action="store_true", help="no progress lines")
     s.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help=SET_HELP)
@@ -100,8 +119,17 @@ def main(argv: list[str] | None = None) -> int:
                 raise InputError(f"--mesh-size must be > 0 (got {args.mesh_size})")
             scale = args.mesh_size / cfg.mesh_size if args.mesh_size else 1.0
             out = args.out or Path("out") / f"study_{args.config.stem}"
+            if args.sweep:
+                from app.sweep import parse_sweeps, run_sweep
+
+                rows = run_sweep(args.config, args.set, parse_sweeps(args.sweep), out,
+                                 {"mesh_scale": scale, "mesh_cache": out / "mesh_cache",
+                                  "refine": args.refine}, args.at_step, args.quiet)
+                if rank == 0 and not args.quiet:
+                    print(f"{len(rows)} rows -> {out / 'sweep.csv'}", file=sys.stderr)
+                return 0
             rows = run_study(cfg, out, args.levels, parse_methods(args.methods), scale,
-                             args.quiet, args.first_level)
+                             args.quiet, args.first_level, args.remesh, args.reference_method)
         except (InputError, SolveError) as exc:
             if rank == 0:
                 print(f"error: {exc}", file=sys.stderr)
@@ -120,7 +148,10 @@ def main(argv: list[str] | None = None) -> int:
             mesh_scale=(args.mesh_size / cfg.mesh_size) if args.mesh_size else 1.0,
             quiet=args.quiet,
             mesh_cache=args.mesh_cache,
+            refine=args.refine,
         )
+        if not 0 <= args.refine <= 8:
+            raise InputError(f"--refine must be 0..8 (got {args.refine})")
         if opts.method == "fem-q4" and args.sd is not None:
             raise InputError("--sd applies to --method cs-fem only")
         summary = run(cfg, opts)

@@ -50,6 +50,7 @@ class RunOptions:
     quiet: bool = False
     mesh_cache: Path | None = None
     progress_prefix: str = ""  # e.g. "level 2/5 CS-FEM-4SD" in a study
+    refine: int = 0  # uniform splits of the (scaled) config mesh, see app/mesh/refine.py
 
 
 @dataclass
@@ -155,6 +156,10 @@ def build_scene_mesh(cfg: Config, opts: RunOptions) -> Mesh:
 
     mesh = build_mesh(cfg.raw, scale=opts.mesh_scale, cache_dir=opts.mesh_cache,
                       base_dir=cfg.path.parent)
+    if opts.refine:
+        from app.mesh.refine import refine_mesh, scene_arcs
+
+        mesh = refine_mesh(mesh, opts.refine, scene_arcs(cfg.raw))
     check_elements(mesh)
     return mesh
 
