@@ -52,6 +52,10 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--refine", type=int, default=0, metavar="N",
                    help="split every quad of the (gmsh) mesh into four, N times (nested, "
                    "O(n); mid nodes on arcs go on the circle): N=4 gives 256x the elements")
+    r.add_argument("--energy-bracket", action="store_true",
+                   help="also solve with CS-FEM-1SD and/or FEM-Q4 (whichever the run is not) "
+                   "and report the bracket of their strain energies, an a-posteriori error "
+                   "estimate (summary key energy_bracket)")
     r.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     r.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help=SET_HELP)
@@ -155,6 +159,10 @@ def main(argv: list[str] | None = None) -> int:
         if opts.method == "fem-q4" and args.sd is not None:
             raise InputError("--sd applies to --method cs-fem only")
         summary = run(cfg, opts)
+        if args.energy_bracket:
+            from app.bracket import add_energy_bracket
+
+            summary = add_energy_bracket(cfg, opts, summary)
     except (InputError, SolveError) as exc:
         if rank == 0:
             print(f"error: {exc}", file=sys.stderr)
@@ -164,4 +172,10 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{summary['label']}: {summary['n_dofs']} DOFs, {summary['n_elements']} "
               f"elements, strain energy {summary['strain_energy']:.10g}, total "
               f"{t['total']:.2f} s -> {opts.out}", file=sys.stderr)
+        b = summary.get("energy_bracket")
+        if b:
+            print(f"energy bracket: {b['error']}" if "error" in b else
+                  f"energy bracket: {b['lower']:.10g} ({b['lower_method']}) <= U <= "
+                  f"{b['upper']:.10g} ({b['upper_method']}), width {b['width_rel']:.3e} "
+                  "relative", file=sys.stderr)
     return 0
