@@ -6,6 +6,7 @@ import math
 import tomllib
 
 import numpy as np
+import pytest
 from support import CONFIGS, read_summary, run_cli
 
 from app.discretisation.bulk import check_elements
@@ -48,17 +49,21 @@ def test_split_is_nested_conforming_and_keeps_groups():
     np.testing.assert_array_equal(r.body, np.zeros(8))
 
 
-def test_hertz_levels_put_arc_nodes_on_the_circle():
-    cfg = tomllib.loads((CONFIGS / "hertz.toml").read_text())
+@pytest.mark.parametrize("config, levels", [("hertz.toml", (1, 2, 3)),
+                                            ("hertz_halfspace.toml", (3,))])
+def test_hertz_levels_put_arc_nodes_on_the_circle(config, levels):
+    cfg = tomllib.loads((CONFIGS / config).read_text())
     m0 = build_mesh(cfg)
     prev = None
-    for level in (1, 2, 3):
+    for level in levels:
         m = refine_mesh(m0, level, scene_arcs(cfg))
         check_elements(m)
         assert m.n_elements == 4**level * m0.n_elements
         arc = m.curve_nodes("cyl_arc")
         np.testing.assert_allclose(np.hypot(m.points[arc, 0], m.points[arc, 1] - 1.0), 1.0,
                                    atol=1e-12)
+        top = m.curve_nodes("block_top")  # the block's flat top touches the arc: kept flat
+        np.testing.assert_array_equal(m.points[top, 1], 0.0)
         a = areas(m)
         cyl = a[m.body == m.body_names.index("cylinder")].sum()
         err = abs(cyl - 0.5 * math.pi)

@@ -15,6 +15,7 @@ import numpy as np
 from app.mesh.model import Mesh
 
 ARC_TOL = 1e-6  # relative to the radius: an edge end is on an arc within ARC_TOL * radius
+Arc = tuple[int, np.ndarray, float, float, float]  # body index, centre, radius, a0, a1
 
 
 def split_quads(mesh: Mesh) -> tuple[Mesh, np.ndarray, np.ndarray]:
@@ -61,17 +62,19 @@ def boundary_edges(inverse: np.ndarray, n_edges: int) -> np.ndarray:
 
 
 def project_on_arcs(points: np.ndarray, edges: np.ndarray, mids: np.ndarray,
-                    arcs: list[tuple[np.ndarray, float, float, float]]) -> np.ndarray:
-    """Move mid nodes of edges whose two ends lie on an arc onto the circle.
+                    edge_body: np.ndarray, arcs: list[Arc]) -> np.ndarray:
+    """Move mid nodes of boundary edges whose two ends lie on an arc of their own body onto
+    the circle (another body's edges, e.g. a flat touching the arc, are left alone).
 
-    points: (n, 2) coordinates; edges: (k, 2) node pairs with mid node indices mids (k,).
-    arcs: (centre (2,), radius, a0, a1) counter-clockwise arcs (rad). Returns a copy.
+    points: (n, 2) coordinates; edges: (k, 2) node pairs with mid node indices mids (k,)
+    and body index edge_body (k,). arcs: (body, centre (2,), radius, a0, a1) counter-
+    clockwise arcs (rad). Returns a copy.
     """
     out = points.copy()
-    for c, r, a0, a1 in arcs:
+    for body, c, r, a0, a1 in arcs:
         ends = points[edges] - c  # (k, 2, 2)
         rad = np.hypot(ends[..., 0], ends[..., 1])
-        on = np.all(np.abs(rad - r) <= ARC_TOL * r, axis=1)
+        on = np.all(np.abs(rad - r) <= ARC_TOL * r, axis=1) & (edge_body == body)
         v = points[mids] - c
         ang = (np.arctan2(v[:, 1], v[:, 0]) - a0) % (2 * np.pi)
         chord = np.hypot(*(ends[:, 1] - ends[:, 0]).T)
@@ -83,8 +86,7 @@ def project_on_arcs(points: np.ndarray, edges: np.ndarray, mids: np.ndarray,
     return out
 
 
-def refine_mesh(mesh: Mesh, times: int = 1,
-                arcs: list[tuple[np.ndarray, float, float, float]] | None = None) -> Mesh:
+def refine_mesh(mesh: Mesh, times: int = 1, arcs: list[Arc] | None = None) -> Mesh:
     """`times` uniform splits; boundary mid nodes on `arcs` are put on the circles.
 
     The centre node of a quad is the mean of its four (possibly projected) mid nodes.
@@ -94,7 +96,9 @@ def refine_mesh(mesh: Mesh, times: int = 1,
         new, edges, inverse = split_quads(mesh)
         if arcs:
             bnd = np.flatnonzero(boundary_edges(inverse, len(edges)))
-            pts = project_on_arcs(new.points, edges[bnd], n + bnd, arcs)
+            edge_body = np.empty(len(edges), dtype=np.int64)
+            edge_body[inverse] = np.repeat(np.asarray(mesh.body), 4)
+            pts = project_on_arcs(new.points, edges[bnd], n + bnd, edge_body[bnd], arcs)
             ne = mesh.n_elements
             mid = (n + inverse).reshape(ne, 4)
             pts[n + len(edges):] = pts[mid].mean(axis=1)
@@ -103,14 +107,14 @@ def refine_mesh(mesh: Mesh, times: int = 1,
     return mesh
 
 
-def scene_arcs(cfg: dict) -> list[tuple[np.ndarray, float, float, float]]:
-    """Circular arcs (centre, radius, a0, a1) of the body shapes of a config (TOML dict);
-    empty for a mesh read from a file."""
+def scene_arcs(cfg: dict) -> list[Arc]:
+    """Circular arcs (body index, centre, radius, a0, a1) of the body shapes of a config
+    (TOML dict), bodies in config order as in the Mesh; empty for a mesh read from a file."""
     from app.mesh.build import parse_scene
 
     mesh_cfg = cfg.get("mesh")
     if isinstance(mesh_cfg, dict) and mesh_cfg.get("file") is not None:
         return []
     scene = parse_scene(cfg)
-    return [(p.center, p.radius, p.a0, p.a1) for b in scene.bodies for s in b.sides
-            for p in s.pieces if p.kind == "arc"]
+    return [(i, p.center, p.radius, p.a0, p.a1) for i, b in enumerate(scene.bodies)
+            for s in b.sides for p in s.pieces if p.kind == "arc"]
