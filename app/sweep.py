@@ -113,18 +113,18 @@ def run_sweep(config: Path, sets: list[str], sweeps: list[tuple[str, list[str]]]
     for i, combo in enumerate(combos):
         tag = f"run {i + 1}/{len(combos)} " + " ".join(
             f"{k}={v}" for k, v in zip(keys, combo, strict=True))
-        cfg = load_config(config, [*sets, *(f"{k}={v}" for k, v in zip(keys, combo,
-                                                                          strict=True))])
         ro = RunOptions(out=out / f"run_{i:03d}", quiet=quiet, progress_prefix=tag, **opts)
         params = dict(zip(keys, map(_value, combo), strict=True))
-        try:
+        try:  # a combination the config checks reject (e.g. c < mu a) fails alone
+            cfg = load_config(config, [*sets, *(f"{k}={v}" for k, v in zip(keys, combo,
+                                                                              strict=True))])
             s = run(cfg, ro)
-        except SolveError as exc:
+        except (InputError, SolveError) as exc:
             failed.append(str(exc))
             if rank == 0:
                 print(f"[{time.perf_counter() - t0:8.2f} s] {tag}: failed: {exc}",
                       file=sys.stderr, flush=True)
-            rows.append({**params, "status": "failed"})
+            rows.append({**params, "status": "failed", "error": str(exc).splitlines()[0]})
             continue
         steps = step_rows(s)
         for r in steps:
@@ -144,7 +144,7 @@ def run_sweep(config: Path, sets: list[str], sweeps: list[tuple[str, list[str]]]
         raise SolveError(f"every run of the sweep failed (first: {failed[0]})")
     if rank == 0:
         write_csv(out / "sweep.csv", rows)
-        plot_sweep(rows, keys, out)
+        plot_sweep(rows, keys, out, at_step)
     return rows
 
 
@@ -165,45 +165,58 @@ PANELS = [
 ]
 
 
-def plot_sweep(rows: list[dict], keys: list[str], out: Path) -> list[Path]:
-    """sweep_<key>.png per swept key: the contact's figures against the key's value, one
-    line per interface and combination of the other keys."""
+STYLES = ("-", "--", ":", "-.")
+
+
+def plot_sweep(rows: list[dict], keys: list[str], out: Path, at_step: int = 0) -> list[Path]:
+    """sweep_<key>.png per swept key: the contact's figures against the key's value; colour
+    = quantity, line style = interface and combination of the other keys."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.lines import Line2D
 
     ok = [r for r in rows if r.get("status") == "completed"]
+    when = "the last step" if at_step == 0 else f"step {at_step}"
     paths = []
     for key in keys:
-        if not all(isinstance(r[key], float) for r in ok):
+        if not ok or not all(isinstance(r[key], float) for r in ok):
             continue
         others = [k for k in keys if k != key]
         groups: dict[tuple, list[dict]] = {}
         for r in ok:
             groups.setdefault((r["interface"], *(r[k] for k in others)), []).append(r)
-        fig, axes = plt.subplots(1, len(PANELS), figsize=(3.6 * len(PANELS), 3.4))
-        for ax, (title, cols) in zip(axes, PANELS, strict=True):
-            for g, rr in groups.items():
+        fig, axes = plt.subplots(2, 3, figsize=(12, 6.4))
+        for ax, (title, cols) in zip(axes.ravel(), PANELS, strict=False):
+            for j, rr in enumerate(groups.values()):
                 rr = sorted(rr, key=lambda r: r[key])
                 x = [r[key] for r in rr]
-                name = ", ".join([str(g[0])] + [f"{k.split('.')[-1]}={v:g}"
-                                                for k, v in zip(others, g[1:], strict=True)])
-                for c in cols:
+                for i, c in enumerate(cols):
                     y = np.array([r.get(c, math.nan) for r in rr], dtype=float)
-                    if np.all(np.isnan(y)):
-                        continue
-                    lab = c.replace("_length", "").replace("_", " ")
-                    ax.plot(x, y, "o-", ms=3, label=lab if len(groups) == 1 else
-                            f"{lab} ({name})")
+                    if not np.all(np.isnan(y)):
+                        ax.plot(x, y, marker="o", ms=3, color=f"C{i}",
+                                ls=STYLES[j % len(STYLES)])
+            handles = [Line2D([], [], color=f"C{i}", label=c.replace("_length", "")
+                              .replace("_", " ")) for i, c in enumerate(cols)]
+            ax.legend(handles=handles, fontsize=7)
             ax.set_xlabel(key)
-            ax.set_title(title, fontsize=9)
+            ax.set_title(title + ("" if title in ("dissipation", "debonding step")
+                                  else f" (at {when}; peaks over all steps)"
+                                  if "peak" in " ".join(cols) else f" (at {when})"),
+                         fontsize=9)
             ax.grid(True, alpha=0.3)
-            if ax.lines:
-                ax.legend(fontsize=6)
+        leg = axes.ravel()[-1]
+        leg.axis("off")
+        leg.legend(handles=[Line2D([], [], color="k", ls=STYLES[j % len(STYLES)],
+                                   label=", ".join([f"interface {g[0]}"] + [
+                                       f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}"
+                                       for k, v in zip(others, g[1:], strict=True)]))
+                            for j, g in enumerate(groups)], loc="center", fontsize=8,
+                   title="line style")
         fig.tight_layout()
         path = out / f"sweep_{key.replace('.', '_')}.png"
-        fig.savefig(path, dpi=80)
+        fig.savefig(path, dpi=70)
         plt.close(fig)
         paths.append(path)
     return paths

@@ -88,3 +88,12 @@ def test_sweep_and_study_exit_nonzero_when_every_run_fails(tmp_path):
     assert res.returncode == 2
     lines = res.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("error: every run of the study failed")
+
+
+def test_sweep_combination_rejected_by_the_config_checks_fails_alone(tmp_path):
+    res = run_cli(["study", str(CONFIGS / "bonded.toml"), "--sweep", "interface.bond.c=0.5,4",
+                   "--out", str(tmp_path), "--quiet"])
+    assert res.returncode == 0, res.stderr
+    rows = read(tmp_path / "sweep.csv")
+    assert [r["status"] for r in rows] == ["failed", "completed"]
+    assert "c = 0.5 < mu * a" in rows[0]["error"]
