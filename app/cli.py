@@ -56,6 +56,13 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--mesh-cache", type=Path, default=None,
                    help="folder where built meshes are cached and reused")
     r.add_argument("--allow-large", action="store_true", help=ALLOW_LARGE_HELP)
+    r.add_argument("--refine", type=int, default=0, metavar="N",
+                   help="split every quad of the (gmsh) mesh into four, N times (nested, "
+                   "O(n); mid nodes on arcs go on the circle): N=4 gives 256x the elements")
+    r.add_argument("--energy-bracket", action="store_true",
+                   help="also solve with CS-FEM-1SD and/or FEM-Q4 (whichever the run is not) "
+                   "and report the bracket of their strain energies, an a-posteriori error "
+                   "estimate (summary key energy_bracket)")
     r.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     r.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help=SET_HELP)
@@ -72,8 +79,24 @@ def _parser() -> argparse.ArgumentParser:
                    help="comma list of 1, 2, 3, 4, 8, 16 (CS-FEM SD) and q4 (FEM-Q4)")
     s.add_argument("--mesh-size", type=float, default=None, metavar="H",
                    help="global element size at level 0 (default: the config's mesh.size)")
-    s.add_argument("--out", default=None, help="default: out/study_<config>")
     s.add_argument("--allow-large", action="store_true", help=ALLOW_LARGE_HELP)
+    s.add_argument("--remesh", action="store_true",
+                   help="mesh every level with gmsh (sizes scaled by 2^-level) instead of "
+                   "splitting the level-0 mesh uniformly (the default: nested, O(n))")
+    s.add_argument("--reference-method", default=None, metavar="LABEL",
+                   help="method whose finest level is the model reference for the ref_* "
+                   "errors, e.g. 4SD or FEM-Q4 (default 4SD if run, else the last method)")
+    s.add_argument("--sweep", action="append", default=[], metavar="KEY=V1,V2,...",
+                   help="parameter study instead of a convergence study (repeatable; every "
+                   "combination runs once): KEY is a config path as in --set, e.g. "
+                   "interface.contact.mu=0.1,0.2,0.3; writes sweep.csv, sweep_steps.csv and "
+                   "sweep_<key>.png")
+    s.add_argument("--at-step", type=int, default=0, metavar="N",
+                   help="with --sweep: the step whose forces and zones sweep.csv reports "
+                   "(default 0: the last; negative counts back from the last)")
+    s.add_argument("--refine", type=int, default=0, metavar="N",
+                   help="with --sweep: uniform splits of the config mesh (as run --refine)")
+    s.add_argument("--out", default=None, help="default: out/study_<config>")
     s.add_argument("--quiet", action="store_true", help="no progress lines")
     s.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help=SET_HELP)
     return p
@@ -107,10 +130,20 @@ def main(argv: list[str] | None = None) -> int:
             cfg = load_config(args.config, args.set)
             if args.levels < 1 or args.first_level < 0:
                 raise InputError("--levels must be >= 1 and --first-level >= 0")
-            scale = check_run_input(cfg, args, args.first_level + args.levels - 1)
+            finest = args.refine if args.sweep else args.first_level + args.levels - 1
+            scale = check_run_input(cfg, args, finest)
             out = output_folder(args.out, Path("out") / f"study_{args.config.stem}")
+            if args.sweep:
+                from app.sweep import parse_sweeps, run_sweep
+
+                rows = run_sweep(args.config, args.set, parse_sweeps(args.sweep), out,
+                                 {"mesh_scale": scale, "mesh_cache": out / "mesh_cache",
+                                  "refine": args.refine}, args.at_step, args.quiet)
+                if rank == 0 and not args.quiet:
+                    print(f"{len(rows)} rows -> {out / 'sweep.csv'}", file=sys.stderr)
+                return 0
             rows = run_study(cfg, out, args.levels, parse_methods(args.methods), scale,
-                             args.quiet, args.first_level)
+                             args.quiet, args.first_level, args.remesh, args.reference_method)
         except (InputError, SolveError) as exc:
             if rank == 0:
                 print(f"error: {exc}", file=sys.stderr)
@@ -133,7 +166,9 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     try:
         cfg = load_config(args.config, args.set)
-        scale = check_run_input(cfg, args)
+        if not 0 <= args.refine <= 8:
+            raise InputError(f"--refine must be 0..8 (got {args.refine})")
+        scale = check_run_input(cfg, args, args.refine)
         opts = RunOptions(
             out=output_folder(args.out, Path("out") / args.config.stem),
             method=args.method,
@@ -142,10 +177,15 @@ def main(argv: list[str] | None = None) -> int:
             quiet=args.quiet,
             mesh_cache=args.mesh_cache,
             overrides=list(args.set),
+            refine=args.refine,
         )
         if opts.method and args.sd is not None and not BULK_METHODS[opts.method].sd_choices:
             raise InputError(f"--sd does not apply to --method {opts.method}")
         summary = run(cfg, opts)
+        if args.energy_bracket:
+            from app.bracket import add_energy_bracket
+
+            summary = add_energy_bracket(cfg, opts, summary)
     except (InputError, SolveError) as exc:
         if rank == 0:
             print(f"error: {exc}", file=sys.stderr)
@@ -169,6 +209,12 @@ def main(argv: list[str] | None = None) -> int:
             write_summary(opts.out, summary)
     if rank == 0 and not args.quiet:
         print(final_line(summary, opts.out), file=sys.stderr)
+        b = summary.get("energy_bracket")
+        if b:
+            print(f"energy bracket: {b['error']}" if "error" in b else
+                  f"energy bracket: {b['lower']:.10g} ({b['lower_method']}) <= U <= "
+                  f"{b['upper']:.10g} ({b['upper_method']}), width {b['width_rel']:.3e} "
+                  "relative", file=sys.stderr)
     return 0
 
 

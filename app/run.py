@@ -73,6 +73,7 @@ class RunOptions:
     mesh_cache: Path | None = None
     progress_prefix: str = ""  # e.g. "level 2/5 CS-FEM-4SD" in a study
     overrides: list[str] = field(default_factory=list)  # the --set strings (provenance)
+    refine: int = 0  # uniform splits of the (scaled) config mesh, see app/mesh/refine.py
 
 
 def make_discretisation(cfg: Config, opts: RunOptions) -> Discretisation:
@@ -90,6 +91,10 @@ def build_scene_mesh(cfg: Config, opts: RunOptions) -> Mesh:
 
     mesh = build_mesh(cfg.scene, scale=opts.mesh_scale, cache_dir=opts.mesh_cache,
                       base_dir=cfg.path.parent)
+    if opts.refine:
+        from app.mesh.refine import refine_mesh, scene_arcs
+
+        mesh = refine_mesh(mesh, opts.refine, scene_arcs(cfg.scene))
     check_elements(mesh)
     check_scene(mesh, cfg.interfaces)
     return mesh

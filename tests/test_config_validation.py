@@ -233,7 +233,7 @@ def test_overlapping_bodies_in_a_scene_are_refused_after_meshing():
     (("body", 0, "curves", "tpo"), "x", "did you mean top?"),
 ])
 def test_shape_keys_and_sides_suggest_the_closest(path, value, needle):
-    from app.mesh.build import parse_scene
+    from app.scene import parse_scene
 
     with pytest.raises(InputError, match=needle.replace("?", "\\?")):
         parse_scene(_with(PATCH, path, value))
@@ -241,7 +241,7 @@ def test_shape_keys_and_sides_suggest_the_closest(path, value, needle):
 
 @pytest.mark.parametrize(("key", "value"), [("width", 2.5e-231), ("height", 1e-12)])
 def test_degenerate_shapes_are_errors(key, value):
-    from app.mesh.build import parse_scene
+    from app.scene import parse_scene
 
     with pytest.raises(InputError, match="shape is degenerate"):
         parse_scene(_with(PATCH, ("body", 0, "shape", key), value))

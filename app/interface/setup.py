@@ -371,6 +371,12 @@ class ContactStepper:
                 "max_pressure": float((sol.p[sel] / length_t[sel]).max(initial=0.0)),
                 "states": {name: int(np.sum(res.state[sel] == k))
                            for k, name in enumerate(STATE_NAMES)},
+                # zone sizes (sum of pair lengths) and the intact bond (for studies)
+                "state_lengths": {name: float(pr.length[sel & (res.state == k)].sum())
+                                  for k, name in enumerate(STATE_NAMES)},
+                "contact_length": float(pr.length[sel & (sol.p > 0)].sum()),
+                "debonded_pairs": int(np.sum(res.debonded_step[sel] > 0)),
+                "bond_strength_force": float(self.hist.c[sel].sum()),
             }
         info = {
             "n_pairs": m,
