@@ -15,8 +15,8 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from app.errors import InputError
-from app.mesh.build import MAX_COORDINATE
 from app.mesh.model import Mesh
+from app.scene.geometry import MAX_COORDINATE
 
 CORNER_TOL = 1e-10
 """Smallest accepted corner cross product relative to the product of its edge lengths
