@@ -58,6 +58,7 @@ class Interface:
     search_distance: float
     penetration_tol: float | None = None
     interference: bool = False  # initial overlaps are an intended interference fit
+    discretisation: str = "node-to-segment"  # a name in app.contact.discretisation
 
     @property
     def frictional(self) -> bool:
@@ -177,6 +178,18 @@ def _scalar_or_expr(value: Any, where: str, params: dict[str, float]) -> float |
         evaluate(value, np.zeros(1), np.zeros(1), params, where)
         return value
     return _num(value, where)
+
+
+def _discretisation(value: Any, where: str) -> str:
+    """The `discretisation` of an [[interface]]: a name in the contact registry."""
+    from app.contact.discretisation import DEFAULT, DISCRETISATIONS
+
+    if value is None:
+        return DEFAULT
+    if not isinstance(value, str) or value not in DISCRETISATIONS:
+        names = ", ".join(repr(k) for k in DISCRETISATIONS)
+        raise InputError(f"{where}: discretisation must be one of {names}, got {value!r}")
+    return value
 
 
 def parse_config(raw: dict[str, Any], path: Path | str = "<config>") -> Config:
@@ -300,12 +313,15 @@ def parse_config(raw: dict[str, Any], path: Path | str = "<config>") -> Config:
         interference = it.get("interference", False)
         if not isinstance(interference, bool):
             raise InputError(f"{where}: interference must be true or false")
+        disc = _discretisation(it.get("discretisation"), where)
         extra = set(it) - {"name", "slave", "master", "mu", "c", "a", "bonded",
-                           "search_distance", "penetration_tol", "interference"}
+                           "search_distance", "penetration_tol", "interference",
+                           "discretisation"}
         if extra:
             raise InputError(f"{where}: unknown key(s) {sorted(extra)}")
         interfaces.append(Interface(nm, it["slave"], it["master"], mu, c if bonded else 0.0,
-                                    a if bonded else 0.0, bonded, sdist, ptol, interference))
+                                    a if bonded else 0.0, bonded, sdist, ptol, interference,
+                                    disc))
 
     petsc = _table(raw, "petsc", "")
     petsc_opts = {}

@@ -16,7 +16,9 @@ from petsc4py import PETSc
 
 from app.assembly.loads import describe_modes, free_rigid_modes, mode_names, rigid_modes
 from app.config import Config
-from app.contact.pairs import ContactPairs, constraint_matrix, contact_pairs
+from app.contact.constraints import ContactConstraints
+from app.contact.discretisation import DISCRETISATIONS
+from app.contact.pairs import ContactPairs
 from app.discretisation.bulk import zero_energy_modes
 from app.errors import InputError, SolveError
 from app.interface.coulomb import ContactLCP
@@ -112,10 +114,12 @@ def _check_held(mesh: Mesh, cfg: Config, fixed: np.ndarray,
 class ContactSetup:
     """Pairs of every interface, the constraint matrix G and per-pair law parameters."""
 
-    def __init__(self, cfg: Config, pairs: ContactPairs, g: sp.csr_matrix):
+    def __init__(self, cfg: Config, pairs: ContactPairs, g: sp.csr_matrix,
+                 rows: ContactConstraints | None = None):
         self.cfg = cfg
         self.pairs = pairs
         self.g = g
+        self.rows = rows
         it = pairs.interface
         t = cfg.thickness
         self.mu = np.array([cfg.interfaces[i].mu for i in it])
@@ -133,17 +137,16 @@ class ContactSetup:
                 if name not in mesh.curves:
                     raise InputError(f"interface '{itf.name}': {key} curve '{name}' is not in "
                                      f"the mesh (curves: {sorted(mesh.curves)})")
-            found.append(contact_pairs(mesh, itf.slave, itf.master, itf.search_distance,
-                                       interface=i, penetration_tol=itf.penetration_tol,
-                                       name=itf.name, interference=itf.interference))
-        pairs = ContactPairs.concatenate(found)
+            found.append(DISCRETISATIONS[itf.discretisation](mesh, itf, i))
+        rows = ContactConstraints.concatenate(found)
+        pairs = rows.pairs
         dup, counts = np.unique(pairs.slave, return_counts=True)
         if np.any(counts > 1):
             n = int(dup[counts > 1][0])
             raise InputError(f"slave node at x={mesh.points[n, 0]:.4g}, "
                              f"y={mesh.points[n, 1]:.4g} belongs to two interfaces: a slave "
                              "curve may be slave on one interface only")
-        return cls(cfg, pairs, constraint_matrix(pairs, mesh.n_nodes))
+        return cls(cfg, pairs, rows.matrix(mesh.n_nodes), rows)
 
     def bodies(self, mesh: Mesh) -> set[int]:
         nb = mesh.node_body()
@@ -212,6 +215,9 @@ class ContactSetup:
             "a_force": result["a"],
             "c_force": result["c"],
         }
+        if self.rows is not None:  # the rows of G (the KKT check of tests/support.py)
+            data |= {"g_cols": self.rows.cols, "g_normal": self.rows.g_normal,
+                     "g_tangent": self.rows.g_tangent}
         data["_kkt"] = kkt_check(gap_u, tau_u, result["tau_prev"], p, q, self.mu,
                                  result["a"], result["c"], self.frictional,
                                  u_scale=float(np.abs(u).max(initial=0.0)),
