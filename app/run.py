@@ -434,7 +434,10 @@ def reference_errors(cfg: Config, disc: Discretisation, summary: dict, mesh: Mes
         out |= {"hertz": hertz_errors(c["x"][sel], c["p"][sel], c["length"][sel], P=total,
                                       R=radius, E_star=e_star, x0=x0,
                                       thickness=disc.thickness)}
-        if kind == "cattaneo":
+        if kind == "cattaneo" and not cfg.interfaces[0].mu * total > 0:
+            out["cattaneo"] = {"skipped": "no Cattaneo-Mindlin reference without friction "
+                                          "(mu = 0) or contact force"}
+        elif kind == "cattaneo":
             stick = (c["state"][sel] == STICK) & (c["p"][sel] > 0)
             out["cattaneo"] = cattaneo_errors(
                 c["x"][sel], c["p"][sel], c["q"][sel], c["length"][sel], stick, P=total,

@@ -15,11 +15,14 @@ when the master covers the node's support), so a row reads
 n_j . (u_j - sum_l w_jl u_l) with sum_l w_jl = 1: gaps stay lengths, the multiplier is the
 force at the slave node and force / (D_j x thickness) its traction.
 
-Contact normal (choice, see README): n_j = normalised (nu_m - nu_s), the mean of the
-averaged nodal outward normals of both sides (nu_s of the slave node, nu_m of the master
-interpolated at the node's closest point), pointing from master to slave. Swapping slave
-and master gives the same normal field up to discretisation, and a flat side against a
-curved one is weighted equally. Tangent t_j = (-n_y, n_x) as in `app.contact.pairs`.
+Contact normal (choice, see README): the averaged nodal outward normals of both sides
+(nu_s of the slave node, nu_m of the master interpolated at the node's closest point),
+weighted by the other side's curvature (`contact_normal`): the flatter side's normal
+wins, equal curvatures give the mean. Against a flat side this is the flat side's normal,
+the common normal of the linear (Hertz, Cattaneo-Mindlin) theories, so a frictionless
+contact cannot hold a tangential load through tilted normals whichever side is the slave;
+the formula is symmetric in the two sides. Tangent t_j = (-n_y, n_x) as in
+`app.contact.pairs`.
 """
 
 from __future__ import annotations
@@ -52,18 +55,41 @@ def _unit(v: np.ndarray) -> np.ndarray:
     return v / np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-300)
 
 
-def nodal_normals(points: np.ndarray, edges: np.ndarray, n_nodes: int) -> np.ndarray:
-    """(n_nodes, 2) averaged outward unit normals of a curve whose edges (k, 2) are
-    oriented with the body on the left (zero rows off the curve)."""
+def nodal_normals(points: np.ndarray, edges: np.ndarray,
+                  n_nodes: int) -> tuple[np.ndarray, np.ndarray]:
+    """Averaged outward unit normals (n_nodes, 2) and curvatures (n_nodes,) (1/length) of
+    a curve whose edges (k, 2) are oriented with the body on the left; zero off the curve.
+    The curvature of a node is the angle between its two edge normals over its tributary
+    length (0 at the ends of the curve)."""
     d = points[edges[:, 1]] - points[edges[:, 0]]
-    ne = _unit(np.column_stack([d[:, 1], -d[:, 0]]))
+    le = np.linalg.norm(d, axis=1)
+    ne = np.column_stack([d[:, 1], -d[:, 0]]) / le[:, None]
     acc = np.zeros((n_nodes, 2))
     for c in range(2):
         acc[:, c] = np.bincount(edges.ravel(), weights=np.repeat(ne[:, c], 2),
                                 minlength=n_nodes)
-    on = np.linalg.norm(acc, axis=1) > 0
-    acc[on] = _unit(acc[on])
-    return acc
+    norm = np.linalg.norm(acc, axis=1)
+    on = norm > 0
+    count = np.bincount(edges.ravel(), minlength=n_nodes)
+    trib = np.bincount(edges.ravel(), weights=np.repeat(0.5 * le, 2), minlength=n_nodes)
+    # |sum of two unit normals| = 2 cos(angle / 2)
+    angle = np.where(count == 2, 2 * np.arccos(np.clip(0.5 * norm, 0.0, 1.0)), 0.0)
+    kappa = np.where(trib > 0, angle / np.where(trib > 0, trib, 1.0), 0.0)
+    acc[on] = acc[on] / norm[on, None]
+    return acc, kappa
+
+
+def contact_normal(nu_s: np.ndarray, kappa_s: np.ndarray, nu_m: np.ndarray,
+                   kappa_m: np.ndarray) -> np.ndarray:
+    """(p, 2) unit contact normals (master -> slave) from the outward normals and
+    curvatures of both sides at the same points: the flatter side weighs more,
+    n = unit(k_s nu_m - k_m nu_s); equal curvatures give the mean, a flat side its own
+    normal. Symmetric in the two sides, so swapping slave and master keeps it."""
+    ks, km = kappa_s[:, None], kappa_m[:, None]
+    tot = ks + km
+    flat = tot <= 0
+    ws = np.where(flat, 0.5, km / np.where(flat, 1.0, tot))
+    return _unit((1 - ws) * nu_m - ws * nu_s)
 
 
 def project_onto_segment(x: np.ndarray, x1: np.ndarray, x2: np.ndarray, n1: np.ndarray,
@@ -166,17 +192,20 @@ def mortar_constraints(mesh: Mesh, itf, index: int) -> ContactConstraints:
     if np.any(np.linalg.norm(xb - xa, axis=1) == 0):
         raise InputError(f"interface '{label}': master curve '{itf.master}' has an edge of "
                          "zero length (coincident nodes)")
-    nu_s = nodal_normals(pts, s_edges, n)
-    nu_m = nodal_normals(pts, m_edges, n)
+    nu_s, k_s = nodal_normals(pts, s_edges, n)
+    nu_m, k_m = nodal_normals(pts, m_edges, n)
     nodes, d_len = tributary_length(pts, s_edges)
     m_degree = np.bincount(m_edges.ravel(), minlength=n)
     seg, xr, dist = closest_segments(pts[nodes], xa, xb, sd)
     found = (seg >= 0) & (m_degree[nodes] == 0)
     sg = np.where(found, seg, 0)
     xi = np.clip(np.nan_to_num(xr), 0.0, 1.0)
-    nu_mp = ((1 - xi)[:, None] * nu_m[m_edges[sg, 0]] + xi[:, None] * nu_m[m_edges[sg, 1]])
+    ma, mb = m_edges[sg, 0], m_edges[sg, 1]
+    nu_mp = _unit((1 - xi)[:, None] * nu_m[ma] + xi[:, None] * nu_m[mb])
+    k_mp = (1 - xi) * k_m[ma] + xi * k_m[mb]
     normal = np.zeros((n, 2))
-    normal[nodes] = np.where(found[:, None], _unit(nu_mp - nu_s[nodes]), -nu_s[nodes])
+    normal[nodes] = np.where(found[:, None], contact_normal(nu_s[nodes], k_s[nodes], nu_mp,
+                                                            k_mp), -nu_s[nodes])
 
     active = found[np.searchsorted(nodes, s_edges)].any(axis=1)
     se = s_edges[active]

@@ -256,6 +256,20 @@ def mismatch(g: sp.csr_matrix, u: np.ndarray, result: dict) -> np.ndarray:
     return g @ u - result["kinematics"]
 
 
+def split_modes(n_modes: np.ndarray, t_modes: np.ndarray,
+                rel: float = 1e-9) -> tuple[np.ndarray, np.ndarray]:
+    """Orthonormal bases (r, r1), (r, r0) of the floating-mode amplitudes that move some
+    pair ([N; T] v != 0) and of those that move none (see `undetermined_modes`)."""
+    a = np.vstack([n_modes, t_modes])
+    r = a.shape[1]
+    if a.shape[0] == 0:
+        return np.zeros((r, 0)), np.eye(r)
+    _, sv, vt = np.linalg.svd(a, full_matrices=True)
+    sv = np.concatenate([sv, np.zeros(r - sv.size)])
+    null = sv <= rel * max(sv.max(initial=0.0), 1e-300)
+    return vt[~null].T, vt[null].T
+
+
 def undetermined_modes(n_modes: np.ndarray, t_modes: np.ndarray, names: list[str],
                        rel: float = 1e-9) -> list[str]:
     """Floating-body modes (or combinations) that no contact force can resist.
@@ -290,9 +304,17 @@ class ContactStepper:
         self.m = m
         g = setup.g
         self.gu = [g @ uc for uc in unit]  # (2m,) per load case
+        self.v_keep = self.v_null = None
         if floating is not None and floating.r.shape[1]:
             gr = g @ floating.r  # (2m, r)
             self.n_modes, self.t_modes = gr[:m], gr[m:]
+            self.v_keep, self.v_null = split_modes(self.n_modes,
+                                                   self.t_modes[setup.frictional])
+            if self.v_null.shape[1]:  # amplitudes no pair sees: left out of the LCP
+                self.n_modes = self.n_modes @ self.v_keep
+                self.t_modes = self.t_modes @ self.v_keep
+            else:
+                self.v_keep = self.v_null = None
             self.e0 = [floating.r.T @ b for b in rhs]
             self.mode_names = floating.names
         else:
@@ -300,7 +322,8 @@ class ContactStepper:
             self.e0 = [np.zeros(0) for _ in cases]
             self.mode_names = []
         self.lcp = ContactLCP(c_mat, setup.mu, setup.frictional, self.n_modes, self.t_modes)
-        self.undetermined = undetermined_modes(self.lcp.nm, self.lcp.tm, self.mode_names)
+        self.undetermined = [] if self.v_null is None else [
+            self.mode_names[int(np.argmax(np.abs(v)))] for v in self.v_null.T]
         self.hist = InterfaceHistory(
             a=np.where(setup.bonded, setup.a, 0.0), c=np.where(setup.bonded, setup.c, 0.0),
             bonded=setup.bonded.copy(), tau_prev=np.zeros(m),
@@ -339,13 +362,21 @@ class ContactStepper:
             self.hist.basis = basis
         gap_free = pr.g0.copy()
         tau_free = np.zeros(m)
-        e0 = np.zeros(self.lcp.r)
+        e0 = np.zeros(len(self.mode_names))
         for case, gu, e in zip(cases, self.gu, self.e0, strict=True):
             h = case.history[step]
             gap_free += h * gu[:m]
             tau_free += h * gu[m:]
             if e.size:
                 e0 += h * e
+        if self.v_null is not None and self.v_null.shape[1]:
+            loaded = np.abs(self.v_null.T @ e0) > 1e-9 * max(self.f_scale, 1e-300)
+            if loaded.any():
+                names = ", ".join(n for n, k in zip(self.undetermined, loaded, strict=True)
+                                  if k)
+                return {"status": "unbalanced load", "message": f"a load on {names}; the "
+                        f"contact cannot resist {names}"}
+            e0 = self.v_keep.T @ e0
         if correction is not None:
             gap_free += correction[:m]
             tau_free += correction[m:]
@@ -354,7 +385,8 @@ class ContactStepper:
                          e0, self.tol, self.tol)
         sol = res.solution
         out = {"status": res.status, "message": "",
-               "lam": np.concatenate([sol.p, sol.q]), "alpha": sol.alpha,
+               "lam": np.concatenate([sol.p, sol.q]),
+               "alpha": sol.alpha if self.v_keep is None else self.v_keep @ sol.alpha,
                "kinematics": np.concatenate([sol.gap - pr.g0, sol.tau])}
         if res.status != "solved":
             out["message"] = ("secondary ray: no solution from this start"
@@ -392,8 +424,8 @@ class ContactStepper:
             "debonded_this_step": int(np.sum(res.debonded_step == step + 1)),
             "dissipation": res.dissipation,
         }
-        if self.lcp.r:
-            info["rigid_modes"] = dict(zip(self.mode_names, map(float, sol.alpha),
+        if self.mode_names:
+            info["rigid_modes"] = dict(zip(self.mode_names, map(float, out["alpha"]),
                                            strict=True))
         if self.undetermined:
             info["undetermined_modes"] = self.undetermined
