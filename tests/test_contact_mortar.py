@@ -186,10 +186,13 @@ def test_mortar_multibody_indent_smooth_on_non_matching_meshes(tmp_path):
         assert max(v.values()) < 1e-6, (step, v)
 
 
+@pytest.mark.slow
 def test_mortar_hertz_swap(tmp_path):
+    """At a/40 (README table: 0.89% and 0.94%; at a/10 the two meshes put their last
+    contact node at different places: 2.1% and 3.2%)."""
     errs = []
     for swapped in (False, True):
-        res = mortar_run(tmp_path / str(swapped), "hertz", swapped, "--mesh-size", "0.25")
+        res = mortar_run(tmp_path / str(swapped), "hertz", swapped, "--mesh-size", "0.125")
         assert res.returncode == 0, res.stderr
         s = json.loads((tmp_path / str(swapped) / "o" / "summary.json").read_text())
         errs.append(s["reference"]["hertz"]["pressure_l2_interp_rel_error"])

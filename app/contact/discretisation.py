@@ -57,4 +57,4 @@ DISCRETISATIONS: dict[str, Builder] = {
 }
 """Contact discretisations by config name."""
 
-DEFAULT = "node-to-segment"
+DEFAULT = "mortar"
