@@ -197,3 +197,17 @@ def test_mortar_hertz_swap(tmp_path):
         s = json.loads((tmp_path / str(swapped) / "o" / "summary.json").read_text())
         errs.append(s["reference"]["hertz"]["pressure_l2_interp_rel_error"])
     assert abs(errs[0] - errs[1]) <= 0.005, errs
+
+
+def test_split_modes_separates_what_no_pair_sees():
+    from app.interface.setup import split_modes, undetermined_modes
+
+    n_modes = np.array([[1.0, 0.0, 1.0], [2.0, 0.0, 2.0]])  # mode 1 moves nothing; 0 = 2
+    t_modes = np.zeros((0, 3))
+    keep, null = split_modes(n_modes, t_modes)
+    assert keep.shape == (3, 1) and null.shape == (3, 2)
+    np.testing.assert_allclose(n_modes @ null, 0.0, atol=1e-14)
+    np.testing.assert_allclose(keep.T @ null, 0.0, atol=1e-14)
+    assert len(undetermined_modes(n_modes, t_modes, ["a", "b", "c"])) == 2
+    keep, null = split_modes(np.eye(3), t_modes)
+    assert keep.shape == (3, 3) and null.shape == (3, 0)
