@@ -61,6 +61,7 @@ class Interface:
     search_distance: float
     penetration_tol: float | None = None
     interference: bool = False  # initial overlaps are an intended interference fit
+    discretisation: str | None = None  # a name in app.contact.discretisation; None: default
 
     @property
     def frictional(self) -> bool:
@@ -339,8 +340,12 @@ def parse_config(raw: dict[str, Any], path: Path | str = "<config>") -> Config:
         if not isinstance(interference, bool):
             raise InputError(f"{where}: interference must be true or false")
         _check_interface_bodies(raw, nm, it["slave"], it["master"], interfaces)
+        disc = it.get("discretisation")  # None: the registry default (app.contact)
+        if disc is not None and (not isinstance(disc, str) or not disc):
+            raise InputError(f"{where}: discretisation must be a name (got {disc!r})")
         interfaces.append(Interface(nm, it["slave"], it["master"], mu, c if bonded else 0.0,
-                                    a if bonded else 0.0, bonded, sdist, ptol, interference))
+                                    a if bonded else 0.0, bonded, sdist, ptol, interference,
+                                    disc))
 
     reference = raw.get("reference")
     if isinstance(reference, dict):

@@ -34,6 +34,7 @@ from app.condensation.compliance import (
     request_schur,
 )
 from app.config import Config
+from app.contact.discretisation import contact_discretisation
 from app.discretisation.bulk import (
     Discretisation,
     check_elements,
@@ -166,6 +167,8 @@ def _run(cfg: Config, opts: RunOptions, summary: dict) -> dict:
     timer = Timer(quiet=opts.quiet,
                   prefix=f"{opts.progress_prefix}: " if opts.progress_prefix else "")
     disc = make_discretisation(cfg, opts)
+    for itf in cfg.interfaces:  # the contact discretisations, checked before any meshing
+        contact_discretisation(itf.discretisation, f"interface '{itf.name}'")
     out = Path(opts.out)
 
     with timer.phase("mesh"):
