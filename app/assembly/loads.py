@@ -20,7 +20,7 @@ from app.mesh.model import Mesh, orient_boundary_edges
 def _curve(mesh: Mesh, name: str, where: str) -> np.ndarray:
     if name not in mesh.curves:
         raise InputError(
-            f"{where}: unknown curve '{name}' (mesh curves: {sorted(mesh.curves)})"
+            f"{where}: unknown curve {name!r} (mesh curves: {sorted(mesh.curves)})"
         )
     return mesh.curves[name]
 
@@ -56,7 +56,7 @@ def traction_vector(mesh: Mesh, edges: np.ndarray, traction) -> np.ndarray:
 
 def load_vector(mesh: Mesh, cfg: Config, load: Load) -> np.ndarray:
     """Nodal force vector of one load at factor 1 (including the thickness)."""
-    where = f"load on '{load.on}'"
+    where = f"load on {load.on!r}"
     edges = orient_boundary_edges(mesh, _curve(mesh, load.on, where), where)
     d = mesh.points[edges[:, 1]] - mesh.points[edges[:, 0]]
     length = np.linalg.norm(d, axis=1)
@@ -94,7 +94,7 @@ def body_force_vector(mesh: Mesh, cfg: Config) -> np.ndarray:
 def support_dofs(mesh: Mesh, support: Support,
                  params: dict[str, float] | None = None) -> tuple[np.ndarray, np.ndarray]:
     """DOFs a support prescribes and their values at factor 1."""
-    where = f"support on '{support.on}'"
+    where = f"support on {support.on!r}"
     nodes = group_nodes(mesh, support.on, where)
     x, y = mesh.points[nodes, 0], mesh.points[nodes, 1]
     dofs, vals = [], []
