@@ -56,6 +56,13 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--mesh-cache", type=Path, default=None,
                    help="folder where built meshes are cached and reused")
     r.add_argument("--allow-large", action="store_true", help=ALLOW_LARGE_HELP)
+    r.add_argument("--refine", type=int, default=0, metavar="N",
+                   help="split every quad of the (gmsh) mesh into four, N times (nested, "
+                   "O(n); mid nodes on arcs go on the circle): N=4 gives 256x the elements")
+    r.add_argument("--energy-bracket", action="store_true",
+                   help="also solve with CS-FEM-1SD and/or FEM-Q4 (whichever the run is not) "
+                   "and report the bracket of their strain energies, an a-posteriori error "
+                   "estimate (summary key energy_bracket)")
     r.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     r.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help=SET_HELP)
@@ -72,8 +79,24 @@ def _parser() -> argparse.ArgumentParser:
                    help="comma list of 1, 2, 3, 4, 8, 16 (CS-FEM SD) and q4 (FEM-Q4)")
     s.add_argument("--mesh-size", type=float, default=None, metavar="H",
                    help="global element size at level 0 (default: the config's mesh.size)")
-    s.add_argument("--out", default=None, help="default: out/study_<config>")
     s.add_argument("--allow-large", action="store_true", help=ALLOW_LARGE_HELP)
+    s.add_argument("--remesh", action="store_true",
+                   help="mesh every level with gmsh (sizes scaled by 2^-level) instead of "
+                   "splitting the level-0 mesh uniformly (the default: nested, O(n))")
+    s.add_argument("--reference-method", default=None, metavar="LABEL",
+                   help="method whose finest level is the model reference for the ref_* "
+                   "errors, e.g. 4SD or FEM-Q4 (default 4SD if run, else the last method)")
+    s.add_argument("--sweep", action="append", default=[], metavar="KEY=V1,V2,...",
+                   help="parameter study instead of a convergence study (repeatable; every "
+                   "combination runs once): KEY is a config path as in --set, e.g. "
+                   "interface.contact.mu=0.1,0.2,0.3; writes sweep.csv, sweep_steps.csv and "
+                   "sweep_<key>.png")
+    s.add_argument("--at-step", type=int, default=0, metavar="N",
+                   help="with --sweep: the step whose forces and zones sweep.csv reports "
+                   "(default 0: the last; negative counts back from the last)")
+    s.add_argument("--refine", type=int, default=0, metavar="N",
+                   help="with --sweep: uniform splits of the config mesh (as run --refine)")
+    s.add_argument("--out", default=None, help="default: out/study_<config>")
     s.add_argument("--quiet", action="store_true", help="no progress lines")
     s.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help=SET_HELP)
     return p
@@ -94,6 +117,8 @@ def main(argv: list[str] | None = None) -> int:
 
     from app.config import load_config
     from app.errors import InputError, SolveError
+    from app.output.progress import final_line
+    from app.output.status import RunInterrupted
     from app.petsc_options import petsc_error_line
     from app.run import RunOptions, run
 
@@ -105,24 +130,45 @@ def main(argv: list[str] | None = None) -> int:
             cfg = load_config(args.config, args.set)
             if args.levels < 1 or args.first_level < 0:
                 raise InputError("--levels must be >= 1 and --first-level >= 0")
-            scale = check_run_input(cfg, args, args.first_level + args.levels - 1)
+            finest = args.refine if args.sweep else args.first_level + args.levels - 1
+            scale = check_run_input(cfg, args, finest)
             out = output_folder(args.out, Path("out") / f"study_{args.config.stem}")
+            if args.sweep:
+                from app.sweep import parse_sweeps, run_sweep
+
+                rows = run_sweep(args.config, args.set, parse_sweeps(args.sweep), out,
+                                 {"mesh_scale": scale, "mesh_cache": out / "mesh_cache",
+                                  "refine": args.refine}, args.at_step, args.quiet)
+                if rank == 0 and not args.quiet:
+                    print(f"{len(rows)} rows -> {out / 'sweep.csv'}", file=sys.stderr)
+                return 0
             rows = run_study(cfg, out, args.levels, parse_methods(args.methods), scale,
-                             args.quiet, args.first_level)
+                             args.quiet, args.first_level, args.remesh, args.reference_method)
         except (InputError, SolveError) as exc:
             if rank == 0:
                 print(f"error: {exc}", file=sys.stderr)
             return 2
+        except RunInterrupted as exc:
+            if rank == 0:
+                print(f"error: {exc}", file=sys.stderr)
+            return exc.exit_code
         except PETSc.Error as exc:
             if rank == 0:
                 print(f"error: PETSc: {petsc_error_line(exc)}", file=sys.stderr)
+            return 2
+        if not rows:
+            if rank == 0:
+                print(f"error: every run of the study failed (see the lines above and "
+                      f"{out}/*/summary.json)", file=sys.stderr)
             return 2
         if rank == 0 and not args.quiet:
             print(f"{len(rows)} runs -> {out / 'study.csv'}", file=sys.stderr)
         return 0
     try:
         cfg = load_config(args.config, args.set)
-        scale = check_run_input(cfg, args)
+        if not 0 <= args.refine <= 8:
+            raise InputError(f"--refine must be 0..8 (got {args.refine})")
+        scale = check_run_input(cfg, args, args.refine)
         opts = RunOptions(
             out=output_folder(args.out, Path("out") / args.config.stem),
             method=args.method,
@@ -130,14 +176,26 @@ def main(argv: list[str] | None = None) -> int:
             mesh_scale=scale,
             quiet=args.quiet,
             mesh_cache=args.mesh_cache,
+            overrides=list(args.set),
+            refine=args.refine,
         )
         if opts.method and args.sd is not None and not BULK_METHODS[opts.method].sd_choices:
             raise InputError(f"--sd does not apply to --method {opts.method}")
         summary = run(cfg, opts)
+        if args.energy_bracket:
+            from app.bracket import add_energy_bracket
+
+            summary = add_energy_bracket(cfg, opts, summary)
     except (InputError, SolveError) as exc:
         if rank == 0:
             print(f"error: {exc}", file=sys.stderr)
         return 2
+    except RunInterrupted as exc:
+        if rank == 0:
+            if exc.summary is not None and not args.quiet:
+                print(final_line(exc.summary, opts.out), file=sys.stderr)
+            print(f"error: {exc}", file=sys.stderr)
+        return exc.exit_code
     except PETSc.Error as exc:
         if rank == 0:
             print(f"error: PETSc: {petsc_error_line(exc)}", file=sys.stderr)
@@ -150,10 +208,13 @@ def main(argv: list[str] | None = None) -> int:
         if rank == 0:
             write_summary(opts.out, summary)
     if rank == 0 and not args.quiet:
-        t = summary["timings"]
-        print(f"{summary['label']}: {summary['n_dofs']} DOFs, {summary['n_elements']} "
-              f"elements, strain energy {summary['strain_energy']:.10g}, total "
-              f"{t['total']:.2f} s -> {opts.out}", file=sys.stderr)
+        print(final_line(summary, opts.out), file=sys.stderr)
+        b = summary.get("energy_bracket")
+        if b:
+            print(f"energy bracket: {b['error']}" if "error" in b else
+                  f"energy bracket: {b['lower']:.10g} ({b['lower_method']}) <= U <= "
+                  f"{b['upper']:.10g} ({b['upper_method']}), width {b['width_rel']:.3e} "
+                  "relative", file=sys.stderr)
     return 0
 
 
@@ -165,7 +226,7 @@ def check_run_input(cfg, args, finest_level: int = 0) -> float:
     from app.petsc_options import check_solver_options
 
     check_solver_options(cfg.petsc)
-    file = (cfg.raw.get("mesh") or {}).get("file")
+    file = cfg.scene.file
     if args.mesh_size is not None:
         if not args.mesh_size > 0 or args.mesh_size == float("inf"):
             raise InputError(f"--mesh-size must be a number > 0 (got {args.mesh_size})")
@@ -178,7 +239,7 @@ def check_run_input(cfg, args, finest_level: int = 0) -> float:
             raise InputError("--mesh-cache does not apply to a mesh read from mesh.file")
         output_folder(str(cache), cache, what="--mesh-cache")
     scale = args.mesh_size / cfg.mesh_size if args.mesh_size else 1.0
-    check_size(cfg.raw, scale * 2.0**-finest_level, allow_large=args.allow_large)
+    check_size(cfg.scene, scale * 2.0**-finest_level, allow_large=args.allow_large)
     return scale
 
 

@@ -16,10 +16,11 @@ from typing import Any
 
 import numpy as np
 
-from app.config_keys import ALLOWED_KEYS, check_keys
+from app.config_keys import ALLOWED_KEYS, check_keys, suggestion
 from app.errors import InputError
 from app.expressions import check_parameter_name, parse_expression
-from app.references import reference
+from app.references import REFERENCES, reference
+from app.scene import Scene, parse_scene
 
 
 @dataclass
@@ -60,6 +61,7 @@ class Interface:
     search_distance: float
     penetration_tol: float | None = None
     interference: bool = False  # initial overlaps are an intended interference fit
+    discretisation: str | None = None  # a name in app.contact.discretisation; None: default
 
     @property
     def frictional(self) -> bool:
@@ -89,6 +91,7 @@ class Config:
     mesh_size: float = 1.0
     parameters: dict[str, float] = field(default_factory=dict)
     reference: dict | None = None  # the [reference] table, checked by app.references
+    scene: Scene | None = None  # geometry: [mesh], [[body]] shapes and curves, [points]
     compliance: str = "auto"  # analysis.compliance: auto | schur | solve
     warm_start: bool = True  # analysis.warm_start: Lemke starts from the last basis
     candidate_pairs: bool = True  # analysis.candidate_pairs: LCP over the pairs near contact
@@ -155,6 +158,8 @@ def _history(t: dict, where: str, n_steps: int) -> np.ndarray:
 
 
 KNOWN_TOP = set(ALLOWED_KEYS["top"])
+MAX_STEPS = 100_000
+"""Most load steps a config may ask for (each writes a step file)."""
 
 
 def evaluate(value: float | str, x: np.ndarray, y: np.ndarray, params: dict[str, float],
@@ -218,6 +223,9 @@ def parse_config(raw: dict[str, Any], path: Path | str = "<config>") -> Config:
     n_steps = an.get("steps", 1)
     if isinstance(n_steps, bool) or not isinstance(n_steps, int) or n_steps < 1:
         raise InputError(f"analysis.steps must be an integer >= 1 (got {n_steps!r})")
+    if n_steps > MAX_STEPS:
+        raise InputError(f"analysis.steps = {n_steps} is above {MAX_STEPS}: each step is "
+                         "solved and written; use fewer steps")
     if an.get("compliance", "auto") not in ("auto", "schur", "solve"):
         raise InputError(f"analysis.compliance = {an['compliance']!r}: use 'auto', 'schur' "
                          "or 'solve'")
@@ -234,9 +242,10 @@ def parse_config(raw: dict[str, Any], path: Path | str = "<config>") -> Config:
         if isinstance(r, dict):
             check_keys(r, "mesh.refine", f"mesh.refine[{i}].")
             _check_refine_lengths(r, f"mesh.refine[{i}]")
-    if "size" not in mesh:
+    if "size" not in mesh and mesh.get("file") is None:
         raise InputError("missing key mesh.size (the global element size)")
-    mesh_size = _num(mesh["size"], "mesh.size", positive=True)
+    # a ready mesh (mesh.file) needs no size; 1.0 keeps --mesh-size ratios defined
+    mesh_size = _num(mesh.get("size", 1.0), "mesh.size", positive=True)
 
     bodies = _tables(raw, "body")
     if not bodies:
@@ -302,6 +311,9 @@ def parse_config(raw: dict[str, Any], path: Path | str = "<config>") -> Config:
     interfaces = []
     for i, it in enumerate(_tables(raw, "interface")):
         nm = it.get("name", f"interface{i + 1}")
+        if not isinstance(nm, str) or not nm.strip():
+            raise InputError(f"interface #{i + 1}: name must be a non-empty string "
+                             f"(got {nm!r})")
         where = f"interface '{nm}'"
         check_keys(it, "interface", where)
         for k in ("slave", "master"):
@@ -328,12 +340,20 @@ def parse_config(raw: dict[str, Any], path: Path | str = "<config>") -> Config:
         if not isinstance(interference, bool):
             raise InputError(f"{where}: interference must be true or false")
         _check_interface_bodies(raw, nm, it["slave"], it["master"], interfaces)
+        disc = it.get("discretisation")  # None: the registry default (app.contact)
+        if disc is not None and (not isinstance(disc, str) or not disc):
+            raise InputError(f"{where}: discretisation must be a name (got {disc!r})")
         interfaces.append(Interface(nm, it["slave"], it["master"], mu, c if bonded else 0.0,
-                                    a if bonded else 0.0, bonded, sdist, ptol, interference))
+                                    a if bonded else 0.0, bonded, sdist, ptol, interference,
+                                    disc))
 
     reference = raw.get("reference")
     if isinstance(reference, dict):
         check_keys(reference, "reference", "reference.")
+        kind = reference.get("type")
+        if kind not in REFERENCES:
+            raise InputError(f"reference.type = {kind!r}: use one of "
+                             f"{', '.join(REFERENCES)}{suggestion(str(kind), REFERENCES)}")
     petsc = _table(raw, "petsc", "")
     petsc_opts = {}
     for k, v in petsc.items():
@@ -346,7 +366,8 @@ def parse_config(raw: dict[str, Any], path: Path | str = "<config>") -> Config:
         n_steps=n_steps, body_names=names, E=np.array(E), nu=np.array(nu),
         body_force=np.array(bf).reshape(-1, 2), supports=supports, loads=loads,
         interfaces=interfaces, petsc=petsc_opts, mesh_size=mesh_size, parameters=params,
-        reference=_reference_table(raw), compliance=an.get("compliance", "auto"),
+        reference=_reference_table(raw), scene=parse_scene(raw),
+        compliance=an.get("compliance", "auto"),
         warm_start=an.get("warm_start", True),
         candidate_pairs=an.get("candidate_pairs", True),
     )
@@ -417,8 +438,10 @@ def apply_overrides(raw: dict[str, Any], overrides: list[str]) -> dict[str, Any]
 def load_config(path: str | Path, overrides: list[str] | None = None) -> Config:
     """Read and check a TOML scene file; `overrides` are `--set KEY=VALUE` strings."""
     p = Path(path)
-    if not p.is_file():
+    if not p.exists():
         raise InputError(f"config file '{p}' does not exist")
+    if not p.is_file():
+        raise InputError(f"config file '{p}' is not a regular file")
     try:
         with p.open("rb") as fh:
             raw = tomllib.load(fh)

@@ -6,10 +6,8 @@ distributed; the contact LCP is solved on rank 0 and its result broadcast.
 
 from __future__ import annotations
 
-import resource
 import sys
 import time
-from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -36,6 +34,7 @@ from app.condensation.compliance import (
     request_schur,
 )
 from app.config import Config
+from app.contact.discretisation import contact_discretisation
 from app.discretisation.bulk import (
     Discretisation,
     check_elements,
@@ -46,8 +45,20 @@ from app.discretisation.methods import bulk_method
 from app.errors import InputError, SolveError
 from app.interface.setup import ContactSetup, floating_modes, mismatch
 from app.mesh.model import Mesh
+from app.output.progress import step_line
+from app.output.provenance import provenance
+from app.output.reactions import ReactionProbe, support_owner, unique_names
+from app.output.status import (
+    RunGuard,
+    arm_signals,
+    check_finite,
+    hold_signals,
+    on_failure,
+    release_signals,
+)
 from app.output.summary import write_summary as write_summary_file
-from app.output.xdmf import ResultWriter
+from app.output.xdmf import ResultWriter, restore_steps
+from app.parallel import Timer, collective, from_numpy, to_numpy_all
 from app.references import ContactProfile, RunFigures, reference
 
 
@@ -62,105 +73,8 @@ class RunOptions:
     quiet: bool = False
     mesh_cache: Path | None = None
     progress_prefix: str = ""  # e.g. "level 2/5 CS-FEM-4SD" in a study
-
-
-@dataclass
-class Timer:
-    """Wall-clock seconds per phase (max over ranks is reported) and PETSc log stages."""
-
-    seconds: dict[str, float] = field(default_factory=dict)
-    peak_mb: dict[str, float] = field(default_factory=dict)
-    quiet: bool = False
-    prefix: str = ""
-    start: float = field(default_factory=time.perf_counter)
-    _stages: dict = field(default_factory=dict)
-
-    @contextmanager
-    def phase(self, name: str):
-        t0 = time.perf_counter()  # the barriers count too: all of a run is in some phase
-        comm = PETSc.COMM_WORLD
-        if name not in self._stages:
-            self._stages[name] = PETSc.Log.Stage(name)
-        stage = self._stages[name]
-        stage.push()
-        comm.barrier()  # a phase's time includes waiting for the slowest rank
-        try:
-            yield
-        finally:
-            self.peak_mb[name] = peak_rss_mb()
-            comm.barrier()
-            stage.pop()
-            dt = time.perf_counter() - t0
-            self.seconds[name] = self.seconds.get(name, 0.0) + dt
-            if not self.quiet and comm.getRank() == 0:
-                el = time.perf_counter() - self.start
-                print(f"[{el:8.2f} s] {self.prefix}{name:<14s} {dt:8.3f} s", file=sys.stderr,
-                      flush=True)
-
-    def reduced(self) -> dict[str, float]:
-        comm = PETSc.COMM_WORLD.tompi4py()
-        out = {}
-        for k in sorted(self.seconds):
-            out[k] = comm.allreduce(self.seconds[k], op=_mpi_max())
-        return out
-
-    def memory(self) -> dict[str, float]:
-        """Peak resident memory (MB) of the whole job, summed over ranks, at the end of
-        each phase's first completion order (a running maximum)."""
-        comm = PETSc.COMM_WORLD.tompi4py()
-        return {k: round(comm.allreduce(v), 1) for k, v in sorted(self.peak_mb.items())}
-
-
-def peak_rss_mb() -> float:
-    """Peak resident memory of this process (MB): VmHWM from /proc/self/status, which
-    stays cheap under load (getrusage took milliseconds a call on a busy machine)."""
-    try:
-        with open("/proc/self/status") as fh:
-            for line in fh:
-                if line.startswith("VmHWM:"):
-                    return int(line.split()[1]) / 1024.0
-    except OSError:
-        pass
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
-
-
-def _mpi_max():
-    from mpi4py import MPI
-
-    return MPI.MAX
-
-
-def collective(fn, *args, **kwargs):
-    """Run fn on rank 0 and broadcast its result, or its InputError/SolveError, to all."""
-    comm = PETSc.COMM_WORLD.tompi4py()
-    result, error = None, None
-    if comm.rank == 0:
-        try:
-            result = fn(*args, **kwargs)
-        except (InputError, SolveError) as exc:
-            error = exc
-    result, error = comm.bcast((result, error), root=0)
-    if error is not None:
-        raise error
-    return result
-
-
-def to_numpy_all(vec: PETSc.Vec) -> np.ndarray:
-    """A copy of a distributed vector on every rank."""
-    scatter, seq = PETSc.Scatter.toAll(vec)
-    scatter.scatter(vec, seq, addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
-    out = seq.getArray().copy()
-    scatter.destroy()
-    seq.destroy()
-    return out
-
-
-def from_numpy(template: PETSc.Mat, values: np.ndarray) -> PETSc.Vec:
-    """A distributed vector with this rank's slice of a global numpy array."""
-    v = template.createVecLeft()
-    r0, r1 = v.getOwnershipRange()
-    v.setArray(values[r0:r1])
-    return v
+    overrides: list[str] = field(default_factory=list)  # the --set strings (provenance)
+    refine: int = 0  # uniform splits of the (scaled) config mesh, see app/mesh/refine.py
 
 
 def make_discretisation(cfg: Config, opts: RunOptions) -> Discretisation:
@@ -176,8 +90,12 @@ def build_scene_mesh(cfg: Config, opts: RunOptions) -> Mesh:
     from app.mesh.build import build_mesh
     from app.mesh.checks import check_scene
 
-    mesh = build_mesh(cfg.raw, scale=opts.mesh_scale, cache_dir=opts.mesh_cache,
+    mesh = build_mesh(cfg.scene, scale=opts.mesh_scale, cache_dir=opts.mesh_cache,
                       base_dir=cfg.path.parent)
+    if opts.refine:
+        from app.mesh.refine import refine_mesh, scene_arcs
+
+        mesh = refine_mesh(mesh, opts.refine, scene_arcs(cfg.scene))
     check_elements(mesh)
     check_scene(mesh, cfg.interfaces)
     return mesh
@@ -196,8 +114,11 @@ class LoadCase:
 def load_cases(mesh: Mesh, cfg: Config) -> list[LoadCase]:
     n2 = 2 * mesh.n_nodes
     cases = []
+    names = unique_names([f"load:{ld.on}" for ld in cfg.loads]
+                         + [f"support:{s.on}" for s in cfg.supports])
+    names = dict(zip([id(x) for x in cfg.loads + cfg.supports], names, strict=True))
     for ld in cfg.loads:
-        cases.append(LoadCase(f"load:{ld.on}", ld.history, load_vector(mesh, cfg, ld),
+        cases.append(LoadCase(names[id(ld)], ld.history, load_vector(mesh, cfg, ld),
                               np.zeros(n2)))
     bf = body_force_vector(mesh, cfg)
     if np.any(bf):
@@ -207,7 +128,7 @@ def load_cases(mesh: Mesh, cfg: Config) -> list[LoadCase]:
         if np.any(vals):
             ud = np.zeros(n2)
             ud[dofs] = vals
-            cases.append(LoadCase(f"support:{s.on}", s.history, np.zeros(n2), ud))
+            cases.append(LoadCase(names[id(s)], s.history, np.zeros(n2), ud))
     return cases
 
 
@@ -223,22 +144,39 @@ def write_summary(out: Path, summary: dict) -> None:
 
 
 def run(cfg: Config, opts: RunOptions) -> dict:
-    """Run a scene; returns the summary (also written to OUT/summary.json on rank 0)."""
+    """Run a scene; returns the summary (also written to OUT/summary.json on rank 0).
+
+    Every exit leaves OUT/summary.json with status completed, failed or interrupted
+    (see app/output/status.py); a second run into the same OUT is refused.
+    """
+    set_default_options(cfg.petsc)
+    summary = {"config": str(cfg.path), "n_steps": cfg.n_steps, "steps": [],
+               "status": "running",
+               "provenance": collective(provenance, cfg.raw, opts.overrides,
+                                        PETSc.COMM_WORLD.getSize())}
+    # inf and NaN from overflowing inputs are caught per step by check_finite
+    with RunGuard(Path(opts.out), summary, write_summary, cfg.n_steps), \
+            np.errstate(over="ignore", invalid="ignore"):
+        return _run(cfg, opts, summary)
+
+
+def _run(cfg: Config, opts: RunOptions, summary: dict) -> dict:
     comm = PETSc.COMM_WORLD
     mpi = comm.tompi4py()
     rank, size = comm.getRank(), comm.getSize()
     timer = Timer(quiet=opts.quiet,
                   prefix=f"{opts.progress_prefix}: " if opts.progress_prefix else "")
-    set_default_options(cfg.petsc)
     disc = make_discretisation(cfg, opts)
+    for itf in cfg.interfaces:  # the contact discretisations, checked before any meshing
+        contact_discretisation(itf.discretisation, f"interface '{itf.name}'")
     out = Path(opts.out)
-    if rank == 0:
-        out.mkdir(parents=True, exist_ok=True)
 
     with timer.phase("mesh"):
         mesh = collective(build_scene_mesh, cfg, opts)
+        arm_signals()  # gmsh.finalize() put back the default SIGTERM action
+        _mesh_quality(mesh, summary, opts.quiet or rank != 0)
     n_dofs = 2 * mesh.n_nodes
-    summary = {
+    summary.update({
         "config": str(cfg.path),
         "method": disc.method,
         "sd": disc.sd if disc.bulk.sd_choices else None,
@@ -253,7 +191,7 @@ def run(cfg: Config, opts: RunOptions) -> dict:
         "n_steps": cfg.n_steps,
         "steps": [],
         "status": "running",
-    }
+    })
     for name in cfg.body_names:
         if name not in mesh.body_names:
             raise InputError(f"body '{name}' has no elements in the mesh")
@@ -271,6 +209,10 @@ def run(cfg: Config, opts: RunOptions) -> dict:
         floating = floating_modes(mesh, cfg, fixed, contact, disc)
         pins = floating.pins if floating else np.zeros(0, dtype=np.int64)
         fixed_all = np.union1d(fixed, pins)
+    with timer.phase("setup"):
+        warnings = _prescribed_load_warnings(cases, fixed, rank)
+        if warnings:
+            summary["warnings"] = summary.get("warnings", []) + warnings
 
     with timer.phase("assembly"):
         k = assemble_stiffness(mesh, disc, comm)
@@ -284,6 +226,7 @@ def run(cfg: Config, opts: RunOptions) -> dict:
                 prescribed_rhs.append(to_numpy_all(kud))
             else:
                 prescribed_rhs.append(None)
+        probe = ReactionProbe(k, fixed)
         apply_dirichlet(k, fixed_all)
 
     with timer.phase("factorization"):
@@ -329,7 +272,11 @@ def run(cfg: Config, opts: RunOptions) -> dict:
             (mesh.quads[:, 0] >= own[rank]) & (mesh.quads[:, 0] < own[rank + 1])
         )
         writer = ResultWriter(out, mesh.points, mesh.quads, mesh.body) if rank == 0 else None
+        if writer is not None:  # files and summary.json agree after any failure
+            on_failure(lambda: restore_steps(writer, len(summary["steps"])))
     last_contact = None
+    with timer.phase("setup"):
+        reactions = _reaction_setup(mesh, cfg, cases, probe)
     for step in range(cfg.n_steps):
         t_step = time.perf_counter()
         with timer.phase("recovery"):  # superposition of the unit solutions
@@ -351,8 +298,10 @@ def run(cfg: Config, opts: RunOptions) -> dict:
                     "no step completed"
                 held = "" if floating is None else (
                     "; held only by contact: " + ", ".join(floating.names))
-                reason = (f"no static equilibrium at step {step + 1}: Lemke ended on a "
-                          f"{result['status']} ({result['message']}{held}); {done}")
+                head = ("no static equilibrium"
+                        if result["status"] in ("secondary ray", "unbalanced load")
+                        else "the contact problem could not be solved")
+                reason = f"{head} at step {step + 1}: {result['message']}{held}; {done}"
                 summary["error"] = reason
                 if rank == 0:
                     write_summary(out, summary)
@@ -395,18 +344,23 @@ def run(cfg: Config, opts: RunOptions) -> dict:
                 contact_data = contact.output_data(result, u, mesh)
                 step_info["kkt"] = contact_data.pop("_kkt")
                 last_contact = contact_data
+                _add_interface_forces(step_info, contact_data, cfg)
+            step_info.update(reactions(step, u, None if contact is None else
+                                       contact.g.T @ result["lam"]))
             fields = element_fields(mesh, disc, u, my_elements)
             gathered = mpi.gather((my_elements, fields), root=0)
             energy_by_body = np.bincount(mesh.body[my_elements], weights=fields["energy"],
                                          minlength=len(mesh.body_names))
             energy_by_body = mpi.allreduce(energy_by_body)
             energy_total = float(energy_by_body.sum())
+            check_finite(step + 1, cfg.n_steps, u, energy_total)
+            hold_signals()  # the step's files and summary.json are written together
             if rank == 0:
                 cell = _assemble_cell_fields(mesh, gathered)
                 disp = np.zeros((mesh.n_nodes, 3))
                 disp[:, :2] = u.reshape(-1, 2)
                 writer.write_step(step + 1, float(step + 1), {"displacement": disp}, cell,
-                                  contact_data)
+                                  contact_data, load_factors=step_info["load_factor"])
             step_info["step_seconds"] = time.perf_counter() - t_step
             step_info["elapsed_seconds"] = time.perf_counter() - timer.start
             step_info["strain_energy"] = energy_total
@@ -418,6 +372,10 @@ def run(cfg: Config, opts: RunOptions) -> dict:
             summary["timings"] = timer.reduced()
             if rank == 0:
                 write_summary(out, summary)
+                if not opts.quiet:
+                    print(step_line(step_info, cfg.n_steps, timer.prefix), file=sys.stderr,
+                          flush=True)
+        release_signals()
 
     with timer.phase("reference"):
         summary["point_values"] = _point_values(mesh, u)
@@ -434,6 +392,64 @@ def run(cfg: Config, opts: RunOptions) -> dict:
     if rank == 0:
         write_summary(out, summary)
     return summary
+
+
+def _mesh_quality(mesh: Mesh, summary: dict, quiet: bool) -> None:
+    """Degenerate or non-convex elements are an error; else one line and summary.json."""
+    from app.mesh.quality import mesh_quality, quality_line
+
+    summary["mesh_quality"] = mesh_quality(mesh)
+    if not quiet:
+        print(quality_line(summary["mesh_quality"]), file=sys.stderr, flush=True)
+
+
+def _prescribed_load_warnings(cases: list[LoadCase], fixed: np.ndarray, rank: int) -> list[str]:
+    """Loads acting on prescribed DOFs go straight into the support reaction: say so."""
+    out = []
+    for case in cases:
+        on_fixed = case.rhs[fixed]
+        if np.any(on_fixed):
+            out.append(f"{case.name}: {np.count_nonzero(on_fixed)} of its nodal forces act on "
+                       f"prescribed DOFs (sum {np.abs(on_fixed).sum():.4g}) and are taken by "
+                       "the supports, not by the bodies; see steps[k].reactions")
+    if rank == 0:
+        for w in out:
+            print(f"warning: {w}", file=sys.stderr)
+    return out
+
+
+def _reaction_setup(mesh: Mesh, cfg: Config, cases: list[LoadCase], probe: ReactionProbe):
+    """A function (step, u, contact nodal forces) -> {"reactions", "balance"} for steps[k]."""
+    from app.output.reactions import body_extents, step_reactions
+
+    names = unique_names([f"support:{s.on}" for s in cfg.supports])
+    owner = support_owner([support_dofs(mesh, s, cfg.parameters)[0] for s in cfg.supports],
+                          2 * mesh.n_nodes)
+    node_body = mesh.node_body()
+    extents = body_extents(mesh.points, node_body, len(mesh.body_names))
+    largest = [0.0]  # the largest force scale of the steps so far (balance floor)
+
+    def at_step(step: int, u: np.ndarray, contact_force: np.ndarray | None) -> dict:
+        applied = np.zeros_like(u)
+        body = np.zeros_like(u)
+        for c in cases:
+            target = body if c.name == "body_force" else applied
+            target += c.history[step] * c.rhs
+        r = step_reactions(probe, u, applied, body, contact_force, owner, names, mesh.points,
+                           node_body, mesh.body_names, to_numpy_all, extents, largest[0])
+        largest[0] = max(largest[0], r["balance"]["force_scale"])
+        return {"reactions": r["supports"], "balance": r["balance"]}
+
+    return at_step
+
+
+def _add_interface_forces(step_info: dict, contact_data: dict, cfg: Config) -> None:
+    """Resultant force vectors (global axes) into steps[k].interfaces.<name>.force."""
+    from app.output.reactions import interface_resultants
+
+    res = interface_resultants(contact_data, [i.name for i in cfg.interfaces])
+    for name, val in res.items():
+        step_info.setdefault("interfaces", {}).setdefault(name, {}).update(val)
 
 
 def reference_errors(cfg: Config, disc: Discretisation, summary: dict, mesh: Mesh,

@@ -68,8 +68,8 @@ def test_candidate_pairs_give_the_full_lcp_answer(tmp_path, path):
             diff = float(np.abs(x[key] - y[key]).max(initial=0.0))
             assert diff <= REL * scale, (k + 1, key, diff / scale)
     if path.stem == "cattaneo_many":  # most pairs stay open: the LCP is much smaller
-        assert a["steps"][-1]["lcp_size"] < b["steps"][-1]["lcp_size"] / 4
-        assert a["steps"][-1]["lcp_size_full"] == b["steps"][-1]["lcp_size"]
+        assert a["steps"][-1]["lcp_size_solved"] < b["steps"][-1]["lcp_size_solved"] / 4
+        assert a["steps"][-1]["lcp_size"] == b["steps"][-1]["lcp_size_solved"]
 
 
 def _strip(m: int, seed: int = 0):
@@ -100,3 +100,28 @@ def test_a_pair_that_would_penetrate_joins_and_the_answer_is_the_full_one():
         ref = getattr(full, key)
         np.testing.assert_allclose(getattr(sol, key), ref, rtol=0,
                                    atol=REL * np.abs(ref).max())
+
+
+def test_huge_friction_coefficient_gives_full_stick(tmp_path):
+    """mu = 1e9 on the patch test: full stick is an equilibrium and is found."""
+    path = CONFIGS / "patch.toml"
+    raw = tomllib.loads(path.read_text())
+    apply_overrides(raw, ["interface.interface.mu=1e9"])
+    s = run(parse_config(raw, path), RunOptions(out=tmp_path / "o", quiet=True))
+    assert s["status"] == "completed"
+    for st in s["steps"]:
+        states = st["states"]
+        assert states["slip+"] == states["slip-"] == 0, states
+        assert st["lcp_residual"] < 1e-9
+
+
+def test_failure_message_names_lemke_outcome(tmp_path):
+    path = CONFIGS / "hard" / "squeezed.toml"
+    raw = tomllib.loads(path.read_text())
+    apply_overrides(raw, ["load.0.total_force=[5.0, 0.0]"])
+    with pytest.raises(SolveError) as err:
+        run(parse_config(raw, path), RunOptions(out=tmp_path / "o", quiet=True))
+    text = str(err.value)
+    assert text.startswith("no static equilibrium at step 5: Lemke ended with 'secondary ray': ")
+    assert "on a inaccurate" not in text and "(inaccurate" not in text
+    assert "\n" not in text

@@ -147,13 +147,18 @@ def test_singular_stiffness_is_reported(tmp_path):
     res = run_cli(["run", str(cfg), "--out", str(tmp_path / "o"), "--quiet"])
     assert res.returncode == 2 and "hourglass" in res.stderr and "--sd 2" in res.stderr
     assert "in body 'plate'" in res.stderr
+    failed = json.loads((tmp_path / "o" / "summary.json").read_text())
+    assert failed["status"] == "failed" and "hourglass" in failed["error"]
     res = run_cli(["run", str(cfg), "--out", str(tmp_path / "o"), "--quiet", "--sd", "2"])
     assert res.returncode == 0, res.stderr
     free = _write(tmp_path, text.replace('on = "roller"', 'on = "pin"'))
     res = run_cli(["run", str(free), "--out", str(tmp_path / "o"), "--quiet", "--sd", "2"])
     assert res.returncode == 2 and "body 'plate' is free to move" in res.stderr
     assert "rotation about (x=0" in res.stderr
-    assert json.loads((tmp_path / "o" / "summary.json").read_text())["status"] == "completed"
+    # the failed run's own status, not the earlier completed run's
+    failed = json.loads((tmp_path / "o" / "summary.json").read_text())
+    assert failed["status"] == "failed" and "free to move" in failed["error"]
+    assert not list((tmp_path / "o").glob("step_*.h5"))
 
 
 def test_log_view_shows_the_phases_as_stages(tmp_path):

@@ -17,6 +17,7 @@ from app.errors import InputError
 from app.mesh.checks import check_interface_bodies, check_overlaps, check_quads
 from app.mesh.estimate import check_size, estimate, machine_memory
 from app.mesh.model import Mesh
+from app.scene import parse_scene
 
 PATCH = tomllib.loads((CONFIGS / "patch.toml").read_text())
 HERTZ = tomllib.loads((CONFIGS / "hertz.toml").read_text())
@@ -80,11 +81,16 @@ def test_interface_accepts_discretisation_key():
 @pytest.mark.parametrize(("path", "value", "needle"), [
     (("analysis", "warm_start"), "no", "warm_start must be true or false"),
     (("analysis", "compliance"), "fast", "analysis.compliance"),
+    (("analysis", "steps"), 10**10, "analysis.steps = 10000000000 is above"),
     (("parameters", "x"), 1.0, "parameters.x: the name is reserved"),
     (("parameters", "y"), 1.0, "parameters.y"),
     (("parameters", "sqrt"), 1.0, "parameters.sqrt"),
     (("parameters", "pi"), 3.0, "parameters.pi"),
     (("interface", 0, "master"), "upper_top", "both curves of body 'upper'"),
+    (("reference",), {"type": "hertzz", "radius": 1.0}, "did you mean hertz?"),
+    (("reference",), {"radius": 1.0}, "reference.type = None"),
+    (("interface", 0, "name"), 5, "name must be a non-empty string"),
+    (("interface", 0, "name"), "", "name must be a non-empty string"),
     (("mesh", "refine"), [{"points": [[0.0, 0.0]], "size": 0.1, "distance": 0.1,
                            "flat": 0.5}], "flat = 0.5 is larger than distance = 0.1"),
 ])
@@ -107,8 +113,8 @@ def test_size_estimate_is_within_a_factor_two(name):
     from app.mesh.build import build_mesh
 
     raw = tomllib.loads((CONFIGS / f"{name}.toml").read_text())
-    est = estimate(raw, 1.0)
-    mesh = build_mesh(raw, 1.0)
+    est = estimate(parse_scene(raw), 1.0)
+    mesh = build_mesh(parse_scene(raw), 1.0)
     print(f"{name}: estimated {est.elements:.0f} elements, built {mesh.n_elements} "
           f"(ratio {est.elements / mesh.n_elements:.2f})")
     assert 0.5 <= est.elements / mesh.n_elements <= 2.0, (est.elements, mesh.n_elements)
@@ -118,13 +124,27 @@ def test_size_estimate_is_within_a_factor_two(name):
 def test_too_large_a_mesh_is_refused_quickly_and_allow_large_overrides():
     t0 = time.perf_counter()
     with pytest.raises(InputError) as info:
-        check_size(PATCH, 1e-4 / PATCH["mesh"]["size"])
+        check_size(parse_scene(PATCH), 1e-4 / PATCH["mesh"]["size"])
     assert time.perf_counter() - t0 < 1.0
     msg = str(info.value)
     assert "elements" in msg and "DOFs" in msg and "GB" in msg and "--allow-large" in msg
-    est = check_size(PATCH, 1e-4 / PATCH["mesh"]["size"], allow_large=True)
+    est = check_size(parse_scene(PATCH), 1e-4 / PATCH["mesh"]["size"], allow_large=True)
     assert est.memory > machine_memory()
-    assert check_size(PATCH, 1.0).elements == pytest.approx(82)
+    assert check_size(parse_scene(PATCH), 1.0).elements == pytest.approx(82)
+
+
+
+@pytest.mark.parametrize("scale", [1e-200, 1e-320, 0.0, 2.0**-1999])
+@pytest.mark.parametrize("raw", [PATCH, HERTZ], ids=["structured", "refined"])
+def test_underflowing_sizes_are_refused_not_a_traceback(raw, scale):
+    with pytest.raises(InputError, match="unbounded|more than this machine"):
+        check_size(parse_scene(raw), scale)
+
+
+def test_structured_divisions_count_in_the_estimate():
+    raw = _with(PATCH, ("body", 0, "shape", "divisions"), [100000, 100000])
+    with pytest.raises(InputError, match="about 1e\\+10 elements"):
+        check_size(parse_scene(raw), 1.0)
 
 
 # ----------------------------------------------------------------------------- meshes
@@ -154,6 +174,14 @@ def test_degenerate_quads_are_errors(points, quad, needle):
     with pytest.raises(InputError) as info:
         check_quads(_mesh(pts, quads))
     assert needle in str(info.value) and "body 'a'" in str(info.value)
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf, -1e31])
+def test_non_finite_or_huge_coordinates_are_errors(bad):
+    pts = np.array(SQUARE, float)
+    pts[2, 1] = bad
+    with pytest.raises(InputError, match="non-finite or huge coordinates"):
+        check_quads(_mesh(pts, [[0, 1, 2, 3]]))
 
 
 def test_good_quads_pass():
@@ -197,3 +225,23 @@ def test_overlapping_bodies_in_a_scene_are_refused_after_meshing():
     raw = _with(PATCH, ("body", 1, "shape", "origin"), [2.0, 0.0])  # side by side
     del raw["interface"]
     build_scene_mesh(parse_config(raw, CONFIGS / "patch.toml"), RunOptions())
+
+
+@pytest.mark.parametrize(("path", "value", "needle"), [
+    (("body", 0, "shape", "widht"), 2.0, "did you mean width?"),
+    (("body", 0, "shape", "orign"), [0.0, 0.0], "did you mean origin?"),
+    (("body", 0, "curves", "tpo"), "x", "did you mean top?"),
+])
+def test_shape_keys_and_sides_suggest_the_closest(path, value, needle):
+    from app.scene import parse_scene
+
+    with pytest.raises(InputError, match=needle.replace("?", "\\?")):
+        parse_scene(_with(PATCH, path, value))
+
+
+@pytest.mark.parametrize(("key", "value"), [("width", 2.5e-231), ("height", 1e-12)])
+def test_degenerate_shapes_are_errors(key, value):
+    from app.scene import parse_scene
+
+    with pytest.raises(InputError, match="shape is degenerate"):
+        parse_scene(_with(PATCH, ("body", 0, "shape", key), value))

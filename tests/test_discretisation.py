@@ -125,7 +125,9 @@ def test_body_force_and_traction_vectors_sum_to_resultants():
 
     mesh = distorted_grid(4, 3)
     raw = {"mesh": {"size": 0.25}, "analysis": {"thickness": 0.5},
-           "body": [{"name": "plate", "E": 1.0, "nu": 0.3, "body_force": [2.0, -9.81]}]}
+           "body": [{"name": "plate", "E": 1.0, "nu": 0.3, "body_force": [2.0, -9.81],
+                     "shape": {"type": "rectangle", "origin": [0.0, 0.0], "width": 1.0,
+                               "height": 1.0}}]}
     cfg = parse_config(raw)
     f = body_force_vector(mesh, cfg)
     assert f[0::2].sum() == pytest.approx(2.0 * 1.0 * 0.5)

@@ -8,6 +8,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from support import CONFIGS, ROOT, run_cli
 
 from app.config import parse_config
@@ -189,3 +191,46 @@ def test_no_eval_or_exec_in_the_application():
         for node in ast.walk(ast.parse(Path(path).read_text())):
             if isinstance(node, ast.Call) and isinstance(node.func, ast.Name):
                 assert node.func.id not in banned, f"{path}: {node.func.id}()"
+
+
+TOKENS = ["x", "y", "P", "a", "pi", "e", "1", "2.5", "9", "1e308", "0", "+", "-", "*", "/",
+          "**", "(", ")", ",", "sin", "exp", "log", "sqrt", "arctan2", "hypot", "[", "]", ".",
+          "__class__", "'s'", "lambda", ":", "for", "in", "if", "else", "<", "%", "//", " "]
+
+
+@settings(max_examples=400, deadline=None)
+@given(st.lists(st.sampled_from(TOKENS), min_size=1, max_size=25))
+def test_random_token_strings_give_finite_arrays_or_input_errors(tokens):
+    text = " ".join(tokens)
+    try:
+        out = parse_expression(text, "support #1 (base): ux", PARAMS).evaluate(X, Y)
+    except InputError as exc:
+        assert "\n" not in str(exc) and str(exc).startswith("support #1 (base): ux: ")
+        return
+    assert out.shape == X.shape and out.dtype == np.float64 and np.all(np.isfinite(out))
+
+
+LEAVES = st.sampled_from(["x", "y", "P", "a", "pi", "e", "0", "1", "9", "1e308", "2.5", "-3"])
+EXPRESSIONS = st.recursive(LEAVES, lambda inner: st.one_of(
+    st.tuples(inner, st.sampled_from(["+", "-", "*", "/", "**"]), inner).map(
+        lambda t: f"({t[0]} {t[1]} {t[2]})"),
+    inner.map(lambda t: f"-{t}"),
+    st.tuples(st.sampled_from([f for f, (_, n) in FUNCTIONS.items() if n == 1]), inner).map(
+        lambda t: f"{t[0]}({t[1]})"),
+    st.tuples(st.sampled_from([f for f, (_, n) in FUNCTIONS.items() if n == 2]), inner,
+              inner).map(lambda t: f"{t[0]}({t[1]}, {t[2]})"),
+), max_leaves=12)
+
+
+@settings(max_examples=400, deadline=None)
+@given(EXPRESSIONS)
+def test_random_well_formed_expressions_are_finite_or_input_errors(text):
+    t0 = time.perf_counter()
+    try:
+        out = parse_expression(text, "load #1: traction", PARAMS).evaluate(X, Y)
+    except InputError as exc:
+        msg = str(exc)
+        assert "\n" not in msg and ("infinite" in msg or "undefined" in msg), msg
+    else:
+        assert out.shape == X.shape and np.all(np.isfinite(out))
+    assert time.perf_counter() - t0 < 0.5

@@ -13,6 +13,8 @@ from app.lcp import STATUSES, LCPResult, default_max_pivots, lemke
 from app.lcp.lemke import _lemke_tableau
 
 LM = importlib.import_module("app.lcp.lemke")  # the module (app.lcp.lemke is the function)
+PIV = importlib.import_module("app.lcp.pivoting")  # the pivoting rules of both cores
+REV = importlib.import_module("app.lcp.revised")  # the revised core and its knobs
 
 
 # --------------------------------------------------------------------------------------
@@ -243,10 +245,10 @@ def test_degenerate_q_zeros_ties_and_duplicate_rows():
 def test_degenerate_warm_start_follows_the_lexicographic_path(M, q, B):
     # ties here are broken by the rows of B^-1 B0 (B0 = warm-start basis), not of B^-1
     M, q, B = np.array(M), np.array(q), np.array(B, dtype=bool)
-    res = lemke(M, q, basis=B)
+    res = lemke(M, q, basis=B, crash=False)
     assert_solution(M, q, res)
     assert res.warm_start == "lemke"
-    _agree(res, _lemke_tableau(M, q, basis=B))
+    _agree(res, _lemke_tableau(M, q, basis=B, crash=False))
 
 
 def test_fully_degenerate_all_ties():
@@ -295,7 +297,7 @@ def test_lexicographic_rule_prevents_cycling(monkeypatch, case):
     # the same problem with a naive tie-break (first or last tied row) cycles
     outcomes = []
     for naive in (lambda V: 0, lambda V: V.shape[0] - 1):
-        monkeypatch.setattr(LM, "_lexmin", naive)
+        monkeypatch.setattr(PIV, "_lexmin", naive)
         outcomes.append(lemke(M, q, max_pivots=200, crash=False).status)
     assert "pivot limit" in outcomes
 
@@ -344,7 +346,7 @@ def _agree(a: LCPResult, b: LCPResult) -> None:
 )
 def test_revised_matches_tableau_reference(monkeypatch, knobs):
     for name, value in knobs.items():
-        monkeypatch.setattr(LM, name, value)
+        monkeypatch.setattr(REV, name, value)
     rng = np.random.default_rng(42)
     refactorizations = pivots = 0
     for trial in range(24):
@@ -399,7 +401,7 @@ def test_warm_start_fewer_pivots_when_active_set_changes():
     rng = np.random.default_rng(0)
     q2 = q.copy()
     q2[:m] += 2e-3 * rng.standard_normal(m)  # next load step: gaps change a little
-    warm = lemke(M, q2, basis=cold.basis)
+    warm = lemke(M, q2, basis=cold.basis, crash=False)
     cold2 = lemke(M, q2, crash=False)
     assert_solution(M, q2, warm)
     assert_solution(M, q2, cold2)
@@ -450,7 +452,7 @@ def test_mixed_units_give_the_same_solution():
 
 
 def test_a_wrong_candidate_is_never_reported_solved(monkeypatch):
-    M = np.array([[2.0, 1.0], [1.0, 2.0]])
+    M = np.array([[2.0, 1.0], [0.5, 2.0]])  # not symmetric: no basis repair
     q = np.array([-1.0, 1.0])  # solution z = (0.5, 0)
 
     def wrong_core(M, q, d, B0, max_pivots):
@@ -479,9 +481,9 @@ def test_warm_start_without_cold_fallback():
                   [-3.79, 3.87, -1.78, 1.18, 16.3]])
     q = np.array([0.35, -0.59, -0.35, -0.5, 2.11])
     bad = np.array([True, False, True, True, True])
-    r = lemke(M, q, basis=bad, cold_start=False)
+    r = lemke(M, q, basis=bad, cold_start=False, crash=False)
     assert r.status == "warm start failed" and r.warm_start == "failed" and not r.ok
-    full = lemke(M, q, basis=bad)
+    full = lemke(M, q, basis=bad, crash=False)
     assert full.ok and full.warm_start == "cold" and full.pivots > r.pivots
     w = M @ full.z + q
     assert full.z.min() >= 0 and w.min() >= -1e-12 and abs(full.z @ w) < 1e-12
@@ -566,3 +568,55 @@ def test_bordered_block_solve_matches_a_direct_solve():
     expect = np.zeros(40)
     expect[idx] = np.linalg.solve(Ms.dense()[np.ix_(idx, idx)], -qs[idx])
     np.testing.assert_allclose(z, expect, rtol=1e-10, atol=1e-12)
+
+
+def near_duplicate_lcp(seed: int, kernel: str, load: str):
+    """50 frictionless contacts on a line, 10 of them 1e-5 from another: a smooth SPD
+    compliance kernel, condition number 1e10 to 1e12, unique solution."""
+    rng = np.random.default_rng(seed)
+    x = np.linspace(-1.0, 1.0, 40)
+    x = np.sort(np.concatenate([x, x[rng.choice(40, 10, replace=False)] + 1e-5]))
+    d = np.abs(x[:, None] - x[None, :])
+    M = np.exp(-d / 0.3) * (1 + d / 0.3) if kernel == "matern" else 1 / np.sqrt(1 + (d / 0.1)**2)
+    q = -np.ones(50) if load == "flat" else 0.5 * x**2 - 0.3
+    return M, q
+
+
+@pytest.mark.parametrize("kernel", ["matern", "imq"])
+@pytest.mark.parametrize("load", ["flat", "parabolic"])
+def test_near_duplicate_contacts_are_solved(kernel, load):
+    """Before the basis repair, 17 of these 32 LCPs ended 'inaccurate' (numerically singular
+    basis, failed check) or on a false secondary ray with the textbook start."""
+    for seed in range(8):
+        M, q = near_duplicate_lcp(seed, kernel, load)
+        assert np.linalg.cond(M) > 1e10
+        for crash in (False, True):
+            res = lemke(M, q, crash=crash)
+            assert res.ok, (seed, crash, res.message)
+            assert res.residual <= 1e-9
+            rows = np.abs(q) + np.abs(M) @ res.z  # size of the terms of each w_i
+            np.testing.assert_allclose(res.w, M @ res.z + q, rtol=0, atol=1e-14 * rows.max())
+            assert res.z.min() >= 0 and (res.w >= -1e-9 * rows).all()
+            assert (np.abs(res.w[res.z > 0]) <= 1e-9 * rows[res.z > 0]).all()
+
+
+def test_a_symmetric_lcp_without_solution_still_ends_on_a_secondary_ray():
+    M = np.array([[1.0, -1.0], [-1.0, 1.0]])  # PSD, singular
+    q = np.array([-1.0, -1.0])  # z1 - z2 >= 1 and z2 - z1 >= 1: infeasible
+    res = lemke(M, q)
+    assert res.status == "secondary ray" and not res.ok
+
+
+def test_block_pivoting_from_a_warm_basis():
+    """A warm basis that is a few indices off: block pivoting from it finds the answer
+    without a Lemke pivot; the answer is the cold one."""
+    M, q = contact_lcp(60, seed=3)
+    m = q.size // 3
+    cold = lemke(M, q, crash=False)
+    q2 = q.copy()
+    q2[:m] += 2e-3 * np.random.default_rng(0).standard_normal(m)
+    res = lemke(M, q2, basis=cold.basis)
+    assert_solution(M, q2, res)
+    assert res.warm_start == "crash" and res.pivots == 0
+    ref = lemke(M, q2, crash=False)
+    np.testing.assert_allclose(res.z, ref.z, rtol=0, atol=1e-9 * np.abs(ref.z).max())

@@ -30,7 +30,7 @@ def candidate_pairs(configured: bool) -> bool:
     return bool(PETSc.Options().getBool("contact_candidate_pairs", configured))
 
 
-MARGIN = 0.5
+MARGIN = 0.1
 """Pairs whose free gap is below MARGIN x the deepest free penetration are candidates."""
 
 
@@ -162,4 +162,4 @@ class CandidateLCP:
             basis[m + fr] = splus[slipping] > 0
             basis[m + self.mf + fr] = sminus[slipping] > 0
         return ContactSolution(p, q, gap, tau, splus, sminus, s.alpha, s.pivots, s.status,
-                               basis, s.residual)
+                               basis, s.residual, s.message)

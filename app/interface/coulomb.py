@@ -51,6 +51,7 @@ class ContactSolution:
     status: str
     basis: np.ndarray | None
     residual: float = 0.0  # Lemke's relative check residual (scaled LCP)
+    message: str = ""  # Lemke's own summary of the solve
 
 
 DEPENDENT_REL = 1e-10
@@ -230,4 +231,4 @@ class ContactLCP:
         if self.r:
             tau = tau + self.tm_all @ alpha
         return ContactSolution(p, q, gap, tau, splus, sminus, alpha, res.pivots, res.status,
-                               res.basis, res.residual)
+                               res.basis, res.residual, res.message)

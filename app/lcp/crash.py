@@ -169,18 +169,18 @@ class _BlockSolver:
 
 
 def crash_basis(Ms: ScaledM, qs: np.ndarray, twin: np.ndarray | None = None,
-                max_iterations: int = MAX_ITERATIONS
+                max_iterations: int = MAX_ITERATIONS, start: np.ndarray | None = None
                 ) -> tuple[np.ndarray, int, np.ndarray | None]:
     """Guessed active set (n,) bool by block principal pivoting, the iterations used, and
     z~ on that set (one residual correction applied) when the iteration converged.
 
     Starts from Z = {i : q~_i < 0, i not a twin} (for contact: every pair sticks). Returns
     the set with the fewest infeasible indices met (the exact answer's set when the
-    iteration converged).
+    iteration converged). start: another first set (e.g. a warm-start basis).
     """
     n = qs.size
     twin = find_twins(Ms) if twin is None else twin
-    Z = (qs < 0) & (twin < 0)
+    Z = (qs < 0) & (twin < 0) if start is None else _untwin(start.copy(), start, qs, twin)
     solver = _BlockSolver(Ms, qs)
     best, best_bad = Z.copy(), n + 1
     for it in range(1, max_iterations + 1):

@@ -16,6 +16,7 @@ from scipy.spatial import cKDTree
 
 from app.errors import InputError
 from app.mesh.model import Mesh
+from app.scene.geometry import MAX_COORDINATE
 
 CORNER_TOL = 1e-10
 """Smallest accepted corner cross product relative to the product of its edge lengths
@@ -36,6 +37,13 @@ def corner_sines(points: np.ndarray, quads: np.ndarray) -> np.ndarray:
 
 def check_quads(mesh: Mesh) -> None:
     """InputError naming the body and place of the first degenerate or non-convex quad."""
+    used = np.unique(mesh.quads)
+    bad_xy = ~np.all(np.isfinite(mesh.points[used]), axis=1) | np.any(
+        np.abs(mesh.points[used]) > MAX_COORDINATE, axis=1)
+    if bad_xy.any():
+        n = int(used[np.argmax(bad_xy)])
+        raise InputError(f"{bad_xy.sum()} mesh node(s) have non-finite or huge coordinates "
+                         f"(first: node {n} at {mesh.points[n].tolist()}): fix the mesh")
     s = corner_sines(mesh.points, mesh.quads)
     repeated = np.zeros(len(mesh.quads), dtype=bool)
     q = np.sort(mesh.quads, axis=1)

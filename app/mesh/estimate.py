@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from app.errors import InputError
-from app.mesh.build import BodySpec, Refine, parse_scene
+from app.scene import BodySpec, Refine, Scene
 
 BYTES_PER_DOF = 4000.0
 """Peak memory per DOF of a run with MUMPS LU (the Hertz scene at 1.12 M DOFs needed
@@ -36,6 +36,8 @@ class SizeEstimate:
     memory: float
 
     def text(self) -> str:
+        if not math.isfinite(self.memory):
+            return "an unbounded number of elements (the element sizes underflow)"
         return (f"about {self.elements:.2g} elements, {self.dofs:.2g} DOFs and "
                 f"{self.memory / 1e9:.3g} GB")
 
@@ -98,37 +100,45 @@ def _refined(spec: BodySpec, r: Refine, bodies: list[BodySpec], h: float, scale:
     return min(n, area / s**2)
 
 
-def estimate(raw: dict, scale: float = 1.0) -> SizeEstimate | None:
-    """Estimated size of the mesh a config builds at this size scale; None for mesh.file."""
-    mesh = raw.get("mesh")
-    if isinstance(mesh, dict) and mesh.get("file") is not None:
+def estimate(scene: Scene, scale: float = 1.0) -> SizeEstimate | None:
+    """Estimated size of the mesh a scene builds at this size scale; None for mesh.file."""
+    if scene.file is not None:
         return None
-    scene = parse_scene(raw)
-    elements = 0.0
-    for spec in scene.bodies:
-        h = spec.size * scale
-        if spec.structured:
-            if "divisions" in spec.shape:
-                nx, ny = (max(1.0, k / scale) for k in spec.shape["divisions"])
-            else:
-                nx = max(1.0, spec.shape["width"] / h)
-                ny = max(1.0, spec.shape["height"] / h)
-            elements += nx * ny
-            continue
-        area = body_area(spec)
-        elements += area / h**2
-        elements += sum(_refined(spec, r, scene.bodies, h, scale, area) for r in scene.refine)
+    with np.errstate(all="ignore"):  # a tiny scale gives inf, which is refused
+        elements = float(sum(_body_elements(spec, scene, np.float64(scale))
+                             for spec in scene.bodies))
+    if not math.isfinite(elements):  # inf, or nan from inf - inf
+        elements = math.inf
     dofs = 2.0 * elements
     return SizeEstimate(elements, dofs, BYTES_PER_DOF * dofs)
 
 
-def check_size(raw: dict, scale: float = 1.0, *, allow_large: bool = False,
+def _body_elements(spec: BodySpec, scene, scale: np.float64) -> float:
+    """Estimated elements of one body (inf when the sizes underflow)."""
+    h = spec.size * scale
+    if not h > 0:
+        return math.inf
+    if spec.structured:
+        if "divisions" in spec.shape:
+            nx, ny = (max(1.0, k / scale) for k in spec.shape["divisions"])
+        else:
+            nx = max(1.0, spec.shape["width"] / h)
+            ny = max(1.0, spec.shape["height"] / h)
+        return nx * ny
+    area = body_area(spec)
+    if any(not r.size * scale > 0 for r in scene.refine):
+        return math.inf
+    return area / h**2 + sum(_refined(spec, r, scene.bodies, h, scale, area)
+                             for r in scene.refine)
+
+
+def check_size(scene: Scene, scale: float = 1.0, *, allow_large: bool = False,
                option: str = "--allow-large") -> SizeEstimate | None:
     """Refuse (InputError, one line) a run whose estimated memory exceeds this machine's."""
-    est = estimate(raw, scale)
+    est = estimate(scene, scale)
     available = machine_memory()
     if est is not None and not allow_large and est.memory > available:
-        raise InputError(f"the mesh would have {est.text()} of memory, more than this "
-                         f"machine's {available / 1e9:.3g} GB: use a larger --mesh-size or "
+        raise InputError(f"the run would need {est.text()}, more than this machine's "
+                         f"{available / 1e9:.3g} GB of memory: use a larger --mesh-size or "
                          f"mesh.size, or {option} to run anyway")
     return est

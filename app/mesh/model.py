@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from app.errors import InputError
+from app.scene.geometry import polygon_areas
 
 
 @dataclass
@@ -51,12 +52,6 @@ class Mesh:
         """Sorted unique node indices of a named curve."""
         return np.unique(self.curves[name])
 
-
-
-def polygon_areas(xy: np.ndarray) -> np.ndarray:
-    """Signed (shoelace) areas of polygons xy (..., k, 2); positive when counter-clockwise."""
-    x, y = xy[..., 0], xy[..., 1]
-    return 0.5 * np.sum(x * np.roll(y, -1, axis=-1) - np.roll(x, -1, axis=-1) * y, axis=-1)
 
 
 def orient_ccw(points: np.ndarray, quads: np.ndarray) -> np.ndarray:

@@ -117,3 +117,9 @@ def length_value(d: dict, key: str, where: str) -> float:
     if v > MAX_COORDINATE:
         raise InputError(f"{where}{key} = {v:g} is above {MAX_COORDINATE:g}: check the units")
     return v
+
+
+def polygon_areas(xy: np.ndarray) -> np.ndarray:
+    """Signed (shoelace) areas of polygons xy (..., k, 2); positive when counter-clockwise."""
+    x, y = xy[..., 0], xy[..., 1]
+    return 0.5 * np.sum(x * np.roll(y, -1, axis=-1) - np.roll(x, -1, axis=-1) * y, axis=-1)

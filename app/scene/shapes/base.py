@@ -6,7 +6,7 @@ from abc import ABC, abstractmethod
 
 import numpy as np
 
-from app.mesh.geometry import Piece
+from app.scene.geometry import Piece
 
 
 class Shape(ABC):

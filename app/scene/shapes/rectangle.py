@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 
 from app.errors import InputError
-from app.mesh.geometry import Piece, length_value, xy_point
-from app.mesh.shapes.base import Shape
+from app.scene.geometry import Piece, length_value, xy_point
+from app.scene.shapes.base import Shape
 
 
 class Rectangle(Shape):

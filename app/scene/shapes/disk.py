@@ -7,8 +7,8 @@ import math
 import numpy as np
 
 from app.errors import InputError
-from app.mesh.geometry import Piece, arc_pieces, length_value, xy_point
-from app.mesh.shapes.base import Shape
+from app.scene.geometry import Piece, arc_pieces, length_value, xy_point
+from app.scene.shapes.base import Shape
 
 
 def center_radius(shape: dict, where: str) -> tuple[np.ndarray, float]:

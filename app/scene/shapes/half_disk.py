@@ -8,9 +8,9 @@ import math
 import numpy as np
 
 from app.errors import InputError
-from app.mesh.geometry import Piece, arc_pieces
-from app.mesh.shapes.base import Shape
-from app.mesh.shapes.disk import center_radius, inside_circle
+from app.scene.geometry import Piece, arc_pieces
+from app.scene.shapes.base import Shape
+from app.scene.shapes.disk import center_radius, inside_circle
 
 HALF_DISK_START = {"upper": 0.0, "left": 0.5 * math.pi, "lower": math.pi, "right": 1.5 * math.pi}
 """Angle (rad) where the arc of each kept half starts, counter-clockwise."""

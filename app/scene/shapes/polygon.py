@@ -5,9 +5,8 @@ from __future__ import annotations
 import numpy as np
 
 from app.errors import InputError
-from app.mesh.geometry import Piece, xy_point
-from app.mesh.model import polygon_areas
-from app.mesh.shapes.base import Shape
+from app.scene.geometry import Piece, polygon_areas, xy_point
+from app.scene.shapes.base import Shape
 
 
 class Polygon(Shape):
