@@ -50,8 +50,8 @@ def main() -> None:
         shutil.rmtree(out, ignore_errors=True)
     steps = s["steps"]
     step_s = [st["step_seconds"] for st in steps]
-    ends = [st["elapsed_seconds"] for st in steps]
-    wall = [b - a for a, b in zip(ends[:-1], ends[1:], strict=True)]  # steps 2..n
+    ends = [st.get("elapsed_seconds", 0.0) for st in steps]  # absent before this script
+    wall = [b - a for a, b in zip(ends[:-1], ends[1:], strict=True)] or [0.0]  # steps 2..n
     t = s["timings"]
     phases = sum(v for k, v in t.items() if k != "total")
     first, last = statistics.fmean(step_s[:w]), statistics.fmean(step_s[-w:])
@@ -63,7 +63,7 @@ def main() -> None:
         "step_seconds_median_last_over_first": round(
             statistics.median(step_s[-w:]) / statistics.median(step_s[:w]), 3),
         "wall_per_step_first_mean": round(wfirst, 5), "wall_per_step_last_mean": round(wlast, 5),
-        "wall_per_step_last_over_first": round(wlast / wfirst, 3),
+        "wall_per_step_last_over_first": round(wlast / wfirst, 3) if wfirst else None,
         "file_bytes": sizes, "total_s": round(t["total"], 2),
         "phases_over_total": round(phases / t["total"], 4),
     }), flush=True)
