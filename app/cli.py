@@ -10,6 +10,8 @@ import argparse
 import sys
 from pathlib import Path
 
+from app.discretisation.methods import BULK_METHODS
+
 DESCRIPTION = """\
 2D multi-body elastic contact with CS-FEM (1/2/3/4/8/16 smoothing domains per element) or
 FEM-Q4 on quadrilateral meshes, PETSc/MUMPS condensation onto the contact DOFs, and the
@@ -29,6 +31,10 @@ SET_HELP = ("override a config value (repeatable): a dotted key, entries of [[..
             "--set body.block.nu=0.499 --set analysis.steps=100")
 
 
+ALLOW_LARGE_HELP = ("run even when the mesh estimated from the geometry and element sizes "
+                    "needs more memory than this machine has (refused otherwise)")
+
+
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="python -m app", description=DESCRIPTION,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -38,9 +44,9 @@ def _parser() -> argparse.ArgumentParser:
                        "OUT/contact.xdmf (if any contact), step_*.h5 and summary.json. "
                        "Unknown options go to PETSc.")
     r.add_argument("config", type=Path, help="scene file, e.g. configs/cantilever.toml")
-    r.add_argument("--out", type=Path, default=None,
+    r.add_argument("--out", default=None,
                    help="output folder (default: out/<config name>)")
-    r.add_argument("--method", choices=["cs-fem", "fem-q4"], default=None,
+    r.add_argument("--method", choices=list(BULK_METHODS), default=None,
                    help="bulk discretisation (default: the config's analysis.method)")
     r.add_argument("--sd", type=int, default=None,
                    help="smoothing domains per element for cs-fem: 1, 2, 3, 4, 8 or 16")
@@ -49,6 +55,7 @@ def _parser() -> argparse.ArgumentParser:
                    "H / mesh.size")
     r.add_argument("--mesh-cache", type=Path, default=None,
                    help="folder where built meshes are cached and reused")
+    r.add_argument("--allow-large", action="store_true", help=ALLOW_LARGE_HELP)
     r.add_argument("--refine", type=int, default=0, metavar="N",
                    help="split every quad of the (gmsh) mesh into four, N times (nested, "
                    "O(n); mid nodes on arcs go on the circle): N=4 gives 256x the elements")
@@ -76,6 +83,7 @@ def _parser() -> argparse.ArgumentParser:
                    help="comma list of 1, 2, 3, 4, 8, 16 (CS-FEM SD) and q4 (FEM-Q4)")
     s.add_argument("--mesh-size", type=float, default=None, metavar="H",
                    help="global element size at level 0 (default: the config's mesh.size)")
+    s.add_argument("--allow-large", action="store_true", help=ALLOW_LARGE_HELP)
     s.add_argument("--remesh", action="store_true",
                    help="mesh every level with gmsh (sizes scaled by 2^-level) instead of "
                    "splitting the level-0 mesh uniformly (the default: nested, O(n))")
@@ -92,7 +100,7 @@ def _parser() -> argparse.ArgumentParser:
                    "(default 0: the last; negative counts back from the last)")
     s.add_argument("--refine", type=int, default=0, metavar="N",
                    help="with --sweep: uniform splits of the config mesh (as run --refine)")
-    s.add_argument("--out", type=Path, default=None, help="default: out/study_<config>")
+    s.add_argument("--out", default=None, help="default: out/study_<config>")
     s.add_argument("--quiet", action="store_true", help="no progress lines")
     s.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help=SET_HELP)
     return p
@@ -113,6 +121,9 @@ def main(argv: list[str] | None = None) -> int:
 
     from app.config import load_config
     from app.errors import InputError, SolveError
+    from app.output.progress import final_line
+    from app.output.status import RunInterrupted
+    from app.petsc_options import petsc_error_line
     from app.run import RunOptions, run
 
     rank = PETSc.COMM_WORLD.getRank()
@@ -123,10 +134,9 @@ def main(argv: list[str] | None = None) -> int:
             cfg = load_config(args.config, args.set)
             if args.levels < 1 or args.first_level < 0:
                 raise InputError("--levels must be >= 1 and --first-level >= 0")
-            if args.mesh_size is not None and args.mesh_size <= 0:
-                raise InputError(f"--mesh-size must be > 0 (got {args.mesh_size})")
-            scale = args.mesh_size / cfg.mesh_size if args.mesh_size else 1.0
-            out = args.out or Path("out") / f"study_{args.config.stem}"
+            finest = args.refine if args.sweep else args.first_level + args.levels - 1
+            scale = check_run_input(cfg, args, finest)
+            out = output_folder(args.out, Path("out") / f"study_{args.config.stem}")
             if args.sweep:
                 from app.sweep import parse_sweeps, run_sweep
 
@@ -145,26 +155,39 @@ def main(argv: list[str] | None = None) -> int:
             if rank == 0:
                 print(f"error: {exc}", file=sys.stderr)
             return 2
+        except RunInterrupted as exc:
+            if rank == 0:
+                print(f"error: {exc}", file=sys.stderr)
+            return exc.exit_code
+        except PETSc.Error as exc:
+            if rank == 0:
+                print(f"error: PETSc: {petsc_error_line(exc)}", file=sys.stderr)
+            return 2
+        if not rows:
+            if rank == 0:
+                print(f"error: every run of the study failed (see the lines above and "
+                      f"{out}/*/summary.json)", file=sys.stderr)
+            return 2
         if rank == 0 and not args.quiet:
             print(f"{len(rows)} runs -> {out / 'study.csv'}", file=sys.stderr)
         return 0
     try:
         cfg = load_config(args.config, args.set)
-        if args.mesh_size is not None and args.mesh_size <= 0:
-            raise InputError(f"--mesh-size must be > 0 (got {args.mesh_size})")
-        opts = RunOptions(
-            out=args.out or Path("out") / args.config.stem,
-            method=args.method,
-            sd=args.sd,
-            mesh_scale=(args.mesh_size / cfg.mesh_size) if args.mesh_size else 1.0,
-            quiet=args.quiet,
-            mesh_cache=args.mesh_cache,
-            refine=args.refine,
-        )
         if not 0 <= args.refine <= 8:
             raise InputError(f"--refine must be 0..8 (got {args.refine})")
-        if opts.method == "fem-q4" and args.sd is not None:
-            raise InputError("--sd applies to --method cs-fem only")
+        scale = check_run_input(cfg, args, args.refine)
+        opts = RunOptions(
+            out=output_folder(args.out, Path("out") / args.config.stem),
+            method=args.method,
+            sd=args.sd,
+            mesh_scale=scale,
+            quiet=args.quiet,
+            mesh_cache=args.mesh_cache,
+            overrides=list(args.set),
+            refine=args.refine,
+        )
+        if opts.method and args.sd is not None and not BULK_METHODS[opts.method].sd_choices:
+            raise InputError(f"--sd does not apply to --method {opts.method}")
         summary = run(cfg, opts)
         if args.energy_bracket:
             from app.bracket import add_energy_bracket
@@ -174,11 +197,25 @@ def main(argv: list[str] | None = None) -> int:
         if rank == 0:
             print(f"error: {exc}", file=sys.stderr)
         return 2
+    except RunInterrupted as exc:
+        if rank == 0:
+            if exc.summary is not None and not args.quiet:
+                print(final_line(exc.summary, opts.out), file=sys.stderr)
+            print(f"error: {exc}", file=sys.stderr)
+        return exc.exit_code
+    except PETSc.Error as exc:
+        if rank == 0:
+            print(f"error: PETSc: {petsc_error_line(exc)}", file=sys.stderr)
+        return 2
+    unused = warn_unused_options(cfg, petsc_args, rank)
+    if unused:
+        from app.run import write_summary
+
+        summary["petsc_options_unused"] = unused
+        if rank == 0:
+            write_summary(opts.out, summary)
     if rank == 0 and not args.quiet:
-        t = summary["timings"]
-        print(f"{summary['label']}: {summary['n_dofs']} DOFs, {summary['n_elements']} "
-              f"elements, strain energy {summary['strain_energy']:.10g}, total "
-              f"{t['total']:.2f} s -> {opts.out}", file=sys.stderr)
+        print(final_line(summary, opts.out), file=sys.stderr)
         b = summary.get("energy_bracket")
         if b:
             print(f"energy bracket: {b['error']}" if "error" in b else
@@ -186,3 +223,65 @@ def main(argv: list[str] | None = None) -> int:
                   f"{b['upper']:.10g} ({b['upper_method']}), width {b['width_rel']:.3e} "
                   "relative", file=sys.stderr)
     return 0
+
+
+def check_run_input(cfg, args, finest_level: int = 0) -> float:
+    """Checks of the command line against the config before any work; returns the mesh
+    size scale (--mesh-size / mesh.size). Raises InputError (one line)."""
+    from app.errors import InputError
+    from app.mesh.estimate import check_size
+    from app.petsc_options import check_solver_options
+
+    check_solver_options(cfg.petsc)
+    file = cfg.scene.file
+    if args.mesh_size is not None:
+        if not args.mesh_size > 0 or args.mesh_size == float("inf"):
+            raise InputError(f"--mesh-size must be a number > 0 (got {args.mesh_size})")
+        if file is not None:
+            raise InputError(f"--mesh-size does not apply to a mesh read from mesh.file "
+                             f"({file}): refine that mesh in gmsh instead")
+    cache = getattr(args, "mesh_cache", None)
+    if cache is not None:
+        if file is not None:
+            raise InputError("--mesh-cache does not apply to a mesh read from mesh.file")
+        output_folder(str(cache), cache, what="--mesh-cache")
+    scale = args.mesh_size / cfg.mesh_size if args.mesh_size else 1.0
+    check_size(cfg.scene, scale * 2.0**-finest_level, allow_large=args.allow_large)
+    return scale
+
+
+def output_folder(text: str | None, default: Path, what: str = "--out") -> Path:
+    """The folder `text` (or `default` when None), created and checked writable."""
+    import os
+    import tempfile
+
+    from app.errors import InputError
+
+    if text is not None and not str(text).strip():
+        raise InputError(f"{what} is empty: give a folder name")
+    path = Path(text) if text is not None else default
+    if path.exists() and not path.is_dir():
+        raise InputError(f"{what} {path} exists and is not a folder")
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+        fd, probe = tempfile.mkstemp(prefix=".write_test_", dir=path)
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as exc:
+        raise InputError(f"{what} {path}: cannot write there ({exc.strerror or exc})") from None
+    return path
+
+
+def warn_unused_options(cfg, petsc_args: list[str], rank: int) -> list[str]:
+    """Print the user's PETSc options that nothing used (like -options_left) on stderr."""
+    from app.petsc_options import unused_options
+
+    user = {a.lstrip("-") for a in petsc_args if a.startswith("-") and len(a) > 1
+            and not a[1:2].isdigit() and not a.startswith("-.")}
+    if cfg is not None:
+        user |= set(cfg.petsc)
+    unused = unused_options(user)
+    if unused and rank == 0:
+        print(f"warning: PETSc options not used (misspelled?): {' '.join(unused)}",
+              file=sys.stderr)
+    return unused

@@ -6,11 +6,8 @@ distributed; the contact LCP is solved on rank 0 and its result broadcast.
 
 from __future__ import annotations
 
-import json
-import resource
 import sys
 import time
-from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -23,20 +20,46 @@ from app.assembly.loads import (
     load_vector,
     support_dofs,
 )
-from app.assembly.solve import LinearSolver, apply_dirichlet, set_default_options
+from app.assembly.solve import (
+    LinearSolver,
+    SingularStiffnessError,
+    apply_dirichlet,
+    set_default_options,
+)
 from app.assembly.stiffness import assemble_stiffness, node_ownership
-from app.condensation.compliance import compliance_schur, compliance_solve
+from app.condensation.compliance import (
+    attach_schur,
+    compliance_from_factor,
+    compliance_solve,
+    request_schur,
+)
 from app.config import Config
+from app.contact.discretisation import contact_discretisation
 from app.discretisation.bulk import (
     Discretisation,
     check_elements,
     element_fields,
     zero_energy_modes,
 )
+from app.discretisation.methods import bulk_method
 from app.errors import InputError, SolveError
 from app.interface.setup import ContactSetup, floating_modes, mismatch
 from app.mesh.model import Mesh
-from app.output.xdmf import ResultWriter, atomic_write_text
+from app.output.progress import step_line
+from app.output.provenance import provenance
+from app.output.reactions import ReactionProbe, support_owner, unique_names
+from app.output.status import (
+    RunGuard,
+    arm_signals,
+    check_finite,
+    hold_signals,
+    on_failure,
+    release_signals,
+)
+from app.output.summary import write_summary as write_summary_file
+from app.output.xdmf import ResultWriter, restore_steps
+from app.parallel import Timer, collective, from_numpy, to_numpy_all
+from app.references import ContactProfile, RunFigures, reference
 
 
 @dataclass
@@ -50,117 +73,31 @@ class RunOptions:
     quiet: bool = False
     mesh_cache: Path | None = None
     progress_prefix: str = ""  # e.g. "level 2/5 CS-FEM-4SD" in a study
+    overrides: list[str] = field(default_factory=list)  # the --set strings (provenance)
     refine: int = 0  # uniform splits of the (scaled) config mesh, see app/mesh/refine.py
 
 
-@dataclass
-class Timer:
-    """Wall-clock seconds per phase (max over ranks is reported) and PETSc log stages."""
-
-    seconds: dict[str, float] = field(default_factory=dict)
-    peak_mb: dict[str, float] = field(default_factory=dict)
-    quiet: bool = False
-    prefix: str = ""
-    start: float = field(default_factory=time.perf_counter)
-    _stages: dict = field(default_factory=dict)
-
-    @contextmanager
-    def phase(self, name: str):
-        comm = PETSc.COMM_WORLD
-        if name not in self._stages:
-            self._stages[name] = PETSc.Log.Stage(name)
-        stage = self._stages[name]
-        stage.push()
-        comm.barrier()  # a phase's time includes waiting for the slowest rank
-        t0 = time.perf_counter()
-        try:
-            yield
-        finally:
-            comm.barrier()
-            stage.pop()
-            dt = time.perf_counter() - t0
-            self.seconds[name] = self.seconds.get(name, 0.0) + dt
-            self.peak_mb[name] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
-            if not self.quiet and comm.getRank() == 0:
-                el = time.perf_counter() - self.start
-                print(f"[{el:8.2f} s] {self.prefix}{name:<14s} {dt:8.3f} s", file=sys.stderr,
-                      flush=True)
-
-    def reduced(self) -> dict[str, float]:
-        comm = PETSc.COMM_WORLD.tompi4py()
-        out = {}
-        for k in sorted(self.seconds):
-            out[k] = comm.allreduce(self.seconds[k], op=_mpi_max())
-        return out
-
-    def memory(self) -> dict[str, float]:
-        """Peak resident memory (MB) of the whole job, summed over ranks, at the end of
-        each phase's first completion order (a running maximum)."""
-        comm = PETSc.COMM_WORLD.tompi4py()
-        return {k: round(comm.allreduce(v), 1) for k, v in sorted(self.peak_mb.items())}
-
-
-def _mpi_max():
-    from mpi4py import MPI
-
-    return MPI.MAX
-
-
-def collective(fn, *args, **kwargs):
-    """Run fn on rank 0 and broadcast its result, or its InputError/SolveError, to all."""
-    comm = PETSc.COMM_WORLD.tompi4py()
-    result, error = None, None
-    if comm.rank == 0:
-        try:
-            result = fn(*args, **kwargs)
-        except (InputError, SolveError) as exc:
-            error = exc
-    result, error = comm.bcast((result, error), root=0)
-    if error is not None:
-        raise error
-    return result
-
-
-def to_numpy_all(vec: PETSc.Vec) -> np.ndarray:
-    """A copy of a distributed vector on every rank."""
-    scatter, seq = PETSc.Scatter.toAll(vec)
-    scatter.scatter(vec, seq, addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
-    out = seq.getArray().copy()
-    scatter.destroy()
-    seq.destroy()
-    return out
-
-
-def from_numpy(template: PETSc.Mat, values: np.ndarray) -> PETSc.Vec:
-    """A distributed vector with this rank's slice of a global numpy array."""
-    v = template.createVecLeft()
-    r0, r1 = v.getOwnershipRange()
-    v.setArray(values[r0:r1])
-    return v
-
-
 def make_discretisation(cfg: Config, opts: RunOptions) -> Discretisation:
-    method = opts.method or cfg.method
-    sd = opts.sd if opts.sd is not None else cfg.sd
-    if method not in ("cs-fem", "fem-q4"):
-        raise InputError(f"--method {method}: use cs-fem or fem-q4")
-    from app.discretisation.elements import SMOOTHING_DOMAINS
-
-    if method == "cs-fem" and sd not in SMOOTHING_DOMAINS:
-        raise InputError(f"--sd {sd}: choose one of {list(SMOOTHING_DOMAINS)}")
-    return Discretisation(method, sd, cfg.plane, cfg.thickness, cfg.E, cfg.nu)
+    """The bulk method and materials; the method and sd checked against the registry."""
+    method = bulk_method(opts.method or cfg.method,
+                         "--method" if opts.method else "analysis.method")
+    sd = method.check_sd(opts.sd if opts.sd is not None else cfg.sd,
+                         "--sd" if opts.sd is not None else "analysis.sd")
+    return Discretisation(method.name, sd, cfg.plane, cfg.thickness, cfg.E, cfg.nu)
 
 
 def build_scene_mesh(cfg: Config, opts: RunOptions) -> Mesh:
     from app.mesh.build import build_mesh
+    from app.mesh.checks import check_scene
 
-    mesh = build_mesh(cfg.raw, scale=opts.mesh_scale, cache_dir=opts.mesh_cache,
+    mesh = build_mesh(cfg.scene, scale=opts.mesh_scale, cache_dir=opts.mesh_cache,
                       base_dir=cfg.path.parent)
     if opts.refine:
         from app.mesh.refine import refine_mesh, scene_arcs
 
-        mesh = refine_mesh(mesh, opts.refine, scene_arcs(cfg.raw))
+        mesh = refine_mesh(mesh, opts.refine, scene_arcs(cfg.scene))
     check_elements(mesh)
+    check_scene(mesh, cfg.interfaces)
     return mesh
 
 
@@ -177,8 +114,11 @@ class LoadCase:
 def load_cases(mesh: Mesh, cfg: Config) -> list[LoadCase]:
     n2 = 2 * mesh.n_nodes
     cases = []
+    names = unique_names([f"load:{ld.on}" for ld in cfg.loads]
+                         + [f"support:{s.on}" for s in cfg.supports])
+    names = dict(zip([id(x) for x in cfg.loads + cfg.supports], names, strict=True))
     for ld in cfg.loads:
-        cases.append(LoadCase(f"load:{ld.on}", ld.history, load_vector(mesh, cfg, ld),
+        cases.append(LoadCase(names[id(ld)], ld.history, load_vector(mesh, cfg, ld),
                               np.zeros(n2)))
     bf = body_force_vector(mesh, cfg)
     if np.any(bf):
@@ -188,7 +128,7 @@ def load_cases(mesh: Mesh, cfg: Config) -> list[LoadCase]:
         if np.any(vals):
             ud = np.zeros(n2)
             ud[dofs] = vals
-            cases.append(LoadCase(f"support:{s.on}", s.history, np.zeros(n2), ud))
+            cases.append(LoadCase(names[id(s)], s.history, np.zeros(n2), ud))
     return cases
 
 
@@ -199,29 +139,47 @@ MAX_REFINEMENTS = 5
 
 
 def write_summary(out: Path, summary: dict) -> None:
-    atomic_write_text(out / "summary.json", json.dumps(summary, indent=2) + "\n")
+    """OUT/summary.json; later calls for the same run append (app/output/summary.py)."""
+    write_summary_file(out / "summary.json", summary)
 
 
 def run(cfg: Config, opts: RunOptions) -> dict:
-    """Run a scene; returns the summary (also written to OUT/summary.json on rank 0)."""
+    """Run a scene; returns the summary (also written to OUT/summary.json on rank 0).
+
+    Every exit leaves OUT/summary.json with status completed, failed or interrupted
+    (see app/output/status.py); a second run into the same OUT is refused.
+    """
+    set_default_options(cfg.petsc)
+    summary = {"config": str(cfg.path), "n_steps": cfg.n_steps, "steps": [],
+               "status": "running",
+               "provenance": collective(provenance, cfg.raw, opts.overrides,
+                                        PETSc.COMM_WORLD.getSize())}
+    # inf and NaN from overflowing inputs are caught per step by check_finite
+    with RunGuard(Path(opts.out), summary, write_summary, cfg.n_steps), \
+            np.errstate(over="ignore", invalid="ignore"):
+        return _run(cfg, opts, summary)
+
+
+def _run(cfg: Config, opts: RunOptions, summary: dict) -> dict:
     comm = PETSc.COMM_WORLD
     mpi = comm.tompi4py()
     rank, size = comm.getRank(), comm.getSize()
     timer = Timer(quiet=opts.quiet,
                   prefix=f"{opts.progress_prefix}: " if opts.progress_prefix else "")
-    set_default_options(cfg.petsc)
     disc = make_discretisation(cfg, opts)
+    for itf in cfg.interfaces:  # the contact discretisations, checked before any meshing
+        contact_discretisation(itf.discretisation, f"interface '{itf.name}'")
     out = Path(opts.out)
-    if rank == 0:
-        out.mkdir(parents=True, exist_ok=True)
 
     with timer.phase("mesh"):
         mesh = collective(build_scene_mesh, cfg, opts)
+        arm_signals()  # gmsh.finalize() put back the default SIGTERM action
+        _mesh_quality(mesh, summary, opts.quiet or rank != 0)
     n_dofs = 2 * mesh.n_nodes
-    summary = {
+    summary.update({
         "config": str(cfg.path),
         "method": disc.method,
-        "sd": disc.sd if disc.method == "cs-fem" else None,
+        "sd": disc.sd if disc.bulk.sd_choices else None,
         "label": disc.label,
         "plane": disc.plane,
         "ranks": size,
@@ -233,22 +191,28 @@ def run(cfg: Config, opts: RunOptions) -> dict:
         "n_steps": cfg.n_steps,
         "steps": [],
         "status": "running",
-    }
+    })
     for name in cfg.body_names:
         if name not in mesh.body_names:
             raise InputError(f"body '{name}' has no elements in the mesh")
 
     # Checks that need the mesh, before any expensive work.
-    cases = load_cases(mesh, cfg)
-    fixed = constrained_dofs(mesh, cfg)
+    with timer.phase("setup"):
+        cases = load_cases(mesh, cfg)
+        fixed = constrained_dofs(mesh, cfg)
     contact = None
     if cfg.interfaces:
         with timer.phase("pair_search"):
             contact = ContactSetup.build(mesh, cfg)
         summary["n_pairs"] = contact.pairs.n_pairs
-    floating = floating_modes(mesh, cfg, fixed, contact, disc)
-    pins = floating.pins if floating else np.zeros(0, dtype=np.int64)
-    fixed_all = np.union1d(fixed, pins)
+    with timer.phase("floating_modes"):  # with CS-FEM-1SD: the hourglass eigen-solve
+        floating = floating_modes(mesh, cfg, fixed, contact, disc)
+        pins = floating.pins if floating else np.zeros(0, dtype=np.int64)
+        fixed_all = np.union1d(fixed, pins)
+    with timer.phase("setup"):
+        warnings = _prescribed_load_warnings(cases, fixed, rank)
+        if warnings:
+            summary["warnings"] = summary.get("warnings", []) + warnings
 
     with timer.phase("assembly"):
         k = assemble_stiffness(mesh, disc, comm)
@@ -262,14 +226,19 @@ def run(cfg: Config, opts: RunOptions) -> dict:
                 prescribed_rhs.append(to_numpy_all(kud))
             else:
                 prescribed_rhs.append(None)
+        probe = ReactionProbe(k, fixed)
         apply_dirichlet(k, fixed_all)
 
-    solver = LinearSolver(k)
     with timer.phase("factorization"):
+        solver = LinearSolver(k)
+        route = contact.compliance_route(solver) if contact is not None else None
+        schur_dofs = request_schur(solver, contact.g, fixed_all) if route == "schur" else None
         try:
             solver.factor()
-        except SolveError as exc:
+        except SingularStiffnessError as exc:
             raise SolveError(_singular_message(disc, mesh, str(exc), fixed_all)) from None
+        if schur_dofs is not None:  # the one factorization serves compliance and solves
+            attach_schur(solver, k, schur_dofs)
 
     with timer.phase("solve"):
         unit, lifted = [], []
@@ -281,16 +250,15 @@ def run(cfg: Config, opts: RunOptions) -> dict:
             b[fixed_all] = case.prescribed[fixed_all]
             try:
                 x = solver.solve(from_numpy(k, b))
-            except SolveError as exc:
+            except SingularStiffnessError as exc:
                 raise SolveError(_singular_message(disc, mesh, str(exc), fixed_all)) from None
             unit.append(to_numpy_all(x))
 
     stepper = None
     if contact is not None:
         with timer.phase("compliance"):
-            route = contact.compliance_route(solver)
             if route == "schur":
-                c_mat = compliance_schur(k, contact.g, fixed_all)
+                c_mat = compliance_from_factor(solver, contact.g, fixed_all)
             else:
                 c_mat = compliance_solve(solver, k, contact.g, fixed_all, to_numpy_all)
         summary["compliance_route"] = route
@@ -298,17 +266,23 @@ def run(cfg: Config, opts: RunOptions) -> dict:
             stepper = contact.stepper(c_mat, cases, unit, lifted, floating) \
                 if rank == 0 else None
 
-    own = node_ownership(mesh.n_nodes, size)
-    my_elements = np.flatnonzero(
-        (mesh.quads[:, 0] >= own[rank]) & (mesh.quads[:, 0] < own[rank + 1])
-    )
-    writer = ResultWriter(out, mesh.points, mesh.quads, mesh.body) if rank == 0 else None
+    with timer.phase("output"):
+        own = node_ownership(mesh.n_nodes, size)
+        my_elements = np.flatnonzero(
+            (mesh.quads[:, 0] >= own[rank]) & (mesh.quads[:, 0] < own[rank + 1])
+        )
+        writer = ResultWriter(out, mesh.points, mesh.quads, mesh.body) if rank == 0 else None
+        if writer is not None:  # files and summary.json agree after any failure
+            on_failure(lambda: restore_steps(writer, len(summary["steps"])))
     last_contact = None
+    with timer.phase("setup"):
+        reactions = _reaction_setup(mesh, cfg, cases, probe)
     for step in range(cfg.n_steps):
         t_step = time.perf_counter()
-        u = np.zeros(n_dofs)
-        for case, uc in zip(cases, unit, strict=True):
-            u += case.history[step] * uc
+        with timer.phase("recovery"):  # superposition of the unit solutions
+            u = np.zeros(n_dofs)
+            for case, uc in zip(cases, unit, strict=True):
+                u += case.history[step] * uc
         step_info = {"step": step + 1,
                      "load_factor": {c.name: float(c.history[step]) for c in cases}}
         contact_data = None
@@ -324,8 +298,10 @@ def run(cfg: Config, opts: RunOptions) -> dict:
                     "no step completed"
                 held = "" if floating is None else (
                     "; held only by contact: " + ", ".join(floating.names))
-                reason = (f"no static equilibrium at step {step + 1}: Lemke ended on a "
-                          f"{result['status']} ({result['message']}{held}); {done}")
+                head = ("no static equilibrium"
+                        if result["status"] in ("secondary ray", "unbalanced load")
+                        else "the contact problem could not be solved")
+                reason = f"{head} at step {step + 1}: {result['message']}{held}; {done}"
                 summary["error"] = reason
                 if rank == 0:
                     write_summary(out, summary)
@@ -339,14 +315,14 @@ def run(cfg: Config, opts: RunOptions) -> dict:
                                                       to_numpy_all)
                     if floating is not None and floating.r.shape[1]:
                         u += floating.r @ result["alpha"]
-                rel = again = None
-                if rank == 0:
-                    miss = mismatch(contact.g, u, result)
-                    scale = max(np.abs(u).max(initial=0.0), 1e-300)
-                    rel = float(np.abs(miss).max(initial=0.0) / scale)
-                    again = (rel > CONSISTENCY_TOL and refinements < MAX_REFINEMENTS
-                             and rel < 0.5 * previous)
-                again, rel = mpi.bcast((again, rel), root=0)
+                    rel = again = None
+                    if rank == 0:
+                        miss = mismatch(contact.g, u, result)
+                        scale = max(np.abs(u).max(initial=0.0), 1e-300)
+                        rel = float(np.abs(miss).max(initial=0.0) / scale)
+                        again = (rel > CONSISTENCY_TOL and refinements < MAX_REFINEMENTS
+                                 and rel < 0.5 * previous)
+                    again, rel = mpi.bcast((again, rel), root=0)
                 if not again:
                     break
                 previous = rel
@@ -363,38 +339,49 @@ def run(cfg: Config, opts: RunOptions) -> dict:
             result["info"]["consistency_refinements"] = refinements
             result["info"]["lcp_displacement_mismatch"] = rel
             step_info.update(result["info"])
-            if rank == 0:
+        with timer.phase("output"):
+            if contact is not None and rank == 0:
                 contact_data = contact.output_data(result, u, mesh)
                 step_info["kkt"] = contact_data.pop("_kkt")
                 last_contact = contact_data
-        with timer.phase("output"):
+                _add_interface_forces(step_info, contact_data, cfg)
+            step_info.update(reactions(step, u, None if contact is None else
+                                       contact.g.T @ result["lam"]))
             fields = element_fields(mesh, disc, u, my_elements)
             gathered = mpi.gather((my_elements, fields), root=0)
             energy_by_body = np.bincount(mesh.body[my_elements], weights=fields["energy"],
                                          minlength=len(mesh.body_names))
             energy_by_body = mpi.allreduce(energy_by_body)
             energy_total = float(energy_by_body.sum())
+            check_finite(step + 1, cfg.n_steps, u, energy_total)
+            hold_signals()  # the step's files and summary.json are written together
             if rank == 0:
                 cell = _assemble_cell_fields(mesh, gathered)
                 disp = np.zeros((mesh.n_nodes, 3))
                 disp[:, :2] = u.reshape(-1, 2)
                 writer.write_step(step + 1, float(step + 1), {"displacement": disp}, cell,
-                                  contact_data)
-        step_info["step_seconds"] = time.perf_counter() - t_step
-        step_info["strain_energy"] = energy_total
-        step_info["strain_energy_by_body"] = dict(
-            zip(mesh.body_names, map(float, energy_by_body), strict=True))
-        summary["steps"].append(step_info)
-        summary["strain_energy"] = energy_total
-        summary["strain_energy_by_body"] = step_info["strain_energy_by_body"]
-        summary["timings"] = timer.reduced()
-        if rank == 0:
-            write_summary(out, summary)
+                                  contact_data, load_factors=step_info["load_factor"])
+            step_info["step_seconds"] = time.perf_counter() - t_step
+            step_info["elapsed_seconds"] = time.perf_counter() - timer.start
+            step_info["strain_energy"] = energy_total
+            step_info["strain_energy_by_body"] = dict(
+                zip(mesh.body_names, map(float, energy_by_body), strict=True))
+            summary["steps"].append(step_info)
+            summary["strain_energy"] = energy_total
+            summary["strain_energy_by_body"] = step_info["strain_energy_by_body"]
+            summary["timings"] = timer.reduced()
+            if rank == 0:
+                write_summary(out, summary)
+                if not opts.quiet:
+                    print(step_line(step_info, cfg.n_steps, timer.prefix), file=sys.stderr,
+                          flush=True)
+        release_signals()
 
-    summary["point_values"] = _point_values(mesh, u)
-    ref = collective(reference_errors, cfg, disc, summary, mesh, contact, last_contact)
-    if ref:
-        summary["reference"] = ref
+    with timer.phase("reference"):
+        summary["point_values"] = _point_values(mesh, u)
+        ref = collective(reference_errors, cfg, disc, summary, mesh, contact, last_contact)
+        if ref:
+            summary["reference"] = ref
     summary["status"] = "completed"
     timings = timer.reduced()
     timings["total"] = time.perf_counter() - timer.start
@@ -407,64 +394,95 @@ def run(cfg: Config, opts: RunOptions) -> dict:
     return summary
 
 
+def _mesh_quality(mesh: Mesh, summary: dict, quiet: bool) -> None:
+    """Degenerate or non-convex elements are an error; else one line and summary.json."""
+    from app.mesh.quality import mesh_quality, quality_line
+
+    summary["mesh_quality"] = mesh_quality(mesh)
+    if not quiet:
+        print(quality_line(summary["mesh_quality"]), file=sys.stderr, flush=True)
+
+
+def _prescribed_load_warnings(cases: list[LoadCase], fixed: np.ndarray, rank: int) -> list[str]:
+    """Loads acting on prescribed DOFs go straight into the support reaction: say so."""
+    out = []
+    for case in cases:
+        on_fixed = case.rhs[fixed]
+        if np.any(on_fixed):
+            out.append(f"{case.name}: {np.count_nonzero(on_fixed)} of its nodal forces act on "
+                       f"prescribed DOFs (sum {np.abs(on_fixed).sum():.4g}) and are taken by "
+                       "the supports, not by the bodies; see steps[k].reactions")
+    if rank == 0:
+        for w in out:
+            print(f"warning: {w}", file=sys.stderr)
+    return out
+
+
+def _reaction_setup(mesh: Mesh, cfg: Config, cases: list[LoadCase], probe: ReactionProbe):
+    """A function (step, u, contact nodal forces) -> {"reactions", "balance"} for steps[k]."""
+    from app.output.reactions import body_extents, step_reactions
+
+    names = unique_names([f"support:{s.on}" for s in cfg.supports])
+    owner = support_owner([support_dofs(mesh, s, cfg.parameters)[0] for s in cfg.supports],
+                          2 * mesh.n_nodes)
+    node_body = mesh.node_body()
+    extents = body_extents(mesh.points, node_body, len(mesh.body_names))
+    largest = [0.0]  # the largest force scale of the steps so far (balance floor)
+
+    def at_step(step: int, u: np.ndarray, contact_force: np.ndarray | None) -> dict:
+        applied = np.zeros_like(u)
+        body = np.zeros_like(u)
+        for c in cases:
+            target = body if c.name == "body_force" else applied
+            target += c.history[step] * c.rhs
+        r = step_reactions(probe, u, applied, body, contact_force, owner, names, mesh.points,
+                           node_body, mesh.body_names, to_numpy_all, extents, largest[0])
+        largest[0] = max(largest[0], r["balance"]["force_scale"])
+        return {"reactions": r["supports"], "balance": r["balance"]}
+
+    return at_step
+
+
+def _add_interface_forces(step_info: dict, contact_data: dict, cfg: Config) -> None:
+    """Resultant force vectors (global axes) into steps[k].interfaces.<name>.force."""
+    from app.output.reactions import interface_resultants
+
+    res = interface_resultants(contact_data, [i.name for i in cfg.interfaces])
+    for name, val in res.items():
+        step_info.setdefault("interfaces", {}).setdefault(name, {}).update(val)
+
+
 def reference_errors(cfg: Config, disc: Discretisation, summary: dict, mesh: Mesh,
                      contact=None, last_contact: dict | None = None) -> dict | None:
     """Errors against the closed form named in the config's [reference] table (rank 0)."""
-    ref = cfg.raw.get("reference")
-    if not isinstance(ref, dict):
+    if cfg.reference is None:
         return None
-    kind = ref.get("type")
-    if kind in ("hertz", "cattaneo"):
-        from app.closed_form import cattaneo_errors, hertz_errors
-        from app.interface.steps import STICK
+    profile = None
+    if contact is not None and last_contact is not None:
+        profile = _contact_profile(cfg, disc, mesh, contact, last_contact)
+    figures = RunFigures(E=float(disc.E[0]), nu=float(disc.nu[0]), plane=disc.plane,
+                         thickness=disc.thickness, strain_energy=summary["strain_energy"],
+                         point_values=summary["point_values"], contact=profile)
+    return reference(cfg.reference["type"]).compare(cfg.reference, figures)
 
-        if contact is None or last_contact is None:
-            raise InputError(f"[reference] type '{kind}' needs an [[interface]]")
-        try:
-            radius = float(ref["radius"])
-            x0 = float(ref.get("center_x", 0.0))
-        except (KeyError, TypeError, ValueError):
-            raise InputError(f"[reference] type '{kind}' needs radius (and center_x)") from None
-        nb = mesh.node_body()
-        b1 = nb[contact.pairs.slave[0]]
-        b2 = nb[contact.pairs.master[0, 0]]
-        e_star = 1.0 / sum((1 - disc.nu[b] ** 2) / disc.E[b] for b in (b1, b2))
-        if disc.plane == "stress":
-            e_star = 1.0 / sum(1.0 / disc.E[b] for b in (b1, b2))
-        c = last_contact
-        sel = c["interface"] == 0
-        p_force = c["p_force"][sel]
-        total = float(p_force.sum())
-        out = {"type": kind, "interface": cfg.interfaces[0].name}
-        out |= {"hertz": hertz_errors(c["x"][sel], c["p"][sel], c["length"][sel], P=total,
-                                      R=radius, E_star=e_star, x0=x0,
-                                      thickness=disc.thickness)}
-        if kind == "cattaneo":
-            stick = (c["state"][sel] == STICK) & (c["p"][sel] > 0)
-            out["cattaneo"] = cattaneo_errors(
-                c["x"][sel], c["p"][sel], c["q"][sel], c["length"][sel], stick, P=total,
-                Q=float(c["q_force"][sel].sum()), mu=cfg.interfaces[0].mu, R=radius,
-                E_star=e_star, x0=x0, thickness=disc.thickness)
-        return out
-    if kind == "timoshenko":
-        from app.closed_form import timoshenko_cantilever
 
-        try:
-            P, L, D = (float(ref[k]) for k in ("P", "L", "D"))
-            point = summary["point_values"][ref.get("point", "tip")]
-        except (KeyError, TypeError, ValueError) as exc:
-            raise InputError(f"[reference] type 'timoshenko' needs P, L, D and a point "
-                             f"group: {exc}") from None
-        exact = timoshenko_cantilever(L, 0.0, P=P, L=L, D=D, E=float(disc.E[0]),
-                                      nu=float(disc.nu[0]), plane=disc.plane,
-                                      thickness=disc.thickness)
-        tip, u_ex = point["uy"], exact["tip_deflection"]
-        energy, e_ex = summary["strain_energy"], exact["strain_energy"]
-        return {"type": kind, "tip_deflection": tip, "tip_deflection_exact": u_ex,
-                "tip_deflection_rel_error": abs(tip - u_ex) / abs(u_ex),
-                "strain_energy_exact": e_ex,
-                "strain_energy_rel_error": abs(energy - e_ex) / abs(e_ex)}
-    return {"type": kind}
+def _contact_profile(cfg: Config, disc: Discretisation, mesh: Mesh, contact,
+                     data: dict) -> ContactProfile:
+    """The first interface's pairs at the last step, with the bodies' effective modulus."""
+    from app.interface.steps import STICK
+
+    nb = mesh.node_body()
+    bodies = (nb[contact.pairs.slave[0]], nb[contact.pairs.master[0, 0]])
+    if disc.plane == "stress":
+        e_star = 1.0 / sum(1.0 / disc.E[b] for b in bodies)
+    else:
+        e_star = 1.0 / sum((1 - disc.nu[b] ** 2) / disc.E[b] for b in bodies)
+    sel = data["interface"] == 0
+    return ContactProfile(
+        x=data["x"][sel], p=data["p"][sel], q=data["q"][sel], length=data["length"][sel],
+        p_force=data["p_force"][sel], q_force=data["q_force"][sel],
+        stick=(data["state"][sel] == STICK) & (data["p"][sel] > 0),
+        mu=cfg.interfaces[0].mu, E_star=float(e_star), interface=cfg.interfaces[0].name)
 
 
 def _assemble_cell_fields(mesh: Mesh, gathered) -> dict[str, np.ndarray]:
@@ -478,10 +496,6 @@ def _assemble_cell_fields(mesh: Mesh, gathered) -> dict[str, np.ndarray]:
         sed[el] = f["energy_density"]
     return {"stress": stress, "von_mises": vm, "strain_energy_density": sed,
             "body_id": mesh.body.astype(np.int64)}
-
-
-def _centroid(mesh: Mesh, body: int) -> np.ndarray:
-    return mesh.points[np.unique(mesh.quads[mesh.body == body])].mean(axis=0)
 
 
 def _point_values(mesh: Mesh, u: np.ndarray) -> dict:
@@ -504,8 +518,8 @@ def _singular_message(disc: Discretisation, mesh: Mesh, detail: str,
                 if zero_energy_modes(mesh, disc, b, fixed).shape[1] > 0:
                     names.append(f"'{mesh.body_names[b]}'")
     where = f" in body {', '.join(names)}" if names else ""
-    if disc.method == "cs-fem" and disc.sd == 1:
-        return (f"{detail}: CS-FEM-1SD has hourglass (zero-energy) modes{where} that the "
+    if disc.hourglass:
+        return (f"{detail}: {disc.label} has hourglass (zero-energy) modes{where} that the "
                 "supports do not suppress; use --sd 2 or more (hourglass-free smoothing) or "
                 "--method fem-q4")
     return f"{detail}: check that every body is held by supports{where}"

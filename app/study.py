@@ -24,46 +24,47 @@ import numpy as np
 from petsc4py import PETSc
 
 from app.config import Config
+from app.discretisation.methods import BULK_METHODS
 from app.errors import InputError, SolveError
+from app.references import REFERENCES
 from app.run import RunOptions, run
+from app.study_reference import (
+    add_reference_errors,
+    energy_bracket,
+    fitted_rate,
+    plot_bracket,
+    profile,
+    write_tables,
+)
 
-METHOD_NAMES = {"q4": ("fem-q4", 4), "fem-q4": ("fem-q4", 4)}
-
-# error columns reported per reference type: summary path -> column name
-ERRORS = {
-    "timoshenko": [(("tip_deflection_rel_error",), "tip_deflection"),
-                   (("strain_energy_rel_error",), "strain_energy")],
-    "hertz": [(("hertz", "p_max_rel_error"), "peak_pressure"),
-              (("hertz", "half_width_rel_error"), "half_width"),
-              (("hertz", "pressure_l2_rel_error"), "pressure_l2"),
-              (("hertz", "pressure_l2_interp_rel_error"), "pressure_l2_interp")],
-    "cattaneo": [(("hertz", "p_max_rel_error"), "peak_pressure"),
-                 (("hertz", "pressure_l2_rel_error"), "pressure_l2"),
-                 (("hertz", "pressure_l2_interp_rel_error"), "pressure_l2_interp"),
-                 (("cattaneo", "stick_half_width_rel_error"), "stick_zone"),
-                 (("cattaneo", "traction_l2_rel_error"), "traction_l2"),
-                 (("cattaneo", "traction_l2_interp_rel_error"), "traction_l2_interp")],
-}
 PHASES = ("mesh", "assembly", "factorization", "solve", "pair_search", "compliance", "lcp",
           "recovery", "output", "total")
 
 
 def parse_methods(text: str) -> list[tuple[str, int]]:
-    """'1,2,4,q4' -> [("cs-fem", 1), ("cs-fem", 2), ("cs-fem", 4), ("fem-q4", 4)]."""
+    """'1,2,4,q4' -> [("cs-fem", 1), ("cs-fem", 2), ("cs-fem", 4), ("fem-q4", 4)].
+
+    A bare number is a CS-FEM smoothing-domain count; other names come from the
+    bulk-method registry (`BulkMethod.study_names`).
+    """
+    names = {n: (m.name, 4) for m in BULK_METHODS.values() for n in m.study_names}
+    sds = BULK_METHODS["cs-fem"].sd_choices
     out = []
     for item in text.split(","):
         item = item.strip().lower()
-        if item in METHOD_NAMES:
-            out.append(METHOD_NAMES[item])
-        elif item.isdigit() and int(item) in (1, 2, 3, 4, 8, 16):
+        if item in names:
+            out.append(names[item])
+        elif item.isdigit() and int(item) in sds:
             out.append(("cs-fem", int(item)))
         else:
-            raise InputError(f"--methods: '{item}' is not one of 1, 2, 3, 4, 8, 16, q4")
+            choices = ", ".join([*map(str, sds), *names])
+            raise InputError(f"--methods: '{item}' is not one of {choices}")
     return out
 
 
 def label(method: str, sd: int) -> str:
-    return "FEM-Q4" if method == "fem-q4" else f"{sd}SD"
+    """The study's short label, e.g. "4SD" or "FEM-Q4"."""
+    return BULK_METHODS[method].short(sd)
 
 
 def run_study(cfg: Config, out: Path, levels: int, methods: list[tuple[str, int]],
@@ -74,19 +75,11 @@ def run_study(cfg: Config, out: Path, levels: int, methods: list[tuple[str, int]
     reference: label of the method whose finest level is the model reference (default
     4SD if run, else the last method). Raises SolveError if every run fails.
     """
-    from app.study_reference import (
-        add_reference_errors,
-        energy_bracket,
-        plot_bracket,
-        profile,
-        write_tables,
-    )
-
     rank = PETSc.COMM_WORLD.getRank()
-    kind = (cfg.raw.get("reference") or {}).get("type")
-    if kind not in ERRORS:
+    if cfg.reference is None:
         raise InputError(f"{cfg.path}: a study needs a [reference] table with type one of "
-                         f"{sorted(ERRORS)}")
+                         f"{sorted(REFERENCES)}")
+    columns = REFERENCES[cfg.reference["type"]].columns
     labels = [label(m, sd) for m, sd in methods]
     if reference is not None and reference not in labels:
         raise InputError(f"--reference-method {reference} is not among the methods "
@@ -122,7 +115,7 @@ def run_study(cfg: Config, out: Path, levels: int, methods: list[tuple[str, int]
                 row["lemke_pivots"] = sum(st["lemke_pivots"] for st in s["steps"])
                 row["lcp_size"] = s["steps"][-1]["lcp_size"]
             ref = s.get("reference", {})
-            for path, name in ERRORS[kind]:
+            for path, name in columns:
                 v = ref
                 for key in path:
                     v = v.get(key, {}) if isinstance(v, dict) else {}
@@ -151,7 +144,7 @@ def run_study(cfg: Config, out: Path, levels: int, methods: list[tuple[str, int]
         table = write_tables(rows, bracket, out, note)
         if not quiet:
             print(table, flush=True)
-        plot_study(rows, out, title=f"{cfg.path.stem} ({kind})", note=note)
+        plot_study(rows, out, title=f"{cfg.path.stem} ({cfg.reference['type']})", note=note)
         if bracket:
             plot_bracket(bracket, out)
     return rows
@@ -165,15 +158,6 @@ def write_csv(path: Path, rows: list[dict]) -> None:
         w.writeheader()
         w.writerows(rows)
     tmp.replace(path)
-
-
-def fitted_rate(dofs: np.ndarray, err: np.ndarray) -> float:
-    """Convergence rate in element size h ~ DOFs^-1/2: slope of log err vs log h."""
-    ok = np.isfinite(err) & (err > 0)
-    if ok.sum() < 2:
-        return math.nan
-    h = dofs[ok] ** -0.5
-    return float(np.polyfit(np.log(h), np.log(err[ok]), 1)[0])
 
 
 def plot_study(rows: list[dict], out: Path, title: str = "", note: str = "") -> list[Path]:

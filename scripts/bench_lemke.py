@@ -4,6 +4,9 @@
     .venv/bin/python scripts/bench_lemke.py --large    # also n = 6000
     .venv/bin/python scripts/bench_lemke.py --n 900 --reference   # also time the tableau
     .venv/bin/python scripts/bench_lemke.py --n 1500 3000 6000 --siconos   # side by side
+    .venv/bin/python scripts/bench_lemke.py --n 1500 3000 6000 --textbook  # crash vs textbook
+
+Each line also times one dense LU of the final active block (the floor) and the ratio.
 
 The LCP (n = 3 m unknowns: m normal pressures, m forward and m backward slips) is built
 from an SPD compliance C (2m x 2m: normal block first, then tangential) of a 1D elastic
@@ -24,6 +27,7 @@ import json
 import time
 
 import numpy as np
+import scipy.linalg as sla
 
 from app.interface.coulomb import ContactLCP
 from app.lcp import lemke
@@ -62,20 +66,44 @@ def siconos_lemke(M: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, int, int, f
     return z, int(info), int(opts.iparam[sn.SICONOS_IPARAM_ITER_DONE]), dt
 
 
-def run(n: int, reference: bool = False, seed: int = 0, siconos: bool = False) -> dict:
+def dense_lu_seconds(M: np.ndarray, basis: np.ndarray, repeat: int = 3) -> float:
+    """Best of `repeat` timings of one dense LU (scipy lu_factor) of M[B, B]: the floor of
+    any method that ends by solving on the final active block."""
+    idx = np.flatnonzero(basis)
+    A = M[np.ix_(idx, idx)]
+    best = np.inf
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        sla.lu_factor(A, check_finite=False)
+        best = min(best, time.perf_counter() - t0)
+    return best
+
+
+def run(n: int, reference: bool = False, seed: int = 0, siconos: bool = False,
+        textbook: bool = False) -> dict:
     M, q = frictional_lcp(n // 3, seed=seed)
     t0 = time.perf_counter()
     res = lemke(M, q)
     dt = time.perf_counter() - t0
+    lu = dense_lu_seconds(M, res.basis)
     out = {
         "n": int(q.size),
         "pivots": res.pivots,
         "seconds": round(dt, 4),
         "status": res.status,
+        "start": res.warm_start,  # "crash": the crash basis solved it, no pivot
         "basic_z": int(res.basis.sum()),
         "refactorizations": res.refactorizations,
         "complementarity": res.complementarity,
+        "dense_lu_final_block_seconds": round(lu, 4),
+        "ratio_to_dense_lu": round(dt / lu, 2),
     }
+    if textbook:  # the textbook cold start (covering vector 1, no crash)
+        t0 = time.perf_counter()
+        cold = lemke(M, q, crash=False)
+        out["textbook_seconds"] = round(time.perf_counter() - t0, 4)
+        out["textbook_pivots"] = cold.pivots
+        out["max_abs_z_diff_textbook"] = float(np.abs(cold.z - res.z).max())
     if siconos:
         z, info, piv, dt_s = siconos_lemke(M, q)
         out["siconos_seconds"] = round(dt_s, 4)
@@ -83,6 +111,8 @@ def run(n: int, reference: bool = False, seed: int = 0, siconos: bool = False) -
         out["siconos_info"] = info  # 0 = solved
         out["speedup_vs_siconos"] = round(dt_s / max(dt, 1e-12), 2)
         out["max_abs_z_diff_siconos"] = float(np.abs(z - res.z).max())
+        # identical outcome: both solved, the same active set
+        out["same_active_set_as_siconos"] = bool(np.array_equal(z > 0, res.z > 0))
     if reference:
         from app.lcp.lemke import _lemke_tableau
 
@@ -100,12 +130,15 @@ def main() -> None:
     ap.add_argument("--n", type=int, nargs="*", help="sizes to run (multiples of 3)")
     ap.add_argument("--reference", action="store_true", help="also run the tableau version")
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--textbook", action="store_true",
+                    help="also time the textbook cold start (lemke(..., crash=False))")
     ap.add_argument("--siconos", action="store_true",
                     help="also run Siconos's Lemke on the same LCP (apt install python3-siconos)")
     args = ap.parse_args()
     sizes = args.n or ([300, 1500, 3000] + ([6000] if args.large else []))
     for n in sizes:
-        print(json.dumps(run(n, args.reference, args.seed, args.siconos)), flush=True)
+        print(json.dumps(run(n, args.reference, args.seed, args.siconos, args.textbook)),
+              flush=True)
 
 
 if __name__ == "__main__":

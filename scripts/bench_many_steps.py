@@ -34,6 +34,8 @@ def main() -> None:
     print(json.dumps({
         "config": args.config, "ranks": args.ranks, "n_dofs": s["n_dofs"],
         "n_pairs": s["n_pairs"], "lcp_size": steps[0]["lcp_size"], "steps": len(steps),
+        "lcp_size_solved_max": max(st.get("lcp_size_solved", st["lcp_size"]) for st in steps),
+        "lcp_phase_share": round(s["timings"]["lcp"] / s["timings"]["total"], 4),
         "status": s["status"],
         "timings_s": {k: round(v, 3) for k, v in s["timings"].items()},
         "first_step_s": round(steps[0]["step_seconds"], 3),

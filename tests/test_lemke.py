@@ -13,6 +13,8 @@ from app.lcp import STATUSES, LCPResult, default_max_pivots, lemke
 from app.lcp.lemke import _lemke_tableau
 
 LM = importlib.import_module("app.lcp.lemke")  # the module (app.lcp.lemke is the function)
+PIV = importlib.import_module("app.lcp.pivoting")  # the pivoting rules of both cores
+REV = importlib.import_module("app.lcp.revised")  # the revised core and its knobs
 
 
 # --------------------------------------------------------------------------------------
@@ -107,7 +109,7 @@ def test_q_nonnegative_returns_zero_without_pivots():
 
 
 def test_result_fields_and_one_dimensional_case():
-    res = lemke(np.array([[2.0]]), np.array([-4.0]))
+    res = lemke(np.array([[2.0]]), np.array([-4.0]), crash=False)
     assert isinstance(res, LCPResult)
     assert res.status in STATUSES and res.ok
     np.testing.assert_allclose(res.z, [2.0], rtol=1e-14)
@@ -116,7 +118,7 @@ def test_result_fields_and_one_dimensional_case():
     assert res.basis.tolist() == [True]
     assert isinstance(res.message, str) and res.message
     assert isinstance(res.complementarity, float)
-    assert default_max_pivots(10) == 600
+    assert default_max_pivots(10) == 600 + 2**10
 
 
 def test_bad_input_raises():
@@ -149,13 +151,13 @@ def test_pivot_limit():
     rng = np.random.default_rng(3)
     M = p_matrix(6, rng)
     q = -np.abs(rng.standard_normal(6)) - 0.1
-    full = lemke(M, q)
+    full = lemke(M, q, crash=False)
     assert full.ok and full.pivots > 2
-    res = lemke(M, q, max_pivots=1)
+    res = lemke(M, q, max_pivots=1, crash=False)
     assert res.status == "pivot limit" and not res.ok and res.pivots == 1
     assert res.z.min() >= 0.0
     np.testing.assert_allclose(res.w, M @ res.z + q)
-    assert lemke(M, q, max_pivots=0).status == "pivot limit"
+    assert lemke(M, q, max_pivots=0, crash=False).status == "pivot limit"
 
 
 # --------------------------------------------------------------------------------------
@@ -243,10 +245,10 @@ def test_degenerate_q_zeros_ties_and_duplicate_rows():
 def test_degenerate_warm_start_follows_the_lexicographic_path(M, q, B):
     # ties here are broken by the rows of B^-1 B0 (B0 = warm-start basis), not of B^-1
     M, q, B = np.array(M), np.array(q), np.array(B, dtype=bool)
-    res = lemke(M, q, basis=B)
+    res = lemke(M, q, basis=B, crash=False)
     assert_solution(M, q, res)
     assert res.warm_start == "lemke"
-    _agree(res, _lemke_tableau(M, q, basis=B))
+    _agree(res, _lemke_tableau(M, q, basis=B, crash=False))
 
 
 def test_fully_degenerate_all_ties():
@@ -288,15 +290,15 @@ def test_lexicographic_rule_prevents_cycling(monkeypatch, case):
     M = np.array(CYCLING_CASES[case][0])
     q = np.array(CYCLING_CASES[case][1])
     sols = brute_force(M, q)
-    res = lemke(M, q)
+    res = lemke(M, q, crash=False)
     assert_solution(M, q, res)
     assert any(np.allclose(res.z, s, atol=1e-9) for s in sols)
-    _agree(res, _lemke_tableau(M, q))
+    _agree(res, _lemke_tableau(M, q, crash=False))
     # the same problem with a naive tie-break (first or last tied row) cycles
     outcomes = []
     for naive in (lambda V: 0, lambda V: V.shape[0] - 1):
-        monkeypatch.setattr(LM, "_lexmin", naive)
-        outcomes.append(lemke(M, q, max_pivots=200).status)
+        monkeypatch.setattr(PIV, "_lexmin", naive)
+        outcomes.append(lemke(M, q, max_pivots=200, crash=False).status)
     assert "pivot limit" in outcomes
 
 
@@ -344,14 +346,15 @@ def _agree(a: LCPResult, b: LCPResult) -> None:
 )
 def test_revised_matches_tableau_reference(monkeypatch, knobs):
     for name, value in knobs.items():
-        monkeypatch.setattr(LM, name, value)
+        monkeypatch.setattr(REV, name, value)
     rng = np.random.default_rng(42)
     refactorizations = pivots = 0
     for trial in range(24):
         M, q = _random_case(trial % 3, rng)
         n = q.size
-        fast = lemke(M, q)
-        _agree(fast, _lemke_tableau(M, q))
+        fast = lemke(M, q, crash=False)
+        _agree(fast, _lemke_tableau(M, q, crash=False))
+        _agree(lemke(M, q), _lemke_tableau(M, q))  # from the crash basis
         refactorizations += fast.refactorizations
         pivots += fast.pivots
         B = rng.random(n) < 0.3  # arbitrary warm start (may be singular or infeasible)
@@ -364,8 +367,8 @@ def test_revised_matches_tableau_reference(monkeypatch, knobs):
 
 def test_revised_matches_reference_on_contact_problem():
     M, q = contact_lcp(100, seed=1)
-    fast = lemke(M, q)
-    ref = _lemke_tableau(M, q)
+    fast = lemke(M, q, crash=False)
+    ref = _lemke_tableau(M, q, crash=False)
     assert_solution(M, q, fast)
     assert fast.pivots > 50
     assert fast.refactorizations == 0  # the updated inverse stayed accurate
@@ -381,7 +384,7 @@ def test_warm_start_same_basis_needs_no_pivot():
     rng = np.random.default_rng(5)
     M = p_matrix(40, rng)
     q = rng.standard_normal(40)
-    cold = lemke(M, q)
+    cold = lemke(M, q, crash=False)
     assert cold.ok and cold.pivots > 5
     q2 = q + 1e-6 * rng.standard_normal(40)
     warm = lemke(M, q2, basis=cold.basis)
@@ -393,13 +396,13 @@ def test_warm_start_same_basis_needs_no_pivot():
 def test_warm_start_fewer_pivots_when_active_set_changes():
     M, q = contact_lcp(60, seed=3)
     m = q.size // 3
-    cold = lemke(M, q)
+    cold = lemke(M, q, crash=False)
     assert_solution(M, q, cold)
     rng = np.random.default_rng(0)
     q2 = q.copy()
     q2[:m] += 2e-3 * rng.standard_normal(m)  # next load step: gaps change a little
-    warm = lemke(M, q2, basis=cold.basis)
-    cold2 = lemke(M, q2)
+    warm = lemke(M, q2, basis=cold.basis, crash=False)
+    cold2 = lemke(M, q2, crash=False)
     assert_solution(M, q2, warm)
     assert_solution(M, q2, cold2)
     assert not np.array_equal(cold2.basis, cold.basis)  # the active set did change
@@ -449,7 +452,7 @@ def test_mixed_units_give_the_same_solution():
 
 
 def test_a_wrong_candidate_is_never_reported_solved(monkeypatch):
-    M = np.array([[2.0, 1.0], [1.0, 2.0]])
+    M = np.array([[2.0, 1.0], [0.5, 2.0]])  # not symmetric: no basis repair
     q = np.array([-1.0, 1.0])  # solution z = (0.5, 0)
 
     def wrong_core(M, q, d, B0, max_pivots):
@@ -457,7 +460,7 @@ def test_a_wrong_candidate_is_never_reported_solved(monkeypatch):
         return LM._CoreOut("solved", zset, np.array([0.0, 0.7]), 0.0, 3)
 
     monkeypatch.setattr(LM, "_core_revised", wrong_core)
-    res = lemke(M, q)
+    res = lemke(M, q, crash=False)
     assert res.status == "inaccurate" and not res.ok
     assert "fails the check" in res.message
 
@@ -478,12 +481,142 @@ def test_warm_start_without_cold_fallback():
                   [-3.79, 3.87, -1.78, 1.18, 16.3]])
     q = np.array([0.35, -0.59, -0.35, -0.5, 2.11])
     bad = np.array([True, False, True, True, True])
-    r = lemke(M, q, basis=bad, cold_start=False)
+    r = lemke(M, q, basis=bad, cold_start=False, crash=False)
     assert r.status == "warm start failed" and r.warm_start == "failed" and not r.ok
-    full = lemke(M, q, basis=bad)
+    full = lemke(M, q, basis=bad, crash=False)
     assert full.ok and full.warm_start == "cold" and full.pivots > r.pivots
     w = M @ full.z + q
     assert full.z.min() >= 0 and w.min() >= -1e-12 and abs(full.z @ w) < 1e-12
     # a good basis as the second candidate of the contact solve: found without a cold start
     again = lemke(M, q, basis=full.basis, cold_start=False)
     assert again.ok and again.pivots == 0
+
+
+# --------------------------------------------------------------------------------------
+# pivot budget and crash basis
+# --------------------------------------------------------------------------------------
+
+
+def test_default_budget_lets_a_long_lemke_path_finish():
+    """Murty's 12 x 12 triangular LCP: the textbook start needs 4096 pivots (2^n), more
+    than the old budget 50 n + 100; the default budget lets it finish, and the crash basis
+    solves it without a pivot."""
+    n = 12
+    M = np.tril(2.0 * np.ones((n, n)), -1) + np.eye(n)
+    q = -np.ones(n)
+    long_path = lemke(M, q, crash=False)
+    assert_solution(M, q, long_path)
+    assert long_path.pivots == 4096 > 50 * n + 100
+    crashed = lemke(M, q)
+    assert_solution(M, q, crashed)
+    assert crashed.warm_start == "crash" and crashed.pivots == 0
+    np.testing.assert_allclose(crashed.z, long_path.z, rtol=1e-12, atol=1e-14)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_crash_gives_the_textbook_answer(seed):
+    """P-matrices and contact LCPs (unique solutions): the crash start returns the same z
+    as the textbook cold start, and names the same basis."""
+    rng = np.random.default_rng(seed)
+    for M, q in (friction_lcp(int(rng.integers(3, 9)), rng), contact_lcp(60, seed=seed),
+                 (p_matrix(30, rng), rng.standard_normal(30))):
+        cold = lemke(M, q, crash=False)
+        res = lemke(M, q)
+        assert_solution(M, q, res)
+        assert res.warm_start in ("crash", "crash+lemke", "cold")
+        scale = 1.0 + np.abs(cold.z).max()
+        np.testing.assert_allclose(res.z, cold.z, rtol=0, atol=1e-9 * scale)
+
+
+def test_crash_on_a_contact_lcp_needs_no_pivot():
+    M, q = contact_lcp(200, seed=4)
+    res = lemke(M, q)
+    assert_solution(M, q, res)
+    assert res.warm_start == "crash" and res.pivots == 0
+
+
+def test_twins_are_the_slip_pairs():
+    from app.lcp.crash import find_twins
+    from app.lcp.scaling import scaling
+
+    M, q = contact_lcp(30, seed=0)
+    m = q.size // 3
+    twin = find_twins(scaling(M, q)[0])
+    np.testing.assert_array_equal(twin[:m], -1)  # normal unknowns have none
+    np.testing.assert_array_equal(twin[m:2 * m], np.arange(2 * m, 3 * m))
+    np.testing.assert_array_equal(twin[2 * m:], np.arange(m, 2 * m))
+
+
+def test_bordered_block_solve_matches_a_direct_solve():
+    from app.lcp.crash import _BlockSolver
+    from app.lcp.scaling import scaling
+
+    rng = np.random.default_rng(1)
+    M = p_matrix(40, rng)
+    q = rng.standard_normal(40)
+    Ms, D, mu, nu = scaling(M, q)
+    qs = D * q / nu
+    solver = _BlockSolver(Ms, qs)
+    Z0 = rng.random(40) < 0.5
+    solver.solve(Z0)
+    Z = Z0.copy()
+    Z[np.flatnonzero(Z0)[:2]] = False  # two leave
+    Z[np.flatnonzero(~Z0)[:1]] = True  # one joins
+    z = solver.solve(Z)
+    assert solver.factorizations == 1  # the change went through the bordered system
+    idx = np.flatnonzero(Z)
+    expect = np.zeros(40)
+    expect[idx] = np.linalg.solve(Ms.dense()[np.ix_(idx, idx)], -qs[idx])
+    np.testing.assert_allclose(z, expect, rtol=1e-10, atol=1e-12)
+
+
+def near_duplicate_lcp(seed: int, kernel: str, load: str):
+    """50 frictionless contacts on a line, 10 of them 1e-5 from another: a smooth SPD
+    compliance kernel, condition number 1e10 to 1e12, unique solution."""
+    rng = np.random.default_rng(seed)
+    x = np.linspace(-1.0, 1.0, 40)
+    x = np.sort(np.concatenate([x, x[rng.choice(40, 10, replace=False)] + 1e-5]))
+    d = np.abs(x[:, None] - x[None, :])
+    M = np.exp(-d / 0.3) * (1 + d / 0.3) if kernel == "matern" else 1 / np.sqrt(1 + (d / 0.1)**2)
+    q = -np.ones(50) if load == "flat" else 0.5 * x**2 - 0.3
+    return M, q
+
+
+@pytest.mark.parametrize("kernel", ["matern", "imq"])
+@pytest.mark.parametrize("load", ["flat", "parabolic"])
+def test_near_duplicate_contacts_are_solved(kernel, load):
+    """Before the basis repair, 17 of these 32 LCPs ended 'inaccurate' (numerically singular
+    basis, failed check) or on a false secondary ray with the textbook start."""
+    for seed in range(8):
+        M, q = near_duplicate_lcp(seed, kernel, load)
+        assert np.linalg.cond(M) > 1e10
+        for crash in (False, True):
+            res = lemke(M, q, crash=crash)
+            assert res.ok, (seed, crash, res.message)
+            assert res.residual <= 1e-9
+            rows = np.abs(q) + np.abs(M) @ res.z  # size of the terms of each w_i
+            np.testing.assert_allclose(res.w, M @ res.z + q, rtol=0, atol=1e-14 * rows.max())
+            assert res.z.min() >= 0 and (res.w >= -1e-9 * rows).all()
+            assert (np.abs(res.w[res.z > 0]) <= 1e-9 * rows[res.z > 0]).all()
+
+
+def test_a_symmetric_lcp_without_solution_still_ends_on_a_secondary_ray():
+    M = np.array([[1.0, -1.0], [-1.0, 1.0]])  # PSD, singular
+    q = np.array([-1.0, -1.0])  # z1 - z2 >= 1 and z2 - z1 >= 1: infeasible
+    res = lemke(M, q)
+    assert res.status == "secondary ray" and not res.ok
+
+
+def test_block_pivoting_from_a_warm_basis():
+    """A warm basis that is a few indices off: block pivoting from it finds the answer
+    without a Lemke pivot; the answer is the cold one."""
+    M, q = contact_lcp(60, seed=3)
+    m = q.size // 3
+    cold = lemke(M, q, crash=False)
+    q2 = q.copy()
+    q2[:m] += 2e-3 * np.random.default_rng(0).standard_normal(m)
+    res = lemke(M, q2, basis=cold.basis)
+    assert_solution(M, q2, res)
+    assert res.warm_start == "crash" and res.pivots == 0
+    ref = lemke(M, q2, crash=False)
+    np.testing.assert_allclose(res.z, ref.z, rtol=0, atol=1e-9 * np.abs(ref.z).max())

@@ -13,6 +13,7 @@ from app.discretisation.bulk import check_elements
 from app.mesh.build import build_mesh
 from app.mesh.model import Mesh, orient_boundary_edges
 from app.mesh.refine import refine_mesh, scene_arcs, split_quads
+from app.scene import parse_scene
 
 
 def areas(mesh: Mesh) -> np.ndarray:
@@ -52,7 +53,7 @@ def test_split_is_nested_conforming_and_keeps_groups():
 @pytest.mark.parametrize("config, levels", [("hertz.toml", (1, 2, 3)),
                                             ("hertz_halfspace.toml", (3,))])
 def test_hertz_levels_put_arc_nodes_on_the_circle(config, levels):
-    cfg = tomllib.loads((CONFIGS / config).read_text())
+    cfg = parse_scene(tomllib.loads((CONFIGS / config).read_text()))
     m0 = build_mesh(cfg)
     prev = None
     for level in levels:
@@ -79,7 +80,7 @@ def test_run_refine_matches_the_split_mesh(tmp_path):
     assert res.returncode == 0, res.stderr
     s = read_summary(out)
     cfg = tomllib.loads((CONFIGS / "hertz.toml").read_text())
-    assert s["n_elements"] == 4 * build_mesh(cfg).n_elements
+    assert s["n_elements"] == 4 * build_mesh(parse_scene(cfg)).n_elements
     assert s["reference"]["hertz"]["p_max_rel_error"] < 0.02
     res = run_cli(["run", str(CONFIGS / "hertz.toml"), "--refine", "-1", "--out", str(out)])
     assert res.returncode == 2 and "--refine" in res.stderr

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from app.config import Config, Load, Support, evaluate
-from app.discretisation.elements import gauss_gradients, shape_functions
+from app.discretisation.elements import gauss_gradients, gauss_points, shape_functions
 from app.errors import InputError
 from app.mesh.model import Mesh, orient_boundary_edges
 
@@ -80,14 +80,12 @@ def body_force_vector(mesh: Mesh, cfg: Config) -> np.ndarray:
     if not np.any(bf):
         return f
     xe = mesh.points[mesh.quads]
-    g = 1.0 / np.sqrt(3.0)
-    for xi in (-g, g):
-        for eta in (-g, g):
-            _, _, det = gauss_gradients(xe, xi, eta)
-            n = shape_functions(xi, eta)  # (4,)
-            w = cfg.thickness * det[:, None] * n[None, :]  # (ne, 4)
-            for comp in range(2):
-                np.add.at(f, 2 * mesh.quads + comp, w * bf[:, comp : comp + 1])
+    for xi, eta in gauss_points():
+        _, _, det = gauss_gradients(xe, xi, eta)
+        n = shape_functions(xi, eta)  # (4,)
+        w = cfg.thickness * det[:, None] * n[None, :]  # (ne, 4)
+        for comp in range(2):
+            np.add.at(f, 2 * mesh.quads + comp, w * bf[:, comp : comp + 1])
     return f
 
 

@@ -51,6 +51,7 @@ class ContactSolution:
     status: str
     basis: np.ndarray | None
     residual: float = 0.0  # Lemke's relative check residual (scaled LCP)
+    message: str = ""  # Lemke's own summary of the solve
 
 
 DEPENDENT_REL = 1e-10
@@ -146,20 +147,28 @@ class ContactLCP:
         for bi, row in enumerate(blocks):
             for bj, blk in enumerate(row):
                 big[edges[bi]:edges[bi + 1], edges[bj]:edges[bj + 1]] = blk
-        self.M = big
         self.edges = edges
         # Symmetric diagonal scaling z = d z', w' = d w (complementarity is kept): brings
-        # compliance-sized and stiffness-sized blocks to unit diagonal for Lemke.
+        # compliance-sized and stiffness-sized blocks to unit diagonal for Lemke. Only the
+        # scaled matrix is kept (scaled in place: one n x n array).
         diag = np.abs(np.diag(big))
-        colmax = np.abs(big).max(axis=0) if n else np.zeros(0)
+        colmax = np.maximum(big.max(axis=0), -big.min(axis=0)) if n else np.zeros(0)
         ref = np.where(diag > 1e-12 * colmax, diag, colmax)
         ref = np.where(ref > 0, ref, 1.0)
         self.scaling = 1.0 / np.sqrt(ref)
-        self.M_scaled = self.scaling[:, None] * big * self.scaling[None, :]  # what Lemke gets
+        big *= self.scaling[:, None]
+        big *= self.scaling[None, :]
+        self.M_scaled = big  # what Lemke gets
+
+    @property
+    def M(self) -> np.ndarray:
+        """The unscaled LCP matrix (formed on demand from the scaled one: a new array)."""
+        d = self.scaling
+        return self.M_scaled / d[:, None] / d[None, :]
 
     @property
     def size(self) -> int:
-        return self.M.shape[0]
+        return self.M_scaled.shape[0]
 
     def constant(self, gap_free: np.ndarray, tau_free: np.ndarray, tau_prev: np.ndarray,
                  a: np.ndarray, c: np.ndarray, mu: np.ndarray, e0: np.ndarray) -> np.ndarray:
@@ -182,8 +191,8 @@ class ContactLCP:
     def solve(self, gap_free, tau_free, tau_prev, a, c, mu, e0, *, basis=None,
               max_pivots=None) -> ContactSolution:
         """Solve the LCP and recover p, q, gap, tau and alpha. basis: a warm-start basis,
-        or a list of them tried in order (newest first; the last one falls back to a
-        cold start)."""
+        or a list of them tried in order (newest first); when none solves it, Lemke starts
+        from its crash basis, then cold."""
         qv = self.constant(gap_free, tau_free, tau_prev, a, c, mu, e0)
         d = self.scaling
         ms, qs = self.M_scaled, d * qv
@@ -191,13 +200,12 @@ class ContactLCP:
         candidates = [b for b in (basis if isinstance(basis, list) else [basis])
                       if b is not None]
         pivots = 0
-        for k, b in enumerate(candidates):
-            res = lemke(ms, qs, basis=b, max_pivots=max_pivots,
-                        cold_start=k == len(candidates) - 1)
+        for b in candidates:
+            res = lemke(ms, qs, basis=b, max_pivots=max_pivots, cold_start=False)
             pivots += res.pivots
             if res.status != "warm start failed":
                 break
-        else:
+        else:  # no warm start (or none worked): the crash basis, then the cold start
             res = lemke(ms, qs, max_pivots=max_pivots)
             pivots += res.pivots
         res.pivots = pivots
@@ -223,4 +231,4 @@ class ContactLCP:
         if self.r:
             tau = tau + self.tm_all @ alpha
         return ContactSolution(p, q, gap, tau, splus, sminus, alpha, res.pivots, res.status,
-                               res.basis, res.residual)
+                               res.basis, res.residual, res.message)

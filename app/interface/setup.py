@@ -16,9 +16,12 @@ from petsc4py import PETSc
 
 from app.assembly.loads import describe_modes, free_rigid_modes, mode_names, rigid_modes
 from app.config import Config
-from app.contact.pairs import ContactPairs, constraint_matrix, contact_pairs
+from app.contact.constraints import ContactConstraints
+from app.contact.discretisation import contact_discretisation
+from app.contact.pairs import ContactPairs
 from app.discretisation.bulk import zero_energy_modes
 from app.errors import InputError, SolveError
+from app.interface.candidates import CandidateLCP, candidate_pairs
 from app.interface.coulomb import ContactLCP
 from app.interface.steps import STATE_NAMES, InterfaceHistory, solve_step
 from app.mesh.model import Mesh
@@ -44,7 +47,7 @@ def floating_modes(mesh: Mesh, cfg: Config, fixed: np.ndarray,
     in contact are found from the body stiffness and handled the same way."""
     free = free_rigid_modes(mesh, fixed)
     in_contact = set() if contact is None else contact.bodies(mesh)
-    hourglass = disc is not None and disc.method == "cs-fem" and disc.sd == 1
+    hourglass = disc is not None and disc.hourglass
     if hourglass:
         for b in in_contact:
             free.setdefault(b, np.zeros((3, 0)))
@@ -112,10 +115,12 @@ def _check_held(mesh: Mesh, cfg: Config, fixed: np.ndarray,
 class ContactSetup:
     """Pairs of every interface, the constraint matrix G and per-pair law parameters."""
 
-    def __init__(self, cfg: Config, pairs: ContactPairs, g: sp.csr_matrix):
+    def __init__(self, cfg: Config, pairs: ContactPairs, g: sp.csr_matrix,
+                 rows: ContactConstraints | None = None):
         self.cfg = cfg
         self.pairs = pairs
         self.g = g
+        self.rows = rows
         it = pairs.interface
         t = cfg.thickness
         self.mu = np.array([cfg.interfaces[i].mu for i in it])
@@ -133,17 +138,17 @@ class ContactSetup:
                 if name not in mesh.curves:
                     raise InputError(f"interface '{itf.name}': {key} curve '{name}' is not in "
                                      f"the mesh (curves: {sorted(mesh.curves)})")
-            found.append(contact_pairs(mesh, itf.slave, itf.master, itf.search_distance,
-                                       interface=i, penetration_tol=itf.penetration_tol,
-                                       name=itf.name, interference=itf.interference))
-        pairs = ContactPairs.concatenate(found)
+            build = contact_discretisation(itf.discretisation, f"interface '{itf.name}'")
+            found.append(build(mesh, itf, i))
+        rows = ContactConstraints.concatenate(found)
+        pairs = rows.pairs
         dup, counts = np.unique(pairs.slave, return_counts=True)
         if np.any(counts > 1):
             n = int(dup[counts > 1][0])
             raise InputError(f"slave node at x={mesh.points[n, 0]:.4g}, "
                              f"y={mesh.points[n, 1]:.4g} belongs to two interfaces: a slave "
                              "curve may be slave on one interface only")
-        return cls(cfg, pairs, constraint_matrix(pairs, mesh.n_nodes))
+        return cls(cfg, pairs, rows.matrix(mesh.n_nodes), rows)
 
     def bodies(self, mesh: Mesh) -> set[int]:
         nb = mesh.node_body()
@@ -151,8 +156,7 @@ class ContactSetup:
 
     def compliance_route(self, solver) -> str:
         opts = PETSc.Options()
-        route = opts.getString("contact_compliance", self.cfg.raw.get("analysis", {}).get(
-            "compliance", "auto"))
+        route = opts.getString("contact_compliance", self.cfg.compliance)
         if route not in ("auto", "schur", "solve"):
             raise InputError(f"compliance route '{route}': use auto, schur or solve")
         if route == "auto":
@@ -212,6 +216,9 @@ class ContactSetup:
             "a_force": result["a"],
             "c_force": result["c"],
         }
+        if self.rows is not None:  # the rows of G (the KKT check of tests/support.py)
+            data |= {"g_cols": self.rows.cols, "g_normal": self.rows.g_normal,
+                     "g_tangent": self.rows.g_tangent}
         data["_kkt"] = kkt_check(gap_u, tau_u, result["tau_prev"], p, q, self.mu,
                                  result["a"], result["c"], self.frictional,
                                  u_scale=float(np.abs(u).max(initial=0.0)),
@@ -250,6 +257,20 @@ def mismatch(g: sp.csr_matrix, u: np.ndarray, result: dict) -> np.ndarray:
     return g @ u - result["kinematics"]
 
 
+def split_modes(n_modes: np.ndarray, t_modes: np.ndarray,
+                rel: float = 1e-9) -> tuple[np.ndarray, np.ndarray]:
+    """Orthonormal bases (r, r1), (r, r0) of the floating-mode amplitudes that move some
+    pair ([N; T] v != 0) and of those that move none (see `undetermined_modes`)."""
+    a = np.vstack([n_modes, t_modes])
+    r = a.shape[1]
+    if a.shape[0] == 0:
+        return np.zeros((r, 0)), np.eye(r)
+    _, sv, vt = np.linalg.svd(a, full_matrices=True)
+    sv = np.concatenate([sv, np.zeros(r - sv.size)])
+    null = sv <= rel * max(sv.max(initial=0.0), 1e-300)
+    return vt[~null].T, vt[null].T
+
+
 def undetermined_modes(n_modes: np.ndarray, t_modes: np.ndarray, names: list[str],
                        rel: float = 1e-9) -> list[str]:
     """Floating-body modes (or combinations) that no contact force can resist.
@@ -284,22 +305,32 @@ class ContactStepper:
         self.m = m
         g = setup.g
         self.gu = [g @ uc for uc in unit]  # (2m,) per load case
+        self.v_keep = self.v_null = None
         if floating is not None and floating.r.shape[1]:
             gr = g @ floating.r  # (2m, r)
             self.n_modes, self.t_modes = gr[:m], gr[m:]
+            self.v_keep, self.v_null = split_modes(self.n_modes,
+                                                   self.t_modes[setup.frictional])
+            if self.v_null.shape[1]:  # amplitudes no pair sees: left out of the LCP
+                self.n_modes = self.n_modes @ self.v_keep
+                self.t_modes = self.t_modes @ self.v_keep
+            else:
+                self.v_keep = self.v_null = None
             self.e0 = [floating.r.T @ b for b in rhs]
             self.mode_names = floating.names
         else:
             self.n_modes = self.t_modes = None
             self.e0 = [np.zeros(0) for _ in cases]
             self.mode_names = []
-        self.lcp = ContactLCP(c_mat, setup.mu, setup.frictional, self.n_modes, self.t_modes)
-        self.undetermined = undetermined_modes(self.lcp.nm, self.lcp.tm, self.mode_names)
+        lcp_class = CandidateLCP if candidate_pairs(setup.cfg.candidate_pairs) else ContactLCP
+        self.lcp = lcp_class(c_mat, setup.mu, setup.frictional, self.n_modes, self.t_modes)
+        self.undetermined = [] if self.v_null is None else [
+            self.mode_names[int(np.argmax(np.abs(v)))] for v in self.v_null.T]
         self.hist = InterfaceHistory(
             a=np.where(setup.bonded, setup.a, 0.0), c=np.where(setup.bonded, setup.c, 0.0),
             bonded=setup.bonded.copy(), tau_prev=np.zeros(m),
             debonded_step=np.zeros(m, dtype=np.int64),
-            warm_start=bool(setup.cfg.raw.get("analysis", {}).get("warm_start", True)))
+            warm_start=setup.cfg.warm_start)
         self.slip = np.zeros(m)
         scale = max(max((np.abs(x).max(initial=0.0) for x in self.gu), default=0.0),
                     np.abs(pr.g0).max(initial=0.0), 1e-300)
@@ -333,13 +364,21 @@ class ContactStepper:
             self.hist.basis = basis
         gap_free = pr.g0.copy()
         tau_free = np.zeros(m)
-        e0 = np.zeros(self.lcp.r)
+        e0 = np.zeros(len(self.mode_names))
         for case, gu, e in zip(cases, self.gu, self.e0, strict=True):
             h = case.history[step]
             gap_free += h * gu[:m]
             tau_free += h * gu[m:]
             if e.size:
                 e0 += h * e
+        if self.v_null is not None and self.v_null.shape[1]:
+            loaded = np.abs(self.v_null.T @ e0) > 1e-9 * max(self.f_scale, 1e-300)
+            if loaded.any():
+                names = ", ".join(n for n, k in zip(self.undetermined, loaded, strict=True)
+                                  if k)
+                return {"status": "unbalanced load", "message": f"a load on {names}; the "
+                        f"contact cannot resist {names}"}
+            e0 = self.v_keep.T @ e0
         if correction is not None:
             gap_free += correction[:m]
             tau_free += correction[m:]
@@ -348,11 +387,11 @@ class ContactStepper:
                          e0, self.tol, self.tol)
         sol = res.solution
         out = {"status": res.status, "message": "",
-               "lam": np.concatenate([sol.p, sol.q]), "alpha": sol.alpha,
+               "lam": np.concatenate([sol.p, sol.q]),
+               "alpha": sol.alpha if self.v_keep is None else self.v_keep @ sol.alpha,
                "kinematics": np.concatenate([sol.gap - pr.g0, sol.tau])}
         if res.status != "solved":
-            out["message"] = ("secondary ray: no solution from this start"
-                              if res.status == "secondary ray" else res.status)
+            out["message"] = f"Lemke ended with '{res.status}': {sol.message}"
             if self.undetermined:
                 out["message"] += ("; the contact cannot resist " +
                                    ", ".join(self.undetermined))
@@ -383,7 +422,8 @@ class ContactStepper:
             "states": counts,
             "interfaces": per_if,
             "max_contact_pressure": float((sol.p / length_t).max(initial=0.0)),
-            "lcp_size": self.lcp.size,
+            "lcp_size": getattr(self.lcp, "full_size", self.lcp.size),
+            "lcp_size_solved": self.lcp.size,
             "lemke_pivots": res.pivots,
             "lcp_residual": sol.residual,
             "dependent_tangential_directions": self.lcp.dependent_tangential,
@@ -392,8 +432,8 @@ class ContactStepper:
             "debonded_this_step": int(np.sum(res.debonded_step == step + 1)),
             "dissipation": res.dissipation,
         }
-        if self.lcp.r:
-            info["rigid_modes"] = dict(zip(self.mode_names, map(float, sol.alpha),
+        if self.mode_names:
+            info["rigid_modes"] = dict(zip(self.mode_names, map(float, out["alpha"]),
                                            strict=True))
         if self.undetermined:
             info["undetermined_modes"] = self.undetermined

@@ -8,7 +8,7 @@ until no new pair debonds. The tangential history tau_prev is carried between st
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -44,7 +44,6 @@ class InterfaceHistory:
     basis: np.ndarray | None = None
     older_basis: np.ndarray | None = None  # the basis before, tried when `basis` fails
     warm_start: bool = True
-    pivots_log: list = field(default_factory=list)
 
 
 def classify(sol: ContactSolution, bonded: np.ndarray, tol_gap: float,

@@ -13,6 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from app.mesh.model import Mesh
+from app.scene import Scene
 
 ARC_TOL = 1e-6  # relative to the radius: an edge end is on an arc within ARC_TOL * radius
 Arc = tuple[int, np.ndarray, float, float, float]  # body index, centre, radius, a0, a1
@@ -107,14 +108,10 @@ def refine_mesh(mesh: Mesh, times: int = 1, arcs: list[Arc] | None = None) -> Me
     return mesh
 
 
-def scene_arcs(cfg: dict) -> list[Arc]:
-    """Circular arcs (body index, centre, radius, a0, a1) of the body shapes of a config
-    (TOML dict), bodies in config order as in the Mesh; empty for a mesh read from a file."""
-    from app.mesh.build import parse_scene
-
-    mesh_cfg = cfg.get("mesh")
-    if isinstance(mesh_cfg, dict) and mesh_cfg.get("file") is not None:
+def scene_arcs(scene: Scene) -> list[Arc]:
+    """Circular arcs (body index, centre, radius, a0, a1) of the body shapes of a scene,
+    bodies in config order as in the Mesh; empty for a mesh read from a file."""
+    if scene.file is not None:
         return []
-    scene = parse_scene(cfg)
     return [(i, p.center, p.radius, p.a0, p.a1) for i, b in enumerate(scene.bodies)
             for s in b.sides for p in s.pieces if p.kind == "arc"]

@@ -1,0 +1,127 @@
+"""Scaling of an LCP and the dense helpers shared by the Lemke cores and the crash.
+
+The problem is scaled symmetrically, ``M~ = D M D / mu``, ``q~ = D q / nu`` with D a
+positive diagonal of powers of two, so that pivot and tie tolerances are unit free
+(contact LCPs mix gap and force units). The LCP is invariant under this:
+z = (nu / mu) D z~, w = nu D^-1 w~. M~ is never formed (`ScaledM`).
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import scipy.linalg as sla
+
+__all__ = ["ScaledM", "scaling", "lu_or_none", "absmax", "row_blocks", "RCOND_MIN"]
+
+BLOCK_ROWS = 256
+"""Row-block size for passes over M that need an |M| temporary (no n x n temporaries)."""
+
+RCOND_MIN = 1e-14
+"""A basis block whose estimated reciprocal condition number is below this is singular."""
+
+
+def pow2(x: np.ndarray) -> np.ndarray:
+    """Nearest powers of two (so that scaling is exact in floating point)."""
+    return np.exp2(np.round(np.log2(x)))
+
+
+def absmax(a: np.ndarray, axis: int | None = None):
+    """max |a| (along axis) without an |a| temporary."""
+    return np.maximum(a.max(axis=axis), -a.min(axis=axis))
+
+
+def row_blocks(n: int):
+    """(start, stop) row ranges of BLOCK_ROWS rows covering 0..n."""
+    return ((i, min(i + BLOCK_ROWS, n)) for i in range(0, n, BLOCK_ROWS))
+
+
+class ScaledM:
+    """The scaled matrix M~ = D M D / mu, never formed: columns and blocks on demand.
+
+    (Forming it would cost an n x n allocation, slow to page in for n in the thousands.)
+    """
+
+    def __init__(self, M: np.ndarray, D: np.ndarray, mu: float):
+        self.M, self.D, self.mu = M, D, mu
+        self.n = D.size
+        self.absmax = 1.0  # max |M~| by the choice of mu
+
+    def col(self, j: int) -> np.ndarray:
+        return self.M[:, j] * (self.D * (self.D[j] / self.mu))
+
+    def cols(self, idx: np.ndarray) -> np.ndarray:
+        """M~[:, idx] as an (n, k) array."""
+        return self.M[:, idx] * self.D[:, None] * (self.D[idx] / self.mu)
+
+    def rows(self, idx: np.ndarray) -> np.ndarray:
+        """M~[idx, :] as a (k, n) array."""
+        return self.M[idx] * (self.D[idx] / self.mu)[:, None] * self.D
+
+    def sub(self, idx: np.ndarray) -> np.ndarray:
+        """M~[idx][:, idx]."""
+        Di = self.D[idx]
+        return self.M[np.ix_(idx, idx)] * Di[:, None] * (Di / self.mu)
+
+    def matvec(self, v: np.ndarray) -> np.ndarray:
+        return self.D * (self.M @ (self.D * v)) / self.mu
+
+    def rmatvec(self, v: np.ndarray) -> np.ndarray:
+        """v^T M~ as an (n,) array."""
+        return self.D * ((self.D * v) @ self.M) / self.mu
+
+    def dense(self) -> np.ndarray:
+        return self.D[:, None] * self.M * (self.D / self.mu)
+
+
+def scaling(M: np.ndarray, q: np.ndarray) -> tuple[ScaledM, np.ndarray, float, float]:
+    """Symmetric scaling: (M~, D, mu, nu) with M~ = D M D / mu, q~ = D q / nu.
+
+    D_i = 1 / sqrt(s_i) with s_i = |M_ii| when that is at least 1e-6 times the largest
+    entry of row or column i, else that largest entry (1 for an all-zero row and column);
+    D, mu and nu are powers of two (exact scaling), mu = max|D M D|, nu = max|D q|.
+    One pass over M in row blocks (two when a diagonal entry is too small).
+    """
+    n = q.size
+    dg = np.abs(np.diagonal(M))
+    # first guess D from the diagonal alone; one pass checks it and gives mu with it
+    D = pow2(1.0 / np.sqrt(np.where(dg > 0, dg, 1.0)))
+    rmax, cmax, smax = np.zeros(n), np.zeros(n), np.zeros(n)
+    for i0, i1 in row_blocks(n):
+        a = np.abs(M[i0:i1])
+        rmax[i0:i1] = a.max(axis=1)
+        np.maximum(cmax, a.max(axis=0), out=cmax)
+        a *= D
+        smax[i0:i1] = a.max(axis=1) * D[i0:i1]
+    rc = np.maximum(rmax, cmax)
+    s = np.where(dg >= 1e-6 * rc, dg, rc)
+    s[s == 0.0] = 1.0
+    D_final = pow2(1.0 / np.sqrt(s))
+    if np.array_equal(D_final, D):
+        mu = float(smax.max(initial=0.0))
+    else:  # some diagonal entries too small: a second pass with the final D
+        D = D_final
+        mu = 0.0
+        for i0, i1 in row_blocks(n):
+            mu = max(mu, float(((np.abs(M[i0:i1]) * D).max(axis=1) * D[i0:i1]).max()))
+    mu = float(pow2(np.array(mu))) if mu > 0 else 1.0
+    nu = float(np.abs(D * q).max())
+    nu = float(pow2(np.array(nu))) if nu > 0 else 1.0
+    return ScaledM(M, D, mu), D, mu, nu
+
+
+def lu_or_none(A: np.ndarray):
+    """LU factors of square A (scipy lu_factor), or None when A is numerically singular."""
+    if A.shape[0] == 0:
+        return None
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", sla.LinAlgWarning)
+        try:
+            lu = sla.lu_factor(A, check_finite=False)
+        except (ValueError, np.linalg.LinAlgError):
+            return None
+    if not np.isfinite(lu[0]).all():
+        return None
+    rcond = sla.lapack.dgecon(lu[0], float(np.abs(A).sum(axis=0).max()))[0]
+    return lu if np.isfinite(rcond) and rcond >= RCOND_MIN else None
