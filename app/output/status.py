@@ -203,7 +203,7 @@ class RunGuard:
         self.removed: list[str] = []
 
     def __enter__(self) -> RunGuard:
-        from app.run import collective
+        from app.parallel import collective
 
         def start():
             self._lock = lock_folder(self.out)
