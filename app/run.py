@@ -55,6 +55,7 @@ from app.output.status import (
     hold_signals,
     on_failure,
     release_signals,
+    step_writing,
 )
 from app.output.summary import write_summary as write_summary_file
 from app.output.xdmf import ResultWriter, restore_steps
@@ -354,6 +355,7 @@ def _run(cfg: Config, opts: RunOptions, summary: dict) -> dict:
             energy_total = float(energy_by_body.sum())
             check_finite(step + 1, cfg.n_steps, u, energy_total)
             hold_signals()  # the step's files and summary.json are written together
+            step_writing(True)
             if rank == 0:
                 cell = _assemble_cell_fields(mesh, gathered)
                 disp = np.zeros((mesh.n_nodes, 3))
@@ -374,6 +376,7 @@ def _run(cfg: Config, opts: RunOptions, summary: dict) -> dict:
                 if not opts.quiet:
                     print(step_line(step_info, cfg.n_steps, timer.prefix), file=sys.stderr,
                           flush=True)
+        step_writing(False)
         release_signals()
 
     with timer.phase("reference"):
