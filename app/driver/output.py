@@ -22,7 +22,13 @@ from app.mesh.model import Mesh
 from app.output.contact import contact_arrays
 from app.output.progress import step_line
 from app.output.reactions import ReactionProbe, support_owner
-from app.output.status import check_finite, hold_signals, on_failure, release_signals
+from app.output.status import (
+    check_finite,
+    hold_signals,
+    on_failure,
+    release_signals,
+    step_writing,
+)
 from app.output.xdmf import ResultWriter, restore_steps
 from app.parallel import collective, to_numpy_all
 from app.references import ContactProfile, RunFigures, reference
@@ -89,6 +95,7 @@ def write_step(ctx: RunContext, model: Model, output: StepOutput, step: int, u: 
         energy = float(by_body.sum())
         check_finite(step + 1, cfg.n_steps, u, energy)
         hold_signals()  # the step's files and summary.json are written together
+        step_writing(True)
         if ctx.rank == 0:
             disp = np.zeros((mesh.n_nodes, 3))
             disp[:, :2] = u.reshape(-1, 2)
@@ -97,6 +104,7 @@ def write_step(ctx: RunContext, model: Model, output: StepOutput, step: int, u: 
                                      load_factors=info["load_factor"])
         _record_step(ctx, info, energy, dict(zip(mesh.body_names, map(float, by_body),
                                                   strict=True)), started)
+    step_writing(False)
     release_signals()
 
 
