@@ -299,7 +299,8 @@ def _run(cfg: Config, opts: RunOptions, summary: dict) -> dict:
                     "no step completed"
                 held = "" if floating is None else (
                     "; held only by contact: " + ", ".join(floating.names))
-                head = ("no static equilibrium" if result["status"] == "secondary ray"
+                head = ("no static equilibrium"
+                        if result["status"] in ("secondary ray", "unbalanced load")
                         else "the contact problem could not be solved")
                 reason = f"{head} at step {step + 1}: {result['message']}{held}; {done}"
                 summary["error"] = reason

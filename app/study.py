@@ -28,6 +28,14 @@ from app.discretisation.methods import BULK_METHODS
 from app.errors import InputError, SolveError
 from app.references import REFERENCES
 from app.run import RunOptions, run
+from app.study_reference import (
+    add_reference_errors,
+    energy_bracket,
+    fitted_rate,
+    plot_bracket,
+    profile,
+    write_tables,
+)
 
 PHASES = ("mesh", "assembly", "factorization", "solve", "pair_search", "compliance", "lcp",
           "recovery", "output", "total")
@@ -67,14 +75,6 @@ def run_study(cfg: Config, out: Path, levels: int, methods: list[tuple[str, int]
     reference: label of the method whose finest level is the model reference (default
     4SD if run, else the last method). Raises SolveError if every run fails.
     """
-    from app.study_reference import (
-        add_reference_errors,
-        energy_bracket,
-        plot_bracket,
-        profile,
-        write_tables,
-    )
-
     rank = PETSc.COMM_WORLD.getRank()
     if cfg.reference is None:
         raise InputError(f"{cfg.path}: a study needs a [reference] table with type one of "
@@ -155,15 +155,6 @@ def write_csv(path: Path, rows: list[dict]) -> None:
         w.writeheader()
         w.writerows(rows)
     tmp.replace(path)
-
-
-def fitted_rate(dofs: np.ndarray, err: np.ndarray) -> float:
-    """Convergence rate in element size h ~ DOFs^-1/2: slope of log err vs log h."""
-    ok = np.isfinite(err) & (err > 0)
-    if ok.sum() < 2:
-        return math.nan
-    h = dofs[ok] ** -0.5
-    return float(np.polyfit(np.log(h), np.log(err[ok]), 1)[0])
 
 
 def plot_study(rows: list[dict], out: Path, title: str = "", note: str = "") -> list[Path]:

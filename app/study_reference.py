@@ -169,7 +169,6 @@ def plot_bracket(bracket: list[dict], out: Path) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from app.study import fitted_rate
 
     x = np.array([b["n_dofs"] for b in bracket], dtype=float)
     fig, ax = plt.subplots(figsize=(5.2, 3.8))
@@ -190,3 +189,12 @@ def plot_bracket(bracket: list[dict], out: Path) -> Path:
     fig.savefig(out / "energy_bracket.png", dpi=90)
     plt.close(fig)
     return out / "energy_bracket.png"
+
+
+def fitted_rate(dofs: np.ndarray, err: np.ndarray) -> float:
+    """Convergence rate in element size h ~ DOFs^-1/2: slope of log err vs log h."""
+    ok = np.isfinite(err) & (err > 0)
+    if ok.sum() < 2:
+        return math.nan
+    h = dofs[ok] ** -0.5
+    return float(np.polyfit(np.log(h), np.log(err[ok]), 1)[0])

@@ -59,6 +59,8 @@ def _graph() -> dict[str, set[str]]:
 
 def _rank(module: str) -> int:
     """0 foundations, 1.. the stages in order, len(STAGES) + 1 the driver."""
+    if module == "app":
+        return 0  # the package itself: its version
     parts = module.split(".")
     if len(parts) == 1 or parts[1] in FOUNDATIONS or parts[1] == "__init__":
         return 0 if len(parts) > 1 and parts[1] in FOUNDATIONS else len(STAGES) + 1

@@ -138,13 +138,13 @@ def test_too_large_a_mesh_is_refused_quickly_and_allow_large_overrides():
 @pytest.mark.parametrize("raw", [PATCH, HERTZ], ids=["structured", "refined"])
 def test_underflowing_sizes_are_refused_not_a_traceback(raw, scale):
     with pytest.raises(InputError, match="unbounded|more than this machine"):
-        check_size(raw, scale)
+        check_size(parse_scene(raw), scale)
 
 
 def test_structured_divisions_count_in_the_estimate():
     raw = _with(PATCH, ("body", 0, "shape", "divisions"), [100000, 100000])
     with pytest.raises(InputError, match="about 1e\\+10 elements"):
-        check_size(raw, 1.0)
+        check_size(parse_scene(raw), 1.0)
 
 
 # ----------------------------------------------------------------------------- meshes

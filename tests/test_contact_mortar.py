@@ -12,7 +12,12 @@ from support import CONFIGS, kkt_violations, read_summary, run_cli
 from test_contact_pairs import rotate, stacked
 
 from app.config import parse_config
-from app.contact.discretisation import DEFAULT, DISCRETISATIONS, node_to_segment
+from app.contact.discretisation import (
+    DEFAULT,
+    DISCRETISATIONS,
+    contact_discretisation,
+    node_to_segment,
+)
 from app.contact.mortar import contact_normal, mortar_constraints, project_onto_segment
 from app.contact.pairs import constraint_matrix, contact_pairs
 from app.contact.smoothness import local_fit_deviation
@@ -36,11 +41,14 @@ def minimal(**interface) -> dict:
 
 def test_registry_and_config_key():
     assert set(DISCRETISATIONS) == {"node-to-segment", "mortar"}
-    assert parse_config(minimal()).interfaces[0].discretisation == DEFAULT
+    unset = parse_config(minimal()).interfaces[0].discretisation
+    assert contact_discretisation(unset, "x") is DISCRETISATIONS[DEFAULT]
     cfg = parse_config(minimal(discretisation="mortar"))
     assert cfg.interfaces[0].discretisation == "mortar"
+    assert contact_discretisation("mortar", "x") is DISCRETISATIONS["mortar"]
     with pytest.raises(InputError, match="discretisation must be one of"):
-        parse_config(minimal(discretisation="nts"))
+        contact_discretisation(parse_config(minimal(discretisation="nts")).interfaces[0]
+                               .discretisation, "interface 'x'")
 
 
 def test_node_to_segment_entry_is_the_pair_code():
