@@ -20,9 +20,9 @@ def contact_displacement(g: sp.csr_matrix, lam: np.ndarray, solver, k: PETSc.Mat
     return to_numpy_all(solver.solve(vec))
 
 
-def mismatch(g: sp.csr_matrix, u: np.ndarray, result: dict) -> np.ndarray:
+def mismatch(g: sp.csr_matrix, u: np.ndarray, result) -> np.ndarray:
     """G u minus the LCP's (gap - g0, tau): (2m,), zero when the compliance C used by the
     LCP agrees with the factorization that recovers u. An inexact C (round-off of the
     Schur complement on an ill-conditioned K) shows here; adding it to the free gap and
     tangential displacement and solving again converges to the consistent answer."""
-    return g @ u - result["kinematics"]
+    return g @ u - result.kinematics

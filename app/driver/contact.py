@@ -14,7 +14,7 @@ from app.driver.context import RunContext, write_summary
 from app.driver.linear import LinearSystem, UnitSolutions
 from app.driver.model import Model
 from app.errors import SolveError
-from app.interface.steps import ContactStepper
+from app.interface.steps import ContactStepper, StepSolution
 from app.parallel import to_numpy_all
 
 CONSISTENCY_TOL = 1e-9
@@ -25,11 +25,11 @@ MAX_REFINEMENTS = 5
 
 @dataclass
 class ContactStep:
-    """One solved load step: u (2n,) the displacement with the contact forces, result the
-    stepper's dict (lam, alpha, state, info, ...; rank 0's, broadcast)."""
+    """One solved load step: u (2n,) the displacement with the contact forces, and the
+    stepper's solution (rank 0's, broadcast)."""
 
     u: np.ndarray
-    result: dict
+    result: StepSolution
 
 
 def condense(ctx: RunContext, model: Model, system: LinearSystem,
@@ -58,7 +58,7 @@ def solve_contact_step(ctx: RunContext, model: Model, system: LinearSystem,
     with ctx.phase("lcp"):
         result = stepper.step(step, model.cases) if ctx.rank == 0 else None
         result = ctx.mpi.bcast(result, root=0)
-    if result["status"] != "solved":
+    if not result.solved:
         _fail(ctx, model, step, result)
     correction = np.zeros(2 * model.contact.pairs.n_pairs) if ctx.rank == 0 else None
     refinements, previous = 0, np.inf
@@ -79,22 +79,22 @@ def solve_contact_step(ctx: RunContext, model: Model, system: LinearSystem,
             break
         result = retry
         refinements += 1
-    result["info"]["consistency_refinements"] = refinements
-    result["info"]["lcp_displacement_mismatch"] = rel
+    result.info["consistency_refinements"] = refinements
+    result.info["lcp_displacement_mismatch"] = rel
     return ContactStep(u, result)
 
 
 def _displacement(model: Model, system: LinearSystem, u_free: np.ndarray,
-                  result: dict) -> np.ndarray:
+                  result: StepSolution) -> np.ndarray:
     """u_free + K^-1 G^T lambda (+ the floating modes' amplitudes)."""
-    u = u_free + contact_displacement(model.contact.g, result["lam"], system.solver,
+    u = u_free + contact_displacement(model.contact.g, result.lam, system.solver,
                                       system.k, model.fixed_all, to_numpy_all)
     if model.floating is not None and model.floating.r.shape[1]:
-        u += model.floating.r @ result["alpha"]
+        u += model.floating.r @ result.alpha
     return u
 
 
-def _consistency(ctx: RunContext, model: Model, u: np.ndarray, result: dict,
+def _consistency(ctx: RunContext, model: Model, u: np.ndarray, result: StepSolution,
                  refinements: int, previous: float):
     """(G u - LCP kinematics on rank 0, its size relative to max |u|, whether to re-solve)."""
     miss = rel = again = None
@@ -108,7 +108,7 @@ def _consistency(ctx: RunContext, model: Model, u: np.ndarray, result: dict,
     return miss, rel, again
 
 
-def _fail(ctx: RunContext, model: Model, step: int, result: dict) -> None:
+def _fail(ctx: RunContext, model: Model, step: int, result: StepSolution) -> None:
     """Record the failed step in the summary and raise the one-line reason."""
     summary = ctx.summary
     summary["status"] = "failed"
@@ -117,9 +117,9 @@ def _fail(ctx: RunContext, model: Model, step: int, result: dict) -> None:
     done = f"steps 1..{step} are written in {ctx.out}" if step else "no step completed"
     held = "" if model.floating is None else (
         "; held only by contact: " + ", ".join(model.floating.names))
-    head = ("no static equilibrium" if result["status"] in ("secondary ray", "unbalanced load")
+    head = ("no static equilibrium" if result.status in ("secondary ray", "unbalanced load")
             else "the contact problem could not be solved")
-    reason = f"{head} at step {step + 1}: {result['message']}{held}; {done}"
+    reason = f"{head} at step {step + 1}: {result.message}{held}; {done}"
     summary["error"] = reason
     if ctx.rank == 0:
         write_summary(ctx.out, summary)

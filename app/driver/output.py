@@ -79,14 +79,14 @@ def write_step(ctx: RunContext, model: Model, output: StepOutput, step: int, u: 
     contact_data = None
     with ctx.phase("output"):
         if solved is not None:
-            info.update(solved.result["info"])
+            info.update(solved.result.info)
             if ctx.rank == 0:
-                contact_data = contact_arrays(model.contact, solved.result, u, cfg.thickness)
-                info["kkt"] = contact_data.pop("_kkt")
+                contact_data, info["kkt"] = contact_arrays(model.contact, solved.result, u,
+                                                           cfg.thickness)
                 output.last_contact = contact_data
                 _add_interface_forces(info, contact_data, cfg)
         info.update(output.reactions(step, u, None if solved is None else
-                                     model.contact.g.T @ solved.result["lam"]))
+                                     model.contact.g.T @ solved.result.lam))
         fields = element_fields(mesh, model.disc, u, output.my_elements)
         gathered = mpi.gather((output.my_elements, fields), root=0)
         by_body = mpi.allreduce(np.bincount(mesh.body[output.my_elements],

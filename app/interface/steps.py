@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import copy
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -120,6 +120,47 @@ def solve_step(lcp: ContactLCP, hist: InterfaceHistory, step: int, gap_free: np.
                       dissipation, "solved")
 
 
+@dataclass
+class StepSolution:
+    """A load step's contact answer (rank 0; broadcast to every rank).
+
+    status: "solved", or why not ("secondary ray", "unbalanced load", ...; `message`
+    says more). When solved: lam (2m,) pair forces, normal rows then tangential;
+    alpha (r,) floating-mode amplitudes; kinematics (2m,) the LCP's (gap - g0, tau);
+    state, debonded_step (m,) int; tau_prev (m,) tau before the step; slip (m,)
+    accumulated; a, c (m,) adhesion and strength forces in force at this step; f_scale
+    the problem's force scale; info the step's summary.json entries.
+    """
+
+    status: str
+    message: str = ""
+    lam: np.ndarray | None = None
+    alpha: np.ndarray | None = None
+    kinematics: np.ndarray | None = None
+    state: np.ndarray | None = None
+    debonded_step: np.ndarray | None = None
+    tau_prev: np.ndarray | None = None
+    slip: np.ndarray | None = None
+    a: np.ndarray | None = None
+    c: np.ndarray | None = None
+    f_scale: float = 0.0
+    info: dict = field(default_factory=dict)
+
+    @property
+    def solved(self) -> bool:
+        return self.status == "solved"
+
+
+@dataclass
+class StepStart:
+    """The interface history at the start of a load step, which a consistency re-solve
+    of that step restarts from."""
+
+    step: int
+    history: InterfaceHistory
+    slip: np.ndarray
+
+
 class ContactStepper:
     """Rank-0 state of the contact problem over the load steps."""
 
@@ -128,6 +169,7 @@ class ContactStepper:
         """unit: K^-1 b per load case; rhs: the load cases' right-hand sides b (forces
         with the Dirichlet lifting, zero on prescribed DOFs)."""
         self.setup = setup
+        self.start: StepStart | None = None  # set by step(), used by refine()
         pr = setup.pairs
         m = pr.n_pairs
         self.m = m
@@ -167,29 +209,33 @@ class ContactStepper:
                            np.abs(self.hist.a).max(initial=0.0),
                            np.abs(self.hist.c).max(initial=0.0))
 
-    def refine(self, step: int, cases, correction: np.ndarray) -> dict | None:
-        """Re-solve step `step` with a consistency correction; None (and the state of the
-        last good solve kept) if that fails."""
+    def refine(self, step: int, cases, correction: np.ndarray) -> StepSolution | None:
+        """Re-solve step `step` (the one `step()` solved last) with the free gap and
+        tangential displacement shifted by `correction` (2m,) (the consistency refinement,
+        see `app.condensation.recovery.mismatch`): from the history at the start of the
+        step, warm-started from the last basis. None (the last good solve kept) if it
+        fails."""
+        if self.start is None or self.start.step != step:
+            raise ValueError(f"refine(step={step}) needs step({step}) solved first")
         kept = (copy.deepcopy(self.hist), self.slip.copy())
-        out = self.step(step, cases, correction)
-        if out["status"] != "solved":
+        basis = self.hist.basis
+        self.hist = copy.deepcopy(self.start.history)
+        self.slip = self.start.slip.copy()
+        self.hist.basis = basis
+        out = self._solve(step, cases, correction)
+        if not out.solved:
             self.hist, self.slip = kept
             return None
         return out
 
-    def step(self, step: int, cases, correction: np.ndarray | None = None) -> dict:
-        """Solve load step `step` (0-based). `correction` (2m,): a re-solve of the same
-        step with the free gap and tangential displacement shifted by it (the consistency
-        refinement, see `mismatch`); the step restarts from the history before its first
-        solve, warm-started from the last basis."""
+    def step(self, step: int, cases) -> StepSolution:
+        """Solve load step `step` (0-based) from the current history, which it updates."""
+        self.start = StepStart(step, copy.deepcopy(self.hist), self.slip.copy())
+        return self._solve(step, cases, None)
+
+    def _solve(self, step: int, cases, correction: np.ndarray | None) -> StepSolution:
         m = self.m
         pr = self.setup.pairs
-        if correction is None:
-            self._saved = (copy.deepcopy(self.hist), self.slip.copy())
-        else:
-            basis = self.hist.basis
-            self.hist, self.slip = copy.deepcopy(self._saved[0]), self._saved[1].copy()
-            self.hist.basis = basis
         gap_free = pr.g0.copy()
         tau_free = np.zeros(m)
         e0 = np.zeros(len(self.mode_names))
@@ -204,8 +250,8 @@ class ContactStepper:
             if loaded.any():
                 names = ", ".join(n for n, k in zip(self.undetermined, loaded, strict=True)
                                   if k)
-                return {"status": "unbalanced load", "message": f"a load on {names}; the "
-                        f"contact cannot resist {names}"}
+                return StepSolution("unbalanced load", f"a load on {names}; the contact "
+                                    f"cannot resist {names}")
             e0 = self.v_keep.T @ e0
         if correction is not None:
             gap_free += correction[:m]
@@ -214,15 +260,13 @@ class ContactStepper:
         res = solve_step(self.lcp, self.hist, step + 1, gap_free, tau_free, self.setup.mu,
                          e0, self.tol, self.tol)
         sol = res.solution
-        out = {"status": res.status, "message": "",
-               "lam": np.concatenate([sol.p, sol.q]),
-               "alpha": sol.alpha if self.v_keep is None else self.v_keep @ sol.alpha,
-               "kinematics": np.concatenate([sol.gap - pr.g0, sol.tau])}
+        out = StepSolution(res.status, "", np.concatenate([sol.p, sol.q]),
+                           sol.alpha if self.v_keep is None else self.v_keep @ sol.alpha,
+                           np.concatenate([sol.gap - pr.g0, sol.tau]))
         if res.status != "solved":
-            out["message"] = f"Lemke ended with '{res.status}': {sol.message}"
+            out.message = f"Lemke ended with '{res.status}': {sol.message}"
             if self.undetermined:
-                out["message"] += ("; the contact cannot resist " +
-                                   ", ".join(self.undetermined))
+                out.message += "; the contact cannot resist " + ", ".join(self.undetermined)
             return out
         self.slip += sol.slip_plus - sol.slip_minus
         it = pr.interface
@@ -261,12 +305,11 @@ class ContactStepper:
             "dissipation": res.dissipation,
         }
         if self.mode_names:
-            info["rigid_modes"] = dict(zip(self.mode_names, map(float, out["alpha"]),
+            info["rigid_modes"] = dict(zip(self.mode_names, map(float, out.alpha),
                                            strict=True))
         if self.undetermined:
             info["undetermined_modes"] = self.undetermined
-        out.update({"info": info, "state": res.state, "debonded_step": res.debonded_step,
-                    "tau_prev": tau_prev, "slip": self.slip.copy(),
-                    "a": self.hist.a.copy(), "c": self.hist.c.copy(),
-                    "f_scale": self.f_scale})
+        out.info, out.state, out.debonded_step = info, res.state, res.debonded_step
+        out.tau_prev, out.slip, out.f_scale = tau_prev, self.slip.copy(), self.f_scale
+        out.a, out.c = self.hist.a.copy(), self.hist.c.copy()
         return out

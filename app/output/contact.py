@@ -5,9 +5,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from app.interface.steps import StepSolution
 
-def contact_arrays(setup, result: dict, u: np.ndarray, thickness: float) -> dict:
-    """Per-pair arrays for the step file, plus the KKT check under the key '_kkt'.
+
+def contact_arrays(setup, result: StepSolution, u: np.ndarray,
+                   thickness: float) -> tuple[dict, dict]:
+    """Per-pair arrays for the step file, and the KKT check (`kkt_check`).
 
     setup: the run's ContactSetup (pairs, G, rows, mu, frictional); result: the step's
     LCP result (lam, state, tau_prev, slip, debonded_step, a, c, f_scale); u: (2n,).
@@ -17,7 +20,7 @@ def contact_arrays(setup, result: dict, u: np.ndarray, thickness: float) -> dict
     gu = setup.g @ u
     gap_u = pr.g0 + gu[:m]
     tau_u = gu[m:]
-    p, q = result["lam"][:m], result["lam"][m:]
+    p, q = result.lam[:m], result.lam[m:]
     scale_len = pr.length * thickness
     data = {
         "position": pr.position,
@@ -37,23 +40,22 @@ def contact_arrays(setup, result: dict, u: np.ndarray, thickness: float) -> dict
         "q_force": q,
         "gap": gap_u,
         "tau": tau_u,
-        "tau_prev": result["tau_prev"],
-        "slip_increment": tau_u - result["tau_prev"],
-        "slip": result["slip"],
-        "state": result["state"].astype(np.int64),
-        "debonded_step": result["debonded_step"].astype(np.int64),
+        "tau_prev": result.tau_prev,
+        "slip_increment": tau_u - result.tau_prev,
+        "slip": result.slip,
+        "state": result.state.astype(np.int64),
+        "debonded_step": result.debonded_step.astype(np.int64),
         "mu": setup.mu,
-        "a_force": result["a"],
-        "c_force": result["c"],
+        "a_force": result.a,
+        "c_force": result.c,
     }
     if setup.rows is not None:  # the rows of G (the KKT check of tests/support.py)
         data |= {"g_cols": setup.rows.cols, "g_normal": setup.rows.g_normal,
                  "g_tangent": setup.rows.g_tangent}
-    data["_kkt"] = kkt_check(gap_u, tau_u, result["tau_prev"], p, q, setup.mu,
-                             result["a"], result["c"], setup.frictional,
-                             u_scale=float(np.abs(u).max(initial=0.0)),
-                             f_scale=result["f_scale"])
-    return data
+    kkt = kkt_check(gap_u, tau_u, result.tau_prev, p, q, setup.mu, result.a, result.c,
+                    setup.frictional, u_scale=float(np.abs(u).max(initial=0.0)),
+                    f_scale=result.f_scale)
+    return data, kkt
 
 
 
