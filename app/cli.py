@@ -67,10 +67,14 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help=SET_HELP)
     s = sub.add_parser("study", help="convergence study: methods x refinement levels",
-                       description="Refine level by level (each level halves every element "
-                       "size) and run every method; writes OUT/study.csv and the plots "
-                       "error_vs_dofs.png, error_vs_time.png, energy_vs_sd.png. The config "
-                       "needs a [reference] table (timoshenko, hertz or cattaneo). Unknown "
+                       description="Refine level by level (each level splits every quad of "
+                       "the level-0 mesh into four; --remesh: gmsh halves every element size) "
+                       "and run every method; writes OUT/study.csv, study_tables.md (errors "
+                       "against the closed form and against the finest level of the reference "
+                       "method, observed orders, energy bracket) and the plots "
+                       "error_vs_dofs.png, error_vs_time.png, energy_vs_sd.png, "
+                       "energy_bracket.png. The config needs a [reference] table (timoshenko, "
+                       "hertz or cattaneo). With --sweep: a parameter study instead. Unknown "
                        "options go to PETSc.")
     s.add_argument("config", type=Path)
     s.add_argument("--levels", type=int, default=4, help="number of levels (default 4)")
@@ -135,6 +139,9 @@ def main(argv: list[str] | None = None) -> int:
             out = output_folder(args.out, Path("out") / f"study_{args.config.stem}")
             if args.sweep:
                 from app.sweep import parse_sweeps, run_sweep
+
+                if not 0 <= args.refine <= 8:
+                    raise InputError(f"--refine must be 0..8 (got {args.refine})")
 
                 rows = run_sweep(args.config, args.set, parse_sweeps(args.sweep), out,
                                  {"mesh_scale": scale, "mesh_cache": out / "mesh_cache",

@@ -140,7 +140,12 @@ def hertz_errors(x, p, length, *, P: float, R: float, E_star: float, x0: float =
             "half_width_rel_error": float(abs(half - a) / a),
             "contact_edges": [left + x0, right + x0], "pressure_l2_rel_error": float(l2),
             "pressure_l2_interp_rel_error": interpolated_l2_rel_error(
-                x, p, lambda s: hertz_pressure(s, a, p0), INTERPOLATED_L2_RANGE * a)}
+                x, p, lambda s: hertz_pressure(s, a, p0), INTERPOLATED_L2_RANGE * a),
+            # the same error of the exact pressure sampled at the pairs: what the
+            # interpolated definition cannot resolve at this pair spacing (edge kinks)
+            "pressure_l2_interp_floor": interpolated_l2_rel_error(
+                x, hertz_pressure(x, a, p0), lambda s: hertz_pressure(s, a, p0),
+                INTERPOLATED_L2_RANGE * a)}
 
 
 def cattaneo_errors(x, p, q, length, stick, *, P: float, Q: float, mu: float, R: float,

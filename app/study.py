@@ -120,6 +120,9 @@ def run_study(cfg: Config, out: Path, levels: int, methods: list[tuple[str, int]
                 for key in path:
                     v = v.get(key, {}) if isinstance(v, dict) else {}
                 row[f"err_{name}"] = float(v) if isinstance(v, int | float) else math.nan
+            floor = ref.get("hertz", {}).get("pressure_l2_interp_floor")
+            if floor is not None:  # the interpolated L2's own floor at this pair spacing
+                row["floor_pressure_l2_interp"] = floor
             rows.append(row)
             if rank == 0:
                 profiles[(level, row["method"])] = profile(s, opts.out)

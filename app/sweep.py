@@ -199,7 +199,10 @@ def plot_sweep(rows: list[dict], keys: list[str], out: Path, at_step: int = 0) -
                                 ls=STYLES[j % len(STYLES)])
             handles = [Line2D([], [], color=f"C{i}", label=c.replace("_length", "")
                               .replace("_", " ")) for i, c in enumerate(cols)]
-            ax.legend(handles=handles, fontsize=7)
+            if ax.lines:
+                ax.legend(handles=handles, fontsize=7)
+            else:
+                ax.text(0.5, 0.5, "none in any run", ha="center", transform=ax.transAxes)
             ax.set_xlabel(key)
             ax.set_title(title + ("" if title in ("dissipation", "debonding step")
                                   else f" (at {when}; peaks over all steps)"

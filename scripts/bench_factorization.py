@@ -59,8 +59,10 @@ def run_route(args) -> None:
         compliance_schur,
         request_schur,
     )
+    from app.condensation.recovery import contact_displacement
     from app.config import load_config
-    from app.interface.setup import ContactSetup, floating_modes
+    from app.interface.contact import ContactSetup
+    from app.interface.floating import floating_modes
     from app.run import RunOptions, build_scene_mesh, collective, make_discretisation
 
     comm = PETSc.COMM_WORLD
@@ -107,7 +109,7 @@ def run_route(args) -> None:
         timed("compliance", compliance_from_factor, solver, contact.g, fixed_all)
         timed("solve", solver.solve, b)
         lam = np.random.default_rng(0).random(contact.g.shape[0])
-        timed("recovery", contact.displacement, lam, solver, k, fixed_all, _to_all)
+        timed("recovery", contact_displacement, contact.g, lam, solver, k, fixed_all, _to_all)
     else:
         timed("factorization", solver.factor)
         timed("solve", solver.solve, b)

@@ -4,8 +4,10 @@ One JSON line per run: patch test (max |p - 10| / 10), Hertz (interpolated L2 of
 a/10 ... a/80), Cattaneo (stick edges, L2 of q), multibody `indent` (largest deviation of
 p from a local quadratic fit, relative to max p), frictionless Cattaneo (where it stops).
 
-    .venv/bin/python scripts/bench_mortar.py [--only patch hertz cattaneo multibody mu0]
-        [--hertz-sizes 0.5 0.25 0.125 0.0625]
+    .venv/bin/python scripts/bench_mortar.py [--only patch hertz cattaneo multibody mu0
+        family] [--hertz-sizes 0.5 0.25 0.125 0.0625]
+
+`family` (not in the default list): Cattaneo as a/R -> 0 (see `family`).
 """
 
 from __future__ import annotations
@@ -68,6 +70,31 @@ def run(config: str, disc: str, swapped: bool, extra: list[str]) -> tuple[dict, 
         shutil.rmtree(out, ignore_errors=True)
 
 
+def family(k: float, refines: tuple[float, ...]) -> list[dict]:
+    """Cattaneo with a/R -> 0: `cattaneo.toml` with the approach uy divided by k, the
+    contact refinement size divided by sqrt(k) x refine and its flat zone by sqrt(k)
+    (a/20 x refine at k = 1), and Q = 0.1 P (Q / (mu P) = 0.5), P measured by a first run
+    without Q. One row per refine."""
+    uy = -0.018788 / k
+    base = ["--set", f"support.1.uy={uy}", "--set", f"mesh.refine.0.flat={0.15 / k**0.5}"]
+    s, _ = run("cattaneo", "mortar", False, [*base, "--set", "load.0.total_force=[0.0,0.0]",
+                                              "--set", f"mesh.refine.0.size={0.005 / k**0.5}"])
+    p = s["reference"]["hertz"]["P"]
+    rows = []
+    for refine in refines:
+        s, c = run("cattaneo", "mortar", False, [
+            *base, "--set", f"load.0.total_force=[{0.1 * p},0.0]",
+            "--set", f"mesh.refine.0.size={0.005 / k**0.5 / refine}"])
+        ca = s.get("reference", {}).get("cattaneo", {})
+        rows.append({"case": "cattaneo_family", "k": k, "refine": refine, "uy": uy,
+                     "Q": 0.1 * p, "error": s.get("error"), "n_dofs": s.get("n_dofs"),
+                     "a": ca.get("a_hertz"), "element": 0.005 / k**0.5 / refine,
+                     "Q_over_muP": ca.get("Q_over_muP"), "stick_edges": ca.get("stick_edges"),
+                     "stick_half_width_exact": ca.get("stick_half_width_exact"),
+                     "q_l2_interp": ca.get("traction_l2_interp_rel_error")})
+    return rows
+
+
 def emit(row: dict) -> None:
     print(json.dumps(row), flush=True)
 
@@ -78,6 +105,10 @@ def main() -> None:
                                                    "mu0"])
     ap.add_argument("--hertz-sizes", type=float, nargs="+", default=[0.5, 0.25, 0.125, 0.0625])
     a = ap.parse_args()
+    if "family" in a.only:
+        for k in (1, 4, 16, 64, 256):
+            for row in family(k, (1, 2)):
+                emit(row)
     for disc in DISCS:
         for swapped in (False, True):
             base = {"discretisation": disc, "swapped": swapped}
@@ -92,6 +123,8 @@ def main() -> None:
                     emit(base | {"case": "hertz", "mesh_size": h, "error": s.get("error"),
                                  "n_dofs": s.get("n_dofs"), "wall_s": round(s["wall_seconds"], 2),
                                  "element": float(np.median(c["length"][c["p"] > 0])),
+                                 "seconds": {k: round(v, 3) for k, v in
+                                             s.get("timings", {}).items()},
                                  "p_l2_interp": hz.get("pressure_l2_interp_rel_error"),
                                  "p_l2": hz.get("pressure_l2_rel_error")})
             if "cattaneo" in a.only:

@@ -36,7 +36,7 @@ def _imports(path: Path) -> set[str]:
     package = _module_name(path).rsplit(".", 1)[0] if path.name != "__init__.py" else \
         _module_name(path)
     out = set()
-    for node in ast.walk(tree):
+    for node in _runtime_nodes(tree):
         if isinstance(node, ast.Import):
             out.update(a.name for a in node.names)
         elif isinstance(node, ast.ImportFrom):
@@ -47,6 +47,19 @@ def _imports(path: Path) -> set[str]:
             out.add(base)
             out.update(f"{base}.{a.name}" for a in node.names)
     return out
+
+
+def _runtime_nodes(tree: ast.AST):
+    """Every node except those under `if TYPE_CHECKING:` (annotations only, no import)."""
+    stack = [tree]
+    while stack:
+        node = stack.pop()
+        yield node
+        for child in ast.iter_child_nodes(node):
+            if isinstance(child, ast.If) and getattr(child.test, "id", "") == "TYPE_CHECKING":
+                stack.extend(child.orelse)
+                continue
+            stack.append(child)
 
 
 def _graph() -> dict[str, set[str]]:

@@ -208,7 +208,7 @@ def test_mortar_hertz_swap(tmp_path):
 
 
 def test_split_modes_separates_what_no_pair_sees():
-    from app.interface.setup import split_modes, undetermined_modes
+    from app.interface.floating import split_modes, undetermined_modes
 
     n_modes = np.array([[1.0, 0.0, 1.0], [2.0, 0.0, 2.0]])  # mode 1 moves nothing; 0 = 2
     t_modes = np.zeros((0, 3))

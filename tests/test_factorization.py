@@ -19,7 +19,8 @@ from app.condensation.compliance import (
 )
 from app.condensation.schur_solver import DenseFactor
 from app.config import load_config
-from app.interface.setup import ContactSetup, floating_modes
+from app.interface.contact import ContactSetup
+from app.interface.floating import floating_modes
 from app.run import RunOptions, build_scene_mesh, make_discretisation, to_numpy_all
 
 

@@ -84,3 +84,22 @@ def test_run_refine_matches_the_split_mesh(tmp_path):
     assert s["reference"]["hertz"]["p_max_rel_error"] < 0.02
     res = run_cli(["run", str(CONFIGS / "hertz.toml"), "--refine", "-1", "--out", str(out)])
     assert res.returncode == 2 and "--refine" in res.stderr
+
+
+def test_halfspace_scenes_converge_to_the_closed_forms(tmp_path):
+    """configs/*_halfspace.toml at level 2 (a/20): the closed-form errors are those of a
+    converging discretisation, not a model-error plateau (README: "Closed-form scenes")."""
+    res = run_cli(["run", str(CONFIGS / "hertz_halfspace.toml"), "--refine", "2", "--out",
+                   str(tmp_path / "h"), "--quiet"])
+    assert res.returncode == 0, res.stderr
+    hz = read_summary(tmp_path / "h")["reference"]["hertz"]
+    assert hz["p_max_rel_error"] < 2e-3 and hz["pressure_l2_rel_error"] < 0.012
+    assert abs(hz["a_hertz"] - 0.01) < 1e-4
+    res = run_cli(["run", str(CONFIGS / "cattaneo_halfspace.toml"), "--refine", "2", "--out",
+                   str(tmp_path / "c"), "--quiet"])
+    assert res.returncode == 0, res.stderr
+    ref = read_summary(tmp_path / "c")["reference"]
+    assert ref["hertz"]["p_max_rel_error"] < 2e-3
+    assert ref["cattaneo"]["stick_half_width_rel_error"] < 0.03
+    assert ref["cattaneo"]["traction_l2_interp_rel_error"] < 0.06  # cattaneo.toml: 23%
+    assert abs(ref["cattaneo"]["Q_over_muP"] - 0.5) < 0.02

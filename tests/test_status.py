@@ -237,3 +237,24 @@ def test_a_cut_short_xdmf_append_is_restored_to_the_completed_steps(tmp_path, mo
     with meshio.xdmf.TimeSeriesReader(tmp_path / "results.xdmf") as r:
         r.read_points_cells()
         assert r.num_steps == 2 and r.read_data(1)[0] == 2.0
+
+
+def test_sigterm_inside_a_long_gmsh_call_stops_within_seconds(tmp_path):
+    """Python handlers cannot run while gmsh meshes (minutes here); the watchdog thread
+    records the status and exits after STOP_GRACE_SECONDS."""
+    out = tmp_path / "o"
+    cmd = [sys.executable, "-m", "app", "run", HERTZ, "--out", str(out), "--mesh-size",
+           "0.02", "--allow-large"]
+    proc = subprocess.Popen(cmd, cwd=ROOT, env=mpi_env(), stderr=subprocess.PIPE, text=True)
+    t0 = time.time()
+    while not (out / "summary.json").exists() and time.time() - t0 < 120:
+        time.sleep(0.05)
+    time.sleep(1.0)  # inside gmsh by now
+    t1 = time.time()
+    proc.send_signal(signal.SIGTERM)
+    stderr = proc.communicate(timeout=120)[1]
+    assert time.time() - t1 < 30, "did not stop promptly"
+    assert proc.returncode == 143, stderr
+    _assert_one_line(stderr)
+    s = read_summary(out)
+    assert s["status"] == "interrupted" and "SIGTERM" in s["error"]

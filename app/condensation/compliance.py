@@ -22,7 +22,7 @@ import numpy as np
 import scipy.sparse as sp
 from petsc4py import PETSc
 
-from app.errors import SolveError
+from app.errors import InputError, SolveError
 from app.petsc_lib import PETSC_INT, load_petsc
 
 
@@ -180,3 +180,20 @@ def compliance_solve(solver, k: PETSc.Mat, g: sp.csr_matrix, fixed: np.ndarray,
     if rank == 0:
         c = 0.5 * (c + c.T)
     return c
+
+
+COMPLIANCE_ROUTES = ("auto", "schur", "solve")
+
+
+def compliance_route(configured: str, solver) -> str:
+    """The route of C = G K^-1 G^T: the option -contact_compliance, else `configured`
+    (analysis.compliance); auto is schur with MUMPS LU and solve otherwise."""
+    route = PETSc.Options().getString("contact_compliance", configured)
+    if route not in COMPLIANCE_ROUTES:
+        raise InputError(f"compliance route '{route}': use auto, schur or solve")
+    if route == "auto":
+        route = "schur" if solver.is_mumps else "solve"
+    if route == "schur" and not solver.is_mumps:
+        raise InputError("the schur compliance route needs MUMPS LU: use "
+                         "-contact_compliance solve with other solvers")
+    return route

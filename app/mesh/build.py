@@ -49,14 +49,36 @@ def _gmsh_session() -> Iterator[Any]:
     import gmsh
 
     started = not gmsh.isInitialized()
+    handlers = _python_signal_handlers()
     if started:
         gmsh.initialize([], readConfigFiles=False, run=False, interruptible=False)
+        _restore_signal_handlers(handlers)  # gmsh.initialize resets SIGTERM to the default
     try:
         gmsh.option.setNumber("General.Terminal", 0)
         yield gmsh
     finally:
         if started:
             gmsh.finalize()
+            _restore_signal_handlers(handlers)
+
+
+def _python_signal_handlers() -> dict:
+    """The Python-level SIGINT and SIGTERM handlers (a run's stop handlers)."""
+    import signal
+
+    return {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)}
+
+
+def _restore_signal_handlers(handlers: dict) -> None:
+    """Install the handlers again at the C level (gmsh replaced them with the defaults)."""
+    import signal
+
+    for sig, handler in handlers.items():
+        if callable(handler):
+            try:
+                signal.signal(sig, handler)
+            except ValueError:  # not the main thread
+                return
 
 
 def _add_pieces(geo: Any, pieces: list[Piece], closed: bool) -> tuple[list[int], list[int]]:

@@ -44,7 +44,7 @@ def final_line(summary: dict, out) -> str:
     """The run's closing line: status, steps done, energy, errors against the reference."""
     steps = summary.get("steps", [])
     n = summary.get("n_steps", len(steps))
-    parts = [f"{summary.get('label', '')}: {summary.get('status')}",
+    parts = [f"{summary.get('label') or 'run'}: {summary.get('status')}",
              f"{len(steps)}/{n} steps"]
     if "n_dofs" in summary:
         parts.append(f"{summary['n_dofs']} DOFs")

@@ -11,9 +11,8 @@ from pathlib import Path
 
 from petsc4py import PETSc
 
-import app
-
-ROOT = Path(app.__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
+"""The checkout holding the code (app/output/provenance.py -> the project folder)."""
 
 
 def git_version(root: Path = ROOT) -> dict | None:
@@ -46,7 +45,8 @@ def provenance(raw: dict, overrides: list[str], ranks: int) -> dict:
         "overrides": list(overrides),
         "config_resolved": jsonable(raw),
         "petsc_options": {k: str(v) for k, v in sorted(PETSc.Options().getAll().items())},
-        "version": {"app": getattr(app, "__version__", None), "git": git_version(),
+        "version": {"app": getattr(sys.modules.get("app"), "__version__", None),
+                    "git": git_version(),
                     "python": platform.python_version(),
                     "petsc": ".".join(map(str, PETSc.Sys.getVersion()))},
         "host": platform.node(),

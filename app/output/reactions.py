@@ -18,19 +18,11 @@ from __future__ import annotations
 import numpy as np
 from petsc4py import PETSc
 
+from app.assembly.loads import unique_names  # noqa: F401  (re-exported)
+
 _BALANCE_FLOOR = 1e-300
 BALANCE_FLOOR_FRACTION = 1e-6
 """The balance's force scale is at least this times max diag(K) times max |u|."""
-
-
-def unique_names(names: list[str]) -> list[str]:
-    """The names, with '#2', '#3' ... appended to the second, third ... repeat of one."""
-    seen: dict[str, int] = {}
-    out = []
-    for n in names:
-        seen[n] = seen.get(n, 0) + 1
-        out.append(n if seen[n] == 1 else f"{n}#{seen[n]}")
-    return out
 
 
 def moment_z(points: np.ndarray, nodes: np.ndarray, fx: np.ndarray, fy: np.ndarray,

@@ -31,8 +31,9 @@ TEMPORARY = re.compile(r"^(step_\d{4,}\.h5|results\.xdmf|contact\.xdmf|mesh\.h5|
 EXIT_SIGNAL = {"SIGINT": 130, "SIGTERM": 143}
 
 
-class RunInterrupted(Exception):
-    """The run was stopped by a signal (SIGINT or SIGTERM); args[0] is the signal name."""
+class RunInterrupted(BaseException):
+    """The run was stopped by a signal (SIGINT or SIGTERM); args[0] is the signal name.
+    A BaseException, as KeyboardInterrupt: `except Exception` blocks let it through."""
 
     summary: dict | None = None  # the run's summary when the guard saw the signal
 
@@ -97,6 +98,8 @@ def release_signals() -> None:
         return
     arm_signals()
     if _PENDING:
+        if _WATCHDOG:
+            _WATCHDOG[-1].handled.set()  # stopping here, in Python code
         name = _PENDING[0]
         _PENDING.clear()
         if name == "SIGINT":
@@ -189,6 +192,72 @@ def _petsc_reason(exc: Exception) -> str:
     return f"PETSc: {detail}; check the PETSc options in force: {opts}"
 
 
+STOP_GRACE_SECONDS = 3.0
+"""After SIGINT/SIGTERM, how long the run may take to reach Python code and stop there
+before the watchdog writes summary.json and exits (a long gmsh, MUMPS or Lemke call)."""
+
+
+class StopWatchdog:
+    """A thread that sees SIGINT/SIGTERM at once (signal.set_wakeup_fd) even while the
+    main thread is inside a long C call, where Python's handlers cannot run: if the run
+    has not stopped by itself within STOP_GRACE_SECONDS (and no step is being written),
+    it records the status `interrupted`, prints the reason and exits with 130 / 143."""
+
+    def __init__(self, guard: RunGuard, grace: float = STOP_GRACE_SECONDS):
+        import threading
+
+        self.guard = guard
+        self.grace = grace
+        self.handled = threading.Event()
+        self.writing = threading.Lock()  # held by the main thread while a step is written
+        self._r, self._w = os.pipe()
+        os.set_blocking(self._w, False)
+        self._old_fd = signal.set_wakeup_fd(self._w)
+        self._thread = threading.Thread(target=self._watch, daemon=True)
+        self._thread.start()
+
+    def _watch(self) -> None:
+        while True:
+            try:
+                data = os.read(self._r, 1)
+            except OSError:
+                return
+            if not data:
+                return
+            signum = data[0]
+            if signum not in (signal.SIGINT, signal.SIGTERM):
+                continue
+            if self.handled.wait(self.grace):
+                return
+            with self.writing:  # never in the middle of a step's files
+                if self.handled.is_set():
+                    return
+                self.guard.stop_now(signal.Signals(signum).name)
+
+    def close(self) -> None:
+        self.handled.set()
+        try:
+            signal.set_wakeup_fd(self._old_fd)
+        except ValueError:
+            pass
+        os.close(self._w)  # the thread reads EOF and ends
+        self._thread.join(timeout=5)
+        os.close(self._r)
+
+
+_WATCHDOG: list[StopWatchdog] = []
+
+
+def step_writing(active: bool) -> None:
+    """Tell the watchdog that a step's files are being written (True) or done (False)."""
+    if _WATCHDOG:
+        lock = _WATCHDOG[-1].writing
+        if active:
+            lock.acquire()
+        elif lock.locked():
+            lock.release()
+
+
 class RunGuard:
     """Context manager around a run: lock, stale files, signals, final status."""
 
@@ -214,12 +283,51 @@ class RunGuard:
         if self.rank == 0:
             self.write(self.out, self.summary)
         self._old_term = arm_signals()
+        try:
+            _WATCHDOG.append(StopWatchdog(self))
+        except ValueError:  # not the main thread: no watchdog
+            pass
         return self
 
+    def stop_now(self, name: str) -> None:
+        """From the watchdog thread: record `interrupted`, print it and exit at once."""
+        import json
+
+        k = len(self.summary.get("steps", []))
+        self.summary["status"] = "interrupted"
+        self.summary["error"] = (f"interrupted by {name} during step {k + 1}/{self.n_steps} "
+                                 f"(stopped inside a long computation); {self._done()}")
+        if self.rank == 0:
+            clear_files(self.out, TEMPORARY)
+            for _ in range(5):  # the main thread may be changing the dict
+                try:
+                    text = json.dumps(self.summary, indent=2) + "\n"
+                    break
+                except RuntimeError:
+                    continue
+            else:
+                text = None
+            if text is not None:
+                try:
+                    from app.output.xdmf import atomic_write_bytes
+
+                    atomic_write_bytes(self.out / "summary.json", text.encode())
+                except OSError:
+                    pass
+            print(f"error: {self.summary['error']}", file=sys.stderr, flush=True)
+        os._exit(EXIT_SIGNAL.get(name, 130))
+
     def __exit__(self, exc_type, exc, tb) -> bool:
+        watchdog = _WATCHDOG.pop() if _WATCHDOG else None
+        if watchdog is not None:
+            watchdog.handled.set()  # the run reached Python code and stops here
         try:
             return self._finish(exc)
         finally:
+            if watchdog is not None:
+                if watchdog.writing.locked():
+                    watchdog.writing.release()
+                watchdog.close()
             _ON_FAILURE.clear()
             if self._old_term is not None:
                 signal.signal(signal.SIGTERM, self._old_term)
