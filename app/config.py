@@ -95,6 +95,7 @@ class Config:
     compliance: str = "auto"  # analysis.compliance: auto | schur | solve
     warm_start: bool = True  # analysis.warm_start: Lemke starts from the last basis
     candidate_pairs: bool = True  # analysis.candidate_pairs: LCP over the pairs near contact
+    lcp_solver: str = "lemke"  # analysis.lcp_solver: a name in app.lcp.solvers.LCP_SOLVERS
 
 
 def _num(value: Any, where: str, *, positive: bool = False, nonneg: bool = False) -> float:
@@ -370,6 +371,7 @@ def parse_config(raw: dict[str, Any], path: Path | str = "<config>") -> Config:
         compliance=an.get("compliance", "auto"),
         warm_start=an.get("warm_start", True),
         candidate_pairs=an.get("candidate_pairs", True),
+        lcp_solver=an.get("lcp_solver", "lemke"),
     )
 
 

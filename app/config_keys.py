@@ -36,6 +36,7 @@ ALLOWED_KEYS: dict[str, tuple[str, ...]] = {
         "compliance",
         "warm_start",
         "candidate_pairs",
+        "lcp_solver",
     ),
     "mesh": (
         "size",

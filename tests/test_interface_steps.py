@@ -93,3 +93,17 @@ def test_bonded_strength_holds_shear_up_to_mu_p_plus_c():
     res = _step(lcp, hist, [-pen], [1.5 * (mu * p + c) * CT], mu, step=2)
     assert res.debonded_step[0] == 2 and res.state[0] == SLIP_PLUS
     assert res.solution.q[0] == pytest.approx(-mu * p, rel=1e-10)  # strength gone
+
+
+def test_warm_start_keeps_the_last_two_bases_newest_first():
+    from app.interface.steps import WarmStart
+
+    w = WarmStart()
+    assert w.candidates() == []
+    a, b = np.array([True, False]), np.array([False, True])
+    w.record(a)
+    w.record(a)  # the same basis again does not age it
+    assert [list(x) for x in w.candidates()] == [list(a)]
+    w.record(b)
+    assert [list(x) for x in w.candidates()] == [list(b), list(a)]
+    assert WarmStart(enabled=False, basis=a).candidates() is None

@@ -17,6 +17,7 @@ from app.driver.context import RunContext, RunOptions
 from app.errors import InputError
 from app.interface.contact import ContactSetup
 from app.interface.floating import FloatingModes, floating_modes
+from app.lcp.solvers import lcp_solver
 from app.mesh.model import Mesh
 from app.output.status import arm_signals
 from app.parallel import collective
@@ -71,6 +72,7 @@ def build_model(ctx: RunContext) -> Model:
     disc = make_discretisation(cfg, opts)
     for itf in cfg.interfaces:  # the contact discretisations, checked before any meshing
         contact_discretisation(itf.discretisation, f"interface '{itf.name}'")
+    lcp_solver(cfg.lcp_solver)
     with ctx.phase("mesh"):
         mesh = collective(build_scene_mesh, cfg, opts)
         arm_signals()  # gmsh.finalize() put back the default SIGTERM action

@@ -20,6 +20,8 @@ from __future__ import annotations
 import numpy as np
 
 from app.interface.coulomb import ContactLCP, ContactSolution
+from app.lcp import lemke
+from app.lcp.solvers import LCPSolver
 
 
 def candidate_pairs(configured: bool) -> bool:
@@ -44,7 +46,9 @@ class CandidateLCP:
     """
 
     def __init__(self, c: np.ndarray, mu: np.ndarray, frictional: np.ndarray,
-                 n_modes: np.ndarray | None = None, t_modes: np.ndarray | None = None):
+                 n_modes: np.ndarray | None = None, t_modes: np.ndarray | None = None,
+                 solver: LCPSolver = lemke):
+        self.solver = solver
         m = mu.size
         self.m, self.c, self.mu, self.frictional = m, c, mu, frictional
         self.fric = np.flatnonzero(frictional)
@@ -83,7 +87,7 @@ class CandidateLCP:
         rows = np.concatenate([idx, self.m + idx])
         lcp = ContactLCP(self.c[np.ix_(rows, rows)], self.mu[idx], self.frictional[idx],
                          None if self.n_modes is None else self.n_modes[idx],
-                         None if self.t_modes is None else self.t_modes[idx])
+                         None if self.t_modes is None else self.t_modes[idx], self.solver)
         lay = self.layout(cand)
         self._cols = np.ascontiguousarray(self.c[:, rows])  # (2m, 2 |cand|) for `_expand`
         self._sub = (key, lcp, lay)

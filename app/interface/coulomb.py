@@ -34,6 +34,7 @@ from scipy.linalg import cho_factor, cho_solve
 
 from app.errors import SolveError
 from app.lcp import lemke
+from app.lcp.solvers import LCPSolver
 
 
 @dataclass
@@ -102,9 +103,12 @@ class ContactLCP:
     """The LCP matrix of a run and the constant vector of each solve."""
 
     def __init__(self, c: np.ndarray, mu: np.ndarray, frictional: np.ndarray,
-                 n_modes: np.ndarray | None = None, t_modes: np.ndarray | None = None):
+                 n_modes: np.ndarray | None = None, t_modes: np.ndarray | None = None,
+                 solver: LCPSolver = lemke):
         """c: (2m, 2m) compliance, normal rows first then tangential; mu (m,);
-        frictional (m,) bool; n_modes = G_n R (m, r), t_modes = G_t R (m, r)."""
+        frictional (m,) bool; n_modes = G_n R (m, r), t_modes = G_t R (m, r); solver: an
+        entry of app.lcp.solvers.LCP_SOLVERS."""
+        self.solver = solver
         m = mu.size
         self.m = m
         self.fric = np.flatnonzero(frictional)
@@ -201,12 +205,12 @@ class ContactLCP:
                       if b is not None]
         pivots = 0
         for b in candidates:
-            res = lemke(ms, qs, basis=b, max_pivots=max_pivots, cold_start=False)
+            res = self.solver(ms, qs, basis=b, max_pivots=max_pivots, cold_start=False)
             pivots += res.pivots
             if res.status != "warm start failed":
                 break
         else:  # no warm start (or none worked): the crash basis, then the cold start
-            res = lemke(ms, qs, max_pivots=max_pivots)
+            res = self.solver(ms, qs, max_pivots=max_pivots)
             pivots += res.pivots
         res.pivots = pivots
         m, f, e = self.m, self.fric, self.edges

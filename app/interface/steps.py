@@ -17,6 +17,7 @@ import numpy as np
 from app.interface.candidates import CandidateLCP, candidate_pairs
 from app.interface.coulomb import ContactLCP, ContactSolution
 from app.interface.floating import split_modes
+from app.lcp.solvers import lcp_solver
 
 if TYPE_CHECKING:
     from app.interface.contact import ContactSetup
@@ -41,6 +42,29 @@ class StepResult:
 
 
 @dataclass
+class WarmStart:
+    """The LCP solver's warm-start state over the load steps: the last step's
+    complementary basis and the one before it (tried when the last one fails)."""
+
+    enabled: bool = True
+    basis: np.ndarray | None = None
+    older: np.ndarray | None = None
+
+    def candidates(self) -> list[np.ndarray] | None:
+        """The bases to try, newest first; None when warm starts are off."""
+        if not self.enabled:
+            return None
+        return [b for b in (self.basis, self.older) if b is not None]
+
+    def record(self, basis: np.ndarray | None) -> None:
+        """The basis of a solved step becomes the newest; a different one ages."""
+        if self.basis is not None and basis is not None and \
+                not np.array_equal(self.basis, basis):
+            self.older = self.basis
+        self.basis = basis
+
+
+@dataclass
 class InterfaceHistory:
     """Per-pair state carried between steps."""
 
@@ -49,9 +73,7 @@ class InterfaceHistory:
     bonded: np.ndarray  # (m,) bool
     tau_prev: np.ndarray  # (m,) relative tangential displacement at the end of last step
     debonded_step: np.ndarray  # (m,) int
-    basis: np.ndarray | None = None
-    older_basis: np.ndarray | None = None  # the basis before, tried when `basis` fails
-    warm_start: bool = True
+    warm: WarmStart = field(default_factory=WarmStart)
 
 
 def classify(sol: ContactSolution, bonded: np.ndarray, tol_gap: float,
@@ -85,8 +107,7 @@ def solve_step(lcp: ContactLCP, hist: InterfaceHistory, step: int, gap_free: np.
     pivots = 0
     a, c, bonded = hist.a.copy(), hist.c.copy(), hist.bonded.copy()
     debonded_step = hist.debonded_step.copy()
-    basis = [b for b in (hist.basis, hist.older_basis) if b is not None] \
-        if hist.warm_start else None
+    basis = hist.warm.candidates()
     frictionless = np.ones(lcp.m, dtype=bool)
     frictionless[lcp.fric] = False
     for it in range(1, max_iterations + 1):
@@ -104,7 +125,7 @@ def solve_step(lcp: ContactLCP, hist: InterfaceHistory, step: int, gap_free: np.
         a[new] = 0.0
         c[new] = 0.0
         debonded_step[new] = step
-        if hist.warm_start:
+        if hist.warm.enabled:
             basis = sol.basis
     state = classify(sol, bonded, tol_gap, tol_slip, frictionless, hist.tau_prev)
     slip_inc = sol.slip_plus - sol.slip_minus
@@ -112,10 +133,7 @@ def solve_step(lcp: ContactLCP, hist: InterfaceHistory, step: int, gap_free: np.
     hist.a, hist.c, hist.bonded = a, c, bonded
     hist.debonded_step = debonded_step
     hist.tau_prev = sol.tau.copy()
-    if hist.basis is not None and sol.basis is not None and \
-            not np.array_equal(hist.basis, sol.basis):
-        hist.older_basis = hist.basis
-    hist.basis = sol.basis
+    hist.warm.record(sol.basis)
     return StepResult(sol, state, debonded_step, it, pivots, time.perf_counter() - t0,
                       dissipation, "solved")
 
@@ -193,14 +211,15 @@ class ContactStepper:
             self.e0 = [np.zeros(0) for _ in cases]
             self.mode_names = []
         lcp_class = CandidateLCP if candidate_pairs(setup.cfg.candidate_pairs) else ContactLCP
-        self.lcp = lcp_class(c_mat, setup.mu, setup.frictional, self.n_modes, self.t_modes)
+        self.lcp = lcp_class(c_mat, setup.mu, setup.frictional, self.n_modes, self.t_modes,
+                             lcp_solver(setup.cfg.lcp_solver))
         self.undetermined = [] if self.v_null is None else [
             self.mode_names[int(np.argmax(np.abs(v)))] for v in self.v_null.T]
         self.hist = InterfaceHistory(
             a=np.where(setup.bonded, setup.a, 0.0), c=np.where(setup.bonded, setup.c, 0.0),
             bonded=setup.bonded.copy(), tau_prev=np.zeros(m),
             debonded_step=np.zeros(m, dtype=np.int64),
-            warm_start=setup.cfg.warm_start)
+            warm=WarmStart(enabled=setup.cfg.warm_start))
         self.slip = np.zeros(m)
         scale = max(max((np.abs(x).max(initial=0.0) for x in self.gu), default=0.0),
                     np.abs(pr.g0).max(initial=0.0), 1e-300)
@@ -218,10 +237,10 @@ class ContactStepper:
         if self.start is None or self.start.step != step:
             raise ValueError(f"refine(step={step}) needs step({step}) solved first")
         kept = (copy.deepcopy(self.hist), self.slip.copy())
-        basis = self.hist.basis
+        warm = self.hist.warm
         self.hist = copy.deepcopy(self.start.history)
         self.slip = self.start.slip.copy()
-        self.hist.basis = basis
+        self.hist.warm = warm
         out = self._solve(step, cases, correction)
         if not out.solved:
             self.hist, self.slip = kept
