@@ -86,7 +86,12 @@ def tangential_stiffness(ctt: np.ndarray) -> tuple[np.ndarray, int]:
         ok = False
     if ok:
         return h, 0
-    lam, vec = np.linalg.eigh(0.5 * (ctt + ctt.T))
+    try:
+        lam, vec = np.linalg.eigh(0.5 * (ctt + ctt.T))
+    except np.linalg.LinAlgError:
+        raise SolveError("the tangential contact compliance has no eigen-decomposition "
+                         "(non-finite or badly scaled values): check the Young's moduli and "
+                         "the loads") from None
     top = float(np.abs(lam).max(initial=0.0))
     if top == 0.0:
         raise SolveError("the tangential compliance of every frictional pair is zero: their "
@@ -106,6 +111,9 @@ class ContactLCP:
         """c: (2m, 2m) compliance, normal rows first then tangential; mu (m,);
         frictional (m,) bool; n_modes = G_n R (m, r), t_modes = G_t R (m, r)."""
         m = mu.size
+        if not np.isfinite(c).all():
+            raise SolveError("the contact compliance is not finite (overflow or underflow in "
+                             "the solve): check the Young's moduli and the loads")
         self.m = m
         self.fric = np.flatnonzero(frictional)
         f = self.fric
@@ -158,6 +166,9 @@ class ContactLCP:
         self.scaling = 1.0 / np.sqrt(ref)
         big *= self.scaling[:, None]
         big *= self.scaling[None, :]
+        if not np.isfinite(big).all():
+            raise SolveError("the contact LCP matrix is not finite (overflow in the "
+                             "compliance): check the Young's moduli and the loads")
         self.M_scaled = big  # what Lemke gets
 
     @property
@@ -194,6 +205,9 @@ class ContactLCP:
         or a list of them tried in order (newest first); when none solves it, Lemke starts
         from its crash basis, then cold."""
         qv = self.constant(gap_free, tau_free, tau_prev, a, c, mu, e0)
+        if not np.isfinite(qv).all():
+            raise SolveError("the contact LCP's constant vector is not finite (overflow in "
+                             "the free gaps): check the loads and the Young's moduli")
         d = self.scaling
         ms, qs = self.M_scaled, d * qv
         # warm starts: each candidate basis in turn (the newest first), then a cold start
