@@ -156,6 +156,14 @@ class ContactLCP:
             for bj, blk in enumerate(row):
                 big[edges[bi]:edges[bi + 1], edges[bj]:edges[bj + 1]] = blk
         self.edges = edges
+        # Rows of the slip unknowns (w = F +- q, F = mu p + c) divided by max(mu, 1): a
+        # positive row scaling keeps the LCP's solutions, and it keeps a huge mu (1e12:
+        # full stick) from burying the compliance of the p columns under the mu entries.
+        self.row_scale = np.ones(n)
+        if mf:
+            inv_mu = 1.0 / np.maximum(mu[f], 1.0)
+            self.row_scale[i0:i2] = np.concatenate([inv_mu, inv_mu])
+            big[i0:i2] *= self.row_scale[i0:i2, None]
         # Symmetric diagonal scaling z = d z', w' = d w (complementarity is kept): brings
         # compliance-sized and stiffness-sized blocks to unit diagonal for Lemke. Only the
         # scaled matrix is kept (scaled in place: one n x n array).
@@ -169,13 +177,13 @@ class ContactLCP:
         if not np.isfinite(big).all():
             raise SolveError("the contact LCP matrix is not finite (overflow in the "
                              "compliance): check the Young's moduli and the loads")
-        self.M_scaled = big  # what Lemke gets
+        self.M_scaled = big  # what Lemke gets: R D M D (R: row_scale)
 
     @property
     def M(self) -> np.ndarray:
         """The unscaled LCP matrix (formed on demand from the scaled one: a new array)."""
         d = self.scaling
-        return self.M_scaled / d[:, None] / d[None, :]
+        return self.M_scaled / (d * self.row_scale)[:, None] / d[None, :]
 
     @property
     def size(self) -> int:
@@ -194,7 +202,7 @@ class ContactLCP:
         out = np.concatenate([qg, base + hxi, base - hxi, -eq, eq])
         # entries that are round-off of exact cancellations (e.g. F = 0 and no tangential
         # motion) are set to zero, so that Lemke does not pivot on them
-        d = self.scaling
+        d = self.scaling * self.row_scale
         big = np.abs(d * out).max(initial=0.0)
         out[np.abs(d * out) < 1e-14 * big] = 0.0
         return out
@@ -209,7 +217,7 @@ class ContactLCP:
             raise SolveError("the contact LCP's constant vector is not finite (overflow in "
                              "the free gaps): check the loads and the Young's moduli")
         d = self.scaling
-        ms, qs = self.M_scaled, d * qv
+        ms, qs = self.M_scaled, d * self.row_scale * qv
         # warm starts: each candidate basis in turn (the newest first), then a cold start
         candidates = [b for b in (basis if isinstance(basis, list) else [basis])
                       if b is not None]
