@@ -10,6 +10,8 @@ import argparse
 import sys
 from pathlib import Path
 
+from app.discretisation.methods import BULK_METHODS
+
 DESCRIPTION = """\
 2D multi-body elastic contact with CS-FEM (1/2/3/4/8/16 smoothing domains per element) or
 FEM-Q4 on quadrilateral meshes, PETSc/MUMPS condensation onto the contact DOFs, and the
@@ -29,6 +31,10 @@ SET_HELP = ("override a config value (repeatable): a dotted key, entries of [[..
             "--set body.block.nu=0.499 --set analysis.steps=100")
 
 
+ALLOW_LARGE_HELP = ("run even when the mesh estimated from the geometry and element sizes "
+                    "needs more memory than this machine has (refused otherwise)")
+
+
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="python -m app", description=DESCRIPTION,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -38,9 +44,9 @@ def _parser() -> argparse.ArgumentParser:
                        "OUT/contact.xdmf (if any contact), step_*.h5 and summary.json. "
                        "Unknown options go to PETSc.")
     r.add_argument("config", type=Path, help="scene file, e.g. configs/cantilever.toml")
-    r.add_argument("--out", type=Path, default=None,
+    r.add_argument("--out", default=None,
                    help="output folder (default: out/<config name>)")
-    r.add_argument("--method", choices=["cs-fem", "fem-q4"], default=None,
+    r.add_argument("--method", choices=list(BULK_METHODS), default=None,
                    help="bulk discretisation (default: the config's analysis.method)")
     r.add_argument("--sd", type=int, default=None,
                    help="smoothing domains per element for cs-fem: 1, 2, 3, 4, 8 or 16")
@@ -49,14 +55,26 @@ def _parser() -> argparse.ArgumentParser:
                    "H / mesh.size")
     r.add_argument("--mesh-cache", type=Path, default=None,
                    help="folder where built meshes are cached and reused")
+    r.add_argument("--allow-large", action="store_true", help=ALLOW_LARGE_HELP)
+    r.add_argument("--refine", type=int, default=0, metavar="N",
+                   help="split every quad of the (gmsh) mesh into four, N times (nested, "
+                   "O(n); mid nodes on arcs go on the circle): N=4 gives 256x the elements")
+    r.add_argument("--energy-bracket", action="store_true",
+                   help="also solve with CS-FEM-1SD and/or FEM-Q4 (whichever the run is not) "
+                   "and report the bracket of their strain energies, an a-posteriori error "
+                   "estimate (summary key energy_bracket)")
     r.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     r.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help=SET_HELP)
     s = sub.add_parser("study", help="convergence study: methods x refinement levels",
-                       description="Refine level by level (each level halves every element "
-                       "size) and run every method; writes OUT/study.csv and the plots "
-                       "error_vs_dofs.png, error_vs_time.png, energy_vs_sd.png. The config "
-                       "needs a [reference] table (timoshenko, hertz or cattaneo). Unknown "
+                       description="Refine level by level (each level splits every quad of "
+                       "the level-0 mesh into four; --remesh: gmsh halves every element size) "
+                       "and run every method; writes OUT/study.csv, study_tables.md (errors "
+                       "against the closed form and against the finest level of the reference "
+                       "method, observed orders, energy bracket) and the plots "
+                       "error_vs_dofs.png, error_vs_time.png, energy_vs_sd.png, "
+                       "energy_bracket.png. The config needs a [reference] table (timoshenko, "
+                       "hertz or cattaneo). With --sweep: a parameter study instead. Unknown "
                        "options go to PETSc.")
     s.add_argument("config", type=Path)
     s.add_argument("--levels", type=int, default=4, help="number of levels (default 4)")
@@ -65,7 +83,24 @@ def _parser() -> argparse.ArgumentParser:
                    help="comma list of 1, 2, 3, 4, 8, 16 (CS-FEM SD) and q4 (FEM-Q4)")
     s.add_argument("--mesh-size", type=float, default=None, metavar="H",
                    help="global element size at level 0 (default: the config's mesh.size)")
-    s.add_argument("--out", type=Path, default=None, help="default: out/study_<config>")
+    s.add_argument("--allow-large", action="store_true", help=ALLOW_LARGE_HELP)
+    s.add_argument("--remesh", action="store_true",
+                   help="mesh every level with gmsh (sizes scaled by 2^-level) instead of "
+                   "splitting the level-0 mesh uniformly (the default: nested, O(n))")
+    s.add_argument("--reference-method", default=None, metavar="LABEL",
+                   help="method whose finest level is the model reference for the ref_* "
+                   "errors, e.g. 4SD or FEM-Q4 (default 4SD if run, else the last method)")
+    s.add_argument("--sweep", action="append", default=[], metavar="KEY=V1,V2,...",
+                   help="parameter study instead of a convergence study (repeatable; every "
+                   "combination runs once): KEY is a config path as in --set, e.g. "
+                   "interface.contact.mu=0.1,0.2,0.3; writes sweep.csv, sweep_steps.csv and "
+                   "sweep_<key>.png")
+    s.add_argument("--at-step", type=int, default=0, metavar="N",
+                   help="with --sweep: the step whose forces and zones sweep.csv reports "
+                   "(default 0: the last; negative counts back from the last)")
+    s.add_argument("--refine", type=int, default=0, metavar="N",
+                   help="with --sweep: uniform splits of the config mesh (as run --refine)")
+    s.add_argument("--out", default=None, help="default: out/study_<config>")
     s.add_argument("--quiet", action="store_true", help="no progress lines")
     s.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help=SET_HELP)
     return p
@@ -86,6 +121,9 @@ def main(argv: list[str] | None = None) -> int:
 
     from app.config import load_config
     from app.errors import InputError, SolveError
+    from app.output.progress import final_line
+    from app.output.status import RunInterrupted
+    from app.petsc_options import petsc_error_line
     from app.run import RunOptions, run
 
     rank = PETSc.COMM_WORLD.getRank()
@@ -96,41 +134,154 @@ def main(argv: list[str] | None = None) -> int:
             cfg = load_config(args.config, args.set)
             if args.levels < 1 or args.first_level < 0:
                 raise InputError("--levels must be >= 1 and --first-level >= 0")
-            if args.mesh_size is not None and args.mesh_size <= 0:
-                raise InputError(f"--mesh-size must be > 0 (got {args.mesh_size})")
-            scale = args.mesh_size / cfg.mesh_size if args.mesh_size else 1.0
-            out = args.out or Path("out") / f"study_{args.config.stem}"
+            finest = args.refine if args.sweep else args.first_level + args.levels - 1
+            scale = check_run_input(cfg, args, finest)
+            out = output_folder(args.out, Path("out") / f"study_{args.config.stem}")
+            if args.sweep:
+                from app.sweep import parse_sweeps, run_sweep
+
+                if not 0 <= args.refine <= 8:
+                    raise InputError(f"--refine must be 0..8 (got {args.refine})")
+
+                rows = run_sweep(args.config, args.set, parse_sweeps(args.sweep), out,
+                                 {"mesh_scale": scale, "mesh_cache": out / "mesh_cache",
+                                  "refine": args.refine}, args.at_step, args.quiet)
+                if rank == 0 and not args.quiet:
+                    print(f"{len(rows)} rows -> {out / 'sweep.csv'}", file=sys.stderr)
+                return 0
             rows = run_study(cfg, out, args.levels, parse_methods(args.methods), scale,
-                             args.quiet, args.first_level)
+                             args.quiet, args.first_level, args.remesh, args.reference_method)
         except (InputError, SolveError) as exc:
             if rank == 0:
                 print(f"error: {exc}", file=sys.stderr)
+            return 2
+        except RunInterrupted as exc:
+            if rank == 0:
+                print(f"error: {exc}", file=sys.stderr)
+            return exc.exit_code
+        except PETSc.Error as exc:
+            if rank == 0:
+                print(f"error: PETSc: {petsc_error_line(exc)}", file=sys.stderr)
+            return 2
+        if not rows:
+            if rank == 0:
+                print(f"error: every run of the study failed (see the lines above and "
+                      f"{out}/*/summary.json)", file=sys.stderr)
             return 2
         if rank == 0 and not args.quiet:
             print(f"{len(rows)} runs -> {out / 'study.csv'}", file=sys.stderr)
         return 0
     try:
         cfg = load_config(args.config, args.set)
-        if args.mesh_size is not None and args.mesh_size <= 0:
-            raise InputError(f"--mesh-size must be > 0 (got {args.mesh_size})")
+        if not 0 <= args.refine <= 8:
+            raise InputError(f"--refine must be 0..8 (got {args.refine})")
+        scale = check_run_input(cfg, args, args.refine)
         opts = RunOptions(
-            out=args.out or Path("out") / args.config.stem,
+            out=output_folder(args.out, Path("out") / args.config.stem),
             method=args.method,
             sd=args.sd,
-            mesh_scale=(args.mesh_size / cfg.mesh_size) if args.mesh_size else 1.0,
+            mesh_scale=scale,
             quiet=args.quiet,
             mesh_cache=args.mesh_cache,
+            overrides=list(args.set),
+            refine=args.refine,
         )
-        if opts.method == "fem-q4" and args.sd is not None:
-            raise InputError("--sd applies to --method cs-fem only")
+        if opts.method and args.sd is not None and not BULK_METHODS[opts.method].sd_choices:
+            raise InputError(f"--sd does not apply to --method {opts.method}")
         summary = run(cfg, opts)
+        if args.energy_bracket:
+            from app.bracket import add_energy_bracket
+
+            summary = add_energy_bracket(cfg, opts, summary)
     except (InputError, SolveError) as exc:
         if rank == 0:
             print(f"error: {exc}", file=sys.stderr)
         return 2
+    except RunInterrupted as exc:
+        if rank == 0:
+            if exc.summary is not None and not args.quiet:
+                print(final_line(exc.summary, opts.out), file=sys.stderr)
+            print(f"error: {exc}", file=sys.stderr)
+        return exc.exit_code
+    except PETSc.Error as exc:
+        if rank == 0:
+            print(f"error: PETSc: {petsc_error_line(exc)}", file=sys.stderr)
+        return 2
+    unused = warn_unused_options(cfg, petsc_args, rank)
+    if unused:
+        from app.run import write_summary
+
+        summary["petsc_options_unused"] = unused
+        if rank == 0:
+            write_summary(opts.out, summary)
     if rank == 0 and not args.quiet:
-        t = summary["timings"]
-        print(f"{summary['label']}: {summary['n_dofs']} DOFs, {summary['n_elements']} "
-              f"elements, strain energy {summary['strain_energy']:.10g}, total "
-              f"{t['total']:.2f} s -> {opts.out}", file=sys.stderr)
+        print(final_line(summary, opts.out), file=sys.stderr)
+        b = summary.get("energy_bracket")
+        if b:
+            print(f"energy bracket: {b['error']}" if "error" in b else
+                  f"energy bracket: {b['lower']:.10g} ({b['lower_method']}) <= U <= "
+                  f"{b['upper']:.10g} ({b['upper_method']}), width {b['width_rel']:.3e} "
+                  "relative", file=sys.stderr)
     return 0
+
+
+def check_run_input(cfg, args, finest_level: int = 0) -> float:
+    """Checks of the command line against the config before any work; returns the mesh
+    size scale (--mesh-size / mesh.size). Raises InputError (one line)."""
+    from app.errors import InputError
+    from app.mesh.estimate import check_size
+    from app.petsc_options import check_solver_options
+
+    check_solver_options(cfg.petsc)
+    file = cfg.scene.file
+    if args.mesh_size is not None:
+        if not args.mesh_size > 0 or args.mesh_size == float("inf"):
+            raise InputError(f"--mesh-size must be a number > 0 (got {args.mesh_size})")
+        if file is not None:
+            raise InputError(f"--mesh-size does not apply to a mesh read from mesh.file "
+                             f"({file}): refine that mesh in gmsh instead")
+    cache = getattr(args, "mesh_cache", None)
+    if cache is not None:
+        if file is not None:
+            raise InputError("--mesh-cache does not apply to a mesh read from mesh.file")
+        output_folder(str(cache), cache, what="--mesh-cache")
+    scale = args.mesh_size / cfg.mesh_size if args.mesh_size else 1.0
+    check_size(cfg.scene, scale * 2.0**-finest_level, allow_large=args.allow_large)
+    return scale
+
+
+def output_folder(text: str | None, default: Path, what: str = "--out") -> Path:
+    """The folder `text` (or `default` when None), created and checked writable."""
+    import os
+    import tempfile
+
+    from app.errors import InputError
+
+    if text is not None and not str(text).strip():
+        raise InputError(f"{what} is empty: give a folder name")
+    path = Path(text) if text is not None else default
+    if path.exists() and not path.is_dir():
+        raise InputError(f"{what} {path} exists and is not a folder")
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+        fd, probe = tempfile.mkstemp(prefix=".write_test_", dir=path)
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as exc:
+        raise InputError(f"{what} {path}: cannot write there ({exc.strerror or exc})") from None
+    return path
+
+
+def warn_unused_options(cfg, petsc_args: list[str], rank: int) -> list[str]:
+    """Print the user's PETSc options that nothing used (like -options_left) on stderr."""
+    from app.petsc_options import unused_options
+
+    user = {a.lstrip("-") for a in petsc_args if a.startswith("-") and len(a) > 1
+            and not a[1:2].isdigit() and not a.startswith("-.")}
+    if cfg is not None:
+        user |= set(cfg.petsc)
+    unused = unused_options(user)
+    if unused and rank == 0:
+        print(f"warning: PETSc options not used (misspelled?): {' '.join(unused)}",
+              file=sys.stderr)
+    return unused

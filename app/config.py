@@ -16,8 +16,11 @@ from typing import Any
 
 import numpy as np
 
-from app.discretisation.elements import SMOOTHING_DOMAINS
+from app.config_keys import ALLOWED_KEYS, check_keys, suggestion
 from app.errors import InputError
+from app.expressions import check_parameter_name, parse_expression
+from app.references import REFERENCES, reference
+from app.scene import Scene, parse_scene
 
 
 @dataclass
@@ -58,6 +61,7 @@ class Interface:
     search_distance: float
     penetration_tol: float | None = None
     interference: bool = False  # initial overlaps are an intended interference fit
+    discretisation: str | None = None  # a name in app.contact.discretisation; None: default
 
     @property
     def frictional(self) -> bool:
@@ -86,6 +90,11 @@ class Config:
     petsc: dict[str, str] = field(default_factory=dict)
     mesh_size: float = 1.0
     parameters: dict[str, float] = field(default_factory=dict)
+    reference: dict | None = None  # the [reference] table, checked by app.references
+    scene: Scene | None = None  # geometry: [mesh], [[body]] shapes and curves, [points]
+    compliance: str = "auto"  # analysis.compliance: auto | schur | solve
+    warm_start: bool = True  # analysis.warm_start: Lemke starts from the last basis
+    candidate_pairs: bool = True  # analysis.candidate_pairs: LCP over the pairs near contact
 
 
 def _num(value: Any, where: str, *, positive: bool = False, nonneg: bool = False) -> float:
@@ -148,66 +157,95 @@ def _history(t: dict, where: str, n_steps: int) -> np.ndarray:
     return np.ones(n_steps)
 
 
-KNOWN_TOP = {"title", "analysis", "mesh", "body", "support", "load", "interface", "petsc",
-             "points", "parameters", "reference"}
-
-_EXPR_NAMES = {k: getattr(np, k) for k in ("sqrt", "sin", "cos", "tan", "exp", "log", "abs",
-                                           "arctan2", "sinh", "cosh", "tanh", "pi")}
+KNOWN_TOP = set(ALLOWED_KEYS["top"])
+MAX_STEPS = 100_000
+"""Most load steps a config may ask for (each writes a step file)."""
 
 
 def evaluate(value: float | str, x: np.ndarray, y: np.ndarray, params: dict[str, float],
              where: str) -> np.ndarray:
-    """Evaluate a number or an expression in x, y and the [parameters] at points."""
+    """Values at points (x, y) of a number or a math expression (see app/expressions.py)."""
     if not isinstance(value, str):
         return np.full(np.shape(x), float(value))
-    names = {**_EXPR_NAMES, **params, "x": x, "y": y}
-    try:
-        out = eval(compile(value, where, "eval"), {"__builtins__": {}}, names)  # noqa: S307
-    except Exception as exc:  # a user expression: report any failure as bad input
-        raise InputError(f"{where}: cannot evaluate {value!r}: {exc}") from None
-    out = np.broadcast_to(np.asarray(out, dtype=float), np.shape(x)).copy()
-    if not np.all(np.isfinite(out)):
-        raise InputError(f"{where}: {value!r} gives non-finite values")
-    return out
+    return parse_expression(value, where, params).evaluate(x, y)
 
 
 def _scalar_or_expr(value: Any, where: str, params: dict[str, float]) -> float | str:
-    """A number, or an expression string checked once on a sample point."""
+    """A number, or an expression string checked now (syntax, names, constant parts)."""
     if isinstance(value, str):
-        evaluate(value, np.zeros(1), np.zeros(1), params, where)
+        parse_expression(value, where, params)
         return value
     return _num(value, where)
 
 
+def _check_refine_lengths(r: dict, where: str) -> None:
+    """flat (the constant-size zone) must not exceed distance (the growth zone)."""
+    flat, dist = r.get("flat", 0.0), r.get("distance")
+    numbers = all(isinstance(v, int | float) and not isinstance(v, bool) for v in (flat, dist))
+    if numbers and flat > dist:
+        raise InputError(f"{where}: flat = {flat:g} is larger than distance = {dist:g}: flat is "
+                         "the zone of constant fine size around the curves/points and distance "
+                         "the zone over which the size grows back; use flat <= distance")
+
+
+def _check_interface_bodies(raw: dict, name: str, slave: str, master: str,
+                            earlier: list[Interface]) -> None:
+    """Unique interface names; slave and master curves on different bodies (for the
+    curves that [[body]] tables name; a mesh file is checked after reading)."""
+    if any(x.name == name for x in earlier):
+        raise InputError(f"interface name '{name}' is used twice: interface names must be "
+                         "unique")
+    owner = {}
+    for b in raw.get("body", []):
+        curves = b.get("curves") if isinstance(b, dict) else None
+        if isinstance(curves, dict):
+            owner |= {c: b.get("name") for c in curves.values() if isinstance(c, str)}
+    if slave in owner and owner.get(master) == owner[slave]:
+        raise InputError(f"interface '{name}': slave '{slave}' and master '{master}' are both "
+                         f"curves of body '{owner[slave]}': an interface joins two bodies")
+
+
 def parse_config(raw: dict[str, Any], path: Path | str = "<config>") -> Config:
     """Check a parsed TOML dict and build a Config."""
-    unknown = set(raw) - KNOWN_TOP
-    if unknown:
-        raise InputError(f"unknown top-level key(s) {sorted(unknown)}: allowed {sorted(KNOWN_TOP)}")
+    check_keys(raw, "top", "")
     params = {}
     for k, v in _table(raw, "parameters", "").items():
+        check_parameter_name(k)
         params[k] = _num(v, f"parameters.{k}")
     an = _table(raw, "analysis", "")
+    check_keys(an, "analysis", "analysis.")
     plane = an.get("plane", "strain")
     if plane not in ("strain", "stress"):
         raise InputError(f"analysis.plane = {plane!r}: use 'strain' or 'stress'")
     thickness = _num(an.get("thickness", 1.0), "analysis.thickness", positive=True)
-    method = an.get("method", "cs-fem")
-    if method not in ("cs-fem", "fem-q4"):
-        raise InputError(f"analysis.method = {method!r}: use 'cs-fem' or 'fem-q4'")
-    sd = an.get("sd", 4)
-    if isinstance(sd, bool) or not isinstance(sd, int) or sd not in SMOOTHING_DOMAINS:
-        raise InputError(f"analysis.sd = {sd!r}: choose one of {list(SMOOTHING_DOMAINS)}")
+    method = an.get("method", "cs-fem")  # checked against the bulk-method registry
+    sd = an.get("sd", 4)  # by app.run.make_discretisation, before any meshing
     n_steps = an.get("steps", 1)
     if isinstance(n_steps, bool) or not isinstance(n_steps, int) or n_steps < 1:
         raise InputError(f"analysis.steps must be an integer >= 1 (got {n_steps!r})")
+    if n_steps > MAX_STEPS:
+        raise InputError(f"analysis.steps = {n_steps} is above {MAX_STEPS}: each step is "
+                         "solved and written; use fewer steps")
+    if an.get("compliance", "auto") not in ("auto", "schur", "solve"):
+        raise InputError(f"analysis.compliance = {an['compliance']!r}: use 'auto', 'schur' "
+                         "or 'solve'")
+    for flag in ("warm_start", "candidate_pairs"):
+        if not isinstance(an.get(flag, True), bool):
+            raise InputError(f"analysis.{flag} must be true or false (got {an[flag]!r})")
 
     mesh = raw.get("mesh")
     if not isinstance(mesh, dict):
         raise InputError("missing [mesh] table (at least mesh.size)")
-    if "size" not in mesh:
+    check_keys(mesh, "mesh", "mesh.")
+    refine = mesh.get("refine", [])
+    for i, r in enumerate(refine if isinstance(refine, list) else []):
+        if isinstance(r, dict):
+            check_keys(r, "mesh.refine", f"mesh.refine[{i}].")
+            _check_refine_lengths(r, f"mesh.refine[{i}]")
+    if "size" not in mesh and mesh.get("file") is None:
         raise InputError("missing key mesh.size (the global element size)")
-    mesh_size = _num(mesh["size"], "mesh.size", positive=True)
+    # a ready mesh (mesh.file) needs no size; 1.0 keeps --mesh-size ratios defined
+    mesh_size = _num(mesh.get("size", 1.0), "mesh.size", positive=True)
 
     bodies = _tables(raw, "body")
     if not bodies:
@@ -217,6 +255,7 @@ def parse_config(raw: dict[str, Any], path: Path | str = "<config>") -> Config:
         if "name" not in b or not isinstance(b["name"], str) or not b["name"]:
             raise InputError(f"body #{i + 1}: missing key name")
         nm = b["name"]
+        check_keys(b, "body", f"body '{nm}'")
         if nm in names:
             raise InputError(f"body name '{nm}' is used twice")
         for k in ("E", "nu"):
@@ -238,15 +277,13 @@ def parse_config(raw: dict[str, Any], path: Path | str = "<config>") -> Config:
         where = f"support #{i + 1}"
         if "on" not in s or not isinstance(s["on"], str):
             raise InputError(f"{where}: missing key on (a curve or point group name)")
+        check_keys(s, "support", f"{where} ({s['on']})")
         vals = {}
         for comp, key in enumerate(("ux", "uy")):
             if key in s:
                 vals[comp] = _scalar_or_expr(s[key], f"{where} ({s['on']}): {key}", params)
         if not vals:
             raise InputError(f"{where} ({s['on']}): give ux and/or uy")
-        extra = set(s) - {"on", "ux", "uy", "history", "ramp"}
-        if extra:
-            raise InputError(f"{where} ({s['on']}): unknown key(s) {sorted(extra)}")
         supports.append(Support(s["on"], vals, _history(s, where, n_steps)))
 
     loads = []
@@ -254,6 +291,7 @@ def parse_config(raw: dict[str, Any], path: Path | str = "<config>") -> Config:
         where = f"load #{i + 1}"
         if "on" not in ld or not isinstance(ld["on"], str):
             raise InputError(f"{where}: missing key on (a curve name)")
+        check_keys(ld, "load", f"{where} ({ld['on']})")
         kinds = [k for k in ("traction", "pressure", "total_force") if k in ld]
         if len(kinds) != 1:
             raise InputError(f"{where} ({ld['on']}): give exactly one of traction, pressure, "
@@ -268,15 +306,16 @@ def parse_config(raw: dict[str, Any], path: Path | str = "<config>") -> Config:
             val = [_scalar_or_expr(v, f"{where}: traction", params) for v in t]
         else:
             val = list(_vec2(ld[kind], f"{where}: {kind}"))
-        extra = set(ld) - {"on", "traction", "pressure", "total_force", "history", "ramp"}
-        if extra:
-            raise InputError(f"{where} ({ld['on']}): unknown key(s) {sorted(extra)}")
         loads.append(Load(ld["on"], kind, val, _history(ld, where, n_steps)))
 
     interfaces = []
     for i, it in enumerate(_tables(raw, "interface")):
         nm = it.get("name", f"interface{i + 1}")
+        if not isinstance(nm, str) or not nm.strip():
+            raise InputError(f"interface #{i + 1}: name must be a non-empty string "
+                             f"(got {nm!r})")
         where = f"interface '{nm}'"
+        check_keys(it, "interface", where)
         for k in ("slave", "master"):
             if k not in it or not isinstance(it[k], str):
                 raise InputError(f"{where}: missing key {k} (a curve name)")
@@ -300,13 +339,21 @@ def parse_config(raw: dict[str, Any], path: Path | str = "<config>") -> Config:
         interference = it.get("interference", False)
         if not isinstance(interference, bool):
             raise InputError(f"{where}: interference must be true or false")
-        extra = set(it) - {"name", "slave", "master", "mu", "c", "a", "bonded",
-                           "search_distance", "penetration_tol", "interference"}
-        if extra:
-            raise InputError(f"{where}: unknown key(s) {sorted(extra)}")
+        _check_interface_bodies(raw, nm, it["slave"], it["master"], interfaces)
+        disc = it.get("discretisation")  # None: the registry default (app.contact)
+        if disc is not None and (not isinstance(disc, str) or not disc):
+            raise InputError(f"{where}: discretisation must be a name (got {disc!r})")
         interfaces.append(Interface(nm, it["slave"], it["master"], mu, c if bonded else 0.0,
-                                    a if bonded else 0.0, bonded, sdist, ptol, interference))
+                                    a if bonded else 0.0, bonded, sdist, ptol, interference,
+                                    disc))
 
+    reference = raw.get("reference")
+    if isinstance(reference, dict):
+        check_keys(reference, "reference", "reference.")
+        kind = reference.get("type")
+        if kind not in REFERENCES:
+            raise InputError(f"reference.type = {kind!r}: use one of "
+                             f"{', '.join(REFERENCES)}{suggestion(str(kind), REFERENCES)}")
     petsc = _table(raw, "petsc", "")
     petsc_opts = {}
     for k, v in petsc.items():
@@ -319,7 +366,21 @@ def parse_config(raw: dict[str, Any], path: Path | str = "<config>") -> Config:
         n_steps=n_steps, body_names=names, E=np.array(E), nu=np.array(nu),
         body_force=np.array(bf).reshape(-1, 2), supports=supports, loads=loads,
         interfaces=interfaces, petsc=petsc_opts, mesh_size=mesh_size, parameters=params,
+        reference=_reference_table(raw), scene=parse_scene(raw),
+        compliance=an.get("compliance", "auto"),
+        warm_start=an.get("warm_start", True),
+        candidate_pairs=an.get("candidate_pairs", True),
     )
+
+
+
+def _reference_table(raw: dict) -> dict | None:
+    """The [reference] table, its type and keys checked against the registry."""
+    if "reference" not in raw:
+        return None
+    table = _table(raw, "reference", "")
+    reference(table.get("type")).params(table)
+    return dict(table)
 
 
 def _override_value(text: str) -> Any:
@@ -377,13 +438,18 @@ def apply_overrides(raw: dict[str, Any], overrides: list[str]) -> dict[str, Any]
 def load_config(path: str | Path, overrides: list[str] | None = None) -> Config:
     """Read and check a TOML scene file; `overrides` are `--set KEY=VALUE` strings."""
     p = Path(path)
-    if not p.is_file():
+    if not p.exists():
         raise InputError(f"config file '{p}' does not exist")
+    if not p.is_file():
+        raise InputError(f"config file '{p}' is not a regular file")
     try:
         with p.open("rb") as fh:
             raw = tomllib.load(fh)
     except tomllib.TOMLDecodeError as exc:
         raise InputError(f"config file '{p}' is not valid TOML: {exc}") from None
+    except UnicodeDecodeError as exc:
+        raise InputError(f"config file '{p}' is not UTF-8 text (byte {exc.start}): save it "
+                         "as UTF-8") from None
     except OSError as exc:
         raise InputError(f"config file '{p}' cannot be read: {exc.strerror}") from None
     if overrides:

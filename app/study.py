@@ -1,9 +1,16 @@
 """Convergence studies: every method at every refinement level, timed and checked against
 the scene's closed form. Writes study.csv and PNG plots (matplotlib, Agg).
 
-Level l scales every element size of the config by base_scale * 2**-l (so each level
-halves the element size near the contact); meshes are cached and reused across methods
-and reruns.
+Level l is the level-0 mesh (the config's, element sizes scaled by base_scale) split
+uniformly l times (app/mesh/refine.py: nested levels, O(n) meshing, h halves per level);
+with remesh=True gmsh meshes every level anew with every element size scaled by
+base_scale * 2**-l. Meshes are cached and reused across methods and reruns.
+
+Besides the errors against the closed form (`err_*`), every run is compared with a
+reference of the same model (`ref_*`, app/study_reference.py): the finest level of the
+reference method (default 4SD), so the comparison has no model error. Observed orders
+between successive levels (`order_*`), the energy bracket U(1SD) / U(FEM-Q4 or 16SD) per
+level and a markdown table are written next to study.csv.
 """
 
 from __future__ import annotations
@@ -17,68 +24,87 @@ import numpy as np
 from petsc4py import PETSc
 
 from app.config import Config
+from app.discretisation.methods import BULK_METHODS
 from app.errors import InputError, SolveError
+from app.references import REFERENCES
 from app.run import RunOptions, run
+from app.study_reference import (
+    add_reference_errors,
+    energy_bracket,
+    fitted_rate,
+    plot_bracket,
+    profile,
+    write_tables,
+)
 
-METHOD_NAMES = {"q4": ("fem-q4", 4), "fem-q4": ("fem-q4", 4)}
-
-# error columns reported per reference type: summary path -> column name
-ERRORS = {
-    "timoshenko": [(("tip_deflection_rel_error",), "tip_deflection"),
-                   (("strain_energy_rel_error",), "strain_energy")],
-    "hertz": [(("hertz", "p_max_rel_error"), "peak_pressure"),
-              (("hertz", "half_width_rel_error"), "half_width"),
-              (("hertz", "pressure_l2_rel_error"), "pressure_l2")],
-    "cattaneo": [(("hertz", "p_max_rel_error"), "peak_pressure"),
-                 (("hertz", "pressure_l2_rel_error"), "pressure_l2"),
-                 (("cattaneo", "stick_half_width_rel_error"), "stick_zone"),
-                 (("cattaneo", "traction_l2_rel_error"), "traction_l2")],
-}
 PHASES = ("mesh", "assembly", "factorization", "solve", "pair_search", "compliance", "lcp",
           "recovery", "output", "total")
 
 
 def parse_methods(text: str) -> list[tuple[str, int]]:
-    """'1,2,4,q4' -> [("cs-fem", 1), ("cs-fem", 2), ("cs-fem", 4), ("fem-q4", 4)]."""
+    """'1,2,4,q4' -> [("cs-fem", 1), ("cs-fem", 2), ("cs-fem", 4), ("fem-q4", 4)].
+
+    A bare number is a CS-FEM smoothing-domain count; other names come from the
+    bulk-method registry (`BulkMethod.study_names`).
+    """
+    names = {n: (m.name, 4) for m in BULK_METHODS.values() for n in m.study_names}
+    sds = BULK_METHODS["cs-fem"].sd_choices
     out = []
     for item in text.split(","):
         item = item.strip().lower()
-        if item in METHOD_NAMES:
-            out.append(METHOD_NAMES[item])
-        elif item.isdigit() and int(item) in (1, 2, 3, 4, 8, 16):
+        if item in names:
+            out.append(names[item])
+        elif item.isdigit() and int(item) in sds:
             out.append(("cs-fem", int(item)))
         else:
-            raise InputError(f"--methods: '{item}' is not one of 1, 2, 3, 4, 8, 16, q4")
+            choices = ", ".join([*map(str, sds), *names])
+            raise InputError(f"--methods: '{item}' is not one of {choices}")
     return out
 
 
 def label(method: str, sd: int) -> str:
-    return "FEM-Q4" if method == "fem-q4" else f"{sd}SD"
+    """The study's short label, e.g. "4SD" or "FEM-Q4"."""
+    return BULK_METHODS[method].short(sd)
 
 
 def run_study(cfg: Config, out: Path, levels: int, methods: list[tuple[str, int]],
-              base_scale: float = 1.0, quiet: bool = False, first_level: int = 0) -> list[dict]:
-    """Run every (level, method); returns the rows written to OUT/study.csv."""
+              base_scale: float = 1.0, quiet: bool = False, first_level: int = 0,
+              remesh: bool = False, reference: str | None = None) -> list[dict]:
+    """Run every (level, method); returns the rows written to OUT/study.csv.
+
+    reference: label of the method whose finest level is the model reference (default
+    4SD if run, else the last method). Raises SolveError if every run fails.
+    """
     rank = PETSc.COMM_WORLD.getRank()
-    kind = (cfg.raw.get("reference") or {}).get("type")
-    if kind not in ERRORS:
+    if cfg.reference is None:
         raise InputError(f"{cfg.path}: a study needs a [reference] table with type one of "
-                         f"{sorted(ERRORS)}")
+                         f"{sorted(REFERENCES)}")
+    columns = REFERENCES[cfg.reference["type"]].columns
+    labels = [label(m, sd) for m, sd in methods]
+    if reference is not None and reference not in labels:
+        raise InputError(f"--reference-method {reference} is not among the methods "
+                         f"({', '.join(labels)})")
     out = Path(out)
     cache = out / "mesh_cache"
     rows: list[dict] = []
+    profiles: dict[tuple[int, str], dict] = {}
+    failures: list[str] = []
     t0 = time.perf_counter()
+    last = first_level + levels - 1
     for level in range(first_level, first_level + levels):
         for method, sd in methods:
-            tag = f"level {level}/{first_level + levels - 1} {label(method, sd)}"
+            tag = f"level {level}/{last} {label(method, sd)}"
+            scale = base_scale * 2.0**-level if remesh else base_scale
             opts = RunOptions(out=out / f"L{level}_{label(method, sd)}", method=method, sd=sd,
-                              mesh_scale=base_scale * 2.0**-level, quiet=quiet,
-                              mesh_cache=cache, progress_prefix=tag)
+                              mesh_scale=scale, quiet=quiet, mesh_cache=cache,
+                              progress_prefix=tag, refine=0 if remesh else level)
             try:
                 s = run(cfg, opts)
             except SolveError as exc:
+                failures.append(f"{tag}: {exc}")
                 if rank == 0 and not quiet:
-                    print(f"[{time.perf_counter() - t0:8.2f} s] {tag}: failed: {exc}")
+                    print(f"[{time.perf_counter() - t0:8.2f} s] {tag}: failed: {exc}",
+                          flush=True)
                 continue
             row = {"level": level, "method": label(method, sd), "n_dofs": s["n_dofs"],
                    "n_elements": s["n_elements"], "n_pairs": s.get("n_pairs", 0),
@@ -89,20 +115,38 @@ def run_study(cfg: Config, out: Path, levels: int, methods: list[tuple[str, int]
                 row["lemke_pivots"] = sum(st["lemke_pivots"] for st in s["steps"])
                 row["lcp_size"] = s["steps"][-1]["lcp_size"]
             ref = s.get("reference", {})
-            for path, name in ERRORS[kind]:
+            for path, name in columns:
                 v = ref
                 for key in path:
                     v = v.get(key, {}) if isinstance(v, dict) else {}
                 row[f"err_{name}"] = float(v) if isinstance(v, int | float) else math.nan
+            floor = ref.get("hertz", {}).get("pressure_l2_interp_floor")
+            if floor is not None:  # the interpolated L2's own floor at this pair spacing
+                row["floor_pressure_l2_interp"] = floor
             rows.append(row)
             if rank == 0:
+                profiles[(level, row["method"])] = profile(s, opts.out)
                 write_csv(out / "study.csv", rows)
                 if not quiet:
                     errs = ", ".join(f"{k[4:]} {row[k]:.3e}" for k in row if k.startswith("err_"))
                     print(f"[{time.perf_counter() - t0:8.2f} s] {tag}: {row['n_dofs']} DOFs, "
                           f"{row['t_total']:.2f} s, {errs}", flush=True)
-    if rank == 0 and rows:
-        plot_study(rows, out, title=f"{cfg.path.stem} ({kind})")
+    if not rows:
+        raise SolveError(f"every run of the study failed ({len(failures)} runs; first: "
+                         f"{failures[0].splitlines()[0] if failures else 'none'})")
+    if rank == 0:
+        ref_label = reference or ("4SD" if "4SD" in labels else labels[-1])
+        note = add_reference_errors(rows, profiles, ref_label)
+        bracket = energy_bracket(rows)
+        write_csv(out / "study.csv", rows)
+        if bracket:
+            write_csv(out / "energy_bracket.csv", bracket)
+        table = write_tables(rows, bracket, out, note)
+        if not quiet:
+            print(table, flush=True)
+        plot_study(rows, out, title=f"{cfg.path.stem} ({cfg.reference['type']})", note=note)
+        if bracket:
+            plot_bracket(bracket, out)
     return rows
 
 
@@ -116,43 +160,45 @@ def write_csv(path: Path, rows: list[dict]) -> None:
     tmp.replace(path)
 
 
-def fitted_rate(dofs: np.ndarray, err: np.ndarray) -> float:
-    """Convergence rate in element size h ~ DOFs^-1/2: slope of log err vs log h."""
-    ok = np.isfinite(err) & (err > 0)
-    if ok.sum() < 2:
-        return math.nan
-    h = dofs[ok] ** -0.5
-    return float(np.polyfit(np.log(h), np.log(err[ok]), 1)[0])
-
-
-def plot_study(rows: list[dict], out: Path, title: str = "") -> list[Path]:
-    """error_vs_dofs.png, error_vs_time.png and energy_vs_sd.png in OUT."""
+def plot_study(rows: list[dict], out: Path, title: str = "", note: str = "") -> list[Path]:
+    """error_vs_dofs.png, error_vs_time.png (closed-form errors err_* and errors against
+    the model reference ref_*, one panel each) and energy_vs_sd.png in OUT."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    import matplotlib.ticker
 
     methods = list(dict.fromkeys(r["method"] for r in rows))
-    errs = [k for k in rows[0] if k.startswith("err_")]
+    errs = [k for k in dict.fromkeys(k for r in rows for k in r)
+            if k.startswith(("err_", "ref_"))]
     paths = []
     for xkey, xlabel, fname in (("n_dofs", "DOFs", "error_vs_dofs.png"),
                                 ("t_total", "wall time [s]", "error_vs_time.png")):
-        fig, axes = plt.subplots(1, len(errs), figsize=(4.2 * len(errs), 3.8), squeeze=False)
-        for ax, ek in zip(axes[0], errs, strict=True):
+        ncol = min(4, len(errs))
+        nrow = -(-len(errs) // ncol)
+        fig, axes = plt.subplots(nrow, ncol, figsize=(4.2 * ncol, 3.6 * nrow), squeeze=False)
+        for ax in axes.ravel()[len(errs):]:
+            ax.axis("off")
+        for ax, ek in zip(axes.ravel(), errs, strict=False):
             for m in methods:
                 rr = [r for r in rows if r["method"] == m]
                 x = np.array([r[xkey] for r in rr], dtype=float)
-                y = np.array([r[ek] for r in rr], dtype=float)
+                y = np.array([r.get(ek, math.nan) for r in rr], dtype=float)
                 lab = m
                 if xkey == "n_dofs":
-                    lab += f" (rate {fitted_rate(x, y):.2f})"
+                    orders = [r.get(f"order_{ek}", math.nan) for r in rr]
+                    last = next((o for o in reversed(orders) if math.isfinite(o)), math.nan)
+                    lab += f" (rate {fitted_rate(x, y):.2f}, last order {last:.2f})"
                 ax.loglog(x, y, "o-", label=lab, ms=3)
+            ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
             ax.set_xlabel(xlabel)
             ax.set_ylabel("relative error")
-            ax.set_title(ek[4:])
+            ax.set_title(("vs closed form: " if ek.startswith("err_") else "vs reference: ")
+                         + ek[4:], fontsize=9)
             ax.grid(True, which="both", alpha=0.3)
             ax.legend(fontsize=7)
-        fig.suptitle(title)
+        fig.suptitle(f"{title}; {note}" if note else title, fontsize=10)
         fig.tight_layout()
         fig.savefig(out / fname, dpi=100)
         plt.close(fig)

@@ -10,7 +10,10 @@ Writes OUT/<prefix>deformed_von_mises.png and OUT/<prefix>contact_<interface>.pn
 from __future__ import annotations
 
 import argparse
+import hashlib
 import json
+import re
+import sys
 from pathlib import Path
 
 import h5py
@@ -21,7 +24,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 from matplotlib.collections import PolyCollection  # noqa: E402
 
-from app.closed_form import cattaneo_traction, hertz_pressure  # noqa: E402
+from app.references import REFERENCES  # noqa: E402
 
 
 def deformed_mesh(out: Path, step: int, zoom, scale: float | None, prefix: str) -> Path:
@@ -51,7 +54,7 @@ def deformed_mesh(out: Path, step: int, zoom, scale: float | None, prefix: str) 
     ax.set_aspect("equal")
     fig.colorbar(pc, ax=ax, label="von Mises stress")
     ax.set_title(f"step {step}: deformed x {scale:.3g}, coloured by von Mises")
-    path = out / f"{prefix}deformed_von_mises.png"
+    path = out / safe_file_name(f"{prefix}deformed_von_mises.png")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -74,19 +77,13 @@ def contact_plots(out: Path, step: int, summary: dict, prefix: str) -> list[Path
         fig, axes = plt.subplots(2, 1, figsize=(7, 5.5), sharex=True)
         axes[0].plot(coord[o], c["p"][sel][o], "o-", ms=3, label="p (computed)")
         axes[1].plot(coord[o], c["q"][sel][o], "o-", ms=3, label="q (computed)")
-        if i == 0 and "hertz" in ref:
-            h = ref["hertz"]
+        if i == 0 and ref.get("type") in REFERENCES:
+            curves = REFERENCES[ref["type"]].overlay(ref, float(np.max(c["mu"][sel])))
             xx = np.linspace(coord.min(), coord.max(), 400)
-            axes[0].plot(xx, hertz_pressure(xx, h["a_hertz"], h["p0_hertz"]), "k--", lw=1,
-                         label="Hertz")
-        if i == 0 and "cattaneo" in ref:
-            h, ca = ref["hertz"], ref["cattaneo"]
-            xx = np.linspace(coord.min(), coord.max(), 400)
-            mu = float(np.max(c["mu"][sel]))
-            sign = np.sign(np.sum(c["q"][sel])) or 1.0
-            axes[1].plot(xx, sign * cattaneo_traction(xx, h["a_hertz"], h["p0_hertz"], mu,
-                                                       ca["Q_over_muP"]), "k--", lw=1,
-                         label="Cattaneo-Mindlin")
+            for ax, key in ((axes[0], "p"), (axes[1], "q")):
+                if key in curves:
+                    name, curve = curves[key]
+                    ax.plot(xx, curve(xx), "k--", lw=1, label=name)
         state = c["state"][sel][o]
         for code, col in ((2, "tab:red"), (3, "tab:red"), (4, "0.7")):
             m = state == code
@@ -98,12 +95,46 @@ def contact_plots(out: Path, step: int, summary: dict, prefix: str) -> list[Path
             ax.grid(True, alpha=0.3)
             ax.legend(fontsize=8)
         axes[0].set_title(f"interface '{name}', step {step}")
-        path = out / f"{prefix}contact_{name}.png"
+        path = out / safe_file_name(f"{prefix}contact_{name}.png")
         fig.tight_layout()
         fig.savefig(path, dpi=110)
         plt.close(fig)
         paths.append(path)
     return paths
+
+
+MAX_NAME = 120
+"""Longest file name written (bytes); most file systems allow 255."""
+
+
+def safe_file_name(name: str) -> str:
+    """`name` with characters other than letters, digits, '.', '-', '_' replaced by '_',
+    and shortened (keeping a hash of the full name and the extension) when too long."""
+    clean = re.sub(r"[^A-Za-z0-9._-]", "_", name)
+    if len(clean) <= MAX_NAME:
+        return clean
+    stem, dot, ext = clean.rpartition(".")
+    digest = hashlib.sha1(name.encode()).hexdigest()[:10]
+    return f"{stem[: MAX_NAME - len(ext) - 12]}_{digest}{dot}{ext}"
+
+
+def check_step(out: Path, step: int | None) -> tuple[dict, int]:
+    """The summary of OUT and the step to draw (the last by default); SystemExit(2) with one
+    line naming the problem otherwise."""
+    path = out / "summary.json"
+    try:
+        summary = json.loads(path.read_text())
+        n = len(summary["steps"])
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        raise SystemExit(f"error: {path}: not a readable result summary ({exc})") from None
+    if n == 0:
+        raise SystemExit(f"error: {out} has no completed step to draw")
+    step = n if step is None else step
+    if not 1 <= step <= n:
+        raise SystemExit(f"error: --step {step}: {out} has steps 1..{n}")
+    if not (out / f"step_{step:04d}.h5").is_file() or not (out / "mesh.h5").is_file():
+        raise SystemExit(f"error: {out}: step_{step:04d}.h5 or mesh.h5 is missing")
+    return summary, step
 
 
 def main() -> None:
@@ -114,13 +145,21 @@ def main() -> None:
     ap.add_argument("--scale", type=float, default=None, help="displacement magnification")
     ap.add_argument("--prefix", default="")
     args = ap.parse_args()
-    summary = json.loads((args.out / "summary.json").read_text())
-    step = args.step or len(summary["steps"])
-    paths = [deformed_mesh(args.out, step, args.zoom, args.scale, args.prefix)]
-    paths += contact_plots(args.out, step, summary, args.prefix)
+    summary, step = check_step(args.out, args.step)
+    try:
+        paths = [deformed_mesh(args.out, step, args.zoom, args.scale, args.prefix)]
+        paths += contact_plots(args.out, step, summary, args.prefix)
+    except OSError as exc:  # unwritable folder, full disk, unreadable step file
+        raise SystemExit(f"error: {args.out}: {exc.strerror or exc}") from None
     for p in paths:
         print(p)
 
 
 if __name__ == "__main__":
-    main()
+    try:
+        main()
+    except SystemExit as exc:
+        if isinstance(exc.code, str):
+            print(exc.code, file=sys.stderr)
+            sys.exit(2)
+        raise

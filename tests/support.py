@@ -50,10 +50,15 @@ def kkt_violations(out: Path, step: int, f_scale: float = 0.0) -> dict:
     with h5py.File(Path(out) / f"step_{step:04d}.h5") as f:
         u = f["displacement"][()][:, :2]
         c = {k: f["contact"][k][()] for k in f["contact"]}
-    s, (a_, b_), xi = c["slave"], c["master"].T, c["xi"]
-    d = u[s] - (1 - xi)[:, None] * u[a_] - xi[:, None] * u[b_]
-    gap = c["g0"] + np.sum(c["normal"] * d, axis=1)
-    tau = np.sum(c["tangent"] * d, axis=1)
+    if "g_cols" in c:  # the written rows of G (any discretisation)
+        uc = u.ravel()[c["g_cols"]]
+        gap = c["g0"] + np.sum(c["g_normal"] * uc, axis=1)
+        tau = np.sum(c["g_tangent"] * uc, axis=1)
+    else:  # node-to-segment files without G rows: from the pair geometry
+        s, (a_, b_), xi = c["slave"], c["master"].T, c["xi"]
+        d = u[s] - (1 - xi)[:, None] * u[a_] - xi[:, None] * u[b_]
+        gap = c["g0"] + np.sum(c["normal"] * d, axis=1)
+        tau = np.sum(c["tangent"] * d, axis=1)
     p, q = c["p_force"], c["q_force"]
     a, cc, mu = c["a_force"], c["c_force"], c["mu"]
     bound = mu * p + cc

@@ -14,7 +14,7 @@ from test_discretisation import VARIANTS, dense, distorted_grid
 from app.assembly import compiled
 from app.assembly.stiffness import assemble_stiffness
 from app.discretisation.bulk import Discretisation
-from app.discretisation.elements import cell_gradients
+from app.discretisation.methods import cell_gradients
 from app.mesh.model import Mesh
 
 needs_kernel = pytest.mark.skipif(compiled.kernel() is None,

@@ -3,13 +3,14 @@
 from __future__ import annotations
 
 import json
+import time
 from pathlib import Path
 
 import h5py
 import meshio
 import numpy as np
 import pytest
-from support import CONFIGS, read_summary, run_cli
+from support import CONFIGS, ROOT, mpi_env, read_summary, run_cli
 
 CANTILEVER = CONFIGS / "cantilever.toml"
 
@@ -146,13 +147,18 @@ def test_singular_stiffness_is_reported(tmp_path):
     res = run_cli(["run", str(cfg), "--out", str(tmp_path / "o"), "--quiet"])
     assert res.returncode == 2 and "hourglass" in res.stderr and "--sd 2" in res.stderr
     assert "in body 'plate'" in res.stderr
+    failed = json.loads((tmp_path / "o" / "summary.json").read_text())
+    assert failed["status"] == "failed" and "hourglass" in failed["error"]
     res = run_cli(["run", str(cfg), "--out", str(tmp_path / "o"), "--quiet", "--sd", "2"])
     assert res.returncode == 0, res.stderr
     free = _write(tmp_path, text.replace('on = "roller"', 'on = "pin"'))
     res = run_cli(["run", str(free), "--out", str(tmp_path / "o"), "--quiet", "--sd", "2"])
     assert res.returncode == 2 and "body 'plate' is free to move" in res.stderr
     assert "rotation about (x=0" in res.stderr
-    assert json.loads((tmp_path / "o" / "summary.json").read_text())["status"] == "completed"
+    # the failed run's own status, not the earlier completed run's
+    failed = json.loads((tmp_path / "o" / "summary.json").read_text())
+    assert failed["status"] == "failed" and "free to move" in failed["error"]
+    assert not list((tmp_path / "o").glob("step_*.h5"))
 
 
 def test_log_view_shows_the_phases_as_stages(tmp_path):
@@ -161,3 +167,125 @@ def test_log_view_shows_the_phases_as_stages(tmp_path):
     assert res.returncode == 0, res.stderr
     for stage in ("mesh", "assembly", "factorization", "compliance", "lcp", "output"):
         assert f" {stage}: " in res.stdout, stage
+
+
+DEGENERATE_MSH = """$MeshFormat
+2.2 0 8
+$EndMeshFormat
+$PhysicalNames
+2
+1 1 "base"
+2 2 "plate"
+$EndPhysicalNames
+$Nodes
+6
+1 0 0 0
+2 1 0 0
+3 1 1 0
+4 0 1 0
+5 2 0 0
+6 2 1 0
+$EndNodes
+$Elements
+3
+1 1 2 1 1 1 2
+2 3 2 2 1 1 2 3 4
+3 3 2 2 1 2 5 5 3
+$EndElements
+"""
+FILE_CONFIG = """[mesh]
+size = 1.0
+file = "plate.msh"
+[[body]]
+name = "plate"
+E = 100.0
+nu = 0.3
+[[support]]
+on = "base"
+ux = 0.0
+uy = 0.0
+"""
+
+
+def _one_line_cases(tmp_path: Path) -> list[tuple[list[str], str]]:
+    (tmp_path / "plate.msh").write_text(DEGENERATE_MSH)
+    (tmp_path / "plate.toml").write_text(FILE_CONFIG)
+    (tmp_path / "latin1.toml").write_bytes('title = "Müller"\n'.encode("latin-1"))
+    a_file = tmp_path / "a_file"
+    a_file.write_text("x")
+    patch, out = str(CONFIGS / "patch.toml"), str(tmp_path / "o")
+    return [
+        (["run", str(tmp_path / "latin1.toml")], "not UTF-8"),
+        (["run", patch, "--out", ""], "--out is empty"),
+        (["run", patch, "--out", "/proc/guard_out"], "cannot write there"),
+        (["run", patch, "--out", "/proc"], "cannot write there"),
+        (["run", patch, "--out", "/dev/null"], "is not a folder"),
+        (["run", patch, "--out", str(a_file)], "is not a folder"),
+        (["run", patch, "--out", out, "--mesh-cache", str(a_file)], "--mesh-cache"),
+        (["run", patch, "--out", out, "-ksp_type", "foo"], "-ksp_type foo: unknown type"),
+        (["run", patch, "--out", out, "-pc_type", "foo"], "-pc_type foo: unknown type"),
+        (["run", patch, "--out", out, "-pc_factor_mat_solver_type", "nonsense"],
+         "-pc_factor_mat_solver_type nonsense"),
+        (["run", patch, "--out", out, "-ksp_type"], "-ksp_type needs a value"),
+        (["run", patch, "--out", out, "--mesh-size", "1e-4"], "--allow-large"),
+        (["study", patch, "--out", out, "--mesh-size", "0.001", "--levels", "6"],
+         "--allow-large"),
+        (["run", str(tmp_path / "plate.toml"), "--out", out, "--mesh-size", "0.1"],
+         "--mesh-size does not apply"),
+        (["run", str(tmp_path / "plate.toml"), "--out", out], "repeats a node"),
+    ]
+
+
+def test_bad_command_lines_give_one_line_and_exit_2(tmp_path):
+    for args, needle in _one_line_cases(tmp_path):
+        t0 = time.perf_counter()
+        res = run_cli([*args, "--quiet"])
+        lines = [ln for ln in res.stderr.strip().splitlines() if ln.strip()]
+        assert res.returncode == 2, (args, res.stderr)
+        assert len(lines) == 1 and lines[0].startswith("error: "), (args, res.stderr)
+        assert needle in lines[0], (needle, lines[0])
+        assert time.perf_counter() - t0 < 30
+
+
+def test_misspelled_petsc_option_is_reported_as_unused(tmp_path):
+    out = tmp_path / "o"
+    res = run_cli(["run", str(CONFIGS / "patch.toml"), "--out", str(out), "--quiet",
+                   "-ksp_typ", "cg", "-ksp_rtol", "1e-12"])
+    assert res.returncode == 0, res.stderr
+    assert "-ksp_typ" in res.stderr and "-ksp_rtol" in res.stderr  # rtol unused with preonly
+    assert read_summary(out)["petsc_options_unused"] == ["-ksp_rtol", "-ksp_typ"]
+    res = run_cli(["run", str(CONFIGS / "patch.toml"), "--out", str(out), "--quiet"])
+    assert res.returncode == 0 and res.stderr == "" and (
+        "petsc_options_unused" not in read_summary(out))
+
+
+PLOT = ROOT / "scripts" / "plot_results.py"
+
+
+def test_plot_script_errors_and_long_names(tmp_path):
+    import subprocess
+    import sys
+
+    out = tmp_path / "o"
+    long_name = "n" * 5000
+    res = run_cli(["run", str(CONFIGS / "patch.toml"), "--out", str(out), "--quiet",
+                   "--set", f"interface.0.name={long_name}"])
+    assert res.returncode == 0, res.stderr
+
+    def plot(*extra):
+        return subprocess.run([sys.executable, str(PLOT), str(out), *extra], cwd=ROOT,
+                              env=mpi_env(), capture_output=True, text=True, timeout=300)
+
+    for extra, needle in ((["--step", "99"], "--step 99"), (["--step", "0"], "--step 0")):
+        res = plot(*extra)
+        lines = [ln for ln in res.stderr.strip().splitlines() if "Warning" not in ln
+                 and not ln.startswith(" ")]  # matplotlib's import warnings, if any
+        assert res.returncode == 2 and len(lines) == 1 and needle in lines[0], res.stderr
+    res = plot()
+    assert res.returncode == 0, res.stderr
+    names = [p.name for p in out.glob("contact_*.png")]
+    assert len(names) == 1 and len(names[0]) <= 120
+    res = subprocess.run([sys.executable, str(PLOT), str(tmp_path / "missing")], cwd=ROOT,
+                         env=mpi_env(), capture_output=True, text=True, timeout=300)
+    assert res.returncode == 2 and "Traceback" not in res.stderr, res.stderr
+    assert res.stderr.strip().splitlines()[-1].startswith("error: "), res.stderr

@@ -42,6 +42,11 @@ def test_hertz_errors_on_sampled_closed_form():
     assert e["p_max_rel_error"] < 1e-3
     assert e["pressure_l2_rel_error"] < 1e-9
     assert e["pressure_l2_interp_rel_error"] < 2e-3
+    # sampled exactly: the error is all the definition's own interpolation floor
+    assert e["pressure_l2_interp_floor"] == e["pressure_l2_interp_rel_error"]
+    coarse = hertz_errors(x[::8], p[::8], 8 * length[::8], P=863.0, R=1.0,
+                          E_star=h["E_star"])
+    assert coarse["pressure_l2_interp_floor"] > 2 * e["pressure_l2_interp_floor"]
 
 
 def test_cattaneo_traction_limits():

@@ -10,7 +10,6 @@ import pytest
 from app.contact.pairs import (
     ContactPairs,
     closest_segments,
-    concatenate,
     constraint_matrix,
     contact_pairs,
     tributary_length,
@@ -387,8 +386,6 @@ def test_select_and_concatenate():
     c = ContactPairs.concatenate([a, b])
     assert c.n_pairs == a.n_pairs + b.n_pairs == len(c)
     np.testing.assert_array_equal(c.interface, [0] * a.n_pairs + [1] * b.n_pairs)
-    d = concatenate([a, b])
-    np.testing.assert_array_equal(d.slave, c.slave)
     s = c.select(c.interface == 1)
     np.testing.assert_array_equal(s.slave, b.slave)
     np.testing.assert_allclose(s.normal, b.normal)

@@ -11,7 +11,8 @@ from app.assembly.stiffness import assemble_stiffness
 from app.closed_form import timoshenko_cantilever
 from app.config import load_config
 from app.discretisation.bulk import Discretisation
-from app.discretisation.elements import smoothing_cells, strain_matrices
+from app.discretisation.elements import smoothing_cells
+from app.discretisation.methods import strain_matrices
 from app.errors import InputError
 from app.mesh.model import Mesh
 from app.run import RunOptions, run
@@ -124,7 +125,9 @@ def test_body_force_and_traction_vectors_sum_to_resultants():
 
     mesh = distorted_grid(4, 3)
     raw = {"mesh": {"size": 0.25}, "analysis": {"thickness": 0.5},
-           "body": [{"name": "plate", "E": 1.0, "nu": 0.3, "body_force": [2.0, -9.81]}]}
+           "body": [{"name": "plate", "E": 1.0, "nu": 0.3, "body_force": [2.0, -9.81],
+                     "shape": {"type": "rectangle", "origin": [0.0, 0.0], "width": 1.0,
+                               "height": 1.0}}]}
     cfg = parse_config(raw)
     f = body_force_vector(mesh, cfg)
     assert f[0::2].sum() == pytest.approx(2.0 * 1.0 * 0.5)
@@ -140,11 +143,8 @@ def test_body_force_and_traction_vectors_sum_to_resultants():
 
 @pytest.mark.parametrize("method,sd", VARIANTS)
 def test_stiffness_blocks_equal_the_b_transpose_d_b_sum(method, sd):
-    from app.discretisation.elements import (
-        cell_gradients,
-        elasticity_matrix,
-        stiffness_blocks,
-    )
+    from app.discretisation.elements import elasticity_matrix, stiffness_blocks
+    from app.discretisation.methods import cell_gradients
 
     xe = distorted_grid(3, 2).points[distorted_grid(3, 2).quads]
     b, w = strain_matrices(xe, method, sd)

@@ -14,6 +14,7 @@ from app.errors import InputError
 from app.mesh.build import build_mesh
 from app.mesh.model import Mesh
 from app.mesh.read import read_mesh
+from app.scene import parse_scene
 
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"
 
@@ -25,12 +26,12 @@ def load(name: str) -> dict:
 
 @pytest.fixture(scope="module")
 def hertz() -> Mesh:
-    return build_mesh(load("hertz"))
+    return build_mesh(parse_scene(load("hertz")))
 
 
 @pytest.fixture(scope="module")
 def patch() -> Mesh:
-    return build_mesh(load("patch"))
+    return build_mesh(parse_scene(load("patch")))
 
 
 def quad_areas(m: Mesh) -> np.ndarray:
@@ -116,12 +117,12 @@ def test_patch_non_matching(patch: Mesh) -> None:
 
 
 def test_two_blocks_config_builds() -> None:
-    m = build_mesh(load("two_blocks"))
+    m = build_mesh(parse_scene(load("two_blocks")))
     assert m.n_elements == 82 and set(m.body_names) == {"lower", "upper"}
 
 
 def test_cantilever_structured() -> None:
-    m = build_mesh(load("cantilever"))
+    m = build_mesh(parse_scene(load("cantilever")))
     check_valid(m, min_angle=89.0)
     assert m.n_elements == 80 * 8 and m.n_nodes == 81 * 9
     assert len(m.curves["clamp"]) == 8 and len(m.curves["tip_edge"]) == 8
@@ -131,9 +132,10 @@ def test_cantilever_structured() -> None:
 
 def test_scale_refines() -> None:
     cant = load("cantilever")
-    assert build_mesh(cant, scale=0.5).n_elements == 4 * 80 * 8
+    assert build_mesh(parse_scene(cant), scale=0.5).n_elements == 4 * 80 * 8
     cfg = load("hertz")
-    n1, n2 = build_mesh(cfg).n_elements, build_mesh(cfg, scale=0.5).n_elements
+    scene = parse_scene(cfg)
+    n1, n2 = build_mesh(scene).n_elements, build_mesh(scene, scale=0.5).n_elements
     assert 3.0 < n2 / n1 < 5.5
 
 
@@ -152,7 +154,7 @@ def test_other_shapes_and_named_points() -> None:
              "curves": {"arc": "half_arc", "flat": "half_flat"}},
         ],
     }
-    m = build_mesh(cfg)
+    m = build_mesh(parse_scene(cfg))
     check_valid(m)
     assert m.body_names == ["disk", "tri", "half"]
     for name, xy in cfg["points"].items():
@@ -166,7 +168,7 @@ def test_other_shapes_and_named_points() -> None:
 def test_refinement_curve_of_other_body() -> None:
     cfg = load("hertz")
     cfg["mesh"]["refine"] = [{"curves": ["cyl_arc"], "size": 0.05, "distance": 0.2}]
-    m = build_mesh(cfg)
+    m = build_mesh(parse_scene(cfg))
     check_valid(m)
     mid, length = edge_lengths(m, "block_top")  # refined through cyl_arc's location
     assert length[np.abs(mid[:, 0]) < 0.2].max() < 0.08
@@ -178,14 +180,14 @@ def test_refinement_curve_of_other_body() -> None:
 
 def test_cache_hit_skips_meshing(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     cfg = load("hertz")
-    first = build_mesh(cfg, cache_dir=tmp_path)
+    first = build_mesh(parse_scene(cfg), cache_dir=tmp_path)
     assert len(list(tmp_path.glob("*.npz"))) == 1
 
     def no_meshing(*args, **kwargs):
         raise AssertionError("gmsh meshing called on a cache hit")
 
     monkeypatch.setattr(gmsh.model.mesh, "generate", no_meshing)
-    again = build_mesh(copy.deepcopy(cfg), cache_dir=tmp_path)
+    again = build_mesh(parse_scene(copy.deepcopy(cfg)), cache_dir=tmp_path)
     assert again.body_names == first.body_names
     assert np.array_equal(again.points, first.points)
     assert np.array_equal(again.quads, first.quads) and np.array_equal(again.body, first.body)
@@ -193,9 +195,9 @@ def test_cache_hit_skips_meshing(tmp_path: Path, monkeypatch: pytest.MonkeyPatch
     for k in first.curves:
         assert np.array_equal(again.curves[k], first.curves[k])
     cfg["body"][0]["E"] = 1.0  # material is not part of the key
-    build_mesh(cfg, cache_dir=tmp_path)
+    build_mesh(parse_scene(cfg), cache_dir=tmp_path)
     with pytest.raises((AssertionError, InputError), match="cache hit"):
-        build_mesh(cfg, scale=0.9, cache_dir=tmp_path)  # other scale: a miss
+        build_mesh(parse_scene(cfg), scale=0.9, cache_dir=tmp_path)  # other scale: a miss
 
 
 # ----------------------------------------------------------------------------- reading
@@ -259,7 +261,7 @@ def test_build_mesh_reads_file(tmp_path: Path) -> None:
     write_msh(tmp_path / "two.msh")
     cfg = {"mesh": {"file": "two.msh"}, "points": {"corner": [2.0, 1.0]},
            "body": [{"name": "left"}, {"name": "right"}]}
-    m = build_mesh(cfg, base_dir=tmp_path)
+    m = build_mesh(parse_scene(cfg), base_dir=tmp_path)
     assert m.n_elements == 8 and np.allclose(m.points[m.point_groups["corner"]], [[2, 1]])
 
 
@@ -323,27 +325,27 @@ def hertz_with(change) -> dict:
 )
 def test_config_errors(change, message: str) -> None:
     with pytest.raises(InputError, match=message):
-        build_mesh(hertz_with(change))
+        build_mesh(parse_scene(hertz_with(change)))
 
 
 def test_named_point_off_structured_grid() -> None:
     cfg = load("cantilever")
     cfg["points"]["inner"] = [5.0, 0.03]  # inside a structured body, not on a grid node
     with pytest.raises(InputError, match="points.inner = \\[5, 0.03\\] is 0.03 away"):
-        build_mesh(cfg)
+        build_mesh(parse_scene(cfg))
 
 
 def test_polygon_clockwise_error() -> None:
     cfg = {"mesh": {"size": 0.5}, "body": [
         {"name": "p", "shape": {"type": "polygon", "points": [[0, 0], [0, 1], [1, 0]]}}]}
     with pytest.raises(InputError, match="body 'p': shape.points must be counter-clockwise"):
-        build_mesh(cfg)
+        build_mesh(parse_scene(cfg))
 
 
 def test_caller_gmsh_session_kept() -> None:
     gmsh.initialize([], readConfigFiles=False, interruptible=False)
     try:
-        build_mesh(load("patch"))
+        build_mesh(parse_scene(load("patch")))
         assert gmsh.isInitialized()
     finally:
         gmsh.finalize()
@@ -352,7 +354,7 @@ def test_caller_gmsh_session_kept() -> None:
 def test_refinement_curve_split_over_sides() -> None:
     cfg = load("hertz")  # block_sides = left and right sides of the block: two separate pieces
     cfg["mesh"]["refine"] = [{"curves": ["block_sides"], "size": 0.1, "distance": 0.5, "flat": 2.9}]
-    m = build_mesh(cfg)
+    m = build_mesh(parse_scene(cfg))
     check_valid(m)
     mid, length = edge_lengths(m, "base")  # own curve
     assert length[np.abs(mid[:, 0]) > 1.2].max() < 0.15

@@ -29,8 +29,21 @@ def test_study_writes_csv_and_plots_and_reuses_meshes(tmp_path):
     for level in range(3):
         e = {r["method"]: float(r["strain_energy"]) for r in rows if int(r["level"]) == level}
         assert e["1SD"] >= e["4SD"] >= e["FEM-Q4"]
+    # errors against the model reference (finest 4SD), observed orders, energy bracket
+    assert all(r["ref_energy"] == "nan" for r in rows if r["method"] == "4SD"
+               and int(r["level"]) == 2)
+    for m in ("1SD", "FEM-Q4"):
+        rr = sorted((r for r in rows if r["method"] == m), key=lambda r: int(r["level"]))
+        assert float(rr[0]["ref_energy"]) > float(rr[1]["ref_energy"]) > 0
+        assert float(rr[1]["order_ref_tip"]) > 1.5 and rr[0]["order_ref_tip"] in ("", "nan")
+    bracket = list(csv.DictReader(open(out / "energy_bracket.csv")))
+    widths = [float(b["width_rel"]) for b in bracket]
+    assert len(widths) == 3 and widths[0] > widths[1] > widths[2] > 0
+    assert all(b["one_sd_is_upper"] == "True" for b in bracket)
+    assert "observed order" in (out / "study_tables.md").read_text()
+    assert (out / "energy_bracket.png").stat().st_size > 5000
     meshes = sorted((out / "mesh_cache").iterdir())
-    assert len(meshes) == 3  # one mesh per level, shared by the methods
+    assert len(meshes) == 1  # level 0 only (levels split it), shared by the methods
     stamps = [p.stat().st_mtime_ns for p in meshes]
     res = run_cli([*args, "--quiet"])
     assert res.returncode == 0 and res.stdout == ""
@@ -43,3 +56,30 @@ def test_study_rejects_bad_methods_and_configs(tmp_path):
     res = run_cli(["study", str(CONFIGS / "patch.toml"), "--out", str(tmp_path)])
     assert res.returncode == 2 and "[reference]" in res.stderr
     assert parse_methods("1, 16,q4") == [("cs-fem", 1), ("cs-fem", 16), ("fem-q4", 4)]
+
+
+def test_study_remesh_and_contact_reference_columns(tmp_path):
+    out = tmp_path / "hz"
+    res = run_cli(["study", str(CONFIGS / "hertz.toml"), "--levels", "2", "--mesh-size", "1.0",
+                   "--methods", "4,q4", "--reference-method", "FEM-Q4", "--out", str(out),
+                   "--quiet"])
+    assert res.returncode == 0, res.stderr
+    rows = list(csv.DictReader(open(out / "study.csv")))
+    for r in rows:
+        assert float(r["err_pressure_l2_interp"]) >= float(r["floor_pressure_l2_interp"]) * 0.5
+        is_ref = r["method"] == "FEM-Q4" and r["level"] == "1"
+        assert (r["ref_pressure_l2"] == "nan") == is_ref
+        if not is_ref:
+            assert 0 < float(r["ref_pressure_l2"]) < 0.5 and 0 <= float(r["ref_p_max"]) < 0.5
+    l0, l1 = (next(r for r in rows if r["method"] == "4SD" and r["level"] == lv)
+              for lv in ("0", "1"))
+    assert float(l1["ref_pressure_l2"]) < 0.5 * float(l0["ref_pressure_l2"])  # converging
+    assert len(list((out / "mesh_cache").iterdir())) == 1
+    out2 = tmp_path / "remesh"
+    res = run_cli(["study", str(CONFIGS / "cantilever.toml"), "--levels", "2", "--methods",
+                   "4", "--remesh", "--out", str(out2), "--quiet"])
+    assert res.returncode == 0, res.stderr
+    assert len(list((out2 / "mesh_cache").iterdir())) == 2  # gmsh meshes every level
+    res = run_cli(["study", str(CONFIGS / "cantilever.toml"), "--methods", "4",
+                   "--reference-method", "1SD", "--out", str(out2)])
+    assert res.returncode == 2 and "--reference-method" in res.stderr

@@ -20,13 +20,8 @@ import numpy as np
 from numpy.ctypeslib import ndpointer
 
 from app.discretisation.bulk import Discretisation
-from app.discretisation.elements import (
-    elasticity_matrix,
-    gauss_points,
-    parent_derivatives,
-    smoothing_cells,
-    smoothing_tables,
-)
+from app.discretisation.elements import elasticity_matrix
+from app.discretisation.methods import bulk_method
 from app.errors import InputError
 from app.mesh.model import Mesh
 
@@ -156,23 +151,10 @@ def cell_operators(method: str, sd: int) -> tuple[np.ndarray, np.ndarray, np.nda
     tops = T (nc, 4, 4), sops = the upper triangle (S01, S02, S03, S12, S13, S23) of the
     antisymmetric S (nc, 6), gw (nc,). The same numbers as `cell_gradients`:
     CS-FEM's boundary integral at the cell edge midpoints is linear in y (in x for by),
-    and the shoelace area and det J are bilinear in (x, y).
+    and the shoelace area and det J are bilinear in (x, y). The constants come from the
+    method's registry entry (app/discretisation/methods.py).
     """
-    if method == "cs-fem":
-        ncorner, nmid = smoothing_tables(smoothing_cells(sd))  # (nc, 4, 4) each
-        edge = np.roll(ncorner, -1, axis=1) - ncorner  # corner k+1 minus corner k
-        tops = np.einsum("cea,ceb->cab", nmid, edge)
-        s = 0.5 * np.einsum("cka,ckb->cab", ncorner, np.roll(ncorner, -1, axis=1))
-        sfull = s - s.transpose(0, 2, 1)
-        gw = np.ones(len(tops))
-    elif method == "fem-q4":
-        pts = gauss_points()
-        dxi, deta = (np.array([parent_derivatives(a, b)[k] for a, b in pts]) for k in (0, 1))
-        tops = np.einsum("ga,gb->gab", dxi, deta) - np.einsum("ga,gb->gab", deta, dxi)
-        sfull = tops
-        gw = np.ones(len(pts))
-    else:
-        raise InputError(f"method '{method}' is not supported: use 'cs-fem' or 'fem-q4'")
+    tops, sfull, gw = bulk_method(method, "method").cell_operators(sd)
     upper = np.triu_indices(4, 1)
     return tops, np.ascontiguousarray(sfull[:, upper[0], upper[1]]), gw
 

@@ -7,10 +7,12 @@ body forces are per unit volume. Both are multiplied by the thickness.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from app.config import Config, Load, Support, evaluate
-from app.discretisation.elements import gauss_gradients, shape_functions
+from app.discretisation.elements import gauss_gradients, gauss_points, shape_functions
 from app.errors import InputError
 from app.mesh.model import Mesh, orient_boundary_edges
 
@@ -18,7 +20,7 @@ from app.mesh.model import Mesh, orient_boundary_edges
 def _curve(mesh: Mesh, name: str, where: str) -> np.ndarray:
     if name not in mesh.curves:
         raise InputError(
-            f"{where}: unknown curve '{name}' (mesh curves: {sorted(mesh.curves)})"
+            f"{where}: unknown curve {name!r} (mesh curves: {sorted(mesh.curves)})"
         )
     return mesh.curves[name]
 
@@ -54,7 +56,7 @@ def traction_vector(mesh: Mesh, edges: np.ndarray, traction) -> np.ndarray:
 
 def load_vector(mesh: Mesh, cfg: Config, load: Load) -> np.ndarray:
     """Nodal force vector of one load at factor 1 (including the thickness)."""
-    where = f"load on '{load.on}'"
+    where = f"load on {load.on!r}"
     edges = orient_boundary_edges(mesh, _curve(mesh, load.on, where), where)
     d = mesh.points[edges[:, 1]] - mesh.points[edges[:, 0]]
     length = np.linalg.norm(d, axis=1)
@@ -80,21 +82,19 @@ def body_force_vector(mesh: Mesh, cfg: Config) -> np.ndarray:
     if not np.any(bf):
         return f
     xe = mesh.points[mesh.quads]
-    g = 1.0 / np.sqrt(3.0)
-    for xi in (-g, g):
-        for eta in (-g, g):
-            _, _, det = gauss_gradients(xe, xi, eta)
-            n = shape_functions(xi, eta)  # (4,)
-            w = cfg.thickness * det[:, None] * n[None, :]  # (ne, 4)
-            for comp in range(2):
-                np.add.at(f, 2 * mesh.quads + comp, w * bf[:, comp : comp + 1])
+    for xi, eta in gauss_points():
+        _, _, det = gauss_gradients(xe, xi, eta)
+        n = shape_functions(xi, eta)  # (4,)
+        w = cfg.thickness * det[:, None] * n[None, :]  # (ne, 4)
+        for comp in range(2):
+            np.add.at(f, 2 * mesh.quads + comp, w * bf[:, comp : comp + 1])
     return f
 
 
 def support_dofs(mesh: Mesh, support: Support,
                  params: dict[str, float] | None = None) -> tuple[np.ndarray, np.ndarray]:
     """DOFs a support prescribes and their values at factor 1."""
-    where = f"support on '{support.on}'"
+    where = f"support on {support.on!r}"
     nodes = group_nodes(mesh, support.on, where)
     x, y = mesh.points[nodes, 0], mesh.points[nodes, 1]
     dofs, vals = [], []
@@ -112,66 +112,43 @@ def constrained_dofs(mesh: Mesh, cfg: Config) -> np.ndarray:
                                      for s in cfg.supports]))
 
 
-def rigid_modes(points: np.ndarray, nodes: np.ndarray) -> np.ndarray:
-    """Rigid-body modes (tx, ty, rotation about the nodes' centroid), shape (2*len, 3)."""
-    xc = points[nodes] - points[nodes].mean(axis=0)
-    r = np.zeros((2 * nodes.size, 3))
-    r[0::2, 0] = 1.0
-    r[1::2, 1] = 1.0
-    r[0::2, 2] = -xc[:, 1]
-    r[1::2, 2] = xc[:, 0]
-    return r
-
-
-MODE_NAMES = ("translation x", "translation y", "rotation")
-
-
-def free_rigid_modes(mesh: Mesh, fixed: np.ndarray) -> dict[int, np.ndarray]:
-    """Rigid-body modes the supports leave free, per body.
-
-    Returns body index -> (3, r) coefficients of the free combinations of
-    (tx, ty, rotation about the body centroid), for bodies with r > 0 free modes.
-    """
-    node_body = mesh.node_body()
-    is_fixed = np.zeros(2 * mesh.n_nodes, dtype=bool)
-    is_fixed[fixed] = True
-    out = {}
-    for b in range(len(mesh.body_names)):
-        nodes = np.flatnonzero(node_body == b)
-        if nodes.size == 0:
-            continue
-        r = rigid_modes(mesh.points, nodes)
-        dofs = np.stack([2 * nodes, 2 * nodes + 1], axis=1).ravel()
-        a = r[is_fixed[dofs]]
-        ext = np.ptp(mesh.points[nodes], axis=0).max()
-        a = a * np.array([1.0, 1.0, 1.0 / ext])
-        if a.shape[0] == 0:
-            out[b] = np.eye(3)
-            continue
-        _, s, vt = np.linalg.svd(a, full_matrices=True)
-        rank = int(np.sum(s > 1e-10 * max(s[0], 1.0)))
-        if rank < 3:
-            out[b] = (vt[rank:].T / np.array([1.0, 1.0, ext])[:, None])
+def unique_names(names: list[str]) -> list[str]:
+    """The names, with '#2', '#3' ... appended to the second, third ... repeat of one."""
+    seen: dict[str, int] = {}
+    out = []
+    for n in names:
+        seen[n] = seen.get(n, 0) + 1
+        out.append(n if seen[n] == 1 else f"{n}#{seen[n]}")
     return out
 
 
-def describe_modes(modes: np.ndarray, centroid: np.ndarray | None = None) -> str:
-    """Words for free rigid modes (3, r), e.g. 'translation y, rotation about (0, 1)'."""
-    return ", ".join(mode_names(modes, centroid))
+@dataclass
+class LoadCase:
+    """One load or support with its history; u is its unit solution K^-1 b."""
+
+    name: str
+    history: np.ndarray
+    rhs: np.ndarray  # (2n,) forces at factor 1
+    prescribed: np.ndarray  # (2n,) prescribed displacement values at factor 1
 
 
-def mode_names(modes: np.ndarray, centroid: np.ndarray | None = None) -> list[str]:
-    """One name per free rigid mode; modes are coefficients of (tx, ty, rotation about
-    `centroid`), shape (3, r)."""
-    if modes.shape[1] == 3:
-        return ["translation x", "translation y", "rotation"]
-    names = []
-    for k in range(modes.shape[1]):
-        tx, ty, th = modes[:, k] / np.abs(modes[:, k]).max()
-        if abs(th) > 1e-6 and centroid is not None:
-            x0, y0 = centroid[0] - ty / th, centroid[1] + tx / th
-            names.append(f"rotation about (x={x0:.4g}, y={y0:.4g})")
-        else:
-            v = np.abs([tx, ty, th])
-            names.append(" + ".join(MODE_NAMES[i] for i in range(3) if v[i] > 1e-6))
-    return names
+def load_cases(mesh: Mesh, cfg: Config) -> list[LoadCase]:
+    """Every load, body force and non-zero support of the config as a load case."""
+    n2 = 2 * mesh.n_nodes
+    cases = []
+    names = unique_names([f"load:{ld.on}" for ld in cfg.loads]
+                         + [f"support:{s.on}" for s in cfg.supports])
+    names = dict(zip([id(x) for x in cfg.loads + cfg.supports], names, strict=True))
+    for ld in cfg.loads:
+        cases.append(LoadCase(names[id(ld)], ld.history, load_vector(mesh, cfg, ld),
+                              np.zeros(n2)))
+    bf = body_force_vector(mesh, cfg)
+    if np.any(bf):
+        cases.append(LoadCase("body_force", np.ones(cfg.n_steps), bf, np.zeros(n2)))
+    for s in cfg.supports:
+        dofs, vals = support_dofs(mesh, s, cfg.parameters)
+        if np.any(vals):
+            ud = np.zeros(n2)
+            ud[dofs] = vals
+            cases.append(LoadCase(names[id(s)], s.history, np.zeros(n2), ud))
+    return cases

@@ -20,6 +20,19 @@ DEFAULT_OPTIONS = {
     "mat_mumps_icntl_24": "1",
 }
 
+ITERATIVE_RTOL = "1e-12"
+"""Default -ksp_rtol of an iterative KSP (one other than preonly) unless the user gave one.
+PETSc's own 1e-5 leaves displacement errors far above what the contact compliance and the
+LCP's gap checks resolve (the compliance is a difference of displacements)."""
+
+ACCEPTED_RESIDUAL = 1e-6
+"""Largest relative residual |b - K x| / |b| a solve may return."""
+
+
+class SingularStiffnessError(SolveError):
+    """The stiffness itself is singular (null pivots, NaN, or a direct solve that is
+    inaccurate): the driver names the bodies that keep zero-energy modes."""
+
 
 def set_default_options(extra: dict[str, str] | None = None) -> None:
     """Put defaults, then the config's [petsc] table, into the options database.
@@ -31,6 +44,9 @@ def set_default_options(extra: dict[str, str] | None = None) -> None:
         for key, value in table.items():
             if not opts.hasName(key):
                 opts.setValue(key, value)
+    ksp_type = opts.getString("ksp_type", "preonly")
+    if ksp_type != "preonly" and not opts.hasName("ksp_rtol"):
+        opts.setValue("ksp_rtol", ITERATIVE_RTOL)
 
 
 def apply_dirichlet(k: PETSc.Mat, dofs: np.ndarray) -> None:
@@ -49,6 +65,8 @@ class LinearSolver:
         self.ksp.setOperators(k)
         self.ksp.setFromOptions()
         self.is_mumps = False
+        self.block = None  # a solver on the factor (e.g. SchurFactorization) used instead
+        self.iterative = self.ksp.getType() != "preonly"
         pc = self.ksp.getPC()
         if pc.getType() in ("lu", "cholesky"):
             self.is_mumps = pc.getFactorSolverType() == "mumps"
@@ -60,28 +78,51 @@ class LinearSolver:
             f = self.ksp.getPC().getFactorMatrix()
             null = f.getMumpsInfog(28)
             if null > 0:
-                raise SolveError(f"stiffness is singular ({null} null pivots in MUMPS)")
+                raise SingularStiffnessError(f"stiffness is singular ({null} null pivots in MUMPS)")
             info = f.getMumpsInfog(1)
             if info < 0:
-                raise SolveError(f"MUMPS factorization failed (INFOG(1) = {info})")
+                error = SingularStiffnessError if info == -10 else SolveError
+                raise error(f"MUMPS factorization failed (INFOG(1) = {info})")
 
     def solve(self, b: PETSc.Vec, x: PETSc.Vec | None = None) -> PETSc.Vec:
-        """Solve K x = b; checks convergence and the residual."""
+        """Solve K x = b; checks convergence and the residual.
+
+        A direct solve that is inaccurate or NaN means a singular stiffness
+        (SingularStiffnessError); an iterative one that stops short is a SolveError that
+        says so and names the options to change.
+        """
         x = x or self.k.createVecLeft()
-        self.ksp.solve(b, x)
-        reason = self.ksp.getConvergedReason()
+        if self.block is not None:
+            self.block.solve(b, x)
+            reason = 0
+        else:
+            self.ksp.solve(b, x)
+            reason = self.ksp.getConvergedReason()
+        if reason < 0 and self.iterative:
+            raise SolveError(
+                f"iterative linear solve did not converge (KSP reason {reason}, "
+                f"{self.ksp.getIterationNumber()} iterations): raise -ksp_max_it, change "
+                "-ksp_type/-pc_type, or use the default MUMPS LU")
         if reason < 0:
             raise SolveError(f"linear solver diverged (KSP reason {reason}): try other "
                              "PETSc options or the default MUMPS LU")
         r = b.duplicate()
         self.k.mult(x, r)
         r.aypx(-1.0, b)
-        bn = b.norm()
-        if bn > 0 and r.norm() > 1e-6 * bn and not np.isnan(bn):
-            raise SolveError(
-                f"linear solve is inaccurate (relative residual {r.norm() / bn:.2e}): the "
+        bn, rn = b.norm(), r.norm()
+        r.destroy()
+        if np.isnan(x.norm()):
+            raise SingularStiffnessError("linear solve produced NaN: the stiffness is "
+                                         "probably singular")
+        if bn > 0 and rn > ACCEPTED_RESIDUAL * bn and not np.isnan(bn):
+            if self.iterative:
+                raise SolveError(
+                    f"iterative linear solve is inaccurate (relative residual "
+                    f"{rn / bn:.2e} > {ACCEPTED_RESIDUAL:g}, -ksp_rtol "
+                    f"{self.ksp.getTolerances()[0]:g}): lower -ksp_rtol or use the default "
+                    "MUMPS LU")
+            raise SingularStiffnessError(
+                f"linear solve is inaccurate (relative residual {rn / bn:.2e}): the "
                 "stiffness is probably singular"
             )
-        if np.isnan(x.norm()):
-            raise SolveError("linear solve produced NaN: the stiffness is probably singular")
         return x

@@ -4,8 +4,10 @@ Two routes, both on the factorization PETSc already has:
 - "schur": MUMPS's Schur complement S = K_cc - K_ci K_ii^-1 K_ic on the contact DOFs c
   (MatFactorSetSchurIS / MatFactorCreateSchurComplement through ctypes, since petsc4py
   3.18 does not wrap them; the whole index set is given on rank 0), then
-  C = G_c S^-1 G_c^T densely on rank 0. Costs about one factorization, nearly
-  independent of the number of pairs.
+  C = G_c S^-1 G_c^T densely on rank 0. The run asks for the Schur set on its one
+  factorization (`request_schur`, `attach_schur`), which then also serves every solve
+  (app/condensation/schur_solver.py). `compliance_schur` is the older route with a
+  separate factorization, kept for the benchmarks.
 - "solve": X = K^-1 G^T by one solve per column with the existing factorization, then
   C = G X. Works with any PETSc solver; cost grows with the number of pairs.
 Displacements are recovered as u = u0 + K^-1 (G^T lambda) with one more solve of the
@@ -20,7 +22,7 @@ import numpy as np
 import scipy.sparse as sp
 from petsc4py import PETSc
 
-from app.errors import SolveError
+from app.errors import InputError, SolveError
 from app.petsc_lib import PETSC_INT, load_petsc
 
 
@@ -118,6 +120,45 @@ def compliance_schur(k: PETSc.Mat, g: sp.csr_matrix, fixed: np.ndarray) -> np.nd
     return 0.5 * (c + c.T)
 
 
+def request_schur(solver, g: sp.csr_matrix, fixed: np.ndarray) -> np.ndarray:
+    """Before `solver.factor()`: ask its MUMPS LU for the Schur set of the contact DOFs.
+
+    Returns those DOFs (sorted global indices)."""
+    from app.condensation.schur_solver import set_schur_dofs
+
+    dofs, _ = contact_dofs(g, fixed)
+    if dofs.size:  # no free contact DOF: a plain factorization, and C = 0
+        set_schur_dofs(solver.ksp.getPC(), dofs)
+    return dofs
+
+
+def attach_schur(solver, k: PETSc.Mat, dofs: np.ndarray) -> None:
+    """After `solver.factor()`: take S from the factor, factorize it densely on rank 0, and
+    route every later `solver.solve` through the block elimination on that factor."""
+    from app.condensation.schur_solver import SchurFactorization
+
+    if dofs.size:
+        solver.block = SchurFactorization(k, solver.ksp.getPC().getFactorMatrix(), dofs)
+
+
+def compliance_from_factor(solver, g: sp.csr_matrix, fixed: np.ndarray) -> np.ndarray | None:
+    """C = G_c S^-1 G_c^T with the S of `attach_schur`; dense (2m, 2m) on rank 0."""
+    dofs, gc = contact_dofs(g, fixed)
+    block = solver.block
+    if not dofs.size:
+        return np.zeros((g.shape[0], g.shape[0])) if k_rank(solver) == 0 else None
+    if not np.array_equal(dofs, block.dofs):
+        raise SolveError("the Schur set of the factorization is not the contact DOFs")
+    if block.rank != 0:
+        return None
+    c = gc @ block.dense_solve(gc.T.toarray())
+    return 0.5 * (c + c.T)
+
+
+def k_rank(solver) -> int:
+    return solver.k.getComm().getRank()
+
+
 def compliance_solve(solver, k: PETSc.Mat, g: sp.csr_matrix, fixed: np.ndarray,
                      to_numpy_all) -> np.ndarray | None:
     """C = G K^-1 G^T by one solve per row of G with the stored factorization."""
@@ -139,3 +180,20 @@ def compliance_solve(solver, k: PETSc.Mat, g: sp.csr_matrix, fixed: np.ndarray,
     if rank == 0:
         c = 0.5 * (c + c.T)
     return c
+
+
+COMPLIANCE_ROUTES = ("auto", "schur", "solve")
+
+
+def compliance_route(configured: str, solver) -> str:
+    """The route of C = G K^-1 G^T: the option -contact_compliance, else `configured`
+    (analysis.compliance); auto is schur with MUMPS LU and solve otherwise."""
+    route = PETSc.Options().getString("contact_compliance", configured)
+    if route not in COMPLIANCE_ROUTES:
+        raise InputError(f"compliance route '{route}': use auto, schur or solve")
+    if route == "auto":
+        route = "schur" if solver.is_mumps else "solve"
+    if route == "schur" and not solver.is_mumps:
+        raise InputError("the schur compliance route needs MUMPS LU: use "
+                         "-contact_compliance solve with other solvers")
+    return route

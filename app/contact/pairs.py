@@ -102,11 +102,6 @@ class ContactPairs:
         return ContactPairs(**{f.name: getattr(self, f.name)[mask] for f in fields(self)})
 
 
-def concatenate(pairs: Sequence[ContactPairs]) -> ContactPairs:
-    """Stack several pair sets in order (same as `ContactPairs.concatenate`)."""
-    return ContactPairs.concatenate(pairs)
-
-
 def _curve_edges(mesh: Mesh, name: str, role: str, label: str) -> np.ndarray:
     """Validated (k, 2) int64 edges of a named curve, duplicates removed."""
     if name not in mesh.curves:

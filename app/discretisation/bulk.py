@@ -10,13 +10,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from app.discretisation.elements import (
-    cell_gradients,
     cell_strains,
     elasticity_matrix,
     element_areas,
     stiffness_blocks,
-    strain_matrices,
 )
+from app.discretisation.methods import BulkMethod, bulk_method, cell_gradients, strain_matrices
 from app.errors import InputError
 from app.mesh.model import Mesh
 
@@ -25,16 +24,27 @@ from app.mesh.model import Mesh
 class Discretisation:
     """Method and materials: E, nu per body; plane 'strain' or 'stress'."""
 
-    method: str  # "cs-fem" | "fem-q4"
-    sd: int  # smoothing cells per element (cs-fem)
+    method: str  # a name in app.discretisation.methods.BULK_METHODS
+    sd: int  # smoothing cells per element (methods that take one)
     plane: str  # "strain" | "stress"
     thickness: float
     E: np.ndarray  # (n_bodies,)
     nu: np.ndarray  # (n_bodies,)
 
     @property
+    def bulk(self) -> BulkMethod:
+        """The registered method."""
+        return bulk_method(self.method)
+
+    @property
     def label(self) -> str:
-        return f"CS-FEM-{self.sd}SD" if self.method == "cs-fem" else "FEM-Q4"
+        """e.g. "CS-FEM-4SD" or "FEM-Q4"."""
+        return self.bulk.label(self.sd)
+
+    @property
+    def hourglass(self) -> bool:
+        """True when the element stiffness has zero-energy (hourglass) modes."""
+        return self.bulk.hourglass(self.sd)
 
     def d_matrices(self, body: np.ndarray) -> np.ndarray:
         """Elasticity matrix per element, (n, 3, 3)."""

@@ -20,8 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from app.errors import InputError
-
-SMOOTHING_DOMAINS = (1, 2, 3, 4, 8, 16)
+from app.mesh.model import polygon_areas
 
 # Parent coordinates of the Q4 corners, counter-clockwise.
 _CORNERS = np.array([[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]])
@@ -51,17 +50,16 @@ def smoothing_cells(sd: int) -> list[tuple[float, float, float, float]]:
         16: _grid(4, 4),
     }
     if sd not in layouts:
-        raise InputError(f"sd = {sd} is not supported: choose one of {list(SMOOTHING_DOMAINS)}")
+        raise InputError(f"sd = {sd} is not supported: choose one of {list(layouts)}")
     return layouts[sd]
 
 
 def element_areas(xe: np.ndarray) -> np.ndarray:
     """Signed areas (shoelace) of quadrilaterals xe (n, 4, 2); positive when counter-clockwise."""
-    x, y = xe[..., 0], xe[..., 1]
-    return 0.5 * np.sum(x * np.roll(y, -1, axis=-1) - np.roll(x, -1, axis=-1) * y, axis=-1)
+    return polygon_areas(xe)
 
 
-def _b_from_gradients(bx: np.ndarray, by: np.ndarray) -> np.ndarray:
+def b_from_gradients(bx: np.ndarray, by: np.ndarray) -> np.ndarray:
     """Assemble B (n, 3, 8) from shape-function x/y derivatives bx, by (n, 4)."""
     n = bx.shape[0]
     b = np.zeros((n, 3, 8))
@@ -98,25 +96,6 @@ def gauss_gradients(xe: np.ndarray, xi: float, eta: float):
     return bx, by, det
 
 
-def cell_gradients(xe: np.ndarray, method: str, sd: int = 4):
-    """Gradients and weights of every cell of every element.
-
-    method: "cs-fem" (with sd smoothing cells) or "fem-q4" (2x2 Gauss).
-    Returns (bx (n, n_cells, 4), by (n, n_cells, 4), weights (n, n_cells)).
-    Gradients and weights do not change under a translation, so the corners are taken
-    relative to the first one: far from the origin, absolute coordinates would cost
-    digits in the differences of nearby corners (2e-10 relative at x = 10, h = 0.003).
-    """
-    xe = xe - xe[:, :1, :]
-    if method == "cs-fem":
-        return smoothed_gradients(xe, smoothing_cells(sd))
-    if method == "fem-q4":
-        parts = [gauss_gradients(xe, a, b) for a, b in gauss_points()]
-    else:
-        raise InputError(f"method '{method}' is not supported: use 'cs-fem' or 'fem-q4'")
-    return tuple(np.stack([p[k] for p in parts], axis=1) for k in range(3))
-
-
 def smoothing_tables(cells: list) -> tuple[np.ndarray, np.ndarray]:
     """Shape functions of the element's 4 nodes at the smoothing cells' corners and edges.
 
@@ -143,24 +122,12 @@ def smoothed_gradients(xe: np.ndarray, cells: list) -> tuple:
     ncorner, nmid = smoothing_tables(cells)
     xc = np.matmul(ncorner.reshape(nc * 4, 4), xe).reshape(-1, nc, 4, 2)  # cell corners
     d = np.roll(xc, -1, axis=2) - xc  # edge vectors (n, nc, 4, 2)
-    x, y = xc[..., 0], xc[..., 1]
-    area = 0.5 * np.sum(x * np.roll(y, -1, axis=2) - np.roll(x, -1, axis=2) * y, axis=2)
+    area = polygon_areas(xc)
     inv_a = (1.0 / area)[..., None]
     # l n_x = dy and l n_y = -dx on a counter-clockwise boundary
     bx = np.einsum("nce,cea->nca", d[..., 1], nmid, optimize=True) * inv_a
     by = -np.einsum("nce,cea->nca", d[..., 0], nmid, optimize=True) * inv_a
     return bx, by, area
-
-
-def strain_matrices(xe: np.ndarray, method: str, sd: int = 4):
-    """Strain matrices and weights of every cell of every element.
-
-    Returns (B (n, n_cells, 3, 8), weights (n, n_cells)).
-    """
-    bx, by, w = cell_gradients(xe, method, sd)
-    n, nc = w.shape
-    b = _b_from_gradients(bx.reshape(n * nc, 4), by.reshape(n * nc, 4))
-    return b.reshape(n, nc, 3, 8), w
 
 
 def stiffness_blocks(bx: np.ndarray, by: np.ndarray, w: np.ndarray, d: np.ndarray,
@@ -170,7 +137,7 @@ def stiffness_blocks(bx: np.ndarray, by: np.ndarray, w: np.ndarray, d: np.ndarra
     bx, by: (n, nc, 4) cell gradients; w: (n, nc) weights; d: (n, 3, 3) elasticity with
     d13 = d23 = 0 (isotropic, plane strain or stress). K_uu[a, b] is the entry of
     (u_a, u_b), K_uv[a, b] of (u_a, v_b) and so on; the same numbers as
-    t * sum_c w_c B_c^T D B_c with B_c from `strain_matrices`.
+    t * sum_c w_c B_c^T D B_c with B_c from `methods.strain_matrices`.
     """
     bxw = bx * (w * thickness)[..., None]
     byw = by * (w * thickness)[..., None]

@@ -19,19 +19,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from app.errors import InputError
 from app.interface.coulomb import ContactLCP, ContactSolution
 
 
-def candidate_pairs(cfg) -> bool:
+def candidate_pairs(configured: bool) -> bool:
     """Whether the LCP is solved over candidate pairs: the PETSc option
     -contact_candidate_pairs, else `analysis.candidate_pairs` (default true)."""
     from petsc4py import PETSc
 
-    value = cfg.raw.get("analysis", {}).get("candidate_pairs", True)
-    if not isinstance(value, bool):
-        raise InputError(f"analysis.candidate_pairs = {value!r}: use true or false")
-    return bool(PETSc.Options().getBool("contact_candidate_pairs", value))
+    return bool(PETSc.Options().getBool("contact_candidate_pairs", configured))
 
 
 MARGIN = 0.1

@@ -7,12 +7,20 @@ until no new pair debonds. The tangential history tau_prev is carried between st
 
 from __future__ import annotations
 
+import copy
 import time
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
+from app.interface.candidates import CandidateLCP, candidate_pairs
 from app.interface.coulomb import ContactLCP, ContactSolution
+from app.interface.floating import split_modes
+
+if TYPE_CHECKING:
+    from app.interface.contact import ContactSetup
+    from app.interface.floating import FloatingModes
 
 BONDED, STICK, SLIP_PLUS, SLIP_MINUS, OPEN = 0, 1, 2, 3, 4
 STATE_NAMES = ("bonded", "stick", "slip+", "slip-", "open")
@@ -44,7 +52,6 @@ class InterfaceHistory:
     basis: np.ndarray | None = None
     older_basis: np.ndarray | None = None  # the basis before, tried when `basis` fails
     warm_start: bool = True
-    pivots_log: list = field(default_factory=list)
 
 
 def classify(sol: ContactSolution, bonded: np.ndarray, tol_gap: float,
@@ -111,3 +118,198 @@ def solve_step(lcp: ContactLCP, hist: InterfaceHistory, step: int, gap_free: np.
     hist.basis = sol.basis
     return StepResult(sol, state, debonded_step, it, pivots, time.perf_counter() - t0,
                       dissipation, "solved")
+
+
+@dataclass
+class StepSolution:
+    """A load step's contact answer (rank 0; broadcast to every rank).
+
+    status: "solved", or why not ("secondary ray", "unbalanced load", ...; `message`
+    says more). When solved: lam (2m,) pair forces, normal rows then tangential;
+    alpha (r,) floating-mode amplitudes; kinematics (2m,) the LCP's (gap - g0, tau);
+    state, debonded_step (m,) int; tau_prev (m,) tau before the step; slip (m,)
+    accumulated; a, c (m,) adhesion and strength forces in force at this step; f_scale
+    the problem's force scale; info the step's summary.json entries.
+    """
+
+    status: str
+    message: str = ""
+    lam: np.ndarray | None = None
+    alpha: np.ndarray | None = None
+    kinematics: np.ndarray | None = None
+    state: np.ndarray | None = None
+    debonded_step: np.ndarray | None = None
+    tau_prev: np.ndarray | None = None
+    slip: np.ndarray | None = None
+    a: np.ndarray | None = None
+    c: np.ndarray | None = None
+    f_scale: float = 0.0
+    info: dict = field(default_factory=dict)
+
+    @property
+    def solved(self) -> bool:
+        return self.status == "solved"
+
+
+@dataclass
+class StepStart:
+    """The interface history at the start of a load step, which a consistency re-solve
+    of that step restarts from."""
+
+    step: int
+    history: InterfaceHistory
+    slip: np.ndarray
+
+
+class ContactStepper:
+    """Rank-0 state of the contact problem over the load steps."""
+
+    def __init__(self, setup: ContactSetup, c_mat: np.ndarray, cases, unit, rhs,
+                 floating: FloatingModes | None):
+        """unit: K^-1 b per load case; rhs: the load cases' right-hand sides b (forces
+        with the Dirichlet lifting, zero on prescribed DOFs)."""
+        self.setup = setup
+        self.start: StepStart | None = None  # set by step(), used by refine()
+        pr = setup.pairs
+        m = pr.n_pairs
+        self.m = m
+        g = setup.g
+        self.gu = [g @ uc for uc in unit]  # (2m,) per load case
+        self.v_keep = self.v_null = None
+        if floating is not None and floating.r.shape[1]:
+            gr = g @ floating.r  # (2m, r)
+            self.n_modes, self.t_modes = gr[:m], gr[m:]
+            self.v_keep, self.v_null = split_modes(self.n_modes,
+                                                   self.t_modes[setup.frictional])
+            if self.v_null.shape[1]:  # amplitudes no pair sees: left out of the LCP
+                self.n_modes = self.n_modes @ self.v_keep
+                self.t_modes = self.t_modes @ self.v_keep
+            else:
+                self.v_keep = self.v_null = None
+            self.e0 = [floating.r.T @ b for b in rhs]
+            self.mode_names = floating.names
+        else:
+            self.n_modes = self.t_modes = None
+            self.e0 = [np.zeros(0) for _ in cases]
+            self.mode_names = []
+        lcp_class = CandidateLCP if candidate_pairs(setup.cfg.candidate_pairs) else ContactLCP
+        self.lcp = lcp_class(c_mat, setup.mu, setup.frictional, self.n_modes, self.t_modes)
+        self.undetermined = [] if self.v_null is None else [
+            self.mode_names[int(np.argmax(np.abs(v)))] for v in self.v_null.T]
+        self.hist = InterfaceHistory(
+            a=np.where(setup.bonded, setup.a, 0.0), c=np.where(setup.bonded, setup.c, 0.0),
+            bonded=setup.bonded.copy(), tau_prev=np.zeros(m),
+            debonded_step=np.zeros(m, dtype=np.int64),
+            warm_start=setup.cfg.warm_start)
+        self.slip = np.zeros(m)
+        scale = max(max((np.abs(x).max(initial=0.0) for x in self.gu), default=0.0),
+                    np.abs(pr.g0).max(initial=0.0), 1e-300)
+        self.tol = 1e-7 * scale
+        self.f_scale = max(max((np.abs(b).sum() for b in rhs), default=0.0),
+                           np.abs(self.hist.a).max(initial=0.0),
+                           np.abs(self.hist.c).max(initial=0.0))
+
+    def refine(self, step: int, cases, correction: np.ndarray) -> StepSolution | None:
+        """Re-solve step `step` (the one `step()` solved last) with the free gap and
+        tangential displacement shifted by `correction` (2m,) (the consistency refinement,
+        see `app.condensation.recovery.mismatch`): from the history at the start of the
+        step, warm-started from the last basis. None (the last good solve kept) if it
+        fails."""
+        if self.start is None or self.start.step != step:
+            raise ValueError(f"refine(step={step}) needs step({step}) solved first")
+        kept = (copy.deepcopy(self.hist), self.slip.copy())
+        basis = self.hist.basis
+        self.hist = copy.deepcopy(self.start.history)
+        self.slip = self.start.slip.copy()
+        self.hist.basis = basis
+        out = self._solve(step, cases, correction)
+        if not out.solved:
+            self.hist, self.slip = kept
+            return None
+        return out
+
+    def step(self, step: int, cases) -> StepSolution:
+        """Solve load step `step` (0-based) from the current history, which it updates."""
+        self.start = StepStart(step, copy.deepcopy(self.hist), self.slip.copy())
+        return self._solve(step, cases, None)
+
+    def _solve(self, step: int, cases, correction: np.ndarray | None) -> StepSolution:
+        m = self.m
+        pr = self.setup.pairs
+        gap_free = pr.g0.copy()
+        tau_free = np.zeros(m)
+        e0 = np.zeros(len(self.mode_names))
+        for case, gu, e in zip(cases, self.gu, self.e0, strict=True):
+            h = case.history[step]
+            gap_free += h * gu[:m]
+            tau_free += h * gu[m:]
+            if e.size:
+                e0 += h * e
+        if self.v_null is not None and self.v_null.shape[1]:
+            loaded = np.abs(self.v_null.T @ e0) > 1e-9 * max(self.f_scale, 1e-300)
+            if loaded.any():
+                names = ", ".join(n for n, k in zip(self.undetermined, loaded, strict=True)
+                                  if k)
+                return StepSolution("unbalanced load", f"a load on {names}; the contact "
+                                    f"cannot resist {names}")
+            e0 = self.v_keep.T @ e0
+        if correction is not None:
+            gap_free += correction[:m]
+            tau_free += correction[m:]
+        tau_prev = self.hist.tau_prev.copy()
+        res = solve_step(self.lcp, self.hist, step + 1, gap_free, tau_free, self.setup.mu,
+                         e0, self.tol, self.tol)
+        sol = res.solution
+        out = StepSolution(res.status, "", np.concatenate([sol.p, sol.q]),
+                           sol.alpha if self.v_keep is None else self.v_keep @ sol.alpha,
+                           np.concatenate([sol.gap - pr.g0, sol.tau]))
+        if res.status != "solved":
+            out.message = f"Lemke ended with '{res.status}': {sol.message}"
+            if self.undetermined:
+                out.message += "; the contact cannot resist " + ", ".join(self.undetermined)
+            return out
+        self.slip += sol.slip_plus - sol.slip_minus
+        it = pr.interface
+        counts = {name: int(np.sum(res.state == k)) for k, name in enumerate(STATE_NAMES)}
+        length_t = pr.length * self.setup.cfg.thickness
+        per_if = {}
+        for i, itf in enumerate(self.setup.cfg.interfaces):
+            sel = it == i
+            per_if[itf.name] = {
+                "n_pairs": int(sel.sum()),
+                "normal_force": float(sol.p[sel].sum()),
+                "tangential_force": float(sol.q[sel].sum()),
+                "max_pressure": float((sol.p[sel] / length_t[sel]).max(initial=0.0)),
+                "states": {name: int(np.sum(res.state[sel] == k))
+                           for k, name in enumerate(STATE_NAMES)},
+                # zone sizes (sum of pair lengths) and the intact bond (for studies)
+                "state_lengths": {name: float(pr.length[sel & (res.state == k)].sum())
+                                  for k, name in enumerate(STATE_NAMES)},
+                "contact_length": float(pr.length[sel & (sol.p > 0)].sum()),
+                "debonded_pairs": int(np.sum(res.debonded_step[sel] > 0)),
+                "bond_strength_force": float(self.hist.c[sel].sum()),
+            }
+        info = {
+            "n_pairs": m,
+            "states": counts,
+            "interfaces": per_if,
+            "max_contact_pressure": float((sol.p / length_t).max(initial=0.0)),
+            "lcp_size": getattr(self.lcp, "full_size", self.lcp.size),
+            "lcp_size_solved": self.lcp.size,
+            "lemke_pivots": res.pivots,
+            "lcp_residual": sol.residual,
+            "dependent_tangential_directions": self.lcp.dependent_tangential,
+            "lcp_seconds": res.seconds,
+            "lcp_solves": res.iterations,
+            "debonded_this_step": int(np.sum(res.debonded_step == step + 1)),
+            "dissipation": res.dissipation,
+        }
+        if self.mode_names:
+            info["rigid_modes"] = dict(zip(self.mode_names, map(float, out.alpha),
+                                           strict=True))
+        if self.undetermined:
+            info["undetermined_modes"] = self.undetermined
+        out.info, out.state, out.debonded_step = info, res.state, res.debonded_step
+        out.tau_prev, out.slip, out.f_scale = tau_prev, self.slip.copy(), self.f_scale
+        out.a, out.c = self.hist.a.copy(), self.hist.c.copy()
+        return out

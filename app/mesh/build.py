@@ -20,7 +20,6 @@ from __future__ import annotations
 import math
 from collections.abc import Iterator
 from contextlib import contextmanager
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -28,398 +27,17 @@ import numpy as np
 
 from app.errors import InputError
 from app.mesh.cache import cache_key, cache_path, load_mesh, save_mesh
-from app.mesh.model import Mesh
+from app.mesh.model import Mesh, orient_ccw
+from app.scene import BodySpec, Refine, Scene
+from app.scene.geometry import Piece
+from app.scene.parse import POINT_TOL
 
-SHAPE_SIDES: dict[str, tuple[str, ...]] = {
-    "rectangle": ("bottom", "right", "top", "left"),
-    "half_disk": ("arc", "flat"),
-    "disk": ("arc",),
-    "polygon": (),  # side0, side1, ... one per polygon edge
-}
-SHAPE_KEYS: dict[str, tuple[str, ...]] = {
-    "rectangle": ("origin", "width", "height"),
-    "half_disk": ("center", "radius", "side"),
-    "disk": ("center", "radius"),
-    "polygon": ("points",),
-}
-REFINE_KEYS = ("curves", "points", "size", "distance", "flat")
-HALF_DISK_START = {"upper": 0.0, "left": 0.5 * math.pi, "lower": math.pi, "right": 1.5 * math.pi}
-POINT_TOL = 1e-6  # named points must lie within POINT_TOL * body size of a mesh node
-_MAX_ARC = 0.5 * math.pi  # longest arc piece (gmsh circle arcs must be < pi)
 MAX_BOUNDARY_ELEMENTS = 1e6  # a body's perimeter / element size at most this
 _MAX_SAMPLING = 200_000  # cap on the sampling points of a Distance field curve
 # Frontal-Delaunay (6): unlike 8, it follows the background size field inside the surface.
 ALGORITHM = 5
 RECOMBINATION = 3  # blossom full-quad: no triangle left
 SMOOTHING = 5
-
-
-# ----------------------------------------------------------------------------- geometry
-
-
-@dataclass
-class Piece:
-    """One geometric curve: segment p0 -> p1, or counter-clockwise arc of `center`,
-    `radius` from angle a0 to a1 (rad, a0 < a1, a1 - a0 <= pi/2)."""
-
-    kind: str  # "line" | "arc"
-    p0: np.ndarray  # (2,) start point
-    p1: np.ndarray  # (2,) end point
-    center: np.ndarray | None = None
-    radius: float = 0.0
-    a0: float = 0.0
-    a1: float = 0.0
-
-    @staticmethod
-    def line(p0: Any, p1: Any) -> Piece:
-        return Piece("line", np.asarray(p0, float), np.asarray(p1, float))
-
-    @staticmethod
-    def arc(center: Any, radius: float, a0: float, a1: float) -> Piece:
-        c = np.asarray(center, float)
-        return Piece("arc", _polar(c, radius, a0), _polar(c, radius, a1), c, radius, a0, a1)
-
-    @property
-    def length(self) -> float:
-        if self.kind == "line":
-            return float(np.linalg.norm(self.p1 - self.p0))
-        return self.radius * (self.a1 - self.a0)
-
-    def locate(self, xy: np.ndarray, tol: float) -> float | None:
-        """Parameter t in (0, 1) of `xy` if it lies on the piece away from its ends, else None."""
-        if self.kind == "line":
-            d = self.p1 - self.p0
-            t = float(np.dot(xy - self.p0, d) / np.dot(d, d))
-            dist = float(np.linalg.norm(xy - (self.p0 + t * d)))
-        else:
-            v = xy - self.center
-            dist = abs(float(np.hypot(*v)) - self.radius)
-            ang = (math.atan2(v[1], v[0]) - self.a0) % (2.0 * math.pi)
-            t = ang / (self.a1 - self.a0)
-        length = self.length
-        if dist <= tol and tol < t * length < length - tol:
-            return t
-        return None
-
-    def split(self, t: float) -> list[Piece]:
-        """The two pieces on either side of parameter t."""
-        if self.kind == "line":
-            mid = self.p0 + t * (self.p1 - self.p0)
-            return [Piece.line(self.p0, mid), Piece.line(mid, self.p1)]
-        am = self.a0 + t * (self.a1 - self.a0)
-        return [
-            Piece.arc(self.center, self.radius, self.a0, am),
-            Piece.arc(self.center, self.radius, am, self.a1),
-        ]
-
-
-def _polar(c: np.ndarray, r: float, a: float) -> np.ndarray:
-    return c + r * np.array([math.cos(a), math.sin(a)])
-
-
-def _arc_pieces(center: Any, radius: float, a0: float, a1: float) -> list[Piece]:
-    n = max(1, math.ceil((a1 - a0) / _MAX_ARC - 1e-9))
-    a = np.linspace(a0, a1, n + 1)
-    return [Piece.arc(center, radius, a[i], a[i + 1]) for i in range(n)]
-
-
-@dataclass
-class Side:
-    """One named side of a body shape, made of consecutive pieces."""
-
-    name: str  # shape side name (bottom, arc, side0, ...)
-    curve: str | None  # physical curve name, None if unnamed
-    pieces: list[Piece]
-
-
-@dataclass
-class BodySpec:
-    """Validated geometry of one body; sides run counter-clockwise around it."""
-
-    name: str
-    size: float  # element size (config units, before `scale`)
-    shape: dict[str, Any]
-    structured: bool
-    sides: list[Side]
-    interior_points: list[np.ndarray] = field(default_factory=list)  # to embed
-
-    def curve_pieces(self, curve: str) -> list[Piece]:
-        return [p for s in self.sides if s.curve == curve for p in s.pieces]
-
-    def contains(self, xy: np.ndarray, tol: float) -> bool:
-        """True if xy lies strictly inside the body (further than tol from its boundary)."""
-        s, x, y = self.shape, float(xy[0]), float(xy[1])
-        kind = s["type"]
-        if kind == "rectangle":
-            (x0, y0), w, h = s["origin"], s["width"], s["height"]
-            return x0 + tol < x < x0 + w - tol and y0 + tol < y < y0 + h - tol
-        if kind in ("disk", "half_disk"):
-            c, r = np.asarray(s["center"], float), s["radius"]
-            if np.hypot(x - c[0], y - c[1]) >= r - tol:
-                return False
-            if kind == "disk":
-                return True
-            mid = HALF_DISK_START[s["side"]] + 0.5 * math.pi  # direction into the kept half
-            return (x - c[0]) * math.cos(mid) + (y - c[1]) * math.sin(mid) > tol
-        pts = np.asarray(s["points"], float)
-        q = np.roll(pts, -1, axis=0)
-        d = q - pts
-        t = np.clip(np.einsum("ij,ij->i", xy - pts, d) / np.einsum("ij,ij->i", d, d), 0, 1)
-        if np.min(np.hypot(*(pts + t[:, None] * d - xy).T)) <= tol:
-            return False
-        crosses = (pts[:, 1] > y) != (q[:, 1] > y)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            xc = pts[:, 0] + (y - pts[:, 1]) * d[:, 0] / d[:, 1]
-        return bool(np.count_nonzero(crosses & (x < xc)) % 2)
-
-
-@dataclass
-class Refine:
-    """One validated `[[mesh.refine]]` entry (lengths in config units)."""
-
-    curves: list[str]
-    points: np.ndarray  # (k, 2)
-    size: float
-    distance: float
-    flat: float
-
-
-@dataclass
-class Scene:
-    """Validated geometry part of a config."""
-
-    size: float
-    file: str | None
-    bodies: list[BodySpec]
-    refine: list[Refine]
-    points: dict[str, np.ndarray]  # named points
-
-
-# ----------------------------------------------------------------------------- parsing
-
-
-def _is_number(v: Any) -> bool:
-    return isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
-
-
-def _number(d: dict, key: str, where: str, *, minimum: float | None = 0.0,
-            strict: bool = True, default: Any = None) -> float:
-    """d[key] as a float, checked > minimum (strict) or >= minimum."""
-    v = d.get(key, default)
-    op = ">" if strict else ">="
-    need = "a number" if minimum is None else f"a number {op} {minimum:g}"
-    if v is None:
-        raise InputError(f"{where}{key} is missing: it must be {need}")
-    if not _is_number(v) or (
-        minimum is not None and (v <= minimum if strict else v < minimum)
-    ):
-        raise InputError(f"{where}{key} must be {need} (got {v!r})")
-    return float(v)
-
-
-MAX_COORDINATE = 1e30
-"""Largest coordinate or length accepted (squares of lengths must stay finite)."""
-
-
-def _xy(v: Any, what: str) -> np.ndarray:
-    if not (isinstance(v, list | tuple) and len(v) == 2 and all(_is_number(c) for c in v)):
-        raise InputError(f"{what} must be a point [x, y] (got {v!r})")
-    if max(abs(c) for c in v) > MAX_COORDINATE:
-        raise InputError(f"{what} = {v!r} is beyond +-{MAX_COORDINATE:g}: check the units")
-    return np.array(v, dtype=float)
-
-
-def _length(d: dict, key: str, where: str) -> float:
-    """A positive length no larger than MAX_COORDINATE."""
-    v = _number(d, key, where)
-    if v > MAX_COORDINATE:
-        raise InputError(f"{where}{key} = {v:g} is above {MAX_COORDINATE:g}: check the units")
-    return v
-
-
-def _table(v: Any, what: str) -> dict:
-    if not isinstance(v, dict):
-        raise InputError(f"{what} must be a table (got {v!r})")
-    return v
-
-
-def _shape_sides(shape: dict, where: str) -> tuple[list[tuple[str, list[Piece]]], bool]:
-    """Sides (name, pieces) counter-clockwise and the `structured` flag of a shape table."""
-    kind = shape.get("type")
-    if not isinstance(kind, str) or kind not in SHAPE_SIDES:
-        raise InputError(
-            f"{where}shape.type must be one of {', '.join(SHAPE_SIDES)} (got {kind!r})"
-        )
-    w = f"{where}shape."
-    for key in shape:
-        if key not in ("type", "structured", "divisions", *SHAPE_KEYS[kind]):
-            raise InputError(
-                f"{w}{key} is not a key of a {kind} (keys: {', '.join(SHAPE_KEYS[kind])})"
-            )
-    structured = shape.get("structured", False)
-    if not isinstance(structured, bool):
-        raise InputError(f"{w}structured must be true or false (got {structured!r})")
-    if structured and kind != "rectangle":
-        raise InputError(f"{w}structured is only supported for type = \"rectangle\"")
-    if "divisions" in shape:
-        dv = shape["divisions"]
-        if not structured:
-            raise InputError(f"{w}divisions needs structured = true")
-        if (not isinstance(dv, list) or len(dv) != 2
-                or not all(isinstance(k, int) and not isinstance(k, bool) and k >= 1
-                           for k in dv)):
-            raise InputError(f"{w}divisions must be [nx, ny], two integers >= 1 (got {dv!r})")
-    if kind == "rectangle":
-        if "origin" not in shape:
-            raise InputError(f"{w}origin is missing: it must be a point [x, y]")
-        x0, y0 = _xy(shape["origin"], f"{w}origin")
-        wd = _length(shape, "width", w)
-        ht = _length(shape, "height", w)
-        c = [(x0, y0), (x0 + wd, y0), (x0 + wd, y0 + ht), (x0, y0 + ht)]
-        names = SHAPE_SIDES["rectangle"]
-        return [(names[i], [Piece.line(c[i], c[(i + 1) % 4])]) for i in range(4)], structured
-    if kind in ("disk", "half_disk"):
-        if "center" not in shape:
-            raise InputError(f"{w}center is missing: it must be a point [x, y]")
-        center = _xy(shape["center"], f"{w}center")
-        r = _length(shape, "radius", w)
-        if kind == "disk":
-            return [("arc", _arc_pieces(center, r, 0.0, 2.0 * math.pi))], False
-        side = shape.get("side")
-        if not isinstance(side, str) or side not in HALF_DISK_START:
-            raise InputError(
-                f"{w}side must be one of {', '.join(HALF_DISK_START)} (got {side!r})"
-            )
-        a0 = HALF_DISK_START[side]
-        arc = _arc_pieces(center, r, a0, a0 + math.pi)
-        return [("arc", arc), ("flat", [Piece.line(arc[-1].p1, arc[0].p0)])], False
-    pts = shape.get("points")
-    if not isinstance(pts, list) or len(pts) < 3:
-        raise InputError(f"{w}points must be a list of at least 3 points [x, y]")
-    p = np.array([_xy(q, f"{w}points[{i}]") for i, q in enumerate(pts)])
-    q = np.roll(p, -1, axis=0)
-    seg = np.hypot(*(q - p).T)
-    if np.any(seg <= 1e-12 * max(1.0, float(np.max(seg)))):
-        raise InputError(f"{w}points has two equal consecutive points")
-    if np.sum(p[:, 0] * q[:, 1] - q[:, 0] * p[:, 1]) <= 0:
-        raise InputError(f"{w}points must be counter-clockwise")
-    return [(f"side{i}", [Piece.line(p[i], q[i])]) for i in range(len(p))], False
-
-
-def _split_at(pieces: list[Piece], xy: np.ndarray, tol: float) -> list[Piece]:
-    out: list[Piece] = []
-    for piece in pieces:
-        t = piece.locate(xy, tol)
-        out.extend(piece.split(t) if t is not None else [piece])
-    return out
-
-
-def parse_scene(cfg: dict, *, need_shapes: bool = True) -> Scene:
-    """Validate the geometry part of a config ([mesh], [[body]], [points]).
-
-    need_shapes: False when the mesh comes from a file (body shapes are then not used).
-    Raises InputError naming the offending key.
-    """
-    mesh = _table(cfg.get("mesh"), "[mesh]") if "mesh" in cfg else None
-    if mesh is None:
-        raise InputError("[mesh] section is missing: it needs at least size = <element size>")
-    file = mesh.get("file")
-    if file is not None and (not isinstance(file, str) or not file):
-        raise InputError(f"mesh.file must be a file name (got {file!r})")
-    if file is not None and "size" not in mesh:
-        size = math.nan
-    else:
-        size = _number(mesh, "size", "mesh.")
-
-    named: dict[str, np.ndarray] = {}
-    for name, v in _table(cfg.get("points", {}), "[points]").items():
-        named[name] = _xy(v, f"points.{name}")
-
-    bodies_cfg = cfg.get("body")
-    if not isinstance(bodies_cfg, list) or not bodies_cfg:
-        raise InputError("[[body]] is missing: the config needs at least one body")
-    bodies: list[BodySpec] = []
-    curve_owner: dict[str, str] = {}
-    for i, b in enumerate(bodies_cfg):
-        b = _table(b, f"body[{i}]")
-        name = b.get("name")
-        if not isinstance(name, str) or not name:
-            raise InputError(f"body[{i}].name must be a non-empty string (got {name!r})")
-        if any(x.name == name for x in bodies):
-            raise InputError(f"body name '{name}' is used twice: body names must be unique")
-        where = f"body '{name}': "
-        bsize = _number(b, "size", where) if "size" in b else size
-        if not need_shapes:
-            bodies.append(BodySpec(name, bsize, {}, False, []))
-            continue
-        if "shape" not in b:
-            raise InputError(f"{where}shape is missing: add a [body.shape] table with a type")
-        shape = _table(b["shape"], f"{where}shape")
-        raw_sides, structured = _shape_sides(shape, where)
-        valid = [s for s, _ in raw_sides]
-        curves = _table(b.get("curves", {}), f"{where}curves")
-        for side, cname in curves.items():
-            if side not in valid:
-                raise InputError(
-                    f"{where}curves.{side} is not a side of a {shape['type']} "
-                    f"(sides: {', '.join(valid)})"
-                )
-            if not isinstance(cname, str) or not cname:
-                raise InputError(f"{where}curves.{side} must be a curve name (got {cname!r})")
-            owner = curve_owner.setdefault(cname, name)
-            if owner != name:
-                raise InputError(
-                    f"curve name '{cname}' is used by bodies '{owner}' and '{name}': "
-                    "each body needs its own curve names"
-                )
-        tol = POINT_TOL * bsize
-        sides = []
-        for sname, pieces in raw_sides:
-            for xy in named.values():  # geometry vertex at every named point on a side
-                pieces = _split_at(pieces, xy, tol)
-            sides.append(Side(sname, curves.get(sname), pieces))
-        spec = BodySpec(name, bsize, shape, structured, sides)
-        if not structured:
-            spec.interior_points = [xy for xy in named.values() if spec.contains(xy, tol)]
-        bodies.append(spec)
-
-    for pname in named:
-        if pname in curve_owner:
-            raise InputError(f"points.{pname}: the name is already used by a curve")
-
-    refine: list[Refine] = []
-    ref_cfg = mesh.get("refine", [])
-    if not isinstance(ref_cfg, list):
-        raise InputError("mesh.refine must be an array of tables [[mesh.refine]]")
-    for i, r in enumerate(ref_cfg):
-        where = f"mesh.refine[{i}]."
-        r = _table(r, where[:-1])
-        for key in r:
-            if key not in REFINE_KEYS:
-                raise InputError(f"{where}{key} is not a refinement key ({', '.join(REFINE_KEYS)})")
-        rc = r.get("curves", [])
-        if not isinstance(rc, list) or not all(isinstance(c, str) for c in rc):
-            raise InputError(f"{where}curves must be a list of curve names (got {rc!r})")
-        for c in rc:
-            if need_shapes and c not in curve_owner:
-                known = ", ".join(sorted(curve_owner)) or "none"
-                raise InputError(f"{where}curves: unknown curve '{c}' (known: {known})")
-        rp = r.get("points", [])
-        if not isinstance(rp, list):
-            raise InputError(f"{where}points must be a list of points [x, y] (got {rp!r})")
-        pts = np.array([_xy(p, f"{where}points[{k}]") for k, p in enumerate(rp)]).reshape(-1, 2)
-        if not rc and not len(pts):
-            raise InputError(f"{where[:-1]} needs curves = [...] and/or points = [[x, y], ...]")
-        refine.append(
-            Refine(
-                curves=list(rc),
-                points=pts,
-                size=_number(r, "size", where),
-                distance=_number(r, "distance", where, strict=False),
-                flat=_number(r, "flat", where, strict=False, default=0.0),
-            )
-        )
-    return Scene(size, file, bodies, refine, named)
 
 
 # ----------------------------------------------------------------------------- gmsh
@@ -431,14 +49,36 @@ def _gmsh_session() -> Iterator[Any]:
     import gmsh
 
     started = not gmsh.isInitialized()
+    handlers = _python_signal_handlers()
     if started:
         gmsh.initialize([], readConfigFiles=False, run=False, interruptible=False)
+        _restore_signal_handlers(handlers)  # gmsh.initialize resets SIGTERM to the default
     try:
         gmsh.option.setNumber("General.Terminal", 0)
         yield gmsh
     finally:
         if started:
             gmsh.finalize()
+            _restore_signal_handlers(handlers)
+
+
+def _python_signal_handlers() -> dict:
+    """The Python-level SIGINT and SIGTERM handlers (a run's stop handlers)."""
+    import signal
+
+    return {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)}
+
+
+def _restore_signal_handlers(handlers: dict) -> None:
+    """Install the handlers again at the C level (gmsh replaced them with the defaults)."""
+    import signal
+
+    for sig, handler in handlers.items():
+        if callable(handler):
+            try:
+                signal.signal(sig, handler)
+            except ValueError:  # not the main thread
+                return
 
 
 def _add_pieces(geo: Any, pieces: list[Piece], closed: bool) -> tuple[list[int], list[int]]:
@@ -630,17 +270,6 @@ def _extract(gmsh: Any, spec: BodySpec, surf: int, side_tags: list[list[int]]) -
     return points, quads, {k: np.concatenate(v) for k, v in curves.items()}
 
 
-def orient_ccw(points: np.ndarray, quads: np.ndarray) -> np.ndarray:
-    """Quads (ne, 4) reordered counter-clockwise (positive shoelace area) where needed."""
-    p = points[quads]
-    x, y = p[..., 0], p[..., 1]
-    area2 = np.sum(x * np.roll(y, -1, axis=1) - np.roll(x, -1, axis=1) * y, axis=1)
-    out = quads.copy()
-    flip = area2 < 0
-    out[flip] = out[flip][:, ::-1]
-    return out
-
-
 # ----------------------------------------------------------------------------- public
 
 
@@ -665,9 +294,9 @@ def attach_named_points(mesh: Mesh, named: dict[str, np.ndarray], sizes: list[fl
         mesh.point_groups[name] = np.array([i], dtype=np.int64)
 
 
-def build_mesh(cfg: dict, scale: float = 1.0, cache_dir: str | Path | None = None, *,
+def build_mesh(scene: Scene, scale: float = 1.0, cache_dir: str | Path | None = None, *,
                base_dir: str | Path | None = None) -> Mesh:
-    """Mesh every body of a parsed config (TOML dict) and concatenate them into one Mesh.
+    """Mesh every body of a scene (`app.scene.parse_scene`) into one Mesh.
 
     scale: multiplies every element size (mesh.size, body sizes, refinement sizes).
     cache_dir: if given, reuse/store the mesh as .npz keyed by a hash of the body shapes,
@@ -675,11 +304,9 @@ def build_mesh(cfg: dict, scale: float = 1.0, cache_dir: str | Path | None = Non
     base_dir: directory that a relative mesh.file is relative to (default: working dir).
     With mesh.file set, that gmsh .msh is read instead (scale and cache_dir are unused).
     """
-    mesh_cfg = cfg.get("mesh")
-    if isinstance(mesh_cfg, dict) and mesh_cfg.get("file") is not None:
+    if scene.file is not None:
         from app.mesh.read import read_mesh
 
-        scene = parse_scene(cfg, need_shapes=False)
         path = Path(scene.file)
         if base_dir is not None and not path.is_absolute():
             path = Path(base_dir) / path
@@ -694,20 +321,11 @@ def build_mesh(cfg: dict, scale: float = 1.0, cache_dir: str | Path | None = Non
     scale = float(scale)
     if not (math.isfinite(scale) and scale > 0):
         raise InputError(f"mesh size scale must be a number > 0 (got {scale!r})")
-    scene = parse_scene(cfg)
     import gmsh
 
     cache_file = None
     if cache_dir is not None:
-        payload = {
-            "bodies": [
-                {k: b.get(k) for k in ("name", "shape", "size", "curves")} for b in cfg["body"]
-            ],
-            "mesh": cfg["mesh"],
-            "points": cfg.get("points", {}),
-            "scale": scale,
-            "gmsh": gmsh.__version__,
-        }
+        payload = scene.source | {"scale": scale, "gmsh": gmsh.__version__}
         cache_file = cache_path(cache_dir, cache_key(payload))
         cached = load_mesh(cache_file)
         if cached is not None:

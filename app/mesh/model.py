@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from app.errors import InputError
+from app.scene.geometry import polygon_areas
 
 
 @dataclass
@@ -51,11 +52,14 @@ class Mesh:
         """Sorted unique node indices of a named curve."""
         return np.unique(self.curves[name])
 
-    def group_nodes(self, name: str) -> np.ndarray:
-        """Nodes of a named curve or a named point group."""
-        if name in self.curves:
-            return self.curve_nodes(name)
-        return np.unique(self.point_groups[name])
+
+
+def orient_ccw(points: np.ndarray, quads: np.ndarray) -> np.ndarray:
+    """Quads (ne, 4) reordered counter-clockwise (positive shoelace area) where needed."""
+    out = quads.copy()
+    flip = polygon_areas(points[quads]) < 0
+    out[flip] = out[flip][:, ::-1]
+    return out
 
 
 def orient_boundary_edges(mesh: Mesh, edges: np.ndarray, what: str) -> np.ndarray:
@@ -98,8 +102,6 @@ def orient_boundary_edges(mesh: Mesh, edges: np.ndarray, what: str) -> np.ndarra
                          f"elements (first: nodes {a}-{b})")
     owner = np.where(fwd, el_f, el_b)
     xy = mesh.points[quads[owner]]  # (k, 4, 2) owning element corners
-    area2 = np.sum(xy[:, :, 0] * np.roll(xy[:, :, 1], -1, axis=1)
-                   - np.roll(xy[:, :, 0], -1, axis=1) * xy[:, :, 1], axis=1)
     # the owner lists (A, B) in its own node order; that order is CCW if its area is positive
-    keep = fwd == (area2 > 0)
+    keep = fwd == (polygon_areas(xy) > 0)
     return np.where(keep[:, None], edges, edges[:, ::-1])

@@ -13,8 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from app.errors import InputError
-from app.mesh.build import orient_ccw
-from app.mesh.model import Mesh
+from app.mesh.model import Mesh, orient_ccw
 
 _KINDS = {"vertex": 0, "line": 1, "quad": 2}  # accepted cell types -> dimension
 _DIM_WORD = {0: "point", 1: "curve", 2: "surface"}

@@ -8,17 +8,22 @@ Layout in the output folder (rank 0 writes; other ranks pass their data to rank 
   the group /contact (see `ResultWriter.write_step`).
 - results.xdmf: temporal collection of the bulk fields (one Uniform grid per step).
 - contact.xdmf: temporal collection of the contact pairs as points (when there is contact).
-Both XDMF files are rewritten after every step through a temporary file and a rename,
-so a run stopped at any moment leaves readable files with every completed step.
+Both XDMF files are written whole through a temporary file and a rename at the first
+step, then extended by one in-place write per step (app/output/append.py): the cost of a
+step does not grow with the number of steps, and a run stopped at any moment leaves
+readable files with every completed step.
 """
 
 from __future__ import annotations
 
+import io
 import os
 from pathlib import Path
 
 import h5py
 import numpy as np
+
+from app.output.append import AppendableDocument
 
 _NUM = {np.dtype("float64"): ("Float", 8), np.dtype("int64"): ("Int", 8),
         np.dtype("int32"): ("Int", 4)}
@@ -26,12 +31,35 @@ _NUM = {np.dtype("float64"): ("Float", 8), np.dtype("int64"): ("Int", 8),
 
 def atomic_write_text(path: Path, text: str) -> None:
     """Write a text file through a temporary file and a rename (never half-written)."""
+    atomic_write_bytes(path, text.encode())
+
+
+def atomic_write_bytes(path: Path, data) -> None:
+    """Write bytes through a temporary file and a rename; on an OSError (a full disk)
+    the temporary file is removed and the error raised."""
     tmp = path.with_name(path.name + ".tmp")
-    with open(tmp, "w") as fh:
-        fh.write(text)
-        fh.flush()
-        os.fsync(fh.fileno())
+    try:
+        with open(tmp, "wb") as fh:
+            fh.write(data)
+            fh.flush()
+            os.fsync(fh.fileno())
+    except OSError:
+        tmp.unlink(missing_ok=True)
+        raise
     os.replace(tmp, path)
+
+
+def write_h5(path: Path, datasets: dict[str, np.ndarray], attrs: dict | None = None) -> None:
+    """An HDF5 file built in memory, then written with `atomic_write_bytes`: HDF5 never
+    writes to the disk itself, so a full disk is one OSError and no half-written file.
+    datasets: path inside the file ("a" or "group/a") -> array."""
+    buf = io.BytesIO()
+    with h5py.File(buf, "w") as h5:
+        for k, v in (attrs or {}).items():
+            h5.attrs[k] = v
+        for k, v in datasets.items():
+            h5[k] = np.ascontiguousarray(v)
+    atomic_write_bytes(path, buf.getbuffer())
 
 
 def _item(fname: str, path: str, arr_shape: tuple, dtype: np.dtype) -> str:
@@ -47,6 +75,45 @@ def _attribute(name: str, center: str, fname: str, path: str, arr: np.ndarray) -
             f'{_item(fname, path, arr.shape, arr.dtype)}</Attribute>')
 
 
+COMPONENTS = {"stress": ("s_xx", "s_yy", "s_xy", "s_zz")}
+"""Cell arrays also written as one named scalar per component (for ParaView)."""
+VECTORS_3D = ("normal", "tangent")
+"""Contact (m, 2) arrays exposed in contact.xdmf as 3-component vectors (z = 0), stored
+as /contact/<name>_3d, so that ParaView's Glyph filter can orient them."""
+
+
+def paraview_extras(point_data: dict, cell_data: dict, contact: dict | None):
+    """Derived arrays for ParaView: named stress components; the contact points' slave
+    displacement (m, 3) so that contact.xdmf warps with the mesh; 3-component normal and
+    tangent. Returns (cell_data additions, contact additions, contact XDMF renames)."""
+    cells = {}
+    for name, comps in COMPONENTS.items():
+        arr = cell_data.get(name)
+        if arr is not None and arr.ndim == 2 and arr.shape[1] == len(comps):
+            cells |= {c: arr[:, i] for i, c in enumerate(comps)}
+    extra, renames = {}, {}
+    if contact is not None:
+        disp = point_data.get("displacement")
+        if disp is not None and "slave" in contact and "displacement" not in contact:
+            extra["displacement"] = np.asarray(disp)[np.asarray(contact["slave"])]
+        for name in VECTORS_3D:
+            v = contact.get(name)
+            if v is not None and v.ndim == 2 and v.shape[1] == 2:
+                v3 = np.zeros((v.shape[0], 3))
+                v3[:, :2] = v
+                extra[f"{name}_3d"] = v3
+                renames[f"{name}_3d"] = name
+    return cells, extra, renames
+
+
+def _information(load_factors: dict[str, float] | None) -> str:
+    """The step's load factors as XDMF Information elements (ParaView: field data)."""
+    from xml.sax.saxutils import quoteattr
+
+    return "".join(f"<Information Name={quoteattr('load_factor ' + k)} "
+                   f"Value=\"{v:.17g}\"/>" for k, v in (load_factors or {}).items())
+
+
 class ResultWriter:
     """Writes the mesh once and one HDF5 file per step; keeps the XDMF index current."""
 
@@ -55,35 +122,41 @@ class ResultWriter:
         self.out.mkdir(parents=True, exist_ok=True)
         self.points = np.ascontiguousarray(points, dtype=np.float64)
         self.quads = np.ascontiguousarray(quads, dtype=np.int64)
-        with h5py.File(self.out / "mesh.h5", "w") as h5:
-            h5["points"] = self.points
-            h5["quads"] = self.quads
-            h5["body"] = np.asarray(body, dtype=np.int64)
+        write_h5(self.out / "mesh.h5", {"points": self.points, "quads": self.quads,
+                                        "body": np.asarray(body, dtype=np.int64)})
         self.bulk_grids: list[str] = []
         self.contact_grids: list[str] = []
+        self.bulk_doc = AppendableDocument(self.out / "results.xdmf")
+        self.contact_doc = AppendableDocument(self.out / "contact.xdmf")
 
     def write_step(self, step: int, time: float, point_data: dict[str, np.ndarray],
                    cell_data: dict[str, np.ndarray],
-                   contact: dict[str, np.ndarray] | None = None) -> Path:
+                   contact: dict[str, np.ndarray] | None = None,
+                   load_factors: dict[str, float] | None = None) -> Path:
         """Write one completed step and refresh the XDMF index files.
 
+        time: the XDMF time value (the run uses the step number).
         point_data / cell_data: name -> (n,) or (n, k) arrays on nodes / elements.
         contact: name -> (m,) or (m, k) arrays per contact pair; must hold "position" (m, 2).
+        load_factors: load case name -> factor at this step (/load_factor in the HDF5 file,
+        with the names in its attribute "names"; Information elements in the XDMF).
         """
         fname = f"step_{step:04d}.h5"
-        tmp = self.out / (fname + ".tmp")
-        with h5py.File(tmp, "w") as h5:
-            h5.attrs["step"] = step
-            h5.attrs["time"] = time
-            for k, v in {**point_data, **cell_data}.items():
-                h5[k] = np.ascontiguousarray(v)
-            if contact is not None:
-                g = h5.create_group("contact")
-                for k, v in contact.items():
-                    g[k] = np.ascontiguousarray(v)
-                if "position" in contact:
-                    g["vertices"] = np.arange(len(contact["position"]), dtype=np.int64)
-        os.replace(tmp, self.out / fname)
+        more_cells, more_contact, renames = paraview_extras(point_data, cell_data, contact)
+        cell_data = {**cell_data, **more_cells}
+        if contact is not None:
+            contact = {**contact, **more_contact}
+        data = {**point_data, **cell_data}
+        if load_factors:
+            data["load_factor"] = np.array(list(load_factors.values()), dtype=np.float64)
+        if contact is not None:
+            data |= {f"contact/{k}": v for k, v in contact.items()}
+            if "position" in contact:
+                data["contact/vertices"] = np.arange(len(contact["position"]), dtype=np.int64)
+        attrs = {"step": step, "time": time}
+        if load_factors:
+            attrs["load_factor_names"] = list(load_factors)
+        write_h5(self.out / fname, data, attrs)
 
         attrs = [_attribute(k, "Node", fname, f"/{k}", np.asarray(v))
                  for k, v in point_data.items()]
@@ -93,36 +166,68 @@ class ResultWriter:
         topo = _item("mesh.h5", "/quads", self.quads.shape, self.quads.dtype)
         self.bulk_grids.append(
             f'<Grid Name="step_{step}" GridType="Uniform">'
-            f'<Time Value="{time:.17g}"/>'
+            f'<Time Value="{time:.17g}"/>{_information(load_factors)}'
             f'<Topology TopologyType="Quadrilateral" NumberOfElements="{self.quads.shape[0]}">'
             f"{topo}</Topology>"
             f'<Geometry GeometryType="XY">{geo}</Geometry>' + "".join(attrs) + "</Grid>"
         )
-        atomic_write_text(self.out / "results.xdmf", _document(self.bulk_grids))
+        _extend(self.bulk_doc, self.bulk_grids)
 
         if contact is not None and "position" in contact:
             pos = np.asarray(contact["position"], dtype=np.float64)
             m = pos.shape[0]
-            cattrs = [_attribute(k, "Node", fname, f"/contact/{k}", np.asarray(v))
-                      for k, v in contact.items() if k != "position"]
+            hidden = {"position", *renames.values()}
+            cattrs = [_attribute(renames.get(k, k), "Node", fname, f"/contact/{k}",
+                                 np.asarray(v))
+                      for k, v in contact.items() if k not in hidden]
             verts = _item(fname, "/contact/vertices", (m,), np.dtype("int64"))
             self.contact_grids.append(
                 f'<Grid Name="contact_{step}" GridType="Uniform">'
-                f'<Time Value="{time:.17g}"/>'
+                f'<Time Value="{time:.17g}"/>{_information(load_factors)}'
                 f'<Topology TopologyType="Polyvertex" NumberOfElements="{m}" '
                 f'NodesPerElement="1">{verts}</Topology>'
                 f'<Geometry GeometryType="XY">'
                 f"{_item(fname, '/contact/position', pos.shape, pos.dtype)}</Geometry>"
                 + "".join(cattrs) + "</Grid>"
             )
-            atomic_write_text(self.out / "contact.xdmf", _document(self.contact_grids))
+            _extend(self.contact_doc, self.contact_grids)
         return self.out / fname
 
 
+def restore_steps(writer: ResultWriter, n_steps: int) -> None:
+    """After a failed write (a full disk can cut an in-place append short): step files
+    after `n_steps` (the steps summary.json lists) removed, and the XDMF indexes rewritten
+    whole with the first n_steps steps."""
+    import re
+
+    for p in writer.out.glob("step_*.h5"):
+        m = re.fullmatch(r"step_(\d+)\.h5", p.name)
+        if m and int(m.group(1)) > n_steps:
+            p.unlink(missing_ok=True)
+    writer.bulk_grids = writer.bulk_grids[:n_steps]
+    writer.contact_grids = writer.contact_grids[:n_steps]
+    for doc, grids in ((writer.bulk_doc, writer.bulk_grids),
+                       (writer.contact_doc, writer.contact_grids)):
+        if grids:
+            doc.rewrite(_HEAD, grids, _TAIL)
+        elif doc.path.exists():
+            doc.path.unlink()
+
+
+_HEAD = ('<?xml version="1.0"?>\n<Xdmf Version="3.0" '
+         'xmlns:xi="http://www.w3.org/2001/XInclude"><Domain>'
+         '<Grid Name="TimeSeries" GridType="Collection" CollectionType="Temporal">\n')
+_TAIL = "\n</Grid></Domain></Xdmf>\n"
+
+
 def _document(grids: list[str]) -> str:
-    return (
-        '<?xml version="1.0"?>\n<Xdmf Version="3.0" '
-        'xmlns:xi="http://www.w3.org/2001/XInclude"><Domain>'
-        '<Grid Name="TimeSeries" GridType="Collection" CollectionType="Temporal">\n'
-        + "\n".join(grids) + "\n</Grid></Domain></Xdmf>\n"
-    )
+    return _HEAD + "\n".join(grids) + _TAIL
+
+
+def _extend(doc: AppendableDocument, grids: list[str]) -> None:
+    """Bring the XDMF index up to `grids`, the newest one last: one in-place write when the
+    file holds all the others, else a whole atomic rewrite."""
+    if doc.current() and doc.n_entries == len(grids) - 1:
+        doc.append(grids[-1:], _TAIL)
+    else:
+        doc.rewrite(_HEAD, grids, _TAIL)

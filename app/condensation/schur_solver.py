@@ -1,0 +1,190 @@
+"""One MUMPS factorization with a Schur set that serves the compliance and every solve.
+
+K is ordered as interior DOFs i and contact DOFs c. MUMPS factorizes K_ii and returns the
+dense Schur complement S = K_cc - K_ci K_ii^-1 K_ic on rank 0 (MatFactorSetSchurIS and
+MatFactorCreateSchurComplement through ctypes; the whole index set on rank 0). S is
+factorized densely on rank 0 once (Cholesky, LU if that fails). Then:
+
+- the compliance is C = G_c S^-1 G_c^T (app/condensation/compliance.py);
+- a full solve K u = b is block elimination with two interior solves:
+  y = K_ii^-1 b_i,  u_c = S^-1 (b_c - K_ci y_i),  u_i = y_i - K_ii^-1 K_ic u_c;
+  when b_i = 0 (the contact-force recovery b = G^T lambda) the first one is skipped.
+
+An interior solve is a MUMPS solve with ICNTL(26) = 0, which solves K_ii x_i = b_i and
+sets x_c = 0. PETSc 3.18 refuses a full-system MatSolve on a factor with a Schur set in
+parallel, but not this one, so the route works on any number of ranks and no second,
+plain factorization is needed.
+"""
+
+from __future__ import annotations
+
+import ctypes
+
+import numpy as np
+import scipy.linalg as sla
+from petsc4py import PETSc
+
+from app.errors import SolveError
+from app.petsc_lib import PETSC_INT, load_petsc
+
+
+def _lib() -> ctypes.CDLL:
+    lib = load_petsc()
+    if lib is None:
+        raise SolveError("cannot load the PETSc shared library for the Schur route: use "
+                         "-contact_compliance solve")
+    return lib
+
+
+def set_schur_dofs(pc: PETSc.PC, dofs: np.ndarray) -> PETSc.Mat:
+    """Ask the (not yet set up) MUMPS LU of `pc` for a Schur complement onto `dofs`.
+
+    dofs: sorted global indices, significant on rank 0. Returns the factor matrix.
+    """
+    pc.setFactorSetUpSolverType()
+    f = pc.getFactorMatrix()
+    comm = f.getComm()
+    idx = dofs.astype(PETSc.IntType) if comm.getRank() == 0 else np.zeros(0, PETSc.IntType)
+    iset = PETSc.IS().createGeneral(idx, comm=comm)
+    err = _lib().MatFactorSetSchurIS(ctypes.c_void_p(f.handle), ctypes.c_void_p(iset.handle))
+    iset.destroy()
+    if err:
+        raise SolveError(f"MatFactorSetSchurIS failed (PETSc error {err})")
+    return f
+
+
+def schur_from_factor(f: PETSc.Mat, n: int) -> np.ndarray | None:
+    """The dense (n, n) Schur complement of a factorized MUMPS matrix, symmetrized, on
+    rank 0 (None elsewhere). Reads PETSc's own copy in place (MatFactorGetSchurComplement,
+    no duplicate), so the only new memory is the returned array."""
+    lib = _lib()
+    s_handle = ctypes.c_void_p()
+    status = ctypes.c_int()
+    err = lib.MatFactorGetSchurComplement(ctypes.c_void_p(f.handle), ctypes.byref(s_handle),
+                                          ctypes.byref(status))
+    if err:
+        raise SolveError(f"MatFactorGetSchurComplement failed (PETSc error {err})")
+    out = None
+    try:
+        if f.getComm().getRank() == 0:
+            m_, n_ = PETSC_INT(), PETSC_INT()
+            lib.MatGetSize(s_handle, ctypes.byref(m_), ctypes.byref(n_))
+            if (m_.value, n_.value) != (n, n):
+                raise SolveError(f"Schur complement has size {m_.value}x{n_.value}, "
+                                 f"expected {n}x{n}")
+            ptr = ctypes.POINTER(ctypes.c_double)()
+            lda = PETSC_INT()
+            lib.MatDenseGetLDA(s_handle, ctypes.byref(lda))
+            lib.MatDenseGetArrayRead(s_handle, ctypes.byref(ptr))
+            raw = np.ctypeslib.as_array(ptr, shape=(n, lda.value))[:, :n]  # S^T, a view
+            out = np.empty((n, n))
+            np.add(raw, raw.T, out=out)
+            out *= 0.5
+            lib.MatDenseRestoreArrayRead(s_handle, ctypes.byref(ptr))
+    finally:
+        lib.MatFactorRestoreSchurComplement(ctypes.c_void_p(f.handle), ctypes.byref(s_handle),
+                                            status)
+    return out
+
+
+class DenseFactor:
+    """Cholesky (or, if that fails, LU) factorization of a dense symmetric matrix.
+
+    s: (n, n), overwritten by the factor when `overwrite`; `again` gives s anew for the
+    LU fallback (a failed Cholesky has overwritten it)."""
+
+    def __init__(self, s: np.ndarray, overwrite: bool = False, again=None):
+        try:
+            self.chol = sla.cho_factor(s, overwrite_a=overwrite, check_finite=False)
+            self.lu = None
+        except np.linalg.LinAlgError:
+            self.chol = None
+            if overwrite:
+                s = again() if again is not None else None
+                if s is None:
+                    raise
+            self.lu = sla.lu_factor(s, overwrite_a=overwrite, check_finite=False)
+
+    def solve(self, b: np.ndarray) -> np.ndarray:
+        """S^-1 b for b of shape (n,) or (n, k)."""
+        if self.chol is not None:
+            return sla.cho_solve(self.chol, b, check_finite=False)
+        return sla.lu_solve(self.lu, b, check_finite=False)
+
+
+class SchurFactorization:
+    """Block solves of K u = b on a MUMPS factor with a Schur set (see the module text).
+
+    k: the (Dirichlet-eliminated) stiffness; f: its factor, already factorized with the
+    Schur set `dofs` (sorted global indices, the same on every rank).
+    """
+
+    def __init__(self, k: PETSc.Mat, f: PETSc.Mat, dofs: np.ndarray):
+        self.k, self.f = k, f
+        self.dofs = np.asarray(dofs, dtype=np.int64)
+        comm = k.getComm()
+        self.rank = comm.getRank()
+        n = self.dofs.size
+        s = schur_from_factor(f, n)
+        self.factor = None if self.rank else DenseFactor(
+            s, overwrite=True, again=lambda: schur_from_factor(f, n))
+        f.setMumpsIcntl(26, 0)  # interior solves from now on
+        r0, r1 = k.getOwnershipRange()
+        self.r0 = r0
+        mine = self.dofs[(self.dofs >= r0) & (self.dofs < r1)]
+        self.local_c = (mine - r0).astype(np.int64)
+        self.interior = np.ones(r1 - r0, dtype=bool)
+        self.interior[self.local_c] = False
+        self.work = k.createVecLeft()
+        self.seq = PETSc.Vec().createSeq(self.dofs.size if self.rank == 0 else 0,
+                                         comm=PETSc.COMM_SELF)
+        idx = self.dofs if self.rank == 0 else np.zeros(0, np.int64)
+        iset = PETSc.IS().createGeneral(idx.astype(PETSc.IntType), comm=comm)
+        self.to_zero = PETSc.Scatter().create(self.work, iset, self.seq, None)
+        iset.destroy()
+
+    def dense_solve(self, b: np.ndarray) -> np.ndarray:
+        """S^-1 b on rank 0 (b: (n_c,) or (n_c, k))."""
+        return self.factor.solve(b)
+
+    def _gather_c(self, v: PETSc.Vec) -> np.ndarray | None:
+        """The contact entries of v on rank 0 (None elsewhere)."""
+        self.to_zero.scatter(v, self.seq, addv=PETSc.InsertMode.INSERT,
+                             mode=PETSc.ScatterMode.FORWARD)
+        return self.seq.getArray().copy() if self.rank == 0 else None
+
+    def _scatter_c(self, values: np.ndarray | None, v: PETSc.Vec) -> None:
+        """v = 0 except v[dofs] = values (values significant on rank 0)."""
+        v.set(0.0)
+        if self.rank == 0:
+            self.seq.setArray(values)
+        self.to_zero.scatter(self.seq, v, addv=PETSc.InsertMode.INSERT,
+                             mode=PETSc.ScatterMode.REVERSE)
+
+    def interior_solve(self, b: PETSc.Vec, x: PETSc.Vec) -> None:
+        """x_i = K_ii^-1 b_i, x_c = 0."""
+        self.f.solve(b, x)
+        x.getArray()[self.local_c] = 0.0
+
+    def solve(self, b: PETSc.Vec, x: PETSc.Vec) -> PETSc.Vec:
+        """x = K^-1 b by block elimination (two interior solves at most)."""
+        comm = self.k.getComm().tompi4py()
+        has_interior = comm.allreduce(bool(np.any(b.getArray(readonly=True)[self.interior])))
+        y = self.k.createVecLeft()
+        if has_interior:
+            self.interior_solve(b, y)
+        t = self.work
+        self.k.mult(y, t)  # (K y)_c = K_ci y_i
+        bc, tc = self._gather_c(b), self._gather_c(t)
+        uc = self.dense_solve(bc - tc) if self.rank == 0 else None
+        w = self.k.createVecLeft()
+        self._scatter_c(uc, w)  # w = u_c on c, 0 elsewhere
+        self.k.mult(w, t)
+        t.scale(-1.0)
+        t.getArray()[self.local_c] = 0.0
+        self.interior_solve(t, x)  # x_i = -K_ii^-1 K_ic u_c
+        x.axpy(1.0, y)
+        x.axpy(1.0, w)
+        y.destroy()
+        w.destroy()
+        return x

@@ -1,0 +1,78 @@
+"""What a contact discretisation hands to the rest of the contact stage.
+
+A discretisation (node-to-segment, mortar, see `app.contact.discretisation`) turns an
+interface into m multipliers (one per slave node) and their constraint rows. Everything
+after it (condensation C = G K^-1 G^T, the modified Coulomb LCP, load steps, debonding,
+floating bodies, output and the KKT check) only sees a `ContactConstraints`.
+
+Sign conventions are those of `app.contact.pairs`: normal rows give the opening
+(positive = separation, length), tangential rows the slip of the slave along the tangent
+t = (-n_y, n_x) (length); the multipliers are forces (force per thickness x thickness).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from app.contact.pairs import ContactPairs
+from app.errors import InputError
+
+
+@dataclass
+class ContactConstraints:
+    """Constraint rows of m multipliers, stored row by row with a fixed width k.
+
+    pairs: per multiplier data (`ContactPairs`): interface index, slave node, position
+        (output point), normal and tangent, initial gap g0 (length) and weight `length`
+        (tributary length; force / (length x thickness) = traction). `master` and `xi`
+        name the master segment and parameter closest to the slave node (for output).
+    cols: (m, k) int64 DOF columns (2 node + component) of each row; padding has weight 0.
+    g_normal, g_tangent: (m, k) weights: opening_j = g0_j + sum_c g_normal[j, c] u[cols[j, c]]
+        and slip_j = sum_c g_tangent[j, c] u[cols[j, c]].
+    """
+
+    pairs: ContactPairs
+    cols: np.ndarray
+    g_normal: np.ndarray
+    g_tangent: np.ndarray
+
+    @property
+    def n_pairs(self) -> int:
+        return self.pairs.n_pairs
+
+    @classmethod
+    def empty(cls) -> ContactConstraints:
+        z = np.zeros((0, 1))
+        return cls(ContactPairs.empty(), np.zeros((0, 1), dtype=np.int64), z, z.copy())
+
+    @classmethod
+    def concatenate(cls, parts: Sequence[ContactConstraints]) -> ContactConstraints:
+        """Stack several constraint sets (one per interface) in order, padding the rows."""
+        parts = list(parts)
+        if not parts:
+            return cls.empty()
+        k = max(p.cols.shape[1] for p in parts)
+
+        def pad(a: np.ndarray) -> np.ndarray:
+            return np.pad(a, ((0, 0), (0, k - a.shape[1])))
+
+        return cls(ContactPairs.concatenate([p.pairs for p in parts]),
+                   np.concatenate([pad(p.cols) for p in parts]),
+                   np.concatenate([pad(p.g_normal) for p in parts]),
+                   np.concatenate([pad(p.g_tangent) for p in parts]))
+
+    def matrix(self, n_nodes: int) -> sp.csr_matrix:
+        """G, shape (2m, 2 n_nodes): rows 0..m-1 normal, m..2m-1 tangential."""
+        m, k = self.cols.shape
+        if m and self.cols.max() >= 2 * n_nodes:
+            raise InputError(f"constraint rows refer to nodes beyond n_nodes={n_nodes}")
+        rows = np.repeat(np.arange(2 * m), k)
+        g = sp.csr_matrix((np.concatenate([self.g_normal, self.g_tangent]).ravel(),
+                           (rows, np.concatenate([self.cols, self.cols]).ravel())),
+                          shape=(2 * m, 2 * n_nodes))
+        g.eliminate_zeros()
+        return g

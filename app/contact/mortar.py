@@ -1,0 +1,277 @@
+"""Dual mortar (segment-to-segment) contact rows in 2D, linear segments.
+
+One multiplier per slave node j, with the dual shape functions phi_j of the linear slave
+segments (biorthogonal to the standard ones N_k: int phi_j N_k ds = delta_jk D_j, so the
+mortar matrix D is diagonal, D_j = tributary length of node j). The weighted gap and slip
+of node j are
+
+    g~_j = n_j . (D_j x_j - sum_l M_jl x_l),   M_jl = int_slave phi_j N_l(eta(s)) ds,
+
+integrated over the segmentation of the slave segments by the master segments: master
+nodes are projected onto each slave segment along the interpolated contact normal
+n(s) = (1 - s) n_1 + s n_2, each slave Gauss point onto the master segment along the same
+n(s) (eta = master parameter). Rows are divided by the covered weight sum_l M_jl (= D_j
+when the master covers the node's support), so a row reads
+n_j . (u_j - sum_l w_jl u_l) with sum_l w_jl = 1: gaps stay lengths, the multiplier is the
+force at the slave node and force / (D_j x thickness) its traction.
+
+Contact normal (choice, see README): the averaged nodal outward normals of both sides
+(nu_s of the slave node, nu_m of the master interpolated at the node's closest point),
+weighted by the other side's curvature (`contact_normal`): the flatter side's normal
+wins, equal curvatures give the mean. Against a flat side this is the flat side's normal,
+the common normal of the linear (Hertz, Cattaneo-Mindlin) theories, so a frictionless
+contact cannot hold a tangential load through tilted normals whichever side is the slave;
+the formula is symmetric in the two sides. Tangent t_j = (-n_y, n_x) as in
+`app.contact.pairs`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.spatial import cKDTree
+
+from app.contact.constraints import ContactConstraints
+from app.contact.pairs import (
+    PENETRATION_REL_TOL,
+    ContactPairs,
+    _curve_edges,
+    closest_segments,
+    tributary_length,
+)
+from app.errors import InputError
+from app.mesh.model import Mesh, orient_boundary_edges
+
+_GAUSS_S, _GAUSS_W = np.polynomial.legendre.leggauss(4)
+MIN_COVER = 0.5
+"""Slave nodes whose support is covered by less than this fraction of D_j are dropped."""
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    return v / np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-300)
+
+
+def nodal_normals(points: np.ndarray, edges: np.ndarray,
+                  n_nodes: int) -> tuple[np.ndarray, np.ndarray]:
+    """Averaged outward unit normals (n_nodes, 2) and curvatures (n_nodes,) (1/length) of
+    a curve whose edges (k, 2) are oriented with the body on the left; zero off the curve.
+    The curvature of a node is the angle between its two edge normals over its tributary
+    length (0 at the ends of the curve)."""
+    d = points[edges[:, 1]] - points[edges[:, 0]]
+    le = np.linalg.norm(d, axis=1)
+    ne = np.column_stack([d[:, 1], -d[:, 0]]) / le[:, None]
+    acc = np.zeros((n_nodes, 2))
+    for c in range(2):
+        acc[:, c] = np.bincount(edges.ravel(), weights=np.repeat(ne[:, c], 2),
+                                minlength=n_nodes)
+    norm = np.linalg.norm(acc, axis=1)
+    on = norm > 0
+    count = np.bincount(edges.ravel(), minlength=n_nodes)
+    trib = np.bincount(edges.ravel(), weights=np.repeat(0.5 * le, 2), minlength=n_nodes)
+    # |sum of two unit normals| = 2 cos(angle / 2)
+    angle = np.where(count == 2, 2 * np.arccos(np.clip(0.5 * norm, 0.0, 1.0)), 0.0)
+    kappa = np.where(trib > 0, angle / np.where(trib > 0, trib, 1.0), 0.0)
+    acc[on] = acc[on] / norm[on, None]
+    return acc, kappa
+
+
+def contact_normal(nu_s: np.ndarray, kappa_s: np.ndarray, nu_m: np.ndarray,
+                   kappa_m: np.ndarray) -> np.ndarray:
+    """(p, 2) unit contact normals (master -> slave) from the outward normals and
+    curvatures of both sides at the same points: the flatter side weighs more,
+    n = unit(k_s nu_m - k_m nu_s); equal curvatures give the mean, a flat side its own
+    normal. Symmetric in the two sides, so swapping slave and master keeps it."""
+    ks, km = kappa_s[:, None], kappa_m[:, None]
+    tot = ks + km
+    flat = tot <= 0
+    ws = np.where(flat, 0.5, km / np.where(flat, 1.0, tot))
+    return _unit((1 - ws) * nu_m - ws * nu_s)
+
+
+def project_onto_segment(x: np.ndarray, x1: np.ndarray, x2: np.ndarray, n1: np.ndarray,
+                         n2: np.ndarray) -> np.ndarray:
+    """Parameter s of the point x1 + s (x2 - x1) whose interpolated normal
+    (1 - s) n1 + s n2 passes through x (all (p, 2)); the root nearest 0.5, nan if none."""
+    r, dx, dn = x - x1, x2 - x1, n2 - n1
+    a = -_cross(dx, dn)
+    b = _cross(r, dn) - _cross(dx, n1)
+    c = _cross(r, n1)
+    disc = b * b - 4 * a * c
+    sq = np.sqrt(np.where(disc >= 0, disc, np.nan))
+    q = -0.5 * (b + np.where(b >= 0, 1.0, -1.0) * sq)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        r1 = np.where(a != 0, q / a, np.nan)
+        r2 = np.where(q != 0, c / q, np.nan)
+    d1 = np.where(np.isfinite(r1), np.abs(r1 - 0.5), np.inf)
+    d2 = np.where(np.isfinite(r2), np.abs(r2 - 0.5), np.inf)
+    return np.where(d1 < d2, r1, r2)
+
+
+def _candidates(xs1, xs2, xa, xb, reach: float) -> tuple[np.ndarray, np.ndarray]:
+    """(slave segment e, master segment f) index pairs whose midpoints are close enough
+    for the segments to come within `reach` of each other (both (p,) int64)."""
+    ls = np.linalg.norm(xs2 - xs1, axis=1)
+    lm = np.linalg.norm(xb - xa, axis=1)
+    ms, mm = 0.5 * (xs1 + xs2), 0.5 * (xa + xb)
+    radius = reach + 0.5 * (ls.max() + lm.max())
+    hits = cKDTree(ms).sparse_distance_matrix(cKDTree(mm), radius, output_type="ndarray")
+    e, f = hits["i"].astype(np.int64), hits["j"].astype(np.int64)
+    near = hits["v"] <= reach + 0.5 * (ls[e] + lm[f])
+    return e[near], f[near]
+
+
+def segment_integrals(xs1, xs2, ns1, ns2, xa, xb, e, f):
+    """Mortar integrals of candidate pairs (slave segment e, master segment f).
+
+    xs1, xs2, ns1, ns2: (S, 2) slave segment ends and their contact normals; xa, xb:
+    (F, 2) master segment ends. Returns (pair (p,), j (p,) 0/1 slave end, l (p,) 0/1
+    master end, value (p,)) with value = int phi_j N_l ds over the overlap (length).
+    """
+    x1, x2, n1, n2 = xs1[e], xs2[e], ns1[e], ns2[e]
+    pa, pb = xa[f], xb[f]
+    sa = project_onto_segment(pa, x1, x2, n1, n2)
+    sb = project_onto_segment(pb, x1, x2, n1, n2)
+    lo = np.clip(np.fmin(sa, sb), 0.0, 1.0)
+    hi = np.clip(np.fmax(sa, sb), 0.0, 1.0)
+    ok = np.isfinite(sa) & np.isfinite(sb) & (hi - lo > 1e-12)
+    k = np.flatnonzero(ok)
+    lo, hi = lo[k], hi[k]
+    s = 0.5 * (lo + hi)[:, None] + 0.5 * (hi - lo)[:, None] * _GAUSS_S  # (p, g)
+    w = (0.5 * (hi - lo) * np.linalg.norm(x2[k] - x1[k], axis=1))[:, None] * _GAUSS_W
+    xg = x1[k, None] + s[..., None] * (x2[k] - x1[k])[:, None]
+    ng = n1[k, None] + s[..., None] * (n2[k] - n1[k])[:, None]
+    dm = (pb[k] - pa[k])[:, None]
+    den = _cross(dm, ng)
+    eta = np.clip(_cross(xg - pa[k, None], ng) / np.where(den == 0, np.nan, den), 0, 1)
+    eta = np.nan_to_num(eta, nan=0.5)
+    phi = np.stack([2 - 3 * s, 3 * s - 1])  # dual shape functions (2, p, g)
+    big_n = np.stack([1 - eta, eta])
+    val = np.einsum("jpg,lpg,pg->pjl", phi, big_n, w)  # (p, 2, 2)
+    pair = np.repeat(k, 4)
+    jj = np.tile([0, 0, 1, 1], k.size)
+    ll = np.tile([0, 1, 0, 1], k.size)
+    return pair, jj, ll, val.reshape(-1)
+
+
+def _rows(nodes: np.ndarray, n_nodes: int, s_edges: np.ndarray, m_edges: np.ndarray,
+          pair, jj, ll, val, e, f) -> sp.csr_matrix:
+    """Covered mortar matrix M (len(nodes), n_nodes): row = slave node (position in
+    `nodes`), column = master node."""
+    where = np.full(n_nodes, -1, dtype=np.int64)
+    where[nodes] = np.arange(nodes.size)
+    r = where[s_edges[e[pair], jj]]
+    c = m_edges[f[pair], ll]
+    ok = r >= 0
+    return sp.csr_matrix((val[ok], (r[ok], c[ok])), shape=(nodes.size, n_nodes))
+
+
+def mortar_constraints(mesh: Mesh, itf, index: int) -> ContactConstraints:
+    """Dual mortar rows of one interface (see the module docstring).
+
+    itf: an `[[interface]]` (name, slave, master, search_distance, penetration_tol,
+    interference). Slave nodes farther than search_distance from the master, with less
+    than MIN_COVER of their support facing it, or with g0 > search_distance are dropped.
+    Initial penetrations are checked as for node-to-segment on the nodal gap (distance of
+    the slave node to its closest master point): the weighted gap g0 of a node touching a
+    convex master is slightly negative (dual shape functions are negative in part), an
+    O(h^2 / R) property of the discretisation, not an overlap.
+    """
+    label = itf.name
+    sd = float(itf.search_distance)
+    pts = np.asarray(mesh.points, dtype=float)
+    n = mesh.n_nodes
+    s_edges = orient_boundary_edges(mesh, _curve_edges(mesh, itf.slave, "slave", label),
+                                    f"interface '{label}': slave curve '{itf.slave}'")
+    m_edges = orient_boundary_edges(mesh, _curve_edges(mesh, itf.master, "master", label),
+                                    f"interface '{label}': master curve '{itf.master}'")
+    xa, xb = pts[m_edges[:, 0]], pts[m_edges[:, 1]]
+    if np.any(np.linalg.norm(xb - xa, axis=1) == 0):
+        raise InputError(f"interface '{label}': master curve '{itf.master}' has an edge of "
+                         "zero length (coincident nodes)")
+    nu_s, k_s = nodal_normals(pts, s_edges, n)
+    nu_m, k_m = nodal_normals(pts, m_edges, n)
+    nodes, d_len = tributary_length(pts, s_edges)
+    m_degree = np.bincount(m_edges.ravel(), minlength=n)
+    seg, xr, dist = closest_segments(pts[nodes], xa, xb, sd)
+    found = (seg >= 0) & (m_degree[nodes] == 0)
+    sg = np.where(found, seg, 0)
+    xi = np.clip(np.nan_to_num(xr), 0.0, 1.0)
+    ma, mb = m_edges[sg, 0], m_edges[sg, 1]
+    nu_mp = _unit((1 - xi)[:, None] * nu_m[ma] + xi[:, None] * nu_m[mb])
+    k_mp = (1 - xi) * k_m[ma] + xi * k_m[mb]
+    normal = np.zeros((n, 2))
+    normal[nodes] = np.where(found[:, None], contact_normal(nu_s[nodes], k_s[nodes], nu_mp,
+                                                            k_mp), -nu_s[nodes])
+
+    active = found[np.searchsorted(nodes, s_edges)].any(axis=1)
+    se = s_edges[active]
+    if se.shape[0] == 0:
+        raise InputError(f"interface '{label}': no slave node of '{itf.slave}' lies within "
+                         f"search_distance={sd:g} of '{itf.master}' (raise search_distance "
+                         "or check the curves)")
+    xs1, xs2 = pts[se[:, 0]], pts[se[:, 1]]
+    e, f = _candidates(xs1, xs2, xa, xb, sd)
+    pair, jj, ll, val = segment_integrals(xs1, xs2, normal[se[:, 0]], normal[se[:, 1]],
+                                          xa, xb, e, f)
+    mm = _rows(nodes, n, se, m_edges, pair, jj, ll, val, e, f)
+    cover = np.asarray(mm.sum(axis=1)).ravel()
+    nrm = normal[nodes]
+    w = sp.diags(1.0 / np.where(cover > 0, cover, 1.0)) @ mm  # rows sum to 1
+    g0 = np.einsum("ij,ij->i", nrm, pts[nodes] - w @ pts)
+    keep = found & (cover >= MIN_COVER * d_len) & (g0 <= sd)
+    if not keep.any():
+        raise InputError(f"interface '{label}': no slave node of '{itf.slave}' lies within "
+                         f"search_distance={sd:g} of '{itf.master}' (raise search_distance "
+                         "or check the curves)")
+    d = xb[sg] - xa[sg]
+    xp = xa[sg] + xi[:, None] * d
+    g_node = _cross(pts[nodes] - xp, d) / np.linalg.norm(d, axis=1)  # signed, open > 0
+    _check_penetration(itf, pts, xa, xb, nodes[keep], g_node[keep])
+    k = np.flatnonzero(keep)
+    tan = np.column_stack([-nrm[:, 1], nrm[:, 0]])
+    pairs = ContactPairs(
+        interface=np.full(k.size, int(index), dtype=np.int64), slave=nodes[k].astype(np.int64),
+        master=m_edges[sg[k]].copy(), xi=xi[k], normal=nrm[k], tangent=tan[k], g0=g0[k],
+        position=pts[nodes[k]].copy(), length=d_len[k])
+    return ContactConstraints(pairs, *_padded_rows(w[k].tocsr(), pairs))
+
+
+def _padded_rows(w: sp.csr_matrix, pairs: ContactPairs):
+    """(cols, g_normal, g_tangent), (m, 2 + 2 k): slave DOFs, then -w_jl at master DOFs."""
+    m = pairs.n_pairs
+    counts = np.diff(w.indptr)
+    k = int(counts.max(initial=0))
+    row = np.repeat(np.arange(m), counts)
+    pos = np.arange(w.indices.size) - w.indptr[row]
+    node = np.zeros((m, 1 + k), dtype=np.int64)
+    wt = np.zeros((m, 1 + k))
+    node[:, 0], wt[:, 0] = pairs.slave, 1.0
+    node[row, 1 + pos], wt[row, 1 + pos] = w.indices, -w.data
+    cols = (2 * node[:, :, None] + np.arange(2)).reshape(m, -1)
+    g_n = (wt[:, :, None] * pairs.normal[:, None, :]).reshape(m, -1)
+    g_t = (wt[:, :, None] * pairs.tangent[:, None, :]).reshape(m, -1)
+    return cols, g_n, g_t
+
+
+def _check_penetration(itf, pts, xa, xb, nodes, g0) -> None:
+    """InputError for initial penetrations beyond the tolerance (unless interference)."""
+    if itf.interference:
+        return
+    tol = itf.penetration_tol
+    if tol is None:
+        scale = float(np.ptp(pts, axis=0).max())
+        tol = max(PENETRATION_REL_TOL * float(np.linalg.norm(xb - xa, axis=1).mean()),
+                  1e-12 * scale)
+    pen = g0 < -tol
+    if pen.any():
+        i = np.flatnonzero(pen)
+        locs = "; ".join(f"x={pts[nodes[j], 0]:.6g}, y={pts[nodes[j], 1]:.6g}" for j in i[:3])
+        raise InputError(f"interface '{itf.name}': {i.size} slave nodes penetrate the master "
+                         f"by more than {tol:.3g} (first at {locs}; deepest "
+                         f"g0={g0[i].min():.3g}): fix the geometry, raise penetration_tol, or "
+                         "set interference = true if the overlap is an intended interference "
+                         "fit")

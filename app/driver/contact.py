@@ -1,0 +1,126 @@
+"""Phases 4 and 5 with contact: condense onto the contact rows (C = G K^-1 G^T), and solve
+each load step's LCP on rank 0 with the consistency refinement against the displacement
+recovered from the stored factorization."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from app.condensation.compliance import compliance_from_factor, compliance_solve
+from app.condensation.recovery import contact_displacement, mismatch
+from app.driver.context import RunContext, write_summary
+from app.driver.linear import LinearSystem, UnitSolutions
+from app.driver.model import Model
+from app.errors import SolveError
+from app.interface.steps import ContactStepper, StepSolution
+from app.parallel import to_numpy_all
+
+CONSISTENCY_TOL = 1e-9
+"""Largest |G u - LCP kinematics| / max |u| accepted without a refinement re-solve."""
+MAX_REFINEMENTS = 5
+"""Consistency re-solves per step at most (each: one LCP solve and one back-substitution)."""
+
+
+@dataclass
+class ContactStep:
+    """One solved load step: u (2n,) the displacement with the contact forces, and the
+    stepper's solution (rank 0's, broadcast)."""
+
+    u: np.ndarray
+    result: StepSolution
+
+
+def condense(ctx: RunContext, model: Model, system: LinearSystem,
+             unit: UnitSolutions) -> ContactStepper | None:
+    """Phases compliance and lcp (the LCP matrix, built once): the rank-0 stepper."""
+    contact = model.contact
+    with ctx.phase("compliance"):
+        if system.route == "schur":
+            c_mat = compliance_from_factor(system.solver, contact.g, model.fixed_all)
+        else:
+            c_mat = compliance_solve(system.solver, system.k, contact.g, model.fixed_all,
+                                     to_numpy_all)
+    ctx.summary["compliance_route"] = system.route
+    with ctx.phase("lcp"):
+        if ctx.rank != 0:
+            return None
+        return contact.stepper(c_mat, model.cases, unit.u, unit.rhs, model.floating)
+
+
+def solve_contact_step(ctx: RunContext, model: Model, system: LinearSystem,
+                       stepper: ContactStepper | None, step: int,
+                       u_free: np.ndarray) -> ContactStep:
+    """Load step `step` (0-based): the LCP, the displacement, and up to MAX_REFINEMENTS
+    consistency re-solves while |G u - LCP kinematics| halves. SolveError (with the
+    summary written) when the LCP has no solution."""
+    with ctx.phase("lcp"):
+        result = stepper.step(step, model.cases) if ctx.rank == 0 else None
+        result = ctx.mpi.bcast(result, root=0)
+    if not result.solved:
+        _fail(ctx, model, step, result)
+    correction = np.zeros(2 * model.contact.pairs.n_pairs) if ctx.rank == 0 else None
+    refinements, previous = 0, np.inf
+    while True:
+        with ctx.phase("recovery"):
+            u = _displacement(model, system, u_free, result)
+            miss, rel, again = _consistency(ctx, model, u, result, refinements, previous)
+        if not again:
+            break
+        previous = rel
+        with ctx.phase("lcp"):
+            retry = None
+            if ctx.rank == 0:
+                correction += miss
+                retry = stepper.refine(step, model.cases, correction)
+            retry = ctx.mpi.bcast(retry, root=0)
+        if retry is None:
+            break
+        result = retry
+        refinements += 1
+    result.info["consistency_refinements"] = refinements
+    result.info["lcp_displacement_mismatch"] = rel
+    return ContactStep(u, result)
+
+
+def _displacement(model: Model, system: LinearSystem, u_free: np.ndarray,
+                  result: StepSolution) -> np.ndarray:
+    """u_free + K^-1 G^T lambda (+ the floating modes' amplitudes)."""
+    u = u_free + contact_displacement(model.contact.g, result.lam, system.solver,
+                                      system.k, model.fixed_all, to_numpy_all)
+    if model.floating is not None and model.floating.r.shape[1]:
+        u += model.floating.r @ result.alpha
+    return u
+
+
+def _consistency(ctx: RunContext, model: Model, u: np.ndarray, result: StepSolution,
+                 refinements: int, previous: float):
+    """(G u - LCP kinematics on rank 0, its size relative to max |u|, whether to re-solve)."""
+    miss = rel = again = None
+    if ctx.rank == 0:
+        miss = mismatch(model.contact.g, u, result)
+        scale = max(np.abs(u).max(initial=0.0), 1e-300)
+        rel = float(np.abs(miss).max(initial=0.0) / scale)
+        again = (rel > CONSISTENCY_TOL and refinements < MAX_REFINEMENTS
+                 and rel < 0.5 * previous)
+    again, rel = ctx.mpi.bcast((again, rel), root=0)
+    return miss, rel, again
+
+
+def _fail(ctx: RunContext, model: Model, step: int, result: StepSolution) -> None:
+    """Record the failed step in the summary and raise the one-line reason."""
+    summary = ctx.summary
+    summary["status"] = "failed"
+    summary["failed_step"] = step + 1
+    summary["timings"] = ctx.timer.reduced()
+    done = f"steps 1..{step} are written in {ctx.out}" if step else "no step completed"
+    held = "" if model.floating is None else (
+        "; held only by contact: " + ", ".join(model.floating.names))
+    head = ("no static equilibrium" if result.status in ("secondary ray", "unbalanced load")
+            else "the contact problem could not be solved")
+    reason = f"{head} at step {step + 1}: {result.message}{held}; {done}"
+    summary["error"] = reason
+    if ctx.rank == 0:
+        write_summary(ctx.out, summary)
+    raise SolveError(reason)

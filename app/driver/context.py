@@ -1,0 +1,69 @@
+"""What every phase of a run shares: the config, the options, MPI, the timer, the summary."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from petsc4py import PETSc
+
+from app.config import Config
+from app.output.summary import write_summary as write_summary_file
+from app.parallel import Timer
+
+
+@dataclass
+class RunOptions:
+    """Command-line choices that override the config."""
+
+    out: Path = Path("out")
+    method: str | None = None
+    sd: int | None = None
+    mesh_scale: float = 1.0
+    quiet: bool = False
+    mesh_cache: Path | None = None
+    progress_prefix: str = ""  # e.g. "level 2/5 CS-FEM-4SD" in a study
+    overrides: list[str] = field(default_factory=list)  # the --set strings (provenance)
+    refine: int = 0  # uniform splits of the (scaled) config mesh, see app/mesh/refine.py
+
+
+@dataclass
+class RunContext:
+    """One run: config and options, the communicator (rank, size), the phase timer, the
+    summary being built (written to OUT/summary.json on rank 0) and the output folder."""
+
+    cfg: Config
+    opts: RunOptions
+    summary: dict
+    comm: PETSc.Comm = field(default_factory=lambda: PETSc.COMM_WORLD)
+    timer: Timer = field(init=False)
+
+    def __post_init__(self) -> None:
+        prefix = f"{self.opts.progress_prefix}: " if self.opts.progress_prefix else ""
+        self.timer = Timer(quiet=self.opts.quiet, prefix=prefix)
+
+    @property
+    def mpi(self):
+        """The mpi4py communicator."""
+        return self.comm.tompi4py()
+
+    @property
+    def rank(self) -> int:
+        return self.comm.getRank()
+
+    @property
+    def size(self) -> int:
+        return self.comm.getSize()
+
+    @property
+    def out(self) -> Path:
+        return Path(self.opts.out)
+
+    def phase(self, name: str):
+        """A named phase (seconds in summary.json timings, a PETSc log stage)."""
+        return self.timer.phase(name)
+
+
+def write_summary(out: Path, summary: dict) -> None:
+    """OUT/summary.json; later calls for the same run append (app/output/summary.py)."""
+    write_summary_file(out / "summary.json", summary)

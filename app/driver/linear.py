@@ -1,0 +1,115 @@
+"""Phases 2 and 3: assemble the stiffness, apply the supports, factor once, and solve the
+unit load cases with that factorization."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from petsc4py import PETSc
+
+from app.assembly.solve import (
+    LinearSolver,
+    SingularStiffnessError,
+    apply_dirichlet,
+)
+from app.assembly.stiffness import assemble_stiffness
+from app.condensation.compliance import attach_schur, compliance_route, request_schur
+from app.discretisation.bulk import Discretisation, zero_energy_modes
+from app.driver.context import RunContext
+from app.driver.model import Model
+from app.errors import SolveError
+from app.mesh.model import Mesh
+from app.output.reactions import ReactionProbe
+from app.parallel import from_numpy, to_numpy_all
+
+
+@dataclass
+class LinearSystem:
+    """The factored stiffness. k: distributed PETSc matrix with the supports applied;
+    solver: its one factorization; route: the compliance route (schur | solve, None
+    without contact); lifting: K u_d per load case with prescribed displacements (None
+    for the others); probe: the reactions of the unconstrained K."""
+
+    k: PETSc.Mat
+    solver: LinearSolver
+    route: str | None
+    lifting: list[np.ndarray | None]
+    probe: ReactionProbe
+
+
+@dataclass
+class UnitSolutions:
+    """Per load case: u = K^-1 b at factor 1 (2n,), and b itself with the Dirichlet lifting
+    and zero on prescribed DOFs (the load on the floating modes)."""
+
+    u: list[np.ndarray]
+    rhs: list[np.ndarray]
+
+
+def assemble_and_factor(ctx: RunContext, model: Model) -> LinearSystem:
+    """Phases assembly, boundary_conditions and factorization."""
+    with ctx.phase("assembly"):
+        k = assemble_stiffness(model.mesh, model.disc, ctx.comm)
+    with ctx.phase("boundary_conditions"):
+        lifting = []
+        for case in model.cases:
+            if np.any(case.prescribed):
+                kud = k.createVecLeft()
+                k.mult(from_numpy(k, case.prescribed), kud)
+                lifting.append(to_numpy_all(kud))
+            else:
+                lifting.append(None)
+        probe = ReactionProbe(k, model.fixed)
+        apply_dirichlet(k, model.fixed_all)
+    with ctx.phase("factorization"):
+        solver = LinearSolver(k)
+        contact = model.contact
+        route = compliance_route(ctx.cfg.compliance, solver) if contact is not None else None
+        schur_dofs = request_schur(solver, contact.g, model.fixed_all) \
+            if route == "schur" else None
+        try:
+            solver.factor()
+        except SingularStiffnessError as exc:
+            raise SolveError(singular_message(model.disc, model.mesh, str(exc),
+                                              model.fixed_all)) from None
+        if schur_dofs is not None:  # the one factorization serves compliance and solves
+            attach_schur(solver, k, schur_dofs)
+    return LinearSystem(k, solver, route, lifting, probe)
+
+
+def unit_solutions(ctx: RunContext, model: Model, system: LinearSystem) -> UnitSolutions:
+    """Phase solve: one forward/back substitution per load case."""
+    unit, rhs = [], []
+    free = ~np.isin(np.arange(model.n_dofs), model.fixed)
+    with ctx.phase("solve"):
+        for case, kud in zip(model.cases, system.lifting, strict=True):
+            b = case.rhs.copy()
+            if kud is not None:
+                b -= kud
+            rhs.append(np.where(free, b, 0.0))
+            b[model.fixed_all] = case.prescribed[model.fixed_all]
+            try:
+                x = system.solver.solve(from_numpy(system.k, b))
+            except SingularStiffnessError as exc:
+                raise SolveError(singular_message(model.disc, model.mesh, str(exc),
+                                                  model.fixed_all)) from None
+            unit.append(to_numpy_all(x))
+    return UnitSolutions(unit, rhs)
+
+
+def singular_message(disc: Discretisation, mesh: Mesh, detail: str,
+                     fixed: np.ndarray | None = None) -> str:
+    """Name the bodies whose stiffness keeps zero-energy modes under their supports."""
+    names = []
+    if fixed is not None:
+        for b in range(len(mesh.body_names)):
+            if np.sum(mesh.body == b) <= 20000:
+                if zero_energy_modes(mesh, disc, b, fixed).shape[1] > 0:
+                    names.append(f"'{mesh.body_names[b]}'")
+    where = f" in body {', '.join(names)}" if names else ""
+    if disc.hourglass:
+        return (f"{detail}: {disc.label} has hourglass (zero-energy) modes{where} that the "
+                "supports do not suppress; use --sd 2 or more (hourglass-free smoothing) or "
+                "--method fem-q4")
+    return f"{detail}: check that every body is held by supports{where}"

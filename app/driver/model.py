@@ -1,0 +1,134 @@
+"""Phase 1, build the model: the bulk method, the mesh, the load cases, the supports, the
+contact constraints and the modes of bodies held only by contact."""
+
+from __future__ import annotations
+
+import sys
+from dataclasses import dataclass
+
+import numpy as np
+
+from app.assembly.loads import LoadCase, constrained_dofs, load_cases
+from app.config import Config
+from app.contact.discretisation import contact_discretisation
+from app.discretisation.bulk import Discretisation, check_elements
+from app.discretisation.methods import bulk_method
+from app.driver.context import RunContext, RunOptions
+from app.errors import InputError
+from app.interface.contact import ContactSetup
+from app.interface.floating import FloatingModes, floating_modes
+from app.mesh.model import Mesh
+from app.output.status import arm_signals
+from app.parallel import collective
+
+
+@dataclass
+class Model:
+    """The discretised scene: mesh, bulk method, load cases, prescribed DOFs (`fixed`, and
+    `fixed_all` with the pins of floating modes), contact (None without interfaces)."""
+
+    mesh: Mesh
+    disc: Discretisation
+    cases: list[LoadCase]
+    fixed: np.ndarray
+    fixed_all: np.ndarray
+    contact: ContactSetup | None
+    floating: FloatingModes | None
+
+    @property
+    def n_dofs(self) -> int:
+        return 2 * self.mesh.n_nodes
+
+
+def make_discretisation(cfg: Config, opts: RunOptions) -> Discretisation:
+    """The bulk method and materials; the method and sd checked against the registry."""
+    method = bulk_method(opts.method or cfg.method,
+                         "--method" if opts.method else "analysis.method")
+    sd = method.check_sd(opts.sd if opts.sd is not None else cfg.sd,
+                         "--sd" if opts.sd is not None else "analysis.sd")
+    return Discretisation(method.name, sd, cfg.plane, cfg.thickness, cfg.E, cfg.nu)
+
+
+def build_scene_mesh(cfg: Config, opts: RunOptions) -> Mesh:
+    """The checked mesh of the scene: gmsh (or mesh.file), then `opts.refine` splits."""
+    from app.mesh.build import build_mesh
+    from app.mesh.checks import check_scene
+
+    mesh = build_mesh(cfg.scene, scale=opts.mesh_scale, cache_dir=opts.mesh_cache,
+                      base_dir=cfg.path.parent)
+    if opts.refine:
+        from app.mesh.refine import refine_mesh, scene_arcs
+
+        mesh = refine_mesh(mesh, opts.refine, scene_arcs(cfg.scene))
+    check_elements(mesh)
+    check_scene(mesh, cfg.interfaces)
+    return mesh
+
+
+def build_model(ctx: RunContext) -> Model:
+    """Phases mesh, setup, pair_search and floating_modes; fills the summary's sizes."""
+    cfg, opts = ctx.cfg, ctx.opts
+    disc = make_discretisation(cfg, opts)
+    for itf in cfg.interfaces:  # the contact discretisations, checked before any meshing
+        contact_discretisation(itf.discretisation, f"interface '{itf.name}'")
+    with ctx.phase("mesh"):
+        mesh = collective(build_scene_mesh, cfg, opts)
+        arm_signals()  # gmsh.finalize() put back the default SIGTERM action
+        _mesh_quality(mesh, ctx.summary, opts.quiet or ctx.rank != 0)
+    _describe(ctx, mesh, disc)
+    with ctx.phase("setup"):
+        cases = load_cases(mesh, cfg)
+        fixed = constrained_dofs(mesh, cfg)
+    contact = None
+    if cfg.interfaces:
+        with ctx.phase("pair_search"):
+            contact = ContactSetup.build(mesh, cfg)
+        ctx.summary["n_pairs"] = contact.pairs.n_pairs
+    with ctx.phase("floating_modes"):  # with CS-FEM-1SD: the hourglass eigen-solve
+        floating = floating_modes(mesh, cfg, fixed, contact, disc)
+        pins = floating.pins if floating else np.zeros(0, dtype=np.int64)
+    with ctx.phase("setup"):
+        warnings = _prescribed_load_warnings(cases, fixed, ctx.rank)
+        if warnings:
+            ctx.summary["warnings"] = ctx.summary.get("warnings", []) + warnings
+    return Model(mesh, disc, cases, fixed, np.union1d(fixed, pins), contact, floating)
+
+
+def _describe(ctx: RunContext, mesh: Mesh, disc: Discretisation) -> None:
+    """The run's sizes and method in the summary; every config body must have elements."""
+    cfg = ctx.cfg
+    ctx.summary.update({
+        "config": str(cfg.path), "method": disc.method,
+        "sd": disc.sd if disc.bulk.sd_choices else None, "label": disc.label,
+        "plane": disc.plane, "ranks": ctx.size, "n_nodes": mesh.n_nodes,
+        "n_dofs": 2 * mesh.n_nodes, "n_elements": mesh.n_elements,
+        "n_bodies": len(mesh.body_names), "bodies": mesh.body_names,
+        "n_steps": cfg.n_steps, "steps": [], "status": "running",
+    })
+    for name in cfg.body_names:
+        if name not in mesh.body_names:
+            raise InputError(f"body '{name}' has no elements in the mesh")
+
+
+def _mesh_quality(mesh: Mesh, summary: dict, quiet: bool) -> None:
+    """Degenerate or non-convex elements are an error; else one line and summary.json."""
+    from app.mesh.quality import mesh_quality, quality_line
+
+    summary["mesh_quality"] = mesh_quality(mesh)
+    if not quiet:
+        print(quality_line(summary["mesh_quality"]), file=sys.stderr, flush=True)
+
+
+def _prescribed_load_warnings(cases: list[LoadCase], fixed: np.ndarray, rank: int) -> list[str]:
+    """Loads acting on prescribed DOFs go straight into the support reaction: say so."""
+    out = []
+    for case in cases:
+        on_fixed = case.rhs[fixed]
+        if np.any(on_fixed):
+            out.append(f"{case.name}: {np.count_nonzero(on_fixed)} of its nodal forces act on "
+                       f"prescribed DOFs (sum {np.abs(on_fixed).sum():.4g}) and are taken by "
+                       "the supports, not by the bodies; see steps[k].reactions")
+    if rank == 0:
+        for w in out:
+            print(f"warning: {w}", file=sys.stderr)
+    return out

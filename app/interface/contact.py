@@ -1,0 +1,64 @@
+"""The contact constraints of a run: every interface's rows of G from its contact
+discretisation (app/contact registry), and the per-pair law parameters (mu, adhesion and
+strength forces, bonded, frictional)."""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+
+from app.config import Config
+from app.contact.constraints import ContactConstraints
+from app.contact.discretisation import contact_discretisation
+from app.contact.pairs import ContactPairs
+from app.errors import InputError
+from app.interface.floating import FloatingModes
+from app.interface.steps import ContactStepper
+from app.mesh.model import Mesh
+
+
+class ContactSetup:
+    """Pairs of every interface, the constraint matrix G and per-pair law parameters."""
+
+    def __init__(self, cfg: Config, pairs: ContactPairs, g: sp.csr_matrix,
+                 rows: ContactConstraints | None = None):
+        self.cfg = cfg
+        self.pairs = pairs
+        self.g = g
+        self.rows = rows
+        it = pairs.interface
+        t = cfg.thickness
+        self.mu = np.array([cfg.interfaces[i].mu for i in it])
+        self.a = np.array([cfg.interfaces[i].a for i in it]) * pairs.length * t
+        self.c = np.array([cfg.interfaces[i].c for i in it]) * pairs.length * t
+        self.bonded = np.array([cfg.interfaces[i].bonded for i in it], dtype=bool)
+        self.frictional = np.array([cfg.interfaces[i].frictional for i in it], dtype=bool)
+
+    @classmethod
+    def build(cls, mesh: Mesh, cfg: Config) -> ContactSetup:
+        found = []
+        for i, itf in enumerate(cfg.interfaces):
+            for key in ("slave", "master"):
+                name = getattr(itf, key)
+                if name not in mesh.curves:
+                    raise InputError(f"interface '{itf.name}': {key} curve '{name}' is not in "
+                                     f"the mesh (curves: {sorted(mesh.curves)})")
+            build = contact_discretisation(itf.discretisation, f"interface '{itf.name}'")
+            found.append(build(mesh, itf, i))
+        rows = ContactConstraints.concatenate(found)
+        pairs = rows.pairs
+        dup, counts = np.unique(pairs.slave, return_counts=True)
+        if np.any(counts > 1):
+            n = int(dup[counts > 1][0])
+            raise InputError(f"slave node at x={mesh.points[n, 0]:.4g}, "
+                             f"y={mesh.points[n, 1]:.4g} belongs to two interfaces: a slave "
+                             "curve may be slave on one interface only")
+        return cls(cfg, pairs, rows.matrix(mesh.n_nodes), rows)
+
+    def bodies(self, mesh: Mesh) -> set[int]:
+        nb = mesh.node_body()
+        return set(nb[self.pairs.slave].tolist()) | set(nb[self.pairs.master.ravel()].tolist())
+
+    def stepper(self, c_mat: np.ndarray, cases, unit, rhs,
+                floating: FloatingModes | None) -> ContactStepper:
+        return ContactStepper(self, c_mat, cases, unit, rhs, floating)

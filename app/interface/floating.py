@@ -1,0 +1,207 @@
+"""Bodies held only by contact: their rigid (and, with CS-FEM-1SD, hourglass) modes.
+
+The supports leave some modes of a body free; a body in contact keeps them as LCP
+unknowns (amplitudes alpha) and pins one DOF per mode so that K is regular. A body with a
+free mode and no contact is an error that names it. Plain numpy on the mesh (rank 0).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+import scipy.linalg as sla
+
+from app.config import Config
+from app.discretisation.bulk import zero_energy_modes
+from app.errors import SolveError
+from app.mesh.model import Mesh
+
+if TYPE_CHECKING:
+    from app.interface.contact import ContactSetup
+
+
+def rigid_modes(points: np.ndarray, nodes: np.ndarray) -> np.ndarray:
+    """Rigid-body modes (tx, ty, rotation about the nodes' centroid), shape (2*len, 3)."""
+    xc = points[nodes] - points[nodes].mean(axis=0)
+    r = np.zeros((2 * nodes.size, 3))
+    r[0::2, 0] = 1.0
+    r[1::2, 1] = 1.0
+    r[0::2, 2] = -xc[:, 1]
+    r[1::2, 2] = xc[:, 0]
+    return r
+
+
+MODE_NAMES = ("translation x", "translation y", "rotation")
+
+
+def free_rigid_modes(mesh: Mesh, fixed: np.ndarray) -> dict[int, np.ndarray]:
+    """Rigid-body modes the supports leave free, per body.
+
+    Returns body index -> (3, r) coefficients of the free combinations of
+    (tx, ty, rotation about the body centroid), for bodies with r > 0 free modes.
+    """
+    node_body = mesh.node_body()
+    is_fixed = np.zeros(2 * mesh.n_nodes, dtype=bool)
+    is_fixed[fixed] = True
+    out = {}
+    for b in range(len(mesh.body_names)):
+        nodes = np.flatnonzero(node_body == b)
+        if nodes.size == 0:
+            continue
+        r = rigid_modes(mesh.points, nodes)
+        dofs = np.stack([2 * nodes, 2 * nodes + 1], axis=1).ravel()
+        a = r[is_fixed[dofs]]
+        ext = np.ptp(mesh.points[nodes], axis=0).max()
+        a = a * np.array([1.0, 1.0, 1.0 / ext])
+        if a.shape[0] == 0:
+            out[b] = np.eye(3)
+            continue
+        _, s, vt = np.linalg.svd(a, full_matrices=True)
+        rank = int(np.sum(s > 1e-10 * max(s[0], 1.0)))
+        if rank < 3:
+            out[b] = (vt[rank:].T / np.array([1.0, 1.0, ext])[:, None])
+    return out
+
+
+def describe_modes(modes: np.ndarray, centroid: np.ndarray | None = None) -> str:
+    """Words for free rigid modes (3, r), e.g. 'translation y, rotation about (0, 1)'."""
+    return ", ".join(mode_names(modes, centroid))
+
+
+def mode_names(modes: np.ndarray, centroid: np.ndarray | None = None) -> list[str]:
+    """One name per free rigid mode; modes are coefficients of (tx, ty, rotation about
+    `centroid`), shape (3, r)."""
+    if modes.shape[1] == 3:
+        return ["translation x", "translation y", "rotation"]
+    names = []
+    for k in range(modes.shape[1]):
+        tx, ty, th = modes[:, k] / np.abs(modes[:, k]).max()
+        if abs(th) > 1e-6 and centroid is not None:
+            x0, y0 = centroid[0] - ty / th, centroid[1] + tx / th
+            names.append(f"rotation about (x={x0:.4g}, y={y0:.4g})")
+        else:
+            v = np.abs([tx, ty, th])
+            names.append(" + ".join(MODE_NAMES[i] for i in range(3) if v[i] > 1e-6))
+    return names
+
+
+@dataclass
+class FloatingModes:
+    """Rigid-body modes of bodies held only by contact.
+
+    r: (2n, n_modes) displacement fields of the modes; pins: DOFs fixed to make the
+    factorization regular (their reactions vanish at equilibrium); names: per mode text.
+    """
+
+    r: np.ndarray
+    pins: np.ndarray
+    names: list[str]
+
+
+def floating_modes(mesh: Mesh, cfg: Config, fixed: np.ndarray,
+                   contact: ContactSetup | None, disc=None) -> FloatingModes | None:
+    """Zero-energy modes per body left by the supports; bodies without contact must have
+    none. Rigid modes come from geometry; with CS-FEM-1SD the hourglass modes of bodies
+    in contact are found from the body stiffness and handled the same way."""
+    free = free_rigid_modes(mesh, fixed)
+    in_contact = set() if contact is None else contact.bodies(mesh)
+    hourglass = disc is not None and disc.hourglass
+    if hourglass:
+        for b in in_contact:
+            free.setdefault(b, np.zeros((3, 0)))
+    if not free:
+        return None
+    _check_held(mesh, cfg, fixed, contact)
+    cols, pins, names = [], [], []
+    node_body = mesh.node_body()
+    for b, modes in sorted(free.items()):
+        nodes = np.flatnonzero(node_body == b)
+        centroid = mesh.points[nodes].mean(axis=0)
+        text = describe_modes(modes, centroid)
+        if b not in in_contact:
+            raise SolveError(
+                f"body '{mesh.body_names[b]}' is free to move ({text}): nothing holds it; "
+                "add a [[support]] on one of its curves or an [[interface]] to another body"
+            )
+        rb = rigid_modes(mesh.points, nodes) @ modes  # (2 nb, r_b)
+        labels = mode_names(modes, centroid) if modes.shape[1] else []
+        if hourglass:  # rigid and hourglass modes together, from the body stiffness
+            rb = zero_energy_modes(mesh, disc, b, fixed)
+            labels = [f"zero-energy mode {i + 1}" for i in range(rb.shape[1])]
+            if rb.shape[1] == 0:
+                continue
+        dofs = np.stack([2 * nodes, 2 * nodes + 1], axis=1).ravel()
+        _, _, piv = sla.qr(rb.T, pivoting=True, mode="economic")
+        pins.append(dofs[piv[: rb.shape[1]]])
+        full = np.zeros((2 * mesh.n_nodes, rb.shape[1]))
+        full[dofs] = rb
+        cols.append(full)
+        names += [f"{mesh.body_names[b]}: {t}" for t in labels]
+    if not cols:
+        return None
+    return FloatingModes(np.hstack(cols), np.concatenate(pins).astype(np.int64), names)
+
+
+def _check_held(mesh: Mesh, cfg: Config, fixed: np.ndarray,
+                contact: ContactSetup | None) -> None:
+    """Bodies linked by interfaces must include at least one support among them."""
+    if contact is None:
+        return
+    nb = mesh.node_body()
+    n_b = len(mesh.body_names)
+    parent = list(range(n_b))
+
+    def find(i: int) -> int:
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    for s, m in zip(nb[contact.pairs.slave], nb[contact.pairs.master[:, 0]], strict=True):
+        parent[find(int(s))] = find(int(m))
+    supported = set(nb[np.unique(fixed // 2)].tolist()) if fixed.size else set()
+    groups: dict[int, list[int]] = {}
+    for b in range(n_b):
+        groups.setdefault(find(b), []).append(b)
+    for members in groups.values():
+        if not supported.intersection(members):
+            names = ", ".join(f"'{mesh.body_names[b]}'" for b in members)
+            raise SolveError(f"bodies {names} are free to move together: no support holds "
+                             "any of them; add a [[support]]")
+
+
+def split_modes(n_modes: np.ndarray, t_modes: np.ndarray,
+                rel: float = 1e-9) -> tuple[np.ndarray, np.ndarray]:
+    """Orthonormal bases (r, r1), (r, r0) of the floating-mode amplitudes that move some
+    pair ([N; T] v != 0) and of those that move none (see `undetermined_modes`)."""
+    a = np.vstack([n_modes, t_modes])
+    r = a.shape[1]
+    if a.shape[0] == 0:
+        return np.zeros((r, 0)), np.eye(r)
+    _, sv, vt = np.linalg.svd(a, full_matrices=True)
+    sv = np.concatenate([sv, np.zeros(r - sv.size)])
+    null = sv <= rel * max(sv.max(initial=0.0), 1e-300)
+    return vt[~null].T, vt[null].T
+
+
+def undetermined_modes(n_modes: np.ndarray, t_modes: np.ndarray, names: list[str],
+                       rel: float = 1e-9) -> list[str]:
+    """Floating-body modes (or combinations) that no contact force can resist.
+
+    n_modes (m, r), t_modes (mf, r): normal and tangential (frictional pairs) gap change per
+    unit mode amplitude. A combination v with [N; T] v = 0 moves no pair: under a load with
+    no component on it, every amplitude is an equilibrium (the answer is not unique; the LCP
+    returns one), and under a load with such a component there is none. Returns one text
+    per such direction, naming its dominant mode.
+    """
+    if not names:
+        return []
+    a = np.vstack([n_modes, t_modes])
+    if a.shape[0] == 0:
+        return list(names)
+    _, sv, vt = np.linalg.svd(a, full_matrices=True)
+    sv = np.concatenate([sv, np.zeros(vt.shape[0] - sv.size)])
+    null = vt[sv <= rel * max(sv.max(initial=0.0), 1e-300)]
+    return [names[int(np.argmax(np.abs(v)))] for v in null]

@@ -1,0 +1,144 @@
+"""Size of a scene's mesh and run, estimated from the geometry and element sizes alone.
+
+Used before meshing to refuse, in one line, a run that the machine cannot hold (for
+example `--mesh-size 1e-4` on a 2 x 2 scene: about 10^9 elements). An unstructured body
+of area A and element size h has about A / h^2 quadrilaterals; a `[[mesh.refine]]` entry
+(size s, constant within `flat` f, growing linearly to h over `distance` D) adds about
+L (f / s^2 + D / (s h)) near curves of total length L and pi f^2 / s^2 +
+2 pi D^2 / (h - s)^2 (ln(h / s) + s / h - 1) near each point (the integral of 1 / size^2
+over the zone), capped at A / s^2. A structured rectangle has exactly nx ny elements.
+Nodes are about the elements, and DOFs twice that. The memory figure is the measured
+peak of MUMPS LU runs here (about 4 kB per DOF, see README).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass
+
+import numpy as np
+
+from app.errors import InputError
+from app.scene import BodySpec, Refine, Scene
+
+BYTES_PER_DOF = 4000.0
+"""Peak memory per DOF of a run with MUMPS LU (the Hertz scene at 1.12 M DOFs needed
+4.1 GB through the factorization and 6.7 GB with 751 contact pairs)."""
+
+
+@dataclass
+class SizeEstimate:
+    """Estimated elements, DOFs and peak memory (bytes) of a run."""
+
+    elements: float
+    dofs: float
+    memory: float
+
+    def text(self) -> str:
+        if not math.isfinite(self.memory):
+            return "an unbounded number of elements (the element sizes underflow)"
+        return (f"about {self.elements:.2g} elements, {self.dofs:.2g} DOFs and "
+                f"{self.memory / 1e9:.3g} GB")
+
+
+def machine_memory() -> float:
+    """Physical memory of this machine in bytes (inf if unknown)."""
+    try:
+        return float(os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"))
+    except (ValueError, OSError, AttributeError):
+        return math.inf
+
+
+def body_area(spec: BodySpec) -> float:
+    """Area of a body shape (config units squared)."""
+    s = spec.shape
+    if s["type"] == "rectangle":
+        return float(s["width"] * s["height"])
+    if s["type"] == "disk":
+        return math.pi * s["radius"] ** 2
+    if s["type"] == "half_disk":
+        return 0.5 * math.pi * s["radius"] ** 2
+    p = np.asarray(s["points"], float)
+    return 0.5 * abs(float(np.sum(p[:, 0] * np.roll(p[:, 1], -1) - np.roll(p[:, 0], -1)
+                                  * p[:, 1])))
+
+
+def _bbox(spec: BodySpec) -> tuple[np.ndarray, np.ndarray]:
+    pts = np.array([q for side in spec.sides for pc in side.pieces for q in (pc.p0, pc.p1)])
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    for side in spec.sides:  # arcs bulge beyond their end points
+        for pc in side.pieces:
+            if pc.kind == "arc":
+                lo = np.minimum(lo, pc.center - pc.radius)
+                hi = np.maximum(hi, pc.center + pc.radius)
+    return lo, hi
+
+
+def _refined(spec: BodySpec, r: Refine, bodies: list[BodySpec], h: float, scale: float,
+             area: float) -> float:
+    """Extra elements of one refinement entry in one unstructured body."""
+    s = r.size * scale
+    if s >= h:
+        return 0.0
+    reach = r.flat + r.distance
+    lo, hi = _bbox(spec)
+    lo, hi = lo - reach, hi + reach
+    length = 0.0
+    for c in r.curves:
+        for other in bodies:
+            for pc in other.curve_pieces(c):
+                ends = np.array([pc.p0, pc.p1])
+                if np.all(ends.max(axis=0) >= lo) and np.all(ends.min(axis=0) <= hi):
+                    length += pc.length
+    n = length * (r.flat / s**2 + r.distance / (s * h))
+    k = (h - s) / max(r.distance, 1e-300)
+    for x, y in r.points:
+        if lo[0] <= x <= hi[0] and lo[1] <= y <= hi[1]:
+            n += math.pi * r.flat**2 / s**2
+            n += 2 * math.pi / k**2 * (math.log(h / s) + s / h - 1) if r.distance else 0.0
+    return min(n, area / s**2)
+
+
+def estimate(scene: Scene, scale: float = 1.0) -> SizeEstimate | None:
+    """Estimated size of the mesh a scene builds at this size scale; None for mesh.file."""
+    if scene.file is not None:
+        return None
+    with np.errstate(all="ignore"):  # a tiny scale gives inf, which is refused
+        elements = float(sum(_body_elements(spec, scene, np.float64(scale))
+                             for spec in scene.bodies))
+    if not math.isfinite(elements):  # inf, or nan from inf - inf
+        elements = math.inf
+    dofs = 2.0 * elements
+    return SizeEstimate(elements, dofs, BYTES_PER_DOF * dofs)
+
+
+def _body_elements(spec: BodySpec, scene, scale: np.float64) -> float:
+    """Estimated elements of one body (inf when the sizes underflow)."""
+    h = spec.size * scale
+    if not h > 0:
+        return math.inf
+    if spec.structured:
+        if "divisions" in spec.shape:
+            nx, ny = (max(1.0, k / scale) for k in spec.shape["divisions"])
+        else:
+            nx = max(1.0, spec.shape["width"] / h)
+            ny = max(1.0, spec.shape["height"] / h)
+        return nx * ny
+    area = body_area(spec)
+    if any(not r.size * scale > 0 for r in scene.refine):
+        return math.inf
+    return area / h**2 + sum(_refined(spec, r, scene.bodies, h, scale, area)
+                             for r in scene.refine)
+
+
+def check_size(scene: Scene, scale: float = 1.0, *, allow_large: bool = False,
+               option: str = "--allow-large") -> SizeEstimate | None:
+    """Refuse (InputError, one line) a run whose estimated memory exceeds this machine's."""
+    est = estimate(scene, scale)
+    available = machine_memory()
+    if est is not None and not allow_large and est.memory > available:
+        raise InputError(f"the run would need {est.text()}, more than this machine's "
+                         f"{available / 1e9:.3g} GB of memory: use a larger --mesh-size or "
+                         f"mesh.size, or {option} to run anyway")
+    return est

@@ -1,0 +1,83 @@
+"""Per-pair contact output of a step (the /contact group of step_NNNN.h5 and
+contact.xdmf) and the interface-law check recomputed from the displacement field."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from app.interface.steps import StepSolution
+
+
+def contact_arrays(setup, result: StepSolution, u: np.ndarray,
+                   thickness: float) -> tuple[dict, dict]:
+    """Per-pair arrays for the step file, and the KKT check (`kkt_check`).
+
+    setup: the run's ContactSetup (pairs, G, rows, mu, frictional); result: the step's
+    LCP result (lam, state, tau_prev, slip, debonded_step, a, c, f_scale); u: (2n,).
+    """
+    pr = setup.pairs
+    m = pr.n_pairs
+    gu = setup.g @ u
+    gap_u = pr.g0 + gu[:m]
+    tau_u = gu[m:]
+    p, q = result.lam[:m], result.lam[m:]
+    scale_len = pr.length * thickness
+    data = {
+        "position": pr.position,
+        "x": pr.position[:, 0],
+        "y": pr.position[:, 1],
+        "interface": pr.interface.astype(np.int64),
+        "slave": pr.slave.astype(np.int64),
+        "master": pr.master.astype(np.int64),
+        "xi": pr.xi,
+        "normal": pr.normal,
+        "tangent": pr.tangent,
+        "g0": pr.g0,
+        "length": pr.length,
+        "p": p / scale_len,
+        "q": q / scale_len,
+        "p_force": p,
+        "q_force": q,
+        "gap": gap_u,
+        "tau": tau_u,
+        "tau_prev": result.tau_prev,
+        "slip_increment": tau_u - result.tau_prev,
+        "slip": result.slip,
+        "state": result.state.astype(np.int64),
+        "debonded_step": result.debonded_step.astype(np.int64),
+        "mu": setup.mu,
+        "a_force": result.a,
+        "c_force": result.c,
+    }
+    if setup.rows is not None:  # the rows of G (the KKT check of tests/support.py)
+        data |= {"g_cols": setup.rows.cols, "g_normal": setup.rows.g_normal,
+                 "g_tangent": setup.rows.g_tangent}
+    kkt = kkt_check(gap_u, tau_u, result.tau_prev, p, q, setup.mu, result.a, result.c,
+                    setup.frictional, u_scale=float(np.abs(u).max(initial=0.0)),
+                    f_scale=result.f_scale)
+    return data, kkt
+
+
+
+
+def kkt_check(gap, tau, tau_prev, p, q, mu, a, c, frictional, *, u_scale: float = 0.0,
+              f_scale: float = 0.0) -> dict:
+    """Largest violations of METHOD section 4, relative to the data's scales.
+
+    u_scale / f_scale: displacement and force scales of the problem (the largest
+    displacement of the step's field and the largest load), floors for the normalisation.
+    """
+    fs = max(np.abs(p).max(initial=0.0), np.abs(q).max(initial=0.0), np.abs(a).max(initial=0),
+             np.abs(c).max(initial=0.0), f_scale, 1e-300)
+    us = max(np.abs(gap).max(initial=0.0), np.abs(tau).max(initial=0.0), u_scale, 1e-300)
+    bound = mu * p + c
+    dtau = np.where(frictional, tau - tau_prev, 0.0)
+    slipping = np.abs(dtau) > 1e-6 * us
+    direction = np.where(slipping, np.abs(q + np.sign(dtau) * bound), 0.0)
+    return {
+        "gap": float(max(0.0, -gap.min(initial=0.0)) / us),
+        "normal_force": float(max(0.0, -(p + a).min(initial=0.0)) / fs),
+        "complementarity": float(np.abs(gap * (p + a)).max(initial=0.0) / (us * fs)),
+        "friction_bound": float(max(0.0, (np.abs(q) - bound).max(initial=0.0)) / fs),
+        "slip_direction": float(direction.max(initial=0.0) / fs),
+    }

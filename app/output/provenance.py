@@ -1,0 +1,53 @@
+"""Provenance of a run for summary.json: what ran, with which inputs, where and when."""
+
+from __future__ import annotations
+
+import datetime
+import json
+import platform
+import subprocess
+import sys
+from pathlib import Path
+
+from petsc4py import PETSc
+
+ROOT = Path(__file__).resolve().parents[2]
+"""The checkout holding the code (app/output/provenance.py -> the project folder)."""
+
+
+def git_version(root: Path = ROOT) -> dict | None:
+    """{"commit", "dirty"} of the checkout holding the code, or None outside git."""
+    try:
+        commit = subprocess.run(["git", "-C", str(root), "rev-parse", "HEAD"],
+                                capture_output=True, text=True, timeout=10)
+        if commit.returncode != 0:
+            return None
+        status = subprocess.run(["git", "-C", str(root), "status", "--porcelain",
+                                 "--untracked-files=no"], capture_output=True, text=True,
+                                timeout=10)
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return {"commit": commit.stdout.strip(), "dirty": bool(status.stdout.strip())}
+
+
+def jsonable(value):
+    """A copy that json can write (TOML dates and times become ISO strings)."""
+    return json.loads(json.dumps(value, default=str))
+
+
+def provenance(raw: dict, overrides: list[str], ranks: int) -> dict:
+    """The resolved config (after --set), the overrides, the PETSc options in force, the
+    project version, the start time (UTC, ISO 8601) and the number of ranks."""
+    return {
+        "start_time": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
+        "ranks": ranks,
+        "argv": list(sys.argv),
+        "overrides": list(overrides),
+        "config_resolved": jsonable(raw),
+        "petsc_options": {k: str(v) for k, v in sorted(PETSc.Options().getAll().items())},
+        "version": {"app": getattr(sys.modules.get("app"), "__version__", None),
+                    "git": git_version(),
+                    "python": platform.python_version(),
+                    "petsc": ".".join(map(str, PETSc.Sys.getVersion()))},
+        "host": platform.node(),
+    }

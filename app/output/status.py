@@ -1,0 +1,386 @@
+"""A truthful run status: the output-folder lock, stale files of an earlier run, SIGINT /
+SIGTERM, a full disk, non-finite results, and the final summary.json on every exit.
+
+`RunGuard` wraps a run: on entry rank 0 locks OUT (fcntl lock on OUT/.lock; a second
+run into the same folder is refused) and removes the files an earlier run of this tool
+left there (step_NNNN.h5, the XDMF indexes, mesh.h5, their .tmp files); on exit it
+writes summary.json with status `completed`, `failed` or `interrupted` and the reason,
+removes half-written temporary files and releases the lock.
+"""
+
+from __future__ import annotations
+
+import fcntl
+import os
+import re
+import signal
+import sys
+from pathlib import Path
+
+import numpy as np
+from petsc4py import PETSc
+
+from app.errors import InputError, SolveError
+
+LOCK_NAME = ".lock"
+STALE = re.compile(r"^(step_\d{4,}\.h5|results\.xdmf|contact\.xdmf|mesh\.h5|summary\.json)"
+                   r"(\.tmp)?$")
+"""Files this tool writes into OUT (and their temporary names)."""
+TEMPORARY = re.compile(r"^(step_\d{4,}\.h5|results\.xdmf|contact\.xdmf|mesh\.h5|"
+                       r"summary\.json)\.tmp$")
+EXIT_SIGNAL = {"SIGINT": 130, "SIGTERM": 143}
+
+
+class RunInterrupted(BaseException):
+    """The run was stopped by a signal (SIGINT or SIGTERM); args[0] is the signal name.
+    A BaseException, as KeyboardInterrupt: `except Exception` blocks let it through."""
+
+    summary: dict | None = None  # the run's summary when the guard saw the signal
+
+    @property
+    def signal_name(self) -> str:
+        return self.args[0] if self.args else "SIGINT"
+
+    @property
+    def exit_code(self) -> int:
+        return EXIT_SIGNAL.get(self.signal_name, 130)
+
+    def __str__(self) -> str:
+        return self.args[1] if len(self.args) > 1 else f"interrupted by {self.signal_name}"
+
+
+def _raise_sigterm(signum, frame):
+    raise RunInterrupted("SIGTERM")
+
+
+def arm_signals():
+    """SIGTERM raises RunInterrupted, SIGINT KeyboardInterrupt; returns the previous SIGTERM
+    handler. Call again after gmsh ran: gmsh.finalize() resets both to the defaults."""
+    try:
+        old = signal.signal(signal.SIGTERM, _raise_sigterm)
+        if signal.getsignal(signal.SIGINT) is signal.default_int_handler:
+            signal.signal(signal.SIGINT, signal.default_int_handler)
+    except ValueError:  # not the main thread
+        return None
+    return old
+
+
+_PENDING: list[str] = []
+_ON_FAILURE: list = []
+
+
+def on_failure(fn) -> None:
+    """Call fn() (rank 0) when the run fails or is interrupted, before summary.json is
+    written (e.g. to put the XDMF indexes back to the completed steps)."""
+    _ON_FAILURE.append(fn)
+
+
+def _record_signal(signum, frame):
+    _PENDING.append(signal.Signals(signum).name)
+
+
+def hold_signals() -> None:
+    """Defer SIGINT and SIGTERM (while a step's files and summary.json are written, so
+    that the files on disk and the summary agree); `release_signals` acts on them."""
+    _PENDING.clear()
+    try:
+        signal.signal(signal.SIGINT, _record_signal)
+        signal.signal(signal.SIGTERM, _record_signal)
+    except ValueError:  # not the main thread
+        pass
+
+
+def release_signals() -> None:
+    """Put the run's handlers back; raise for a signal that came while they were held."""
+    try:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+    except ValueError:
+        return
+    arm_signals()
+    if _PENDING:
+        if _WATCHDOG:
+            _WATCHDOG[-1].handled.set()  # stopping here, in Python code
+        name = _PENDING[0]
+        _PENDING.clear()
+        if name == "SIGINT":
+            raise KeyboardInterrupt
+        raise RunInterrupted(name)
+
+
+def lock_folder(out: Path):
+    """Create OUT, take its lock (non-blocking); returns the open lock file."""
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        fh = open(out / LOCK_NAME, "a")
+    except OSError as exc:
+        raise InputError(f"--out {out}: cannot write there ({exc.strerror})") from None
+    try:
+        fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        fh.close()
+        raise InputError(f"--out {out}: another run is writing into this folder (it holds "
+                         f"{out / LOCK_NAME}); wait for it or choose another --out") from None
+    return fh
+
+
+def clear_files(out: Path, pattern: re.Pattern = STALE) -> list[str]:
+    """Remove the files of OUT whose names match (this tool's output only)."""
+    removed = []
+    for p in sorted(out.iterdir()):
+        if pattern.match(p.name) and p.is_file():
+            try:
+                p.unlink()
+                removed.append(p.name)
+            except OSError:
+                pass
+    return removed
+
+
+def check_finite(step: int, n_steps: int, u: np.ndarray, energy: float) -> None:
+    """Non-finite displacements or strain energy fail the step (SolveError)."""
+    bad = [name for name, ok in (("displacements", bool(np.all(np.isfinite(u)))),
+                                 ("strain energy", bool(np.isfinite(energy)))) if not ok]
+    if bad:
+        raise SolveError(f"step {step}/{n_steps}: non-finite {' and '.join(bad)} (inf or "
+                         "NaN): the loads or material values exceed the range of float64")
+
+
+def write_summary_robust(write, out: Path, summary: dict) -> bool:
+    """Write summary.json with `write` (atomic); on a full disk, remove temporary files
+    and overwrite summary.json in place. Returns False if nothing could be written."""
+    import json
+
+    try:
+        write(out, summary)
+        return True
+    except OSError:
+        clear_files(out, TEMPORARY)
+    try:
+        with open(out / "summary.json", "w") as fh:
+            fh.write(json.dumps(summary, indent=2) + "\n")
+        return True
+    except OSError:
+        return False
+
+
+def _os_reason(exc: OSError) -> str:
+    """One line for an OSError, also for h5py's (errno only inside the message)."""
+    if exc.errno:
+        return exc.strerror or os.strerror(exc.errno)
+    text = str(exc)
+    m = re.search(r"errno = (\d+)", text)
+    if m:
+        return os.strerror(int(m.group(1)))
+    return text.splitlines()[0] if text else type(exc).__name__
+
+
+PETSC_ERRORS = {55: "out of memory", 56: "no support for this operation", 62: "invalid "
+                "argument", 63: "argument out of range", 73: "object in the wrong state",
+                76: "error in an external library", 86: "unknown type"}
+
+
+def _petsc_reason(exc: Exception) -> str:
+    """One line for a PETSc.Error: its code, what the code means, the options in force."""
+    from app.petsc_options import petsc_error_line
+
+    code = getattr(exc, "ierr", None)
+    opts = " ".join(f"-{k} {v}".rstrip() for k, v in sorted(PETSc.Options().getAll().items()))
+    line = petsc_error_line(exc)
+    meaning = PETSC_ERRORS.get(code, "see the PETSc manual")
+    detail = f"{line} ({meaning})" if line and not line.startswith("error code") else \
+        f"error {code} ({meaning})"
+    return f"PETSc: {detail}; check the PETSc options in force: {opts}"
+
+
+STOP_GRACE_SECONDS = 3.0
+"""After SIGINT/SIGTERM, how long the run may take to reach Python code and stop there
+before the watchdog writes summary.json and exits (a long gmsh, MUMPS or Lemke call)."""
+
+
+class StopWatchdog:
+    """A thread that sees SIGINT/SIGTERM at once (signal.set_wakeup_fd) even while the
+    main thread is inside a long C call, where Python's handlers cannot run: if the run
+    has not stopped by itself within STOP_GRACE_SECONDS (and no step is being written),
+    it records the status `interrupted`, prints the reason and exits with 130 / 143."""
+
+    def __init__(self, guard: RunGuard, grace: float = STOP_GRACE_SECONDS):
+        import threading
+
+        self.guard = guard
+        self.grace = grace
+        self.handled = threading.Event()
+        self.writing = threading.Lock()  # held by the main thread while a step is written
+        self._r, self._w = os.pipe()
+        os.set_blocking(self._w, False)
+        self._old_fd = signal.set_wakeup_fd(self._w)
+        self._thread = threading.Thread(target=self._watch, daemon=True)
+        self._thread.start()
+
+    def _watch(self) -> None:
+        while True:
+            try:
+                data = os.read(self._r, 1)
+            except OSError:
+                return
+            if not data:
+                return
+            signum = data[0]
+            if signum not in (signal.SIGINT, signal.SIGTERM):
+                continue
+            if self.handled.wait(self.grace):
+                return
+            with self.writing:  # never in the middle of a step's files
+                if self.handled.is_set():
+                    return
+                self.guard.stop_now(signal.Signals(signum).name)
+
+    def close(self) -> None:
+        self.handled.set()
+        try:
+            signal.set_wakeup_fd(self._old_fd)
+        except ValueError:
+            pass
+        os.close(self._w)  # the thread reads EOF and ends
+        self._thread.join(timeout=5)
+        os.close(self._r)
+
+
+_WATCHDOG: list[StopWatchdog] = []
+
+
+def step_writing(active: bool) -> None:
+    """Tell the watchdog that a step's files are being written (True) or done (False)."""
+    if _WATCHDOG:
+        lock = _WATCHDOG[-1].writing
+        if active:
+            lock.acquire()
+        elif lock.locked():
+            lock.release()
+
+
+class RunGuard:
+    """Context manager around a run: lock, stale files, signals, final status."""
+
+    def __init__(self, out: Path, summary: dict, write, n_steps: int):
+        self.out = Path(out)
+        self.summary = summary
+        self.write = write
+        self.n_steps = n_steps
+        self.rank = PETSc.COMM_WORLD.getRank()
+        self._lock = None
+        self._old_term = None
+        self.removed: list[str] = []
+
+    def __enter__(self) -> RunGuard:
+        from app.parallel import collective
+
+        def start():
+            self._lock = lock_folder(self.out)
+            return clear_files(self.out)
+
+        _ON_FAILURE.clear()
+        self.removed = collective(start) or []
+        if self.rank == 0:
+            self.write(self.out, self.summary)
+        self._old_term = arm_signals()
+        try:
+            _WATCHDOG.append(StopWatchdog(self))
+        except ValueError:  # not the main thread: no watchdog
+            pass
+        return self
+
+    def stop_now(self, name: str) -> None:
+        """From the watchdog thread: record `interrupted`, print it and exit at once."""
+        import json
+
+        k = len(self.summary.get("steps", []))
+        self.summary["status"] = "interrupted"
+        self.summary["error"] = (f"interrupted by {name} during step {k + 1}/{self.n_steps} "
+                                 f"(stopped inside a long computation); {self._done()}")
+        if self.rank == 0:
+            clear_files(self.out, TEMPORARY)
+            for _ in range(5):  # the main thread may be changing the dict
+                try:
+                    text = json.dumps(self.summary, indent=2) + "\n"
+                    break
+                except RuntimeError:
+                    continue
+            else:
+                text = None
+            if text is not None:
+                try:
+                    from app.output.xdmf import atomic_write_bytes
+
+                    atomic_write_bytes(self.out / "summary.json", text.encode())
+                except OSError:
+                    pass
+            print(f"error: {self.summary['error']}", file=sys.stderr, flush=True)
+        os._exit(EXIT_SIGNAL.get(name, 130))
+
+    def __exit__(self, exc_type, exc, tb) -> bool:
+        watchdog = _WATCHDOG.pop() if _WATCHDOG else None
+        if watchdog is not None:
+            watchdog.handled.set()  # the run reached Python code and stops here
+        try:
+            return self._finish(exc)
+        finally:
+            if watchdog is not None:
+                if watchdog.writing.locked():
+                    watchdog.writing.release()
+                watchdog.close()
+            _ON_FAILURE.clear()
+            if self._old_term is not None:
+                signal.signal(signal.SIGTERM, self._old_term)
+                signal.signal(signal.SIGINT, signal.default_int_handler)
+            if self._lock is not None:
+                self._lock.close()
+
+    def _done(self) -> str:
+        k = len(self.summary.get("steps", []))
+        return f"steps 1..{k} are written in {self.out}" if k else "no step completed"
+
+    def _finish(self, exc: BaseException | None) -> bool:
+        s = self.summary
+        if exc is None:
+            return False
+        if isinstance(exc, KeyboardInterrupt | RunInterrupted):
+            name = exc.signal_name if isinstance(exc, RunInterrupted) else "SIGINT"
+            k = len(s.get("steps", []))
+            s["status"] = "interrupted"
+            s["error"] = (f"interrupted by {name} during step {k + 1}/{self.n_steps}; "
+                          f"{self._done()}")
+            self._record()
+            stop = RunInterrupted(name, s["error"])
+            stop.summary = s
+            raise stop from None
+        s["status"] = "failed"
+        if "steps" in s and "failed_step" not in s and len(s["steps"]) < self.n_steps:
+            s["failed_step"] = len(s["steps"]) + 1
+        if isinstance(exc, OSError):
+            s["error"] = (f"cannot write the results into {self.out}: {_os_reason(exc)}; "
+                          f"{self._done()}")
+            self._record()
+            raise InputError(s["error"]) from None
+        if isinstance(exc, PETSc.Error):
+            s["error"] = f"{_petsc_reason(exc)}; {self._done()}"
+            self._record()
+            raise InputError(s["error"]) from None
+        if isinstance(exc, InputError | SolveError):
+            s["error"] = str(exc)
+        else:
+            s["error"] = f"{type(exc).__name__}: {exc}"
+        self._record()
+        return False
+
+    def _record(self) -> None:
+        if self.rank != 0:
+            return
+        clear_files(self.out, TEMPORARY)
+        for fn in _ON_FAILURE:
+            try:
+                fn()
+            except OSError:
+                pass
+        _ON_FAILURE.clear()
+        if not write_summary_robust(self.write, self.out, self.summary):
+            print(f"warning: could not update {self.out / 'summary.json'}", file=sys.stderr)

@@ -1,0 +1,114 @@
+"""MPI helpers of the driver: the phase timer, rank-0 calls with broadcast errors, and
+vectors between PETSc and numpy. Every rank runs them (collective operations)."""
+
+from __future__ import annotations
+
+import resource
+import sys
+import time
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+
+import numpy as np
+from petsc4py import PETSc
+
+from app.errors import InputError, SolveError
+
+
+@dataclass
+class Timer:
+    """Wall-clock seconds per phase (max over ranks is reported) and PETSc log stages."""
+
+    seconds: dict[str, float] = field(default_factory=dict)
+    peak_mb: dict[str, float] = field(default_factory=dict)
+    quiet: bool = False
+    prefix: str = ""
+    start: float = field(default_factory=time.perf_counter)
+    _stages: dict = field(default_factory=dict)
+
+    @contextmanager
+    def phase(self, name: str):
+        t0 = time.perf_counter()  # the barriers count too: all of a run is in some phase
+        comm = PETSc.COMM_WORLD
+        if name not in self._stages:
+            self._stages[name] = PETSc.Log.Stage(name)
+        stage = self._stages[name]
+        stage.push()
+        comm.barrier()  # a phase's time includes waiting for the slowest rank
+        try:
+            yield
+        finally:
+            self.peak_mb[name] = peak_rss_mb()
+            comm.barrier()
+            stage.pop()
+            dt = time.perf_counter() - t0
+            self.seconds[name] = self.seconds.get(name, 0.0) + dt
+            if not self.quiet and comm.getRank() == 0:
+                el = time.perf_counter() - self.start
+                print(f"[{el:8.2f} s] {self.prefix}{name:<14s} {dt:8.3f} s", file=sys.stderr,
+                      flush=True)
+
+    def reduced(self) -> dict[str, float]:
+        comm = PETSc.COMM_WORLD.tompi4py()
+        out = {}
+        for k in sorted(self.seconds):
+            out[k] = comm.allreduce(self.seconds[k], op=_mpi_max())
+        return out
+
+    def memory(self) -> dict[str, float]:
+        """Peak resident memory (MB) of the whole job, summed over ranks, at the end of
+        each phase's first completion order (a running maximum)."""
+        comm = PETSc.COMM_WORLD.tompi4py()
+        return {k: round(comm.allreduce(v), 1) for k, v in sorted(self.peak_mb.items())}
+
+
+def peak_rss_mb() -> float:
+    """Peak resident memory of this process (MB): VmHWM from /proc/self/status, which
+    stays cheap under load (getrusage took milliseconds a call on a busy machine)."""
+    try:
+        with open("/proc/self/status") as fh:
+            for line in fh:
+                if line.startswith("VmHWM:"):
+                    return int(line.split()[1]) / 1024.0
+    except OSError:
+        pass
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+
+
+def _mpi_max():
+    from mpi4py import MPI
+
+    return MPI.MAX
+
+
+def collective(fn, *args, **kwargs):
+    """Run fn on rank 0 and broadcast its result, or its InputError/SolveError, to all."""
+    comm = PETSc.COMM_WORLD.tompi4py()
+    result, error = None, None
+    if comm.rank == 0:
+        try:
+            result = fn(*args, **kwargs)
+        except (InputError, SolveError) as exc:
+            error = exc
+    result, error = comm.bcast((result, error), root=0)
+    if error is not None:
+        raise error
+    return result
+
+
+def to_numpy_all(vec: PETSc.Vec) -> np.ndarray:
+    """A copy of a distributed vector on every rank."""
+    scatter, seq = PETSc.Scatter.toAll(vec)
+    scatter.scatter(vec, seq, addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+    out = seq.getArray().copy()
+    scatter.destroy()
+    seq.destroy()
+    return out
+
+
+def from_numpy(template: PETSc.Mat, values: np.ndarray) -> PETSc.Vec:
+    """A distributed vector with this rank's slice of a global numpy array."""
+    v = template.createVecLeft()
+    r0, r1 = v.getOwnershipRange()
+    v.setArray(values[r0:r1])
+    return v

@@ -1,0 +1,78 @@
+"""Checks of the user's PETSc options: solver types before the run, unused options after.
+
+- `check_solver_options`: `-ksp_type`, `-pc_type` and `-pc_factor_mat_solver_type`
+  (command line or the config's [petsc] table) must name a type PETSc knows, and no
+  `..._type` option may be given without a value. A bad one is a one-line InputError
+  before any meshing, instead of a PETSc traceback after it.
+- `unused_options`: the user's options that nothing read during the run, as PETSc's
+  `-options_left` reports them (`PetscOptionsLeftGet`, through ctypes), e.g. the
+  misspelled `-ksp_typ cg`.
+- `petsc_error_line`: the informative line of a PETSc error, for a one-line message.
+"""
+
+from __future__ import annotations
+
+import ctypes
+
+from petsc4py import PETSc
+
+from app.config_keys import suggestion
+from app.errors import InputError
+from app.petsc_lib import PETSC_INT, load_petsc
+
+
+def _type_names(cls) -> list[str]:
+    return sorted({str(v) for k, v in vars(cls).items() if not k.startswith("_")
+                   and isinstance(v, str)})
+
+
+CHECKED_TYPES = {
+    "ksp_type": lambda: _type_names(PETSc.KSP.Type),
+    "pc_type": lambda: _type_names(PETSc.PC.Type),
+    "pc_factor_mat_solver_type": lambda: _type_names(PETSc.Mat.SolverType),
+}
+"""Options whose value must be one of PETSc's registered type names."""
+
+
+def given_options(config_petsc: dict[str, str]) -> dict[str, str]:
+    """The options in force from the user: the config's [petsc] table, then the command
+    line (which wins); names without the leading dash."""
+    return {**config_petsc, **PETSc.Options().getAll()}
+
+
+def check_solver_options(config_petsc: dict[str, str]) -> None:
+    """InputError (one line) for an unknown solver type or a `*_type` option with no value."""
+    for name, value in given_options(config_petsc).items():
+        value = "" if value is None else str(value).strip()
+        if name.endswith("_type") and not value:
+            raise InputError(f"PETSc option -{name} needs a value")
+        if name in CHECKED_TYPES:
+            known = CHECKED_TYPES[name]()
+            if value.lower() not in known:
+                raise InputError(f"PETSc option -{name} {value}: unknown type"
+                                 f"{suggestion(value, known)}; known: {', '.join(known)}")
+
+
+def unused_options(user_names: set[str]) -> list[str]:
+    """Names (with the dash) of the user's options that nothing used during the run."""
+    lib = load_petsc()
+    if lib is None:
+        return []
+    n = PETSC_INT()
+    names = ctypes.POINTER(ctypes.c_char_p)()
+    values = ctypes.POINTER(ctypes.c_char_p)()
+    if lib.PetscOptionsLeftGet(None, ctypes.byref(n), ctypes.byref(names), ctypes.byref(values)):
+        return []
+    try:
+        left = [names[i].decode() for i in range(n.value)]
+    finally:
+        lib.PetscOptionsLeftRestore(None, ctypes.byref(n), ctypes.byref(names),
+                                    ctypes.byref(values))
+    return sorted(f"-{x}" for x in left if x in user_names)
+
+
+def petsc_error_line(exc: Exception) -> str:
+    """The most informative line of a petsc4py error (its last non-empty line)."""
+    lines = [ln.strip().removeprefix("[0]").strip() for ln in str(exc).splitlines()]
+    lines = [ln for ln in lines if ln and not ln.startswith("error code")]
+    return lines[-1] if lines else str(exc).strip().splitlines()[0]

@@ -1,0 +1,34 @@
+"""Hertz line contact of a cylinder on a flat: peak pressure, half-width, L2 of p(x)."""
+
+from __future__ import annotations
+
+from app.closed_form import hertz_errors, hertz_pressure
+from app.references.base import Reference, RunFigures
+
+
+def pressure_errors(params: dict, run: RunFigures) -> dict:
+    """The `hertz` entry: p(x) of the first interface against Hertz at its total force."""
+    c = run.contact
+    return {"interface": c.interface, "center_x": params["center_x"],
+            "hertz": hertz_errors(c.x, c.p, c.length, P=float(c.p_force.sum()),
+                                  R=params["radius"], E_star=c.E_star,
+                                  x0=params["center_x"], thickness=run.thickness)}
+
+
+def pressure_overlay(ref: dict, mu: float) -> dict:
+    """Hertz's p(x) for the contact plots, from a summary's `reference` entry."""
+    h, x0 = ref["hertz"], ref.get("center_x", 0.0)
+    return {"p": ("Hertz", lambda x: hertz_pressure(x - x0, h["a_hertz"], h["p0_hertz"]))}
+
+
+REFERENCE = Reference(
+    name="hertz",
+    keys={"radius": None, "center_x": 0.0},
+    errors=pressure_errors,
+    columns=((("hertz", "p_max_rel_error"), "peak_pressure"),
+             (("hertz", "half_width_rel_error"), "half_width"),
+             (("hertz", "pressure_l2_rel_error"), "pressure_l2"),
+             (("hertz", "pressure_l2_interp_rel_error"), "pressure_l2_interp")),
+    overlay=pressure_overlay,
+    needs_contact=True,
+)

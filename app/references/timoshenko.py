@@ -1,0 +1,32 @@
+"""Timoshenko & Goodier's cantilever: tip deflection and strain energy."""
+
+from __future__ import annotations
+
+from app.closed_form import timoshenko_cantilever
+from app.errors import InputError
+from app.references.base import Reference, RunFigures
+
+
+def _errors(params: dict, run: RunFigures) -> dict:
+    point = run.point_values.get(params["point"])
+    if point is None:
+        raise InputError(f"[reference] type 'timoshenko': point group '{params['point']}' "
+                         f"is not in [points] ({sorted(run.point_values)})")
+    exact = timoshenko_cantilever(params["L"], 0.0, P=params["P"], L=params["L"],
+                                  D=params["D"], E=run.E, nu=run.nu, plane=run.plane,
+                                  thickness=run.thickness)
+    tip, u_ex = point["uy"], exact["tip_deflection"]
+    e_ex = exact["strain_energy"]
+    return {"tip_deflection": tip, "tip_deflection_exact": u_ex,
+            "tip_deflection_rel_error": abs(tip - u_ex) / abs(u_ex),
+            "strain_energy_exact": e_ex,
+            "strain_energy_rel_error": abs(run.strain_energy - e_ex) / abs(e_ex)}
+
+
+REFERENCE = Reference(
+    name="timoshenko",
+    keys={"P": None, "L": None, "D": None, "point": "tip"},
+    errors=_errors,
+    columns=((("tip_deflection_rel_error",), "tip_deflection"),
+             (("strain_energy_rel_error",), "strain_energy")),
+)

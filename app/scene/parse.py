@@ -1,0 +1,250 @@
+"""The geometry part of a config ([mesh], [[body]] shapes and curves, [points]) parsed
+into typed dataclasses, once, at the edge; the mesh builder and the size estimate take
+the `Scene`. Lengths in config units, before any mesh-size scaling."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from app.config_keys import suggestion
+from app.errors import InputError
+from app.scene.geometry import Piece
+from app.scene.geometry import number as _number
+from app.scene.geometry import xy_point as _xy
+from app.scene.shapes import SHAPES
+
+REFINE_KEYS = ("curves", "points", "size", "distance", "flat")
+POINT_TOL = 1e-6  # named points must lie within POINT_TOL * body size of a mesh node
+
+
+@dataclass
+class Side:
+    """One named side of a body shape, made of consecutive pieces."""
+
+    name: str  # shape side name (bottom, arc, side0, ...)
+    curve: str | None  # physical curve name, None if unnamed
+    pieces: list[Piece]
+
+
+@dataclass
+class BodySpec:
+    """Validated geometry of one body; sides run counter-clockwise around it."""
+
+    name: str
+    size: float  # element size (config units, before `scale`)
+    shape: dict[str, Any]
+    structured: bool
+    sides: list[Side]
+    interior_points: list[np.ndarray] = field(default_factory=list)  # to embed
+
+    def curve_pieces(self, curve: str) -> list[Piece]:
+        return [p for s in self.sides if s.curve == curve for p in s.pieces]
+
+    def contains(self, xy: np.ndarray, tol: float) -> bool:
+        """True if xy lies strictly inside the body (further than tol from its boundary)."""
+        return SHAPES[self.shape["type"]].contains(self.shape, xy, tol)
+
+
+@dataclass
+class Refine:
+    """One validated `[[mesh.refine]]` entry (lengths in config units)."""
+
+    curves: list[str]
+    points: np.ndarray  # (k, 2)
+    size: float
+    distance: float
+    flat: float
+
+
+@dataclass
+class Scene:
+    """Validated geometry part of a config."""
+
+    size: float
+    file: str | None
+    bodies: list[BodySpec]
+    refine: list[Refine]
+    points: dict[str, np.ndarray]  # named points
+    source: dict = field(default_factory=dict)  # the geometry tables as written: cache key
+
+
+# ----------------------------------------------------------------------------- parsing
+
+
+def _table(v: Any, what: str) -> dict:
+    if not isinstance(v, dict):
+        raise InputError(f"{what} must be a table (got {v!r})")
+    return v
+
+
+def _shape_sides(shape: dict, where: str) -> tuple[list[tuple[str, list[Piece]]], bool]:
+    """Sides (name, pieces) counter-clockwise and the `structured` flag of a shape table."""
+    kind = shape.get("type")
+    if not isinstance(kind, str) or kind not in SHAPES:
+        raise InputError(
+            f"{where}shape.type must be one of {', '.join(SHAPES)} (got {kind!r})"
+        )
+    spec = SHAPES[kind]
+    w = f"{where}shape."
+    allowed = ("type", "structured", "divisions", *spec.keys)
+    for key in shape:
+        if key not in allowed:
+            raise InputError(
+                f"{w}{key} is not a key of a {kind}{suggestion(key, allowed)} (keys: "
+                f"{', '.join(allowed)})"
+            )
+    structured = shape.get("structured", False)
+    if not isinstance(structured, bool):
+        raise InputError(f"{w}structured must be true or false (got {structured!r})")
+    if structured and not spec.structured:
+        kinds = " or ".join(f'"{n}"' for n, sh in SHAPES.items() if sh.structured)
+        raise InputError(f"{w}structured is only supported for type = {kinds}")
+    if "divisions" in shape:
+        dv = shape["divisions"]
+        if not structured:
+            raise InputError(f"{w}divisions needs structured = true")
+        if (not isinstance(dv, list) or len(dv) != 2
+                or not all(isinstance(k, int) and not isinstance(k, bool) and k >= 1
+                           for k in dv)):
+            raise InputError(f"{w}divisions must be [nx, ny], two integers >= 1 (got {dv!r})")
+    return spec.sides(shape, w), structured
+
+
+MIN_SIDE_RATIO = 1e-9
+"""Shortest side accepted, relative to the longest side of the same body."""
+
+
+def _check_side_lengths(sides: list[tuple[str, list[Piece]]], where: str) -> None:
+    """Every side of a shape has a finite length above MIN_SIDE_RATIO of the longest."""
+    lengths = {name: sum(p.length for p in pieces) for name, pieces in sides}
+    longest = max(lengths.values())
+    for name, length in lengths.items():
+        if not (math.isfinite(length) and length > MIN_SIDE_RATIO * longest):
+            raise InputError(f"{where}shape is degenerate: side {name} has length {length:.3g} "
+                             f"against {longest:.3g} for the longest: check its dimensions")
+
+
+def _split_at(pieces: list[Piece], xy: np.ndarray, tol: float) -> list[Piece]:
+    out: list[Piece] = []
+    for piece in pieces:
+        t = piece.locate(xy, tol)
+        out.extend(piece.split(t) if t is not None else [piece])
+    return out
+
+
+def parse_scene(cfg: dict, *, need_shapes: bool | None = None) -> Scene:
+    """Validate the geometry part of a config ([mesh], [[body]], [points]).
+
+    need_shapes: False when the mesh comes from a file (body shapes are then not used);
+    by default, True unless mesh.file is set. Raises InputError naming the offending key.
+    """
+    if need_shapes is None:
+        need_shapes = not (isinstance(cfg.get("mesh"), dict) and cfg["mesh"].get("file"))
+    mesh = _table(cfg.get("mesh"), "[mesh]") if "mesh" in cfg else None
+    if mesh is None:
+        raise InputError("[mesh] section is missing: it needs at least size = <element size>")
+    file = mesh.get("file")
+    if file is not None and (not isinstance(file, str) or not file):
+        raise InputError(f"mesh.file must be a file name (got {file!r})")
+    if file is not None and "size" not in mesh:
+        size = math.nan
+    else:
+        size = _number(mesh, "size", "mesh.")
+
+    named: dict[str, np.ndarray] = {}
+    for name, v in _table(cfg.get("points", {}), "[points]").items():
+        named[name] = _xy(v, f"points.{name}")
+
+    bodies_cfg = cfg.get("body")
+    if not isinstance(bodies_cfg, list) or not bodies_cfg:
+        raise InputError("[[body]] is missing: the config needs at least one body")
+    bodies: list[BodySpec] = []
+    curve_owner: dict[str, str] = {}
+    for i, b in enumerate(bodies_cfg):
+        b = _table(b, f"body[{i}]")
+        name = b.get("name")
+        if not isinstance(name, str) or not name:
+            raise InputError(f"body[{i}].name must be a non-empty string (got {name!r})")
+        if any(x.name == name for x in bodies):
+            raise InputError(f"body name '{name}' is used twice: body names must be unique")
+        where = f"body '{name}': "
+        bsize = _number(b, "size", where) if "size" in b else size
+        if not need_shapes:
+            bodies.append(BodySpec(name, bsize, {}, False, []))
+            continue
+        if "shape" not in b:
+            raise InputError(f"{where}shape is missing: add a [body.shape] table with a type")
+        shape = _table(b["shape"], f"{where}shape")
+        raw_sides, structured = _shape_sides(shape, where)
+        _check_side_lengths(raw_sides, where)
+        valid = [s for s, _ in raw_sides]
+        curves = _table(b.get("curves", {}), f"{where}curves")
+        for side, cname in curves.items():
+            if side not in valid:
+                raise InputError(
+                    f"{where}curves.{side} is not a side of a {shape['type']}"
+                    f"{suggestion(side, valid)} (sides: {', '.join(valid)})"
+                )
+            if not isinstance(cname, str) or not cname:
+                raise InputError(f"{where}curves.{side} must be a curve name (got {cname!r})")
+            owner = curve_owner.setdefault(cname, name)
+            if owner != name:
+                raise InputError(
+                    f"curve name '{cname}' is used by bodies '{owner}' and '{name}': "
+                    "each body needs its own curve names"
+                )
+        tol = POINT_TOL * bsize
+        sides = []
+        for sname, pieces in raw_sides:
+            for xy in named.values():  # geometry vertex at every named point on a side
+                pieces = _split_at(pieces, xy, tol)
+            sides.append(Side(sname, curves.get(sname), pieces))
+        spec = BodySpec(name, bsize, shape, structured, sides)
+        if not structured:
+            spec.interior_points = [xy for xy in named.values() if spec.contains(xy, tol)]
+        bodies.append(spec)
+
+    for pname in named:
+        if pname in curve_owner:
+            raise InputError(f"points.{pname}: the name is already used by a curve")
+
+    refine: list[Refine] = []
+    ref_cfg = mesh.get("refine", [])
+    if not isinstance(ref_cfg, list):
+        raise InputError("mesh.refine must be an array of tables [[mesh.refine]]")
+    for i, r in enumerate(ref_cfg):
+        where = f"mesh.refine[{i}]."
+        r = _table(r, where[:-1])
+        for key in r:
+            if key not in REFINE_KEYS:
+                raise InputError(f"{where}{key} is not a refinement key ({', '.join(REFINE_KEYS)})")
+        rc = r.get("curves", [])
+        if not isinstance(rc, list) or not all(isinstance(c, str) for c in rc):
+            raise InputError(f"{where}curves must be a list of curve names (got {rc!r})")
+        for c in rc:
+            if need_shapes and c not in curve_owner:
+                known = ", ".join(sorted(curve_owner)) or "none"
+                raise InputError(f"{where}curves: unknown curve '{c}' (known: {known})")
+        rp = r.get("points", [])
+        if not isinstance(rp, list):
+            raise InputError(f"{where}points must be a list of points [x, y] (got {rp!r})")
+        pts = np.array([_xy(p, f"{where}points[{k}]") for k, p in enumerate(rp)]).reshape(-1, 2)
+        if not rc and not len(pts):
+            raise InputError(f"{where[:-1]} needs curves = [...] and/or points = [[x, y], ...]")
+        refine.append(
+            Refine(
+                curves=list(rc),
+                points=pts,
+                size=_number(r, "size", where),
+                distance=_number(r, "distance", where, strict=False),
+                flat=_number(r, "flat", where, strict=False, default=0.0),
+            )
+        )
+    source = {"bodies": [{k: b.get(k) for k in ("name", "shape", "size", "curves")}
+                         for b in bodies_cfg],
+              "mesh": mesh, "points": cfg.get("points", {})}
+    return Scene(size, file, bodies, refine, named, source)

@@ -1,0 +1,40 @@
+"""A simple polygon: points, counter-clockwise; sides side0, side1, ... one per edge."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from app.errors import InputError
+from app.scene.geometry import Piece, polygon_areas, xy_point
+from app.scene.shapes.base import Shape
+
+
+class Polygon(Shape):
+    name = "polygon"
+    keys = ("points",)
+
+    def sides(self, shape: dict, where: str) -> list[tuple[str, list[Piece]]]:
+        pts = shape.get("points")
+        if not isinstance(pts, list) or len(pts) < 3:
+            raise InputError(f"{where}points must be a list of at least 3 points [x, y]")
+        p = np.array([xy_point(q, f"{where}points[{i}]") for i, q in enumerate(pts)])
+        q = np.roll(p, -1, axis=0)
+        seg = np.hypot(*(q - p).T)
+        if np.any(seg <= 1e-12 * max(1.0, float(np.max(seg)))):
+            raise InputError(f"{where}points has two equal consecutive points")
+        if polygon_areas(p) <= 0:
+            raise InputError(f"{where}points must be counter-clockwise")
+        return [(f"side{i}", [Piece.line(p[i], q[i])]) for i in range(len(p))]
+
+    def contains(self, shape: dict, xy: np.ndarray, tol: float) -> bool:
+        pts = np.asarray(shape["points"], float)
+        q = np.roll(pts, -1, axis=0)
+        d = q - pts
+        t = np.clip(np.einsum("ij,ij->i", xy - pts, d) / np.einsum("ij,ij->i", d, d), 0, 1)
+        if np.min(np.hypot(*(pts + t[:, None] * d - xy).T)) <= tol:
+            return False
+        x, y = float(xy[0]), float(xy[1])
+        crosses = (pts[:, 1] > y) != (q[:, 1] > y)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            xc = pts[:, 0] + (y - pts[:, 1]) * d[:, 0] / d[:, 1]
+        return bool(np.count_nonzero(crosses & (x < xc)) % 2)

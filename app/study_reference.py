@@ -1,0 +1,200 @@
+"""Study figures that need no closed form: errors against a reference of the same model,
+observed orders of convergence and the CS-FEM energy bracket.
+
+Reference: the finest level of one method (default 4SD). Its pair pressures p(x) and
+tractions q(x) (last step, first interface), strain energy, peak pressure and named-point
+displacement are compared with every other run:
+  ref_energy      |U - U_ref| / |U_ref|
+  ref_p_max       |max p - max p_ref| / max p_ref
+  ref_pressure_l2 ||p_h - p_ref|| / ||p_ref||, p_h interpolated linearly between its pairs
+                  onto the reference pairs within 1.5 x the reference contact half-width of
+                  the contact centre (trapezoidal rule); ref_traction_l2 the same for q
+  ref_tip         |u_y - u_y,ref| / |u_y,ref| at the [reference] point (timoshenko)
+Observed order between levels l-1 and l (h halves): log2(e_{l-1} / e_l), column order_<e>.
+Energy bracket per level: U(1SD) and U(FEM-Q4), or U(16SD) if FEM-Q4 was not run; with
+loads prescribed U(1SD) is the upper bound, with displacements prescribed the lower.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+WINDOW = 1.5  # L2 window, in reference contact half-widths around the contact centre
+
+
+def profile(summary: dict, run_out: Path) -> dict:
+    """What the reference comparison needs from one run (rank 0): energy, peak pressure,
+    point displacements and the last step's (x, p, q) of interface 0 sorted by x."""
+    out = {"energy": summary["strain_energy"], "n_dofs": summary["n_dofs"],
+           "points": {k: v["uy"] for k, v in summary.get("point_values", {}).items()}}
+    steps = summary.get("steps") or []
+    path = Path(run_out) / f"step_{len(steps):04d}.h5"
+    if steps and "max_contact_pressure" in steps[-1] and path.is_file():
+        import h5py
+
+        with h5py.File(path) as f:
+            c = f["contact"]
+            sel = c["interface"][()] == 0
+            x, p, q = (c[k][()][sel] for k in ("x", "p", "q"))
+        o = np.argsort(x)
+        out |= {"x": x[o], "p": p[o], "q": q[o], "p_max": float(p.max(initial=0.0))}
+    return out
+
+
+def l2_against(x: np.ndarray, f: np.ndarray, xr: np.ndarray, fr: np.ndarray,
+               window: tuple[float, float], norm: np.ndarray | None = None) -> float:
+    """||f_h - f_ref|| / ||norm|| over window, f_h interpolated at the reference points xr
+    (sorted); norm defaults to f_ref."""
+    sel = (xr >= window[0]) & (xr <= window[1])
+    xs = xr[sel]
+    if xs.size < 2 or x.size < 2:
+        return math.nan
+    fh = np.interp(xs, x, f)
+    den = np.trapz((fr[sel] if norm is None else norm[sel]) ** 2, xs)
+    return float(np.sqrt(np.trapz((fh - fr[sel]) ** 2, xs) / den)) if den > 0 else math.nan
+
+
+def contact_window(x: np.ndarray, p: np.ndarray) -> tuple[float, float]:
+    """(lo, hi): WINDOW x the half-width of the zone where p > 0, around its centre."""
+    inside = x[p > 0]
+    if inside.size == 0:
+        return (math.nan, math.nan)
+    c, half = 0.5 * (inside.min() + inside.max()), 0.5 * (inside.max() - inside.min())
+    return (c - WINDOW * half, c + WINDOW * half)
+
+
+def add_reference_errors(rows: list[dict], profiles: dict, ref_label: str) -> str:
+    """Add ref_* and order_* columns to rows in place; returns a note naming the reference."""
+    levels = [r["level"] for r in rows if r["method"] == ref_label]
+    if not levels:
+        return "no reference (the reference method has no completed run)"
+    ref = profiles[(max(levels), ref_label)]
+    note = f"reference: level {max(levels)} of {ref_label} ({ref['n_dofs']} DOFs)"
+    win = contact_window(ref["x"], ref["p"]) if "x" in ref else None
+    has_q = "q" in ref and np.abs(ref["q"]).max(initial=0.0) > 1e-12 * ref.get("p_max", 1)
+    for r in rows:
+        pr = profiles[(r["level"], r["method"])]
+        is_ref = r["level"] == max(levels) and r["method"] == ref_label
+        vals = {"ref_energy": abs(pr["energy"] - ref["energy"]) / abs(ref["energy"])}
+        if win is not None and "x" in pr:
+            vals["ref_p_max"] = abs(pr["p_max"] - ref["p_max"]) / ref["p_max"]
+            vals["ref_pressure_l2"] = l2_against(pr["x"], pr["p"], ref["x"], ref["p"], win)
+            if has_q:
+                vals["ref_traction_l2"] = l2_against(pr["x"], pr["q"], ref["x"], ref["q"], win)
+        for name, uy in ref["points"].items():
+            if name in pr["points"] and uy != 0:
+                vals[f"ref_{name}"] = abs(pr["points"][name] - uy) / abs(uy)
+        r.update({k: (math.nan if is_ref else v) for k, v in vals.items()})
+    add_orders(rows)
+    return note
+
+
+def add_orders(rows: list[dict]) -> None:
+    """order_<col> = log2(e_{l-1} / e_l) for every err_/ref_ column, per method."""
+    cols = [k for k in dict.fromkeys(k for r in rows for k in r)
+            if k.startswith(("err_", "ref_"))]
+    for m in dict.fromkeys(r["method"] for r in rows):
+        rr = sorted((r for r in rows if r["method"] == m), key=lambda r: r["level"])
+        for prev, cur in zip(rr, rr[1:], strict=False):
+            for c in cols:
+                a, b = prev.get(c, math.nan), cur.get(c, math.nan)
+                ok = cur["level"] == prev["level"] + 1 and a > 0 and b > 0
+                cur[f"order_{c}"] = math.log2(a / b) if ok else math.nan
+
+
+def energy_bracket(rows: list[dict]) -> list[dict]:
+    """Per level with a 1SD run and a FEM-Q4 (else 16SD) run: both energies, the bracket
+    width relative to their mean, the order of the width, and each method's energy error
+    against the reference (ref_energy) for comparison with the width."""
+    out = []
+    for level in sorted({r["level"] for r in rows}):
+        by = {r["method"]: r for r in rows if r["level"] == level}
+        low = "FEM-Q4" if "FEM-Q4" in by else "16SD" if "16SD" in by else None
+        if "1SD" not in by or low is None:
+            continue
+        u1, ul = by["1SD"]["strain_energy"], by[low]["strain_energy"]
+        row = {"level": level, "n_dofs": by["1SD"]["n_dofs"], "U_1SD": u1,
+               f"U_{low}": ul, "lower_method": low,
+               "one_sd_is_upper": bool(u1 >= ul),
+               "width_rel": abs(u1 - ul) / abs(0.5 * (u1 + ul))}
+        for m, r in by.items():
+            row[f"ref_energy_{m}"] = r.get("ref_energy", math.nan)
+        out.append(row)
+    for prev, cur in zip(out, out[1:], strict=False):
+        ok = cur["level"] == prev["level"] + 1 and cur["width_rel"] > 0
+        cur["order_width"] = math.log2(prev["width_rel"] / cur["width_rel"]) if ok else math.nan
+    return out
+
+
+def _fmt(v) -> str:
+    if isinstance(v, float):
+        return "" if math.isnan(v) else f"{v:.3g}"
+    return str(v)
+
+
+def write_tables(rows: list[dict], bracket: list[dict], out: Path, note: str) -> str:
+    """Markdown tables (errors with observed orders per method; the energy bracket) in
+    OUT/study_tables.md; returns the text."""
+    cols = [k for k in dict.fromkeys(k for r in rows for k in r)
+            if k.startswith(("err_", "ref_"))]
+    lines = [f"errors (observed order in parentheses); {note}", "",
+             "| method | level | DOFs | time [s] | " + " | ".join(c for c in cols) + " |",
+             "|---" * (4 + len(cols)) + "|"]
+    for r in sorted(rows, key=lambda r: (r["method"], r["level"])):
+        cells = []
+        for c in cols:
+            o = r.get(f"order_{c}", math.nan)
+            cells.append(_fmt(r.get(c, math.nan)) + (f" ({o:.2f})" if math.isfinite(o) else ""))
+        lines.append(f"| {r['method']} | {r['level']} | {r['n_dofs']} | {r['t_total']:.2f} | "
+                     + " | ".join(cells) + " |")
+    if bracket:
+        keys = list(dict.fromkeys(k for b in bracket for k in b))
+        lines += ["", "energy bracket (width relative to the mean of the two bounds)", "",
+                  "| " + " | ".join(keys) + " |", "|---" * len(keys) + "|"]
+        lines += ["| " + " | ".join(_fmt(b.get(k, math.nan)) for k in keys) + " |"
+                  for b in bracket]
+    text = "\n".join(lines) + "\n"
+    (Path(out) / "study_tables.md").write_text(text)
+    return text
+
+
+def plot_bracket(bracket: list[dict], out: Path) -> Path:
+    """energy_bracket.png: the bracket width and each bound's energy error against the
+    reference, against DOFs."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+
+    x = np.array([b["n_dofs"] for b in bracket], dtype=float)
+    fig, ax = plt.subplots(figsize=(5.2, 3.8))
+    w = np.array([b["width_rel"] for b in bracket])
+    ax.loglog(x, w, "ks-", label=f"bracket width (rate {fitted_rate(x, w):.2f})")
+    for k in dict.fromkeys(k for b in bracket for k in b):
+        if k.startswith("ref_energy_"):
+            y = np.array([b.get(k, math.nan) for b in bracket], dtype=float)
+            if np.isfinite(y).sum() >= 1:
+                ax.loglog(x, y, "o--", ms=3, label=f"|U-U_ref|/U_ref {k[11:]} "
+                          f"(rate {fitted_rate(x, y):.2f})")
+    ax.set_xlabel("DOFs")
+    ax.set_ylabel("relative energy")
+    ax.set_title("energy bracket U(1SD) / U(" + bracket[0]["lower_method"] + ")", fontsize=9)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(out / "energy_bracket.png", dpi=90)
+    plt.close(fig)
+    return out / "energy_bracket.png"
+
+
+def fitted_rate(dofs: np.ndarray, err: np.ndarray) -> float:
+    """Convergence rate in element size h ~ DOFs^-1/2: slope of log err vs log h."""
+    ok = np.isfinite(err) & (err > 0)
+    if ok.sum() < 2:
+        return math.nan
+    h = dofs[ok] ** -0.5
+    return float(np.polyfit(np.log(h), np.log(err[ok]), 1)[0])

@@ -1,0 +1,225 @@
+"""Parameter studies: `python -m app study CONFIG --sweep KEY=V1,V2,... [--sweep ...]`.
+
+Every combination of the swept values runs once (KEY is a config path as in `--set`).
+Writes OUT/sweep.csv (one row per combination: the contact's response at the report step,
+peaks over the steps, dissipation and debonding steps, per interface), OUT/sweep_steps.csv
+(one row per combination, step and interface) and OUT/sweep_<key>.png plots.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+from petsc4py import PETSc
+
+from app.config import load_config
+from app.errors import InputError, SolveError
+from app.run import RunOptions, run
+from app.study import write_csv
+
+ZONES = ("contact", "stick", "slip", "open", "bonded")
+
+
+def split_values(text: str) -> list[str]:
+    """'0.1,0.2,[1, 2]' -> ['0.1', '0.2', '[1, 2]']: commas inside brackets/quotes kept."""
+    out, depth, cur, quote = [], 0, "", None
+    for ch in text:
+        if quote:
+            quote = None if ch == quote else quote
+        elif ch in "\"'":
+            quote = ch
+        elif ch in "[{":
+            depth += 1
+        elif ch in "]}":
+            depth -= 1
+        elif ch == "," and depth == 0:
+            out.append(cur.strip())
+            cur = ""
+            continue
+        cur += ch
+    out.append(cur.strip())
+    return [v for v in out if v]
+
+
+def parse_sweeps(items: list[str]) -> list[tuple[str, list[str]]]:
+    """['interface.bond.c=1,2'] -> [('interface.bond.c', ['1', '2'])]; InputError if bad."""
+    out = []
+    for item in items:
+        key, sep, vals = item.partition("=")
+        values = split_values(vals)
+        if not sep or not key.strip() or not values:
+            raise InputError(f"--sweep '{item}': use KEY=V1,V2,... (e.g. "
+                             "interface.contact.mu=0.1,0.2,0.3)")
+        out.append((key.strip(), values))
+    return out
+
+
+def step_rows(summary: dict) -> list[dict]:
+    """Per step and interface: resultants, max p, zone lengths, debonded pairs."""
+    rows = []
+    for st in summary.get("steps", []):
+        for name, it in (st.get("interfaces") or {}).items():
+            sl = it.get("state_lengths", {})
+            rows.append({
+                "step": st["step"], "interface": name,
+                "normal_force": it["normal_force"], "tangential_force": it["tangential_force"],
+                "max_pressure": it["max_pressure"],
+                "contact_length": it.get("contact_length", math.nan),
+                "stick_length": sl.get("stick", math.nan),
+                "slip_length": sl.get("slip+", 0.0) + sl.get("slip-", 0.0),
+                "open_length": sl.get("open", math.nan),
+                "bonded_length": sl.get("bonded", math.nan),
+                "debonded_pairs": it.get("debonded_pairs", 0), "n_pairs": it["n_pairs"],
+                "bond_strength_force": it.get("bond_strength_force", 0.0),
+                "dissipation": st.get("dissipation", 0.0),
+            })
+    return rows
+
+
+def summarize(steps: list[dict], at_step: int) -> dict:
+    """One interface's figures: values at `at_step` (1-based, <= 0 counts from the end),
+    peaks over the steps, total dissipation, debonding start and completion steps."""
+    if not steps:
+        return {}
+    k = at_step - 1 if at_step > 0 else len(steps) + at_step - 1
+    row = steps[min(max(k, 0), len(steps) - 1)]
+    out = {f"{q}": row[q] for q in ("normal_force", "tangential_force", "max_pressure")}
+    out |= {f"{z}_length": row[f"{z}_length"] for z in ZONES}
+    out["peak_normal_force"] = max(abs(s["normal_force"]) for s in steps)
+    out["peak_tangential_force"] = max(abs(s["tangential_force"]) for s in steps)
+    out["peak_max_pressure"] = max(s["max_pressure"] for s in steps)
+    out["dissipation"] = float(sum(s["dissipation"] for s in steps))
+    started = [s["step"] for s in steps if s["debonded_pairs"] > 0]
+    done = [s["step"] for s in steps if s["debonded_pairs"] >= s["n_pairs"] > 0]
+    out["debond_start_step"] = started[0] if started else math.nan
+    out["debond_complete_step"] = done[0] if done else math.nan
+    return out
+
+
+def run_sweep(config: Path, sets: list[str], sweeps: list[tuple[str, list[str]]], out: Path,
+              opts: dict, at_step: int = 0, quiet: bool = False) -> list[dict]:
+    """Run every combination; returns the sweep.csv rows. Raises SolveError if all fail."""
+    rank = PETSc.COMM_WORLD.getRank()
+    out = Path(out)
+    keys = [k for k, _ in sweeps]
+    combos = list(itertools.product(*[v for _, v in sweeps]))
+    rows, all_steps, failed = [], [], []
+    t0 = time.perf_counter()
+    for i, combo in enumerate(combos):
+        tag = f"run {i + 1}/{len(combos)} " + " ".join(
+            f"{k}={v}" for k, v in zip(keys, combo, strict=True))
+        ro = RunOptions(out=out / f"run_{i:03d}", quiet=quiet, progress_prefix=tag, **opts)
+        params = dict(zip(keys, map(_value, combo), strict=True))
+        try:  # a combination the config checks reject (e.g. c < mu a) fails alone
+            cfg = load_config(config, [*sets, *(f"{k}={v}" for k, v in zip(keys, combo,
+                                                                              strict=True))])
+            s = run(cfg, ro)
+        except (InputError, SolveError) as exc:
+            failed.append(str(exc))
+            if rank == 0:
+                print(f"[{time.perf_counter() - t0:8.2f} s] {tag}: failed: {exc}",
+                      file=sys.stderr, flush=True)
+            rows.append({**params, "status": "failed", "error": str(exc).splitlines()[0]})
+            continue
+        steps = step_rows(s)
+        for r in steps:
+            all_steps.append({**params, **r})
+        for name in dict.fromkeys(r["interface"] for r in steps):
+            mine = [r for r in steps if r["interface"] == name]
+            rows.append({**params, "status": "completed", "interface": name,
+                         "n_dofs": s["n_dofs"], "t_total": s["timings"]["total"],
+                         **summarize(mine, at_step)})
+        if rank == 0:
+            write_csv(out / "sweep.csv", rows)
+            write_csv(out / "sweep_steps.csv", all_steps)
+            if not quiet:
+                print(f"[{time.perf_counter() - t0:8.2f} s] {tag}: done", file=sys.stderr,
+                      flush=True)
+    if len(failed) == len(combos):
+        raise SolveError(f"every run of the sweep failed (first: {failed[0]})")
+    if rank == 0:
+        write_csv(out / "sweep.csv", rows)
+        plot_sweep(rows, keys, out, at_step)
+    return rows
+
+
+def _value(text: str):
+    """A TOML scalar as a number when it is one (for plotting), else the text."""
+    try:
+        return float(text)
+    except ValueError:
+        return text
+
+
+PANELS = [
+    ("resultants", ("normal_force", "tangential_force", "peak_tangential_force")),
+    ("max pressure", ("max_pressure", "peak_max_pressure")),
+    ("zone lengths", tuple(f"{z}_length" for z in ZONES)),
+    ("dissipation", ("dissipation",)),
+    ("debonding step", ("debond_start_step", "debond_complete_step")),
+]
+
+
+STYLES = ("-", "--", ":", "-.")
+
+
+def plot_sweep(rows: list[dict], keys: list[str], out: Path, at_step: int = 0) -> list[Path]:
+    """sweep_<key>.png per swept key: the contact's figures against the key's value; colour
+    = quantity, line style = interface and combination of the other keys."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.lines import Line2D
+
+    ok = [r for r in rows if r.get("status") == "completed"]
+    when = "the last step" if at_step == 0 else f"step {at_step}"
+    paths = []
+    for key in keys:
+        if not ok or not all(isinstance(r[key], float) for r in ok):
+            continue
+        others = [k for k in keys if k != key]
+        groups: dict[tuple, list[dict]] = {}
+        for r in ok:
+            groups.setdefault((r["interface"], *(r[k] for k in others)), []).append(r)
+        fig, axes = plt.subplots(2, 3, figsize=(12, 6.4))
+        for ax, (title, cols) in zip(axes.ravel(), PANELS, strict=False):
+            for j, rr in enumerate(groups.values()):
+                rr = sorted(rr, key=lambda r: r[key])
+                x = [r[key] for r in rr]
+                for i, c in enumerate(cols):
+                    y = np.array([r.get(c, math.nan) for r in rr], dtype=float)
+                    if not np.all(np.isnan(y)):
+                        ax.plot(x, y, marker="o", ms=3, color=f"C{i}",
+                                ls=STYLES[j % len(STYLES)])
+            handles = [Line2D([], [], color=f"C{i}", label=c.replace("_length", "")
+                              .replace("_", " ")) for i, c in enumerate(cols)]
+            if ax.lines:
+                ax.legend(handles=handles, fontsize=7)
+            else:
+                ax.text(0.5, 0.5, "none in any run", ha="center", transform=ax.transAxes)
+            ax.set_xlabel(key)
+            ax.set_title(title + ("" if title in ("dissipation", "debonding step")
+                                  else f" (at {when}; peaks over all steps)"
+                                  if "peak" in " ".join(cols) else f" (at {when})"),
+                         fontsize=9)
+            ax.grid(True, alpha=0.3)
+        leg = axes.ravel()[-1]
+        leg.axis("off")
+        leg.legend(handles=[Line2D([], [], color="k", ls=STYLES[j % len(STYLES)],
+                                   label=", ".join([f"interface {g[0]}"] + [
+                                       f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}"
+                                       for k, v in zip(others, g[1:], strict=True)]))
+                            for j, g in enumerate(groups)], loc="center", fontsize=8,
+                   title="line style")
+        fig.tight_layout()
+        path = out / f"sweep_{key.replace('.', '_')}.png"
+        fig.savefig(path, dpi=70)
+        plt.close(fig)
+        paths.append(path)
+    return paths

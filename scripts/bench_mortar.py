@@ -1,0 +1,154 @@
+"""Verification table: node-to-segment against mortar on the same meshes, both ways round.
+
+One JSON line per run: patch test (max |p - 10| / 10), Hertz (interpolated L2 of p at
+a/10 ... a/80), Cattaneo (stick edges, L2 of q), multibody `indent` (largest deviation of
+p from a local quadratic fit, relative to max p), frictionless Cattaneo (where it stops).
+
+    .venv/bin/python scripts/bench_mortar.py [--only patch hertz cattaneo multibody mu0
+        family] [--hertz-sizes 0.5 0.25 0.125 0.0625]
+
+`family` (not in the default list): Cattaneo as a/R -> 0 (see `family`).
+"""
+
+from __future__ import annotations
+
+import argparse
+import glob
+import json
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import h5py
+import numpy as np
+from app_runner import ENV, ROOT
+
+sys.path.insert(0, str(ROOT))
+from app.contact.smoothness import local_fit_deviation  # noqa: E402
+
+DISCS = ("node-to-segment", "mortar")
+SIDES = {  # config: (interface, default slave, default master)
+    "patch": ("interface", "upper_bottom", "lower_top"),
+    "hertz": ("contact", "cyl_arc", "block_top"),
+    "cattaneo": ("contact", "cyl_arc", "block_top"),
+    "multibody": ("indent", "cyl_arc", "block2_top"),
+}
+
+
+def run(config: str, disc: str, swapped: bool, extra: list[str]) -> tuple[dict, dict | None]:
+    """(summary or {"error"}, last step's contact arrays of the interface) of one run."""
+    itf, slave, master = SIDES[config]
+    if swapped:
+        slave, master = master, slave
+    args = ["--set", f'interface.{itf}.discretisation="{disc}"',
+            "--set", f'interface.{itf}.slave="{slave}"',
+            "--set", f'interface.{itf}.master="{master}"', *extra]
+    out = Path(tempfile.mkdtemp(prefix="mortar_bench_"))
+    try:
+        t0 = time.perf_counter()
+        res = subprocess.run([sys.executable, "-m", "app", "run", f"configs/{config}.toml",
+                              "--out", str(out), "--quiet", *args], cwd=ROOT, env=ENV,
+                             capture_output=True, text=True)
+        wall = time.perf_counter() - t0
+        s = json.loads((out / "summary.json").read_text()) if (out / "summary.json").exists() \
+            else {}
+        s["wall_seconds"] = wall
+        if res.returncode:
+            s["error"] = res.stderr.strip()[-300:]
+        files = sorted(glob.glob(str(out / "step_*.h5")))
+        if not files:
+            return s, None
+        with h5py.File(files[-1]) as f:
+            c = {k: f["contact"][k][()] for k in f["contact"]}
+        k = 2 if config == "multibody" else 0  # `indent` is the third [[interface]]
+        sel = c["interface"] == k
+        return s, {key: v[sel] for key, v in c.items() if v.shape[:1] == sel.shape}
+    finally:
+        shutil.rmtree(out, ignore_errors=True)
+
+
+def family(k: float, refines: tuple[float, ...]) -> list[dict]:
+    """Cattaneo with a/R -> 0: `cattaneo.toml` with the approach uy divided by k, the
+    contact refinement size divided by sqrt(k) x refine and its flat zone by sqrt(k)
+    (a/20 x refine at k = 1), and Q = 0.1 P (Q / (mu P) = 0.5), P measured by a first run
+    without Q. One row per refine."""
+    uy = -0.018788 / k
+    base = ["--set", f"support.1.uy={uy}", "--set", f"mesh.refine.0.flat={0.15 / k**0.5}"]
+    s, _ = run("cattaneo", "mortar", False, [*base, "--set", "load.0.total_force=[0.0,0.0]",
+                                              "--set", f"mesh.refine.0.size={0.005 / k**0.5}"])
+    p = s["reference"]["hertz"]["P"]
+    rows = []
+    for refine in refines:
+        s, c = run("cattaneo", "mortar", False, [
+            *base, "--set", f"load.0.total_force=[{0.1 * p},0.0]",
+            "--set", f"mesh.refine.0.size={0.005 / k**0.5 / refine}"])
+        ca = s.get("reference", {}).get("cattaneo", {})
+        rows.append({"case": "cattaneo_family", "k": k, "refine": refine, "uy": uy,
+                     "Q": 0.1 * p, "error": s.get("error"), "n_dofs": s.get("n_dofs"),
+                     "a": ca.get("a_hertz"), "element": 0.005 / k**0.5 / refine,
+                     "Q_over_muP": ca.get("Q_over_muP"), "stick_edges": ca.get("stick_edges"),
+                     "stick_half_width_exact": ca.get("stick_half_width_exact"),
+                     "q_l2_interp": ca.get("traction_l2_interp_rel_error")})
+    return rows
+
+
+def emit(row: dict) -> None:
+    print(json.dumps(row), flush=True)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--only", nargs="+", default=["patch", "hertz", "cattaneo", "multibody",
+                                                   "mu0"])
+    ap.add_argument("--hertz-sizes", type=float, nargs="+", default=[0.5, 0.25, 0.125, 0.0625])
+    a = ap.parse_args()
+    if "family" in a.only:
+        for k in (1, 4, 16, 64, 256):
+            for row in family(k, (1, 2)):
+                emit(row)
+    for disc in DISCS:
+        for swapped in (False, True):
+            base = {"discretisation": disc, "swapped": swapped}
+            if "patch" in a.only:
+                s, c = run("patch", disc, swapped, [])
+                emit(base | {"case": "patch", "error": s.get("error"),
+                             "max_rel_dev": float(np.abs(c["p"] - 10).max() / 10)})
+            if "hertz" in a.only:
+                for h in a.hertz_sizes:
+                    s, c = run("hertz", disc, swapped, ["--mesh-size", str(h)])
+                    hz = s.get("reference", {}).get("hertz", {})
+                    emit(base | {"case": "hertz", "mesh_size": h, "error": s.get("error"),
+                                 "n_dofs": s.get("n_dofs"), "wall_s": round(s["wall_seconds"], 2),
+                                 "element": float(np.median(c["length"][c["p"] > 0])),
+                                 "seconds": {k: round(v, 3) for k, v in
+                                             s.get("timings", {}).items()},
+                                 "p_l2_interp": hz.get("pressure_l2_interp_rel_error"),
+                                 "p_l2": hz.get("pressure_l2_rel_error")})
+            if "cattaneo" in a.only:
+                s, c = run("cattaneo", disc, swapped, [])
+                ca = s.get("reference", {}).get("cattaneo", {})
+                emit(base | {"case": "cattaneo", "error": s.get("error"),
+                             "stick_edges": ca.get("stick_edges"),
+                             "q_l2_interp": ca.get("traction_l2_interp_rel_error"),
+                             "q_l2": ca.get("traction_l2_rel_error")})
+            if "multibody" in a.only:
+                for block2 in (None, 0.02):  # default block2 mesh (0.08), or at the arc's
+                    extra = [] if block2 is None else ["--set", f"body.block2.size={block2}"]
+                    s, c = run("multibody", disc, swapped, extra)
+                    on = c["p"] > 0
+                    dev = local_fit_deviation(c["x"][on], c["p"][on])
+                    emit(base | {"case": "multibody", "block2_size": block2 or 0.08,
+                                 "error": s.get("error"), "n_in_contact": int(on.sum()),
+                                 "max_fit_deviation": float(dev.max(initial=0.0))})
+            if "mu0" in a.only:
+                s, c = run("cattaneo", disc, swapped, ["--set", "interface.contact.mu=0.0"])
+                emit(base | {"case": "cattaneo_mu0", "failed_step": s.get("failed_step"),
+                             "steps_written": len(s.get("steps", [])),
+                             "error": (s.get("error") or "")[:120]})
+
+
+if __name__ == "__main__":
+    main()

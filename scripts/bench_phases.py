@@ -1,0 +1,66 @@
+"""Benchmark: do the named phases add up to the run's total?
+
+Runs every scene in configs/ and configs/hard/ (and the Hertz scene with CS-FEM-1SD,
+whose floating cylinder's hourglass modes take an eigen-solve) with
+`python -m app run` and prints one JSON line per scene: the total seconds, the sum of the
+phases in `timings`, their ratio, and the largest phase. Scenes that stop with exit 2 on
+purpose (hourglass_1sd.toml) are reported from their summary all the same.
+
+    .venv/bin/python scripts/bench_phases.py [--skip cattaneo_many] [--ranks N]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import shutil
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+from app_runner import ENV, ROOT
+
+
+def run(config: Path, extra: list[str], ranks: int) -> dict:
+    out = Path(tempfile.mkdtemp(prefix="bench_phases_"))
+    try:
+        cmd = [sys.executable, "-m", "app", "run", str(config), "--out", str(out), "--quiet",
+               *extra]
+        if ranks > 1:
+            cmd = [shutil.which("mpiexec") or "mpiexec", "-n", str(ranks), *cmd]
+        res = subprocess.run(cmd, cwd=ROOT, env=ENV, capture_output=True, text=True)
+        path = out / "summary.json"
+        if not path.exists():
+            return {"error": res.stderr.strip()[-300:]}
+        s = json.loads(path.read_text())
+    finally:
+        shutil.rmtree(out, ignore_errors=True)
+    t = s.get("timings", {})
+    if "total" not in t:
+        return {"status": s.get("status"), "error": s.get("error", "no total")}
+    phases = {k: v for k, v in t.items() if k != "total"}
+    top = max(phases, key=phases.get)
+    return {"status": s["status"], "total_s": round(t["total"], 3),
+            "phases_s": round(sum(phases.values()), 3),
+            "phases_over_total": round(sum(phases.values()) / t["total"], 4),
+            "largest_phase": top}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--skip", nargs="*", default=["cattaneo_many"])
+    ap.add_argument("--ranks", type=int, default=1)
+    args = ap.parse_args()
+    scenes = [(p, []) for p in sorted((ROOT / "configs").glob("*.toml"))]
+    scenes += [(p, []) for p in sorted((ROOT / "configs" / "hard").glob("*.toml"))]
+    scenes.append((ROOT / "configs" / "hertz.toml", ["--sd", "1"]))
+    for path, extra in scenes:
+        if path.stem in args.skip:
+            continue
+        line = {"config": str(path.relative_to(ROOT)), "args": extra, "ranks": args.ranks}
+        print(json.dumps(line | run(path, extra, args.ranks)), flush=True)
+
+
+if __name__ == "__main__":
+    main()

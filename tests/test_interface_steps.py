@@ -1,0 +1,95 @@
+"""The modified Coulomb law per load step (app/interface/steps.py, coulomb.py), on small
+LCPs with a known answer: no mesh, no PETSc.
+
+One or two pairs with a diagonal compliance: gap = gap_free + c_n p, tau = tau_free + c_t q
+(p > 0 compression, q the tangential force on the slave along t).
+"""
+
+import numpy as np
+import pytest
+
+from app.interface.coulomb import ContactLCP
+from app.interface.steps import (
+    BONDED,
+    OPEN,
+    SLIP_MINUS,
+    SLIP_PLUS,
+    STICK,
+    InterfaceHistory,
+    solve_step,
+)
+
+CN, CT = 2.0e-3, 5.0e-3  # compliances (length / force)
+TOL = 1e-12
+
+
+def _lcp(m: int, mu: float, frictional: bool = True) -> ContactLCP:
+    c = np.diag(np.r_[np.full(m, CN), np.full(m, CT)])
+    return ContactLCP(c, np.full(m, mu), np.full(m, frictional), None, None)
+
+
+def _history(m: int, a: float = 0.0, c: float = 0.0) -> InterfaceHistory:
+    bonded = np.full(m, a > 0 or c > 0)
+    return InterfaceHistory(a=np.full(m, a), c=np.full(m, c), bonded=bonded,
+                            tau_prev=np.zeros(m), debonded_step=np.zeros(m, dtype=np.int64))
+
+
+def _step(lcp, hist, gap_free, tau_free, mu, step=1):
+    return solve_step(lcp, hist, step, np.asarray(gap_free, float), np.asarray(tau_free, float),
+                      np.full(lcp.m, mu), np.zeros(0), TOL, TOL)
+
+
+def test_stick_open_and_the_forces_that_close_the_gap():
+    lcp, hist = _lcp(2, 0.5), _history(2)
+    res = _step(lcp, hist, [-1e-3, 1e-3], [1e-4, 0.0], 0.5)
+    assert res.status == "solved"
+    np.testing.assert_allclose(res.solution.p, [1e-3 / CN, 0.0], atol=1e-10)
+    np.testing.assert_allclose(res.solution.q, [-1e-4 / CT, 0.0], atol=1e-10)  # stick
+    np.testing.assert_allclose(res.solution.gap, [0.0, 1e-3], atol=1e-14)
+    assert list(res.state) == [STICK, OPEN]
+    assert res.dissipation == pytest.approx(0.0, abs=1e-14)
+    np.testing.assert_allclose(hist.tau_prev, [0.0, 0.0], atol=1e-14)
+
+
+@pytest.mark.parametrize("sign,state", [(1.0, SLIP_PLUS), (-1.0, SLIP_MINUS)])
+def test_slip_at_the_friction_bound_dissipates(sign, state):
+    mu, pen, tau = 0.2, 1e-3, 1e-2
+    lcp, hist = _lcp(1, mu), _history(1)
+    res = _step(lcp, hist, [-pen], [sign * tau], mu)
+    p = pen / CN
+    assert res.state[0] == state
+    assert res.solution.q[0] == pytest.approx(-sign * mu * p, rel=1e-10)
+    slip = tau - mu * p * CT  # the part of tau_free the friction force cannot hold back
+    assert hist.tau_prev[0] == pytest.approx(sign * slip, rel=1e-10)
+    assert res.dissipation == pytest.approx(mu * p * slip, rel=1e-10)
+
+
+def test_frictionless_pair_has_no_tangential_force():
+    lcp, hist = _lcp(1, 0.0, frictional=False), _history(1)
+    assert lcp.size == 1
+    res = _step(lcp, hist, [-1e-3], [3e-3], 0.0)
+    assert res.solution.q[0] == 0.0 and res.state[0] == SLIP_PLUS
+
+
+def test_bond_holds_tension_below_the_adhesion_and_debonds_above():
+    a = 4.0  # adhesion force; a pull of a c_n opens a bonded pair at p = -a
+    lcp = _lcp(1, 0.3)
+    hist = _history(1, a=a, c=10.0)
+    res = _step(lcp, hist, [0.5 * a * CN], [0.0], 0.3, step=1)  # pulled apart a little
+    assert res.state[0] == BONDED and res.solution.p[0] == pytest.approx(-0.5 * a)
+    assert hist.bonded[0] and res.iterations == 1
+    res = _step(lcp, hist, [2.0 * a * CN], [0.0], 0.3, step=2)  # pulled beyond the bond
+    assert res.state[0] == OPEN and res.debonded_step[0] == 2 and res.iterations == 2
+    assert not hist.bonded[0] and hist.a[0] == 0.0 and hist.c[0] == 0.0
+    assert res.solution.p[0] == pytest.approx(0.0, abs=1e-12)
+
+
+def test_bonded_strength_holds_shear_up_to_mu_p_plus_c():
+    mu, c, pen = 0.3, 2.0, 1e-3
+    p = pen / CN
+    lcp, hist = _lcp(1, mu), _history(1, a=1.0, c=c)
+    res = _step(lcp, hist, [-pen], [0.9 * (mu * p + c) * CT], mu)
+    assert res.state[0] == BONDED and abs(res.solution.q[0]) <= mu * p + c
+    res = _step(lcp, hist, [-pen], [1.5 * (mu * p + c) * CT], mu, step=2)
+    assert res.debonded_step[0] == 2 and res.state[0] == SLIP_PLUS
+    assert res.solution.q[0] == pytest.approx(-mu * p, rel=1e-10)  # strength gone

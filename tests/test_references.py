@@ -1,0 +1,67 @@
+"""The closed-form reference registry (app/references): keys, errors, study columns."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from app.closed_form import cattaneo_traction, hertz_cylinder, hertz_pressure
+from app.errors import InputError
+from app.references import REFERENCES, ContactProfile, RunFigures, reference
+
+
+def _figures(mu: float, q_scale: float = 0.5) -> RunFigures:
+    h = hertz_cylinder(863.0, 1.0, 200e3, 0.3, 200e3, 0.3)
+    x = np.linspace(-0.2, 0.2, 401)
+    length = np.full_like(x, x[1] - x[0])
+    p = hertz_pressure(x, h["a"], h["p0"])
+    q = cattaneo_traction(x, h["a"], h["p0"], mu, q_scale) if mu else np.zeros_like(x)
+    prof = ContactProfile(x=x, p=p, q=q, length=length, p_force=p * length,
+                          q_force=q * length, stick=np.abs(x) < h["a"] * math.sqrt(1 - q_scale),
+                          mu=mu, E_star=h["E_star"], interface="contact")
+    return RunFigures(E=200e3, nu=0.3, plane="strain", thickness=1.0, strain_energy=1.0,
+                      point_values={}, contact=prof)
+
+
+def test_every_reference_has_columns_that_its_errors_produce():
+    fig = _figures(0.2)
+    tables = {"hertz": {"type": "hertz", "radius": 1.0},
+              "cattaneo": {"type": "cattaneo", "radius": 1.0}}
+    for name, table in tables.items():
+        out = reference(name).compare(table, fig)
+        for path, _ in REFERENCES[name].columns:
+            v = out
+            for key in path:
+                v = v[key]
+            assert isinstance(v, float) and v < 0.05, (name, path, v)
+
+
+def test_unknown_type_and_keys_are_one_line_errors():
+    with pytest.raises(InputError, match="use one of 'timoshenko', 'hertz', 'cattaneo'"):
+        reference("hertzz")
+    with pytest.raises(InputError, match=r"unknown key\(s\) \['radios'\]"):
+        reference("hertz").params({"type": "hertz", "radios": 1.0})
+    with pytest.raises(InputError, match="needs radius"):
+        reference("cattaneo").params({"type": "cattaneo"})
+    with pytest.raises(InputError, match="needs an \\[\\[interface\\]\\]"):
+        reference("hertz").compare({"radius": 1.0}, RunFigures(1.0, 0.3, "strain", 1.0, 1.0,
+                                                                {}))
+
+
+def test_cattaneo_without_friction_reports_nan_not_a_crash():
+    out = reference("cattaneo").compare({"type": "cattaneo", "radius": 1.0}, _figures(0.0))
+    assert math.isnan(out["cattaneo"]["traction_l2_rel_error"])
+    assert out["hertz"]["p_max_rel_error"] < 1e-3
+
+
+def test_overlay_reproduces_the_closed_form():
+    fig = _figures(0.2)
+    out = reference("cattaneo").compare({"type": "cattaneo", "radius": 1.0}, fig)
+    curves = REFERENCES["cattaneo"].overlay(out, 0.2)
+    x = fig.contact.x
+    h = out["hertz"]
+    np.testing.assert_allclose(curves["p"][1](x), hertz_pressure(x, h["a_hertz"], h["p0_hertz"]))
+    assert np.abs(curves["p"][1](x) - fig.contact.p).max() < 0.02 * fig.contact.p.max()
+    assert curves["q"][0] == "Cattaneo-Mindlin"

@@ -1,0 +1,99 @@
+"""Parameter studies (`study --sweep`, app/sweep.py) on coarse meshes: CSV, plots and the
+contact's physics (balance, friction + bond bound, sliding at mu P)."""
+
+from __future__ import annotations
+
+import csv
+
+import pytest
+from support import CONFIGS, run_cli
+
+from app.errors import InputError
+from app.sweep import parse_sweeps, split_values
+
+
+def read(path) -> list[dict]:
+    return list(csv.DictReader(open(path)))
+
+
+def test_split_and_parse_sweeps():
+    assert split_values("0.1, 0.2,[1, 2],'a,b'") == ["0.1", "0.2", "[1, 2]", "'a,b'"]
+    assert parse_sweeps(["interface.bond.c=1,2", "load.0.total_force=[0, 1],[0, 2]"]) == [
+        ("interface.bond.c", ["1", "2"]), ("load.0.total_force", ["[0, 1]", "[0, 2]"])]
+    for bad in ("mu", "=1,2", "interface.contact.mu="):
+        with pytest.raises(InputError, match="--sweep"):
+            parse_sweeps([bad])
+
+
+def test_sweep_mu_on_cattaneo_balances_the_load_below_mu_p(tmp_path):
+    out = tmp_path / "mu"
+    res = run_cli(["study", str(CONFIGS / "cattaneo.toml"), "--mesh-size", "1.0",
+                   "--sweep", "interface.contact.mu=0.1,0.2,0.4", "--out", str(out)])
+    assert res.returncode == 0, res.stderr
+    assert "run 3/3 interface.contact.mu=0.4" in res.stderr  # progress per run
+    rows = read(out / "sweep.csv")
+    assert [float(r["interface.contact.mu"]) for r in rows] == [0.1, 0.2, 0.4]
+    assert (out / "sweep_interface_contact_mu.png").stat().st_size > 5000
+    stick = []
+    for r in rows:
+        mu, p, q = (float(r[k]) for k in ("interface.contact.mu", "normal_force",
+                                          "tangential_force"))
+        assert q == pytest.approx(86.3, rel=1e-9)  # the applied tangential load
+        assert q <= mu * p
+        stick.append(float(r["stick_length"]))
+    assert stick[0] < stick[1] < stick[2]  # more friction, larger stick zone
+    for s in read(out / "sweep_steps.csv"):
+        mu = float(s["interface.contact.mu"])
+        assert abs(float(s["tangential_force"])) <= mu * float(s["normal_force"]) * (1 + 1e-9)
+
+
+def test_sweep_c_and_a_on_bonded_bounds_and_sliding(tmp_path):
+    out = tmp_path / "bond"
+    res = run_cli(["study", str(CONFIGS / "bonded.toml"), "--sweep", "interface.bond.c=1,8",
+                   "--sweep", "interface.bond.a=1,3", "--at-step", "10", "--out", str(out),
+                   "--quiet"])
+    assert res.returncode == 0, res.stderr
+    rows = read(out / "sweep.csv")
+    assert len(rows) == 4 and all(r["status"] == "completed" for r in rows)
+    for key in ("c", "a"):
+        assert (out / f"sweep_interface_bond_{key}.png").is_file()
+    peaks = {(r["interface.bond.c"], r["interface.bond.a"]): float(r["peak_tangential_force"])
+             for r in rows}
+    assert peaks[("8.0", "3.0")] > peaks[("1.0", "3.0")]  # a stronger bond resists more
+    sliding = 0
+    for s in read(out / "sweep_steps.csv"):
+        mu = 0.3
+        p, q, strength = (float(s[k]) for k in ("normal_force", "tangential_force",
+                                                "bond_strength_force"))
+        # c L: intact strength c x bonded length (thickness 1), 0 once debonded
+        assert abs(q) <= mu * max(p, 0.0) + strength + 1e-9 * max(1.0, strength)
+        slip, contact = float(s["slip_length"]), float(s["contact_length"])
+        if int(s["debonded_pairs"]) == int(s["n_pairs"]) and slip > 0 and slip == contact \
+                and float(s["open_length"]) == 0:
+            assert abs(q) == pytest.approx(mu * p, rel=1e-6)  # fully debonded, sliding
+            sliding += 1
+    assert sliding >= 4
+    for r in rows:
+        assert int(r["debond_start_step"]) <= int(r["debond_complete_step"])
+
+
+def test_sweep_and_study_exit_nonzero_when_every_run_fails(tmp_path):
+    # frictionless contact cannot carry cattaneo's tangential load: every run fails
+    args = [str(CONFIGS / "cattaneo.toml"), "--mesh-size", "1.0", "--out", str(tmp_path)]
+    res = run_cli(["study", *args, "--sweep", "interface.contact.mu=0,0.0"])
+    assert res.returncode == 2
+    assert res.stderr.strip().splitlines()[-1].startswith("error: every run of the sweep")
+    res = run_cli(["study", *args, "--set", "interface.contact.mu=0", "--levels", "1",
+                   "--methods", "4", "--quiet"])
+    assert res.returncode == 2
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: every run of the study failed")
+
+
+def test_sweep_combination_rejected_by_the_config_checks_fails_alone(tmp_path):
+    res = run_cli(["study", str(CONFIGS / "bonded.toml"), "--sweep", "interface.bond.c=0.5,4",
+                   "--out", str(tmp_path), "--quiet"])
+    assert res.returncode == 0, res.stderr
+    rows = read(tmp_path / "sweep.csv")
+    assert [r["status"] for r in rows] == ["failed", "completed"]
+    assert "c = 0.5 < mu * a" in rows[0]["error"]
