@@ -125,3 +125,23 @@ def test_failure_message_names_lemke_outcome(tmp_path):
     assert text.startswith("no static equilibrium at step 5: Lemke ended with 'secondary ray': ")
     assert "on a inaccurate" not in text and "(inaccurate" not in text
     assert "\n" not in text
+
+
+def test_mu_1e12_solves_like_mu_1e6(tmp_path):
+    """configs/hard/friction.toml with mu = 1e12 (stopped 'inaccurate' at step 5 before the
+    slip rows were scaled by 1/mu): it solves, with the states and forces of mu = 1e6
+    (stick everywhere but at one pair, where p is almost 0)."""
+    path = CONFIGS / "hard" / "friction.toml"
+    out = {}
+    for mu in ("1e12", "1e6"):
+        raw = tomllib.loads(path.read_text())
+        apply_overrides(raw, [f"interface.contact.mu={mu}"])
+        out[mu] = run(parse_config(raw, path), RunOptions(out=tmp_path / mu, quiet=True))
+        assert out[mu]["status"] == "completed"
+    for a, b in zip(out["1e12"]["steps"], out["1e6"]["steps"], strict=True):
+        assert a["states"] == b["states"]
+        fa, fb = a["interfaces"]["contact"], b["interfaces"]["contact"]
+        # (the last step has one slipping pair, whose bound mu p differs slightly)
+        assert fa["tangential_force"] == pytest.approx(fb["tangential_force"], rel=1e-6,
+                                                       abs=1e-12 * fb["normal_force"])
+        assert fa["normal_force"] == pytest.approx(fb["normal_force"], rel=1e-6)

@@ -138,6 +138,9 @@ def zero_energy_modes(mesh: Mesh, disc, body: int, fixed: np.ndarray) -> np.ndar
     free = np.flatnonzero(~np.isin(gdofs, fixed))
     kff = k[free][:, free]
     scale = abs(kff.diagonal()).max()
+    if not (np.isfinite(kff.data).all() and np.isfinite(scale) and scale > 0):
+        raise InputError(f"the stiffness of body '{mesh.body_names[body]}' is not finite or "
+                         "zero (Young's modulus out of range?)")
     if free.size <= 3000:
         w, v = np.linalg.eigh(kff.toarray())
         keep = w < 1e-9 * w[-1]

@@ -87,7 +87,12 @@ def tangential_stiffness(ctt: np.ndarray) -> tuple[np.ndarray, int]:
         ok = False
     if ok:
         return h, 0
-    lam, vec = np.linalg.eigh(0.5 * (ctt + ctt.T))
+    try:
+        lam, vec = np.linalg.eigh(0.5 * (ctt + ctt.T))
+    except np.linalg.LinAlgError:
+        raise SolveError("the tangential contact compliance has no eigen-decomposition "
+                         "(non-finite or badly scaled values): check the Young's moduli and "
+                         "the loads") from None
     top = float(np.abs(lam).max(initial=0.0))
     if top == 0.0:
         raise SolveError("the tangential compliance of every frictional pair is zero: their "
@@ -110,6 +115,9 @@ class ContactLCP:
         entry of app.lcp.solvers.LCP_SOLVERS."""
         self.solver = solver
         m = mu.size
+        if not np.isfinite(c).all():
+            raise SolveError("the contact compliance is not finite (overflow or underflow in "
+                             "the solve): check the Young's moduli and the loads")
         self.m = m
         self.fric = np.flatnonzero(frictional)
         f = self.fric
@@ -152,6 +160,14 @@ class ContactLCP:
             for bj, blk in enumerate(row):
                 big[edges[bi]:edges[bi + 1], edges[bj]:edges[bj + 1]] = blk
         self.edges = edges
+        # Rows of the slip unknowns (w = F +- q, F = mu p + c) divided by max(mu, 1): a
+        # positive row scaling keeps the LCP's solutions, and it keeps a huge mu (1e12:
+        # full stick) from burying the compliance of the p columns under the mu entries.
+        self.row_scale = np.ones(n)
+        if mf:
+            inv_mu = 1.0 / np.maximum(mu[f], 1.0)
+            self.row_scale[i0:i2] = np.concatenate([inv_mu, inv_mu])
+            big[i0:i2] *= self.row_scale[i0:i2, None]
         # Symmetric diagonal scaling z = d z', w' = d w (complementarity is kept): brings
         # compliance-sized and stiffness-sized blocks to unit diagonal for Lemke. Only the
         # scaled matrix is kept (scaled in place: one n x n array).
@@ -162,13 +178,16 @@ class ContactLCP:
         self.scaling = 1.0 / np.sqrt(ref)
         big *= self.scaling[:, None]
         big *= self.scaling[None, :]
-        self.M_scaled = big  # what Lemke gets
+        if not np.isfinite(big).all():
+            raise SolveError("the contact LCP matrix is not finite (overflow in the "
+                             "compliance): check the Young's moduli and the loads")
+        self.M_scaled = big  # what Lemke gets: R D M D (R: row_scale)
 
     @property
     def M(self) -> np.ndarray:
         """The unscaled LCP matrix (formed on demand from the scaled one: a new array)."""
         d = self.scaling
-        return self.M_scaled / d[:, None] / d[None, :]
+        return self.M_scaled / (d * self.row_scale)[:, None] / d[None, :]
 
     @property
     def size(self) -> int:
@@ -187,7 +206,7 @@ class ContactLCP:
         out = np.concatenate([qg, base + hxi, base - hxi, -eq, eq])
         # entries that are round-off of exact cancellations (e.g. F = 0 and no tangential
         # motion) are set to zero, so that Lemke does not pivot on them
-        d = self.scaling
+        d = self.scaling * self.row_scale
         big = np.abs(d * out).max(initial=0.0)
         out[np.abs(d * out) < 1e-14 * big] = 0.0
         return out
@@ -198,8 +217,11 @@ class ContactLCP:
         or a list of them tried in order (newest first); when none solves it, Lemke starts
         from its crash basis, then cold."""
         qv = self.constant(gap_free, tau_free, tau_prev, a, c, mu, e0)
+        if not np.isfinite(qv).all():
+            raise SolveError("the contact LCP's constant vector is not finite (overflow in "
+                             "the free gaps): check the loads and the Young's moduli")
         d = self.scaling
-        ms, qs = self.M_scaled, d * qv
+        ms, qs = self.M_scaled, d * self.row_scale * qv
         # warm starts: each candidate basis in turn (the newest first), then a cold start
         candidates = [b for b in (basis if isinstance(basis, list) else [basis])
                       if b is not None]
