@@ -107,6 +107,7 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """`python -m app run|study ...`; returns the exit status (0, 2, 130 or 143)."""
     argv = list(sys.argv[1:] if argv is None else argv)
     parser = _parser()
     args, petsc_args = parser.parse_known_args(argv)
@@ -119,110 +120,104 @@ def main(argv: list[str] | None = None) -> int:
     petsc4py.init([sys.argv[0]] + petsc_args)
     from petsc4py import PETSc
 
-    from app.config import load_config
     from app.errors import InputError, SolveError
-    from app.output.progress import final_line
     from app.output.status import RunInterrupted
     from app.petsc_options import petsc_error_line
-    from app.run import RunOptions, run
 
     rank = PETSc.COMM_WORLD.getRank()
-    if args.command == "study":
-        from app.study import parse_methods, run_study
-
-        try:
-            cfg = load_config(args.config, args.set)
-            if args.levels < 1 or args.first_level < 0:
-                raise InputError("--levels must be >= 1 and --first-level >= 0")
-            finest = args.refine if args.sweep else args.first_level + args.levels - 1
-            scale = check_run_input(cfg, args, finest)
-            out = output_folder(args.out, Path("out") / f"study_{args.config.stem}")
-            if args.sweep:
-                from app.sweep import parse_sweeps, run_sweep
-
-                if not 0 <= args.refine <= 8:
-                    raise InputError(f"--refine must be 0..8 (got {args.refine})")
-
-                rows = run_sweep(args.config, args.set, parse_sweeps(args.sweep), out,
-                                 {"mesh_scale": scale, "mesh_cache": out / "mesh_cache",
-                                  "refine": args.refine}, args.at_step, args.quiet)
-                if rank == 0 and not args.quiet:
-                    print(f"{len(rows)} rows -> {out / 'sweep.csv'}", file=sys.stderr)
-                return 0
-            rows = run_study(cfg, out, args.levels, parse_methods(args.methods), scale,
-                             args.quiet, args.first_level, args.remesh, args.reference_method)
-        except (InputError, SolveError) as exc:
-            if rank == 0:
-                print(f"error: {exc}", file=sys.stderr)
-            return 2
-        except RunInterrupted as exc:
-            if rank == 0:
-                print(f"error: {exc}", file=sys.stderr)
-            return exc.exit_code
-        except PETSc.Error as exc:
-            if rank == 0:
-                print(f"error: PETSc: {petsc_error_line(exc)}", file=sys.stderr)
-            return 2
-        if not rows:
-            if rank == 0:
-                print(f"error: every run of the study failed (see the lines above and "
-                      f"{out}/*/summary.json)", file=sys.stderr)
-            return 2
-        if rank == 0 and not args.quiet:
-            print(f"{len(rows)} runs -> {out / 'study.csv'}", file=sys.stderr)
-        return 0
+    command = _study_command if args.command == "study" else _run_command
     try:
-        cfg = load_config(args.config, args.set)
+        return command(args, petsc_args, rank)
+    except (InputError, SolveError) as exc:
+        message, code = f"error: {exc}", 2
+    except RunInterrupted as exc:
+        message, code = f"error: {exc}", exc.exit_code
+    except PETSc.Error as exc:
+        message, code = f"error: PETSc: {petsc_error_line(exc)}", 2
+    if rank == 0:
+        print(message, file=sys.stderr)
+    return code
+
+
+def _study_command(args, petsc_args: list[str], rank: int) -> int:
+    """`study`: a convergence study, or a parameter study with --sweep."""
+    from app.config import load_config
+    from app.errors import InputError
+    from app.study import parse_methods, run_study
+
+    cfg = load_config(args.config, args.set)
+    if args.levels < 1 or args.first_level < 0:
+        raise InputError("--levels must be >= 1 and --first-level >= 0")
+    finest = args.refine if args.sweep else args.first_level + args.levels - 1
+    scale = check_run_input(cfg, args, finest)
+    out = output_folder(args.out, Path("out") / f"study_{args.config.stem}")
+    if args.sweep:
+        from app.sweep import parse_sweeps, run_sweep
+
         if not 0 <= args.refine <= 8:
             raise InputError(f"--refine must be 0..8 (got {args.refine})")
-        scale = check_run_input(cfg, args, args.refine)
-        opts = RunOptions(
-            out=output_folder(args.out, Path("out") / args.config.stem),
-            method=args.method,
-            sd=args.sd,
-            mesh_scale=scale,
-            quiet=args.quiet,
-            mesh_cache=args.mesh_cache,
-            overrides=list(args.set),
-            refine=args.refine,
-        )
-        if opts.method and args.sd is not None and not BULK_METHODS[opts.method].sd_choices:
-            raise InputError(f"--sd does not apply to --method {opts.method}")
-        summary = run(cfg, opts)
-        if args.energy_bracket:
-            from app.bracket import add_energy_bracket
+        rows = run_sweep(args.config, args.set, parse_sweeps(args.sweep), out,
+                         {"mesh_scale": scale, "mesh_cache": out / "mesh_cache",
+                          "refine": args.refine}, args.at_step, args.quiet)
+        if rank == 0 and not args.quiet:
+            print(f"{len(rows)} rows -> {out / 'sweep.csv'}", file=sys.stderr)
+        return 0
+    rows = run_study(cfg, out, args.levels, parse_methods(args.methods), scale,
+                     args.quiet, args.first_level, args.remesh, args.reference_method)
+    if not rows:
+        raise InputError(f"every run of the study failed (see the lines above and "
+                         f"{out}/*/summary.json)")
+    if rank == 0 and not args.quiet:
+        print(f"{len(rows)} runs -> {out / 'study.csv'}", file=sys.stderr)
+    return 0
 
-            summary = add_energy_bracket(cfg, opts, summary)
-    except (InputError, SolveError) as exc:
-        if rank == 0:
-            print(f"error: {exc}", file=sys.stderr)
-        return 2
-    except RunInterrupted as exc:
-        if rank == 0:
-            if exc.summary is not None and not args.quiet:
-                print(final_line(exc.summary, opts.out), file=sys.stderr)
-            print(f"error: {exc}", file=sys.stderr)
-        return exc.exit_code
-    except PETSc.Error as exc:
-        if rank == 0:
-            print(f"error: PETSc: {petsc_error_line(exc)}", file=sys.stderr)
-        return 2
+
+def _run_command(args, petsc_args: list[str], rank: int) -> int:
+    """`run`: one scene, then the unused PETSc options and the closing line."""
+    from app.config import load_config
+    from app.errors import InputError
+    from app.output.progress import final_line
+    from app.output.status import RunInterrupted
+    from app.run import RunOptions, run, write_summary
+
+    cfg = load_config(args.config, args.set)
+    if not 0 <= args.refine <= 8:
+        raise InputError(f"--refine must be 0..8 (got {args.refine})")
+    scale = check_run_input(cfg, args, args.refine)
+    opts = RunOptions(out=output_folder(args.out, Path("out") / args.config.stem),
+                      method=args.method, sd=args.sd, mesh_scale=scale, quiet=args.quiet,
+                      mesh_cache=args.mesh_cache, overrides=list(args.set),
+                      refine=args.refine)
+    if opts.method and args.sd is not None and not BULK_METHODS[opts.method].sd_choices:
+        raise InputError(f"--sd does not apply to --method {opts.method}")
+    try:
+        summary = run(cfg, opts)
+    except RunInterrupted as exc:  # the closing line, then the one-line error in main
+        if rank == 0 and exc.summary is not None and not args.quiet:
+            print(final_line(exc.summary, opts.out), file=sys.stderr)
+        raise
+    if args.energy_bracket:
+        from app.bracket import add_energy_bracket
+
+        summary = add_energy_bracket(cfg, opts, summary)
     unused = warn_unused_options(cfg, petsc_args, rank)
     if unused:
-        from app.run import write_summary
-
         summary["petsc_options_unused"] = unused
         if rank == 0:
             write_summary(opts.out, summary)
     if rank == 0 and not args.quiet:
         print(final_line(summary, opts.out), file=sys.stderr)
-        b = summary.get("energy_bracket")
-        if b:
-            print(f"energy bracket: {b['error']}" if "error" in b else
-                  f"energy bracket: {b['lower']:.10g} ({b['lower_method']}) <= U <= "
-                  f"{b['upper']:.10g} ({b['upper_method']}), width {b['width_rel']:.3e} "
-                  "relative", file=sys.stderr)
+        _print_bracket(summary.get("energy_bracket"))
     return 0
+
+
+def _print_bracket(b: dict | None) -> None:
+    """The energy bracket line of `run --energy-bracket`."""
+    if b:
+        print(f"energy bracket: {b['error']}" if "error" in b else
+              f"energy bracket: {b['lower']:.10g} ({b['lower_method']}) <= U <= "
+              f"{b['upper']:.10g} ({b['upper_method']}), width {b['width_rel']:.3e} "
+              "relative", file=sys.stderr)
 
 
 def check_run_input(cfg, args, finest_level: int = 0) -> float:

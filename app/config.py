@@ -207,20 +207,48 @@ def _check_interface_bodies(raw: dict, name: str, slave: str, master: str,
 
 
 def parse_config(raw: dict[str, Any], path: Path | str = "<config>") -> Config:
-    """Check a parsed TOML dict and build a Config."""
+    """Check a parsed TOML dict and build a Config, table by table."""
     check_keys(raw, "top", "")
+    params = _parameters(raw)
+    an = _analysis(raw)
+    n_steps = an["steps"]
+    mesh_size = _mesh_size(raw)
+    names, E, nu, bf = _bodies(raw)
+    supports = [_support(s, f"support #{i + 1}", n_steps, params)
+                for i, s in enumerate(_tables(raw, "support"))]
+    loads = [_load(ld, f"load #{i + 1}", n_steps, params)
+             for i, ld in enumerate(_tables(raw, "load"))]
+    interfaces: list[Interface] = []
+    for i, it in enumerate(_tables(raw, "interface")):
+        interfaces.append(_interface(raw, it, i, interfaces))
+    return Config(
+        path=Path(path), raw=raw, plane=an["plane"], thickness=an["thickness"],
+        method=an["method"], sd=an["sd"], n_steps=n_steps, body_names=names, E=np.array(E),
+        nu=np.array(nu), body_force=np.array(bf).reshape(-1, 2), supports=supports,
+        loads=loads, interfaces=interfaces, petsc=_petsc(raw), mesh_size=mesh_size,
+        parameters=params, reference=_reference_table(raw), scene=parse_scene(raw),
+        compliance=an["compliance"], warm_start=an["warm_start"],
+        candidate_pairs=an["candidate_pairs"], lcp_solver=an["lcp_solver"],
+    )
+
+
+def _parameters(raw: dict) -> dict[str, float]:
+    """[parameters]: named numbers for the expressions (not x, y or a function name)."""
     params = {}
     for k, v in _table(raw, "parameters", "").items():
         check_parameter_name(k)
         params[k] = _num(v, f"parameters.{k}")
+    return params
+
+
+def _analysis(raw: dict) -> dict[str, Any]:
+    """[analysis] with its defaults; method and sd are checked against the bulk-method
+    registry by the driver, before any meshing."""
     an = _table(raw, "analysis", "")
     check_keys(an, "analysis", "analysis.")
     plane = an.get("plane", "strain")
     if plane not in ("strain", "stress"):
         raise InputError(f"analysis.plane = {plane!r}: use 'strain' or 'stress'")
-    thickness = _num(an.get("thickness", 1.0), "analysis.thickness", positive=True)
-    method = an.get("method", "cs-fem")  # checked against the bulk-method registry
-    sd = an.get("sd", 4)  # by app.run.make_discretisation, before any meshing
     n_steps = an.get("steps", 1)
     if isinstance(n_steps, bool) or not isinstance(n_steps, int) or n_steps < 1:
         raise InputError(f"analysis.steps must be an integer >= 1 (got {n_steps!r})")
@@ -233,7 +261,18 @@ def parse_config(raw: dict[str, Any], path: Path | str = "<config>") -> Config:
     for flag in ("warm_start", "candidate_pairs"):
         if not isinstance(an.get(flag, True), bool):
             raise InputError(f"analysis.{flag} must be true or false (got {an[flag]!r})")
+    return {"plane": plane,
+            "thickness": _num(an.get("thickness", 1.0), "analysis.thickness", positive=True),
+            "method": an.get("method", "cs-fem"), "sd": an.get("sd", 4), "steps": n_steps,
+            "compliance": an.get("compliance", "auto"),
+            "warm_start": an.get("warm_start", True),
+            "candidate_pairs": an.get("candidate_pairs", True),
+            "lcp_solver": an.get("lcp_solver", "lemke")}
 
+
+def _mesh_size(raw: dict) -> float:
+    """mesh.size (1.0 with a ready mesh.file, so --mesh-size ratios stay defined); the
+    [[mesh.refine]] keys and their flat <= distance."""
     mesh = raw.get("mesh")
     if not isinstance(mesh, dict):
         raise InputError("missing [mesh] table (at least mesh.size)")
@@ -245,9 +284,11 @@ def parse_config(raw: dict[str, Any], path: Path | str = "<config>") -> Config:
             _check_refine_lengths(r, f"mesh.refine[{i}]")
     if "size" not in mesh and mesh.get("file") is None:
         raise InputError("missing key mesh.size (the global element size)")
-    # a ready mesh (mesh.file) needs no size; 1.0 keeps --mesh-size ratios defined
-    mesh_size = _num(mesh.get("size", 1.0), "mesh.size", positive=True)
+    return _num(mesh.get("size", 1.0), "mesh.size", positive=True)
 
+
+def _bodies(raw: dict) -> tuple[list[str], list[float], list[float], list[np.ndarray]]:
+    """Names, E, nu and body forces of the [[body]] tables (shapes: app.scene)."""
     bodies = _tables(raw, "body")
     if not bodies:
         raise InputError("no [[body]] given: a scene needs at least one body")
@@ -272,108 +313,91 @@ def parse_config(raw: dict[str, Any], path: Path | str = "<config>") -> Config:
         E.append(e)
         nu.append(n)
         bf.append(_vec2(b.get("body_force", [0.0, 0.0]), f"body '{nm}': body_force"))
+    return names, E, nu, bf
 
-    supports = []
-    for i, s in enumerate(_tables(raw, "support")):
-        where = f"support #{i + 1}"
-        if "on" not in s or not isinstance(s["on"], str):
-            raise InputError(f"{where}: missing key on (a curve or point group name)")
-        check_keys(s, "support", f"{where} ({s['on']})")
-        vals = {}
-        for comp, key in enumerate(("ux", "uy")):
-            if key in s:
-                vals[comp] = _scalar_or_expr(s[key], f"{where} ({s['on']}): {key}", params)
-        if not vals:
-            raise InputError(f"{where} ({s['on']}): give ux and/or uy")
-        supports.append(Support(s["on"], vals, _history(s, where, n_steps)))
 
-    loads = []
-    for i, ld in enumerate(_tables(raw, "load")):
-        where = f"load #{i + 1}"
-        if "on" not in ld or not isinstance(ld["on"], str):
-            raise InputError(f"{where}: missing key on (a curve name)")
-        check_keys(ld, "load", f"{where} ({ld['on']})")
-        kinds = [k for k in ("traction", "pressure", "total_force") if k in ld]
-        if len(kinds) != 1:
-            raise InputError(f"{where} ({ld['on']}): give exactly one of traction, pressure, "
-                             "total_force")
-        kind = kinds[0]
-        if kind == "pressure":
-            val = [_num(ld[kind], f"{where}: pressure")]
-        elif kind == "traction":
-            t = ld[kind]
-            if not isinstance(t, list) or len(t) != 2:
-                raise InputError(f"{where}: traction must be [tx, ty] (numbers or expressions)")
-            val = [_scalar_or_expr(v, f"{where}: traction", params) for v in t]
-        else:
-            val = list(_vec2(ld[kind], f"{where}: {kind}"))
-        loads.append(Load(ld["on"], kind, val, _history(ld, where, n_steps)))
+def _support(s: dict, where: str, n_steps: int, params: dict[str, float]) -> Support:
+    """One [[support]]: ux and/or uy (numbers or expressions) with a history."""
+    if "on" not in s or not isinstance(s["on"], str):
+        raise InputError(f"{where}: missing key on (a curve or point group name)")
+    check_keys(s, "support", f"{where} ({s['on']})")
+    vals = {}
+    for comp, key in enumerate(("ux", "uy")):
+        if key in s:
+            vals[comp] = _scalar_or_expr(s[key], f"{where} ({s['on']}): {key}", params)
+    if not vals:
+        raise InputError(f"{where} ({s['on']}): give ux and/or uy")
+    return Support(s["on"], vals, _history(s, where, n_steps))
 
-    interfaces = []
-    for i, it in enumerate(_tables(raw, "interface")):
-        nm = it.get("name", f"interface{i + 1}")
-        if not isinstance(nm, str) or not nm.strip():
-            raise InputError(f"interface #{i + 1}: name must be a non-empty string "
-                             f"(got {nm!r})")
-        where = f"interface '{nm}'"
-        check_keys(it, "interface", where)
-        for k in ("slave", "master"):
-            if k not in it or not isinstance(it[k], str):
-                raise InputError(f"{where}: missing key {k} (a curve name)")
-        if it["slave"] == it["master"]:
-            raise InputError(f"{where}: slave and master are the same curve '{it['slave']}'")
-        if "search_distance" not in it:
-            raise InputError(f"{where}: missing key search_distance")
-        mu = _num(it.get("mu", 0.0), f"{where}: mu", nonneg=True)
-        c = _num(it.get("c", 0.0), f"{where}: c", nonneg=True)
-        a = _num(it.get("a", 0.0), f"{where}: a", nonneg=True)
-        bonded = it.get("bonded", a > 0.0 or c > 0.0)
-        if not isinstance(bonded, bool):
-            raise InputError(f"{where}: bonded must be true or false")
-        if c < mu * a:
-            raise InputError(f"{where}: c = {c} < mu * a = {mu * a}: need c >= mu a so the "
-                             "friction bound mu p + c stays >= 0 under tension")
-        sdist = _num(it["search_distance"], f"{where}: search_distance", positive=True)
-        ptol = it.get("penetration_tol")
-        if ptol is not None:
-            ptol = _num(ptol, f"{where}: penetration_tol", nonneg=True)
-        interference = it.get("interference", False)
-        if not isinstance(interference, bool):
-            raise InputError(f"{where}: interference must be true or false")
-        _check_interface_bodies(raw, nm, it["slave"], it["master"], interfaces)
-        disc = it.get("discretisation")  # None: the registry default (app.contact)
-        if disc is not None and (not isinstance(disc, str) or not disc):
-            raise InputError(f"{where}: discretisation must be a name (got {disc!r})")
-        interfaces.append(Interface(nm, it["slave"], it["master"], mu, c if bonded else 0.0,
-                                    a if bonded else 0.0, bonded, sdist, ptol, interference,
-                                    disc))
 
-    reference = raw.get("reference")
-    if isinstance(reference, dict):
-        check_keys(reference, "reference", "reference.")
-        kind = reference.get("type")
-        if kind not in REFERENCES:
-            raise InputError(f"reference.type = {kind!r}: use one of "
-                             f"{', '.join(REFERENCES)}{suggestion(str(kind), REFERENCES)}")
-    petsc = _table(raw, "petsc", "")
-    petsc_opts = {}
-    for k, v in petsc.items():
+def _load(ld: dict, where: str, n_steps: int, params: dict[str, float]) -> Load:
+    """One [[load]]: exactly one of traction, pressure, total_force, with a history."""
+    if "on" not in ld or not isinstance(ld["on"], str):
+        raise InputError(f"{where}: missing key on (a curve name)")
+    check_keys(ld, "load", f"{where} ({ld['on']})")
+    kinds = [k for k in ("traction", "pressure", "total_force") if k in ld]
+    if len(kinds) != 1:
+        raise InputError(f"{where} ({ld['on']}): give exactly one of traction, pressure, "
+                         "total_force")
+    kind = kinds[0]
+    if kind == "pressure":
+        val = [_num(ld[kind], f"{where}: pressure")]
+    elif kind == "traction":
+        t = ld[kind]
+        if not isinstance(t, list) or len(t) != 2:
+            raise InputError(f"{where}: traction must be [tx, ty] (numbers or expressions)")
+        val = [_scalar_or_expr(v, f"{where}: traction", params) for v in t]
+    else:
+        val = list(_vec2(ld[kind], f"{where}: {kind}"))
+    return Load(ld["on"], kind, val, _history(ld, where, n_steps))
+
+
+def _interface(raw: dict, it: dict, i: int, earlier: list[Interface]) -> Interface:
+    """One [[interface]] (the discretisation name is checked by the contact registry)."""
+    nm = it.get("name", f"interface{i + 1}")
+    if not isinstance(nm, str) or not nm.strip():
+        raise InputError(f"interface #{i + 1}: name must be a non-empty string (got {nm!r})")
+    where = f"interface '{nm}'"
+    check_keys(it, "interface", where)
+    for k in ("slave", "master"):
+        if k not in it or not isinstance(it[k], str):
+            raise InputError(f"{where}: missing key {k} (a curve name)")
+    if it["slave"] == it["master"]:
+        raise InputError(f"{where}: slave and master are the same curve '{it['slave']}'")
+    if "search_distance" not in it:
+        raise InputError(f"{where}: missing key search_distance")
+    mu = _num(it.get("mu", 0.0), f"{where}: mu", nonneg=True)
+    c = _num(it.get("c", 0.0), f"{where}: c", nonneg=True)
+    a = _num(it.get("a", 0.0), f"{where}: a", nonneg=True)
+    bonded = it.get("bonded", a > 0.0 or c > 0.0)
+    if not isinstance(bonded, bool):
+        raise InputError(f"{where}: bonded must be true or false")
+    if c < mu * a:
+        raise InputError(f"{where}: c = {c} < mu * a = {mu * a}: need c >= mu a so the "
+                         "friction bound mu p + c stays >= 0 under tension")
+    sdist = _num(it["search_distance"], f"{where}: search_distance", positive=True)
+    ptol = it.get("penetration_tol")
+    if ptol is not None:
+        ptol = _num(ptol, f"{where}: penetration_tol", nonneg=True)
+    interference = it.get("interference", False)
+    if not isinstance(interference, bool):
+        raise InputError(f"{where}: interference must be true or false")
+    _check_interface_bodies(raw, nm, it["slave"], it["master"], earlier)
+    disc = it.get("discretisation")  # None: the registry default (app.contact)
+    if disc is not None and (not isinstance(disc, str) or not disc):
+        raise InputError(f"{where}: discretisation must be a name (got {disc!r})")
+    return Interface(nm, it["slave"], it["master"], mu, c if bonded else 0.0,
+                     a if bonded else 0.0, bonded, sdist, ptol, interference, disc)
+
+
+def _petsc(raw: dict) -> dict[str, str]:
+    """[petsc] options as strings (without the dash); booleans as true/false."""
+    out = {}
+    for k, v in _table(raw, "petsc", "").items():
         if isinstance(v, bool):
             v = "true" if v else "false"
-        petsc_opts[str(k).lstrip("-")] = str(v)
-
-    return Config(
-        path=Path(path), raw=raw, plane=plane, thickness=thickness, method=method, sd=sd,
-        n_steps=n_steps, body_names=names, E=np.array(E), nu=np.array(nu),
-        body_force=np.array(bf).reshape(-1, 2), supports=supports, loads=loads,
-        interfaces=interfaces, petsc=petsc_opts, mesh_size=mesh_size, parameters=params,
-        reference=_reference_table(raw), scene=parse_scene(raw),
-        compliance=an.get("compliance", "auto"),
-        warm_start=an.get("warm_start", True),
-        candidate_pairs=an.get("candidate_pairs", True),
-        lcp_solver=an.get("lcp_solver", "lemke"),
-    )
-
+        out[str(k).lstrip("-")] = str(v)
+    return out
 
 
 def _reference_table(raw: dict) -> dict | None:
@@ -381,7 +405,12 @@ def _reference_table(raw: dict) -> dict | None:
     if "reference" not in raw:
         return None
     table = _table(raw, "reference", "")
-    reference(table.get("type")).params(table)
+    check_keys(table, "reference", "reference.")
+    kind = table.get("type")
+    if kind not in REFERENCES:
+        raise InputError(f"reference.type = {kind!r}: use one of "
+                         f"{', '.join(REFERENCES)}{suggestion(str(kind), REFERENCES)}")
+    reference(kind).params(table)
     return dict(table)
 
 

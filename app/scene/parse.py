@@ -150,101 +150,100 @@ def parse_scene(cfg: dict, *, need_shapes: bool | None = None) -> Scene:
     file = mesh.get("file")
     if file is not None and (not isinstance(file, str) or not file):
         raise InputError(f"mesh.file must be a file name (got {file!r})")
-    if file is not None and "size" not in mesh:
-        size = math.nan
-    else:
-        size = _number(mesh, "size", "mesh.")
-
-    named: dict[str, np.ndarray] = {}
-    for name, v in _table(cfg.get("points", {}), "[points]").items():
-        named[name] = _xy(v, f"points.{name}")
-
+    size = math.nan if file is not None and "size" not in mesh else _number(mesh, "size",
+                                                                            "mesh.")
+    named = {name: _xy(v, f"points.{name}")
+             for name, v in _table(cfg.get("points", {}), "[points]").items()}
     bodies_cfg = cfg.get("body")
     if not isinstance(bodies_cfg, list) or not bodies_cfg:
         raise InputError("[[body]] is missing: the config needs at least one body")
     bodies: list[BodySpec] = []
     curve_owner: dict[str, str] = {}
     for i, b in enumerate(bodies_cfg):
-        b = _table(b, f"body[{i}]")
-        name = b.get("name")
-        if not isinstance(name, str) or not name:
-            raise InputError(f"body[{i}].name must be a non-empty string (got {name!r})")
-        if any(x.name == name for x in bodies):
-            raise InputError(f"body name '{name}' is used twice: body names must be unique")
-        where = f"body '{name}': "
-        bsize = _number(b, "size", where) if "size" in b else size
-        if not need_shapes:
-            bodies.append(BodySpec(name, bsize, {}, False, []))
-            continue
-        if "shape" not in b:
-            raise InputError(f"{where}shape is missing: add a [body.shape] table with a type")
-        shape = _table(b["shape"], f"{where}shape")
-        raw_sides, structured = _shape_sides(shape, where)
-        _check_side_lengths(raw_sides, where)
-        valid = [s for s, _ in raw_sides]
-        curves = _table(b.get("curves", {}), f"{where}curves")
-        for side, cname in curves.items():
-            if side not in valid:
-                raise InputError(
-                    f"{where}curves.{side} is not a side of a {shape['type']}"
-                    f"{suggestion(side, valid)} (sides: {', '.join(valid)})"
-                )
-            if not isinstance(cname, str) or not cname:
-                raise InputError(f"{where}curves.{side} must be a curve name (got {cname!r})")
-            owner = curve_owner.setdefault(cname, name)
-            if owner != name:
-                raise InputError(
-                    f"curve name '{cname}' is used by bodies '{owner}' and '{name}': "
-                    "each body needs its own curve names"
-                )
-        tol = POINT_TOL * bsize
-        sides = []
-        for sname, pieces in raw_sides:
-            for xy in named.values():  # geometry vertex at every named point on a side
-                pieces = _split_at(pieces, xy, tol)
-            sides.append(Side(sname, curves.get(sname), pieces))
-        spec = BodySpec(name, bsize, shape, structured, sides)
-        if not structured:
-            spec.interior_points = [xy for xy in named.values() if spec.contains(xy, tol)]
-        bodies.append(spec)
-
+        bodies.append(_body(_table(b, f"body[{i}]"), i, size, need_shapes, named, bodies,
+                            curve_owner))
     for pname in named:
         if pname in curve_owner:
             raise InputError(f"points.{pname}: the name is already used by a curve")
-
-    refine: list[Refine] = []
     ref_cfg = mesh.get("refine", [])
     if not isinstance(ref_cfg, list):
         raise InputError("mesh.refine must be an array of tables [[mesh.refine]]")
-    for i, r in enumerate(ref_cfg):
-        where = f"mesh.refine[{i}]."
-        r = _table(r, where[:-1])
-        for key in r:
-            if key not in REFINE_KEYS:
-                raise InputError(f"{where}{key} is not a refinement key ({', '.join(REFINE_KEYS)})")
-        rc = r.get("curves", [])
-        if not isinstance(rc, list) or not all(isinstance(c, str) for c in rc):
-            raise InputError(f"{where}curves must be a list of curve names (got {rc!r})")
-        for c in rc:
-            if need_shapes and c not in curve_owner:
-                known = ", ".join(sorted(curve_owner)) or "none"
-                raise InputError(f"{where}curves: unknown curve '{c}' (known: {known})")
-        rp = r.get("points", [])
-        if not isinstance(rp, list):
-            raise InputError(f"{where}points must be a list of points [x, y] (got {rp!r})")
-        pts = np.array([_xy(p, f"{where}points[{k}]") for k, p in enumerate(rp)]).reshape(-1, 2)
-        if not rc and not len(pts):
-            raise InputError(f"{where[:-1]} needs curves = [...] and/or points = [[x, y], ...]")
-        refine.append(
-            Refine(
-                curves=list(rc),
-                points=pts,
-                size=_number(r, "size", where),
-                distance=_number(r, "distance", where, strict=False),
-                flat=_number(r, "flat", where, strict=False, default=0.0),
-            )
-        )
+    refine = [_refine(_table(r, f"mesh.refine[{i}]"), f"mesh.refine[{i}].",
+                      curve_owner if need_shapes else None) for i, r in enumerate(ref_cfg)]
     source = {"bodies": [{k: b.get(k) for k in ("name", "shape", "size", "curves")}
                          for b in bodies_cfg],
               "mesh": mesh, "points": cfg.get("points", {})}
     return Scene(size, file, bodies, refine, named, source)
+
+
+def _body(b: dict, i: int, size: float, need_shapes: bool, named: dict[str, np.ndarray],
+          earlier: list[BodySpec], curve_owner: dict[str, str]) -> BodySpec:
+    """One [[body]]'s geometry; `curve_owner` (curve name -> body) is filled in."""
+    name = b.get("name")
+    if not isinstance(name, str) or not name:
+        raise InputError(f"body[{i}].name must be a non-empty string (got {name!r})")
+    if any(x.name == name for x in earlier):
+        raise InputError(f"body name '{name}' is used twice: body names must be unique")
+    where = f"body '{name}': "
+    bsize = _number(b, "size", where) if "size" in b else size
+    if not need_shapes:
+        return BodySpec(name, bsize, {}, False, [])
+    if "shape" not in b:
+        raise InputError(f"{where}shape is missing: add a [body.shape] table with a type")
+    shape = _table(b["shape"], f"{where}shape")
+    raw_sides, structured = _shape_sides(shape, where)
+    _check_side_lengths(raw_sides, where)
+    curves = _table(b.get("curves", {}), f"{where}curves")
+    _check_curves(curves, [s for s, _ in raw_sides], shape["type"], name, where, curve_owner)
+    tol = POINT_TOL * bsize
+    sides = []
+    for sname, pieces in raw_sides:
+        for xy in named.values():  # geometry vertex at every named point on a side
+            pieces = _split_at(pieces, xy, tol)
+        sides.append(Side(sname, curves.get(sname), pieces))
+    spec = BodySpec(name, bsize, shape, structured, sides)
+    if not structured:
+        spec.interior_points = [xy for xy in named.values() if spec.contains(xy, tol)]
+    return spec
+
+
+def _check_curves(curves: dict, valid: list[str], kind: str, name: str, where: str,
+                  curve_owner: dict[str, str]) -> None:
+    """[body.curves]: each key a side of the shape, each name owned by one body."""
+    for side, cname in curves.items():
+        if side not in valid:
+            raise InputError(
+                f"{where}curves.{side} is not a side of a {kind}"
+                f"{suggestion(side, valid)} (sides: {', '.join(valid)})"
+            )
+        if not isinstance(cname, str) or not cname:
+            raise InputError(f"{where}curves.{side} must be a curve name (got {cname!r})")
+        owner = curve_owner.setdefault(cname, name)
+        if owner != name:
+            raise InputError(
+                f"curve name '{cname}' is used by bodies '{owner}' and '{name}': "
+                "each body needs its own curve names"
+            )
+
+
+def _refine(r: dict, where: str, curve_owner: dict[str, str] | None) -> Refine:
+    """One [[mesh.refine]] (curves checked against `curve_owner` unless None)."""
+    for key in r:
+        if key not in REFINE_KEYS:
+            raise InputError(f"{where}{key} is not a refinement key ({', '.join(REFINE_KEYS)})")
+    rc = r.get("curves", [])
+    if not isinstance(rc, list) or not all(isinstance(c, str) for c in rc):
+        raise InputError(f"{where}curves must be a list of curve names (got {rc!r})")
+    for c in rc:
+        if curve_owner is not None and c not in curve_owner:
+            known = ", ".join(sorted(curve_owner)) or "none"
+            raise InputError(f"{where}curves: unknown curve '{c}' (known: {known})")
+    rp = r.get("points", [])
+    if not isinstance(rp, list):
+        raise InputError(f"{where}points must be a list of points [x, y] (got {rp!r})")
+    pts = np.array([_xy(p, f"{where}points[{k}]") for k, p in enumerate(rp)]).reshape(-1, 2)
+    if not rc and not len(pts):
+        raise InputError(f"{where[:-1]} needs curves = [...] and/or points = [[x, y], ...]")
+    return Refine(curves=list(rc), points=pts, size=_number(r, "size", where),
+                  distance=_number(r, "distance", where, strict=False),
+                  flat=_number(r, "flat", where, strict=False, default=0.0))
