@@ -233,6 +233,14 @@ def _run(
             return LCPResult(z, w, pivots, "warm start failed", comp, res.zset.copy(),
                              note + "no cold start (cold_start=False)", "failed",
                              refacts, worst)
+    return _cold(core, P, M, q, tol, max_pivots, pivots, refacts, note, warm)
+
+
+def _cold(core, P: _Problem, M, q, tol: float, max_pivots: int, pivots: int, refacts: int,
+          note: str, warm: str) -> LCPResult:
+    """Lemke from the textbook start (covering vector 1) with the pivots left, after any
+    warm or crash start (`pivots`, `refacts` and `note` so far); the checked result."""
+    n = q.size
     res = core(P.Ms, P.qs, np.ones(n), np.zeros(n, dtype=bool), max(max_pivots - pivots, 0))
     pivots += res.pivots
     refacts += res.refactorizations
