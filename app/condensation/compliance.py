@@ -22,8 +22,9 @@ import numpy as np
 import scipy.sparse as sp
 from petsc4py import PETSc
 
+from app.condensation.schur_solver import read_dense_symmetric
 from app.errors import InputError, SolveError
-from app.petsc_lib import PETSC_INT, load_petsc
+from app.petsc_lib import load_petsc
 
 
 def _petsc_lib() -> ctypes.CDLL:
@@ -65,23 +66,7 @@ def schur_complement(k: PETSc.Mat, dofs: np.ndarray) -> np.ndarray | None:
                                              ctypes.byref(status))
     if err:
         raise SolveError(f"MatFactorCreateSchurComplement failed (PETSc error {err})")
-    out = None
-    n = dofs.size
-    if rank == 0:
-        rows, cols = PETSc.IntType(0), PETSc.IntType(0)
-        m_ = PETSC_INT()
-        n_ = PETSC_INT()
-        lib.MatGetSize(s_handle, ctypes.byref(m_), ctypes.byref(n_))
-        rows, cols = m_.value, n_.value
-        if rows != n or cols != n:
-            raise SolveError(f"Schur complement has size {rows}x{cols}, expected {n}x{n}")
-        ptr = ctypes.POINTER(ctypes.c_double)()
-        lib.MatDenseGetArrayRead(s_handle, ctypes.byref(ptr))
-        lda = PETSC_INT()
-        lib.MatDenseGetLDA(s_handle, ctypes.byref(lda))
-        raw = np.ctypeslib.as_array(ptr, shape=(cols, lda.value))  # column-major storage
-        out = np.array(raw[:, :rows].T, copy=True)
-        lib.MatDenseRestoreArrayRead(s_handle, ctypes.byref(ptr))
+    out = read_dense_symmetric(lib, s_handle, dofs.size) if rank == 0 else None
     lib.MatDestroy(ctypes.byref(s_handle))
     ksp.destroy()
     iset.destroy()
@@ -108,7 +93,6 @@ def compliance_schur(k: PETSc.Mat, g: sp.csr_matrix, fixed: np.ndarray) -> np.nd
     s = schur_complement(k, dofs)
     if s is None:
         return None
-    s = 0.5 * (s + s.T)
     try:
         from scipy.linalg import cho_factor, cho_solve
 

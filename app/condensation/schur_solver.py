@@ -53,6 +53,25 @@ def set_schur_dofs(pc: PETSc.PC, dofs: np.ndarray) -> PETSc.Mat:
     return f
 
 
+def read_dense_symmetric(lib, s_handle: ctypes.c_void_p, n: int) -> np.ndarray:
+    """(S + S^T) / 2 of a dense (n, n) PETSc matrix given by its handle, read in place."""
+    m_, n_ = PETSC_INT(), PETSC_INT()
+    lib.MatGetSize(s_handle, ctypes.byref(m_), ctypes.byref(n_))
+    if (m_.value, n_.value) != (n, n):
+        raise SolveError(f"Schur complement has size {m_.value}x{n_.value}, "
+                         f"expected {n}x{n}")
+    ptr = ctypes.POINTER(ctypes.c_double)()
+    lda = PETSC_INT()
+    lib.MatDenseGetLDA(s_handle, ctypes.byref(lda))
+    lib.MatDenseGetArrayRead(s_handle, ctypes.byref(ptr))
+    raw = np.ctypeslib.as_array(ptr, shape=(n, lda.value))[:, :n]  # S^T, a view
+    out = np.empty((n, n))
+    np.add(raw, raw.T, out=out)
+    out *= 0.5
+    lib.MatDenseRestoreArrayRead(s_handle, ctypes.byref(ptr))
+    return out
+
+
 def schur_from_factor(f: PETSc.Mat, n: int) -> np.ndarray | None:
     """The dense (n, n) Schur complement of a factorized MUMPS matrix, symmetrized, on
     rank 0 (None elsewhere). Reads PETSc's own copy in place (MatFactorGetSchurComplement,
@@ -67,20 +86,7 @@ def schur_from_factor(f: PETSc.Mat, n: int) -> np.ndarray | None:
     out = None
     try:
         if f.getComm().getRank() == 0:
-            m_, n_ = PETSC_INT(), PETSC_INT()
-            lib.MatGetSize(s_handle, ctypes.byref(m_), ctypes.byref(n_))
-            if (m_.value, n_.value) != (n, n):
-                raise SolveError(f"Schur complement has size {m_.value}x{n_.value}, "
-                                 f"expected {n}x{n}")
-            ptr = ctypes.POINTER(ctypes.c_double)()
-            lda = PETSC_INT()
-            lib.MatDenseGetLDA(s_handle, ctypes.byref(lda))
-            lib.MatDenseGetArrayRead(s_handle, ctypes.byref(ptr))
-            raw = np.ctypeslib.as_array(ptr, shape=(n, lda.value))[:, :n]  # S^T, a view
-            out = np.empty((n, n))
-            np.add(raw, raw.T, out=out)
-            out *= 0.5
-            lib.MatDenseRestoreArrayRead(s_handle, ctypes.byref(ptr))
+            out = read_dense_symmetric(lib, s_handle, n)
     finally:
         lib.MatFactorRestoreSchurComplement(ctypes.c_void_p(f.handle), ctypes.byref(s_handle),
                                             status)
