@@ -29,27 +29,14 @@ import time
 import numpy as np
 import scipy.linalg as sla
 
-from app.interface.coulomb import ContactLCP
 from app.lcp import lemke
+from app.lcp.cases import strip_contact_lcp
 
 
 def frictional_lcp(m: int, *, mu: float = 0.3, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
-    """(M, q) of a frictional-contact-like LCP with n = 3 m unknowns (see module docstring)."""
-    rng = np.random.default_rng(seed)
-    x = np.linspace(0.0, 1.0, m)
-    r = x[:, None] - x[None, :]
-    k = np.exp(-np.abs(r) / 0.1) * (10.0 / m)
-    c_nn = k + 0.05 * np.eye(m)
-    c_tt = 1.2 * k + 0.05 * np.eye(m)
-    c_nt = 0.03 * np.sign(r) * k  # spectral norm < 0.05: C stays SPD
-    C = np.block([[c_nn, c_nt], [c_nt.T, c_tt]])
-    assert np.linalg.eigvalsh(C).min() > 0.0
-    M = ContactLCP(C, np.full(m, mu), np.ones(m, dtype=bool)).M  # the application's M
-    gap0 = rng.uniform(-1.0, 0.5, m) * 1e-2
-    c = rng.uniform(0.0, 0.05, m)
-    s = rng.uniform(-0.1, 0.1, m)
-    q = np.concatenate([gap0, c + s, c - s])
-    return M, q
+    """(M, q) of a frictional-contact-like LCP with n = 3 m unknowns (see module docstring;
+    the case is `app.lcp.cases.strip_contact_lcp`, shared with tests/test_lemke.py)."""
+    return strip_contact_lcp(m, mu=mu, seed=seed)
 
 
 def siconos_lemke(M: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, int, int, float]:

@@ -8,8 +8,8 @@ import itertools
 import numpy as np
 import pytest
 
-from app.interface.coulomb import ContactLCP
 from app.lcp import STATUSES, LCPResult, default_max_pivots, lemke
+from app.lcp.cases import random_contact_lcp, strip_contact_lcp
 from app.lcp.lemke import _lemke_tableau
 
 LM = importlib.import_module("app.lcp.lemke")  # the module (app.lcp.lemke is the function)
@@ -61,36 +61,14 @@ def p_matrix(n: int, rng: np.random.Generator) -> np.ndarray:
     return A @ A.T + 0.1 * np.eye(n) + rng.uniform(0, 2) * (K - K.T)
 
 
-def coulomb_matrix(C: np.ndarray, mu: float) -> np.ndarray:
-    """The modified Coulomb LCP matrix of the application for compliance C (2m x 2m)."""
-    m = C.shape[0] // 2
-    return ContactLCP(C, np.full(m, mu), np.ones(m, dtype=bool)).M
-
-
 def friction_lcp(m: int, rng: np.random.Generator, mu: float = 0.3):
     """Frictional-contact block LCP (n = 3 m) built from a random SPD compliance."""
-    G = rng.standard_normal((2 * m, 2 * m))
-    C = G @ G.T / (2 * m) + 0.2 * np.eye(2 * m)
-    M = coulomb_matrix(C, mu)
-    c = rng.uniform(0.0, 0.5, m)
-    s = rng.uniform(-1.0, 1.0, m)
-    q = np.concatenate([rng.uniform(-1.0, 1.0, m), c + s, c - s])
-    return M, q
+    return random_contact_lcp(m, rng, mu)
 
 
 def contact_lcp(m: int, seed: int = 0, mu: float = 0.3):
-    """Larger contact-like LCP (as in scripts/bench_lemke.py): smooth SPD compliance."""
-    rng = np.random.default_rng(seed)
-    x = np.linspace(0.0, 1.0, m)
-    r = x[:, None] - x[None, :]
-    k = np.exp(-np.abs(r) / 0.1) * (10.0 / m)
-    c_nt = 0.03 * np.sign(r) * k
-    C = np.block([[k + 0.05 * np.eye(m), c_nt], [c_nt.T, 1.2 * k + 0.05 * np.eye(m)]])
-    M = coulomb_matrix(C, mu)
-    c = rng.uniform(0.0, 0.05, m)
-    s = rng.uniform(-0.1, 0.1, m)
-    q = np.concatenate([rng.uniform(-1.0, 0.5, m) * 1e-2, c + s, c - s])
-    return M, q
+    """Larger contact-like LCP (the one of scripts/bench_lemke.py)."""
+    return strip_contact_lcp(m, mu=mu, seed=seed)
 
 
 # --------------------------------------------------------------------------------------

@@ -37,12 +37,7 @@ class ContactSetup:
     @classmethod
     def build(cls, mesh: Mesh, cfg: Config) -> ContactSetup:
         found = []
-        for i, itf in enumerate(cfg.interfaces):
-            for key in ("slave", "master"):
-                name = getattr(itf, key)
-                if name not in mesh.curves:
-                    raise InputError(f"interface '{itf.name}': {key} curve '{name}' is not in "
-                                     f"the mesh (curves: {sorted(mesh.curves)})")
+        for i, itf in enumerate(cfg.interfaces):  # the builders check the curves exist
             build = contact_discretisation(itf.discretisation, f"interface '{itf.name}'")
             found.append(build(mesh, itf, i))
         rows = ContactConstraints.concatenate(found)

@@ -30,10 +30,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg import cho_factor, cho_solve
 
 from app.errors import SolveError
 from app.lcp import lemke
+from app.lcp.coulomb_matrix import coulomb_matrix
 from app.lcp.solvers import LCPSolver
 
 
@@ -55,55 +55,6 @@ class ContactSolution:
     message: str = ""  # Lemke's own summary of the solve
 
 
-DEPENDENT_REL = 1e-10
-"""Tangential compliance eigenvalues below this x the largest span its null space."""
-
-NULL_STIFFNESS_REL = 1e9
-"""Stiffness on that null space, relative to the largest stiffness 1 / lambda_min kept."""
-
-
-def tangential_stiffness(ctt: np.ndarray) -> tuple[np.ndarray, int]:
-    """(H, n_dependent): H = C_tt^-1, (mf, mf), and the number of dependent directions.
-
-    C_tt is singular when tangential rows of G are dependent on the free DOFs: a pair
-    whose tangential motion is fixed by supports (a zero row), or two pairs whose slave
-    tangential DOFs are fixed and which project onto the same master point (equal rows).
-    The tangential forces along such a direction v do not move anything: they are not
-    unique. There H = V diag(1/lambda) V^T + k0 N0 N0^T, with k0 = NULL_STIFFNESS_REL x
-    the largest kept 1/lambda: a stiff tie on the null space N0, so the LCP stays regular
-    and picks one of the equivalent force splits, while the displacements, which come
-    from C, are exact.
-    """
-    try:
-        fac = cho_factor(ctt)
-        h = cho_solve(fac, np.eye(ctt.shape[0]))
-        h = 0.5 * (h + h.T)
-        ok = bool(np.all(np.isfinite(h)))
-        if ok:
-            lam_max = float(np.abs(np.diag(ctt)).max())
-            # Cholesky can pass a numerically singular C_tt: check the smallest pivot
-            ok = float(np.diag(fac[0]).min() ** 2) > DEPENDENT_REL * lam_max
-    except np.linalg.LinAlgError:
-        ok = False
-    if ok:
-        return h, 0
-    try:
-        lam, vec = np.linalg.eigh(0.5 * (ctt + ctt.T))
-    except np.linalg.LinAlgError:
-        raise SolveError("the tangential contact compliance has no eigen-decomposition "
-                         "(non-finite or badly scaled values): check the Young's moduli and "
-                         "the loads") from None
-    top = float(np.abs(lam).max(initial=0.0))
-    if top == 0.0:
-        raise SolveError("the tangential compliance of every frictional pair is zero: their "
-                         "tangential motion is fixed by supports; set mu = 0 on the interface")
-    keep = lam > DEPENDENT_REL * top
-    vk, vn = vec[:, keep], vec[:, ~keep]
-    k0 = NULL_STIFFNESS_REL / float(lam[keep].min())
-    h = (vk / lam[keep]) @ vk.T + k0 * (vn @ vn.T)
-    return 0.5 * (h + h.T), int((~keep).sum())
-
-
 class ContactLCP:
     """The LCP matrix of a run and the constant vector of each solve."""
 
@@ -119,53 +70,23 @@ class ContactLCP:
             raise SolveError("the contact compliance is not finite (overflow or underflow in "
                              "the solve): check the Young's moduli and the loads")
         self.m = m
-        self.fric = np.flatnonzero(frictional)
-        f = self.fric
-        mf = f.size
-        self.mf = mf
         self.c = c
-        cnn = c[:m, :m]
-        cnt = c[:m, m:][:, f]
-        ctt = c[m:, m:][np.ix_(f, f)]
-        r = 0 if n_modes is None else n_modes.shape[1]
-        self.r = r
-        nm = np.zeros((m, 0)) if n_modes is None else n_modes
-        tm = np.zeros((mf, 0)) if t_modes is None else t_modes[f]
-        self.nm, self.tm = nm, tm
+        cm = coulomb_matrix(c, mu, frictional, n_modes, t_modes)
+        self.fric, self.mf = cm.fric, cm.fric.size
+        self.r = 0 if n_modes is None else n_modes.shape[1]
+        self.nm, self.tm = cm.nm, cm.tm
         self.tm_all = np.zeros((m, 0)) if t_modes is None else t_modes
-        h, self.dependent_tangential = tangential_stiffness(ctt) if mf else (np.zeros((0, 0)), 0)
-        self.h = h
-        bm = cnt @ h  # (m, mf)
-        self.bm = bm
-        a = cnn - bm @ cnt.T
-        a = 0.5 * (a + a.T)
-        d = np.zeros((mf, m))
-        d[np.arange(mf), f] = mu[f]
-        v = nm - bm @ tm
-        w = h @ tm
-        z = tm.T @ w
-        self.v, self.w, self.z = v, w, z
-        n = m + 2 * mf + 2 * r
-        big = np.zeros((n, n))
-        i0, i1, i2, i3 = m, m + mf, m + 2 * mf, m + 2 * mf + r
-        blocks = [
-            [a, bm, -bm, v, -v],
-            [d - bm.T, h, -h, -w, w],
-            [d + bm.T, -h, h, w, -w],
-            [-v.T, -w.T, w.T, z, -z],
-            [v.T, w.T, -w.T, -z, z],
-        ]
-        edges = [0, i0, i1, i2, i3, n]
-        for bi, row in enumerate(blocks):
-            for bj, blk in enumerate(row):
-                big[edges[bi]:edges[bi + 1], edges[bj]:edges[bj + 1]] = blk
-        self.edges = edges
+        self.h, self.bm, self.v, self.w, self.z = cm.h, cm.bm, cm.v, cm.w, cm.z
+        self.dependent_tangential = cm.dependent
+        self.edges = edges = cm.edges
+        big, n, mf = cm.M, cm.M.shape[0], cm.fric.size
+        i0, i2 = edges[1], edges[3]
         # Rows of the slip unknowns (w = F +- q, F = mu p + c) divided by max(mu, 1): a
         # positive row scaling keeps the LCP's solutions, and it keeps a huge mu (1e12:
         # full stick) from burying the compliance of the p columns under the mu entries.
         self.row_scale = np.ones(n)
         if mf:
-            inv_mu = 1.0 / np.maximum(mu[f], 1.0)
+            inv_mu = 1.0 / np.maximum(mu[cm.fric], 1.0)
             self.row_scale[i0:i2] = np.concatenate([inv_mu, inv_mu])
             big[i0:i2] *= self.row_scale[i0:i2, None]
         # Symmetric diagonal scaling z = d z', w' = d w (complementarity is kept): brings
