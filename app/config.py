@@ -8,7 +8,6 @@ Every problem raises InputError with a one-line message naming the key to fix.
 
 from __future__ import annotations
 
-import math
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -21,6 +20,7 @@ from app.errors import InputError
 from app.expressions import check_parameter_name, parse_expression
 from app.references import REFERENCES, reference
 from app.scene import Scene, parse_scene
+from app.scene.geometry import is_number
 
 
 @dataclass
@@ -99,7 +99,8 @@ class Config:
 
 
 def _num(value: Any, where: str, *, positive: bool = False, nonneg: bool = False) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+    """A finite number (`app.scene.geometry.is_number`), > 0 or >= 0 when asked."""
+    if not is_number(value):
         raise InputError(f"{where} must be a finite number (got {value!r})")
     if positive and value <= 0:
         raise InputError(f"{where} must be > 0 (got {value!r})")
@@ -288,7 +289,8 @@ def _mesh_size(raw: dict) -> float:
 
 
 def _bodies(raw: dict) -> tuple[list[str], list[float], list[float], list[np.ndarray]]:
-    """Names, E, nu and body forces of the [[body]] tables (shapes: app.scene)."""
+    """Names, E, nu and body forces of the [[body]] tables (shapes and unique names:
+    app.scene)."""
     bodies = _tables(raw, "body")
     if not bodies:
         raise InputError("no [[body]] given: a scene needs at least one body")
@@ -298,8 +300,6 @@ def _bodies(raw: dict) -> tuple[list[str], list[float], list[float], list[np.nda
             raise InputError(f"body #{i + 1}: missing key name")
         nm = b["name"]
         check_keys(b, "body", f"body '{nm}'")
-        if nm in names:
-            raise InputError(f"body name '{nm}' is used twice")
         for k in ("E", "nu"):
             if k not in b:
                 raise InputError(f"body '{nm}': missing key {k}")
