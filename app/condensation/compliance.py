@@ -22,17 +22,8 @@ import numpy as np
 import scipy.sparse as sp
 from petsc4py import PETSc
 
-from app.condensation.schur_solver import read_dense_symmetric
+from app.condensation.schur_solver import read_dense_symmetric, schur_lib
 from app.errors import InputError, SolveError
-from app.petsc_lib import load_petsc
-
-
-def _petsc_lib() -> ctypes.CDLL:
-    lib = load_petsc()
-    if lib is None:
-        raise SolveError("cannot load the PETSc shared library for the Schur route: use "
-                         "-contact_compliance solve")
-    return lib
 
 
 def schur_complement(k: PETSc.Mat, dofs: np.ndarray) -> np.ndarray | None:
@@ -41,7 +32,7 @@ def schur_complement(k: PETSc.Mat, dofs: np.ndarray) -> np.ndarray | None:
     Uses a separate MUMPS LU factorization with a Schur index set. Returns the
     (len(dofs), len(dofs)) array on rank 0 and None on the other ranks.
     """
-    lib = _petsc_lib()
+    lib = schur_lib()
     comm = k.getComm()
     rank = comm.getRank()
     ksp = PETSc.KSP().create(comm=comm)

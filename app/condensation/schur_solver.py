@@ -28,7 +28,8 @@ from app.errors import SolveError
 from app.petsc_lib import PETSC_INT, load_petsc
 
 
-def _lib() -> ctypes.CDLL:
+def schur_lib() -> ctypes.CDLL:
+    """The PETSc shared library (ctypes), for the MUMPS Schur calls petsc4py lacks."""
     lib = load_petsc()
     if lib is None:
         raise SolveError("cannot load the PETSc shared library for the Schur route: use "
@@ -46,7 +47,7 @@ def set_schur_dofs(pc: PETSc.PC, dofs: np.ndarray) -> PETSc.Mat:
     comm = f.getComm()
     idx = dofs.astype(PETSc.IntType) if comm.getRank() == 0 else np.zeros(0, PETSc.IntType)
     iset = PETSc.IS().createGeneral(idx, comm=comm)
-    err = _lib().MatFactorSetSchurIS(ctypes.c_void_p(f.handle), ctypes.c_void_p(iset.handle))
+    err = schur_lib().MatFactorSetSchurIS(ctypes.c_void_p(f.handle), ctypes.c_void_p(iset.handle))
     iset.destroy()
     if err:
         raise SolveError(f"MatFactorSetSchurIS failed (PETSc error {err})")
@@ -76,7 +77,7 @@ def schur_from_factor(f: PETSc.Mat, n: int) -> np.ndarray | None:
     """The dense (n, n) Schur complement of a factorized MUMPS matrix, symmetrized, on
     rank 0 (None elsewhere). Reads PETSc's own copy in place (MatFactorGetSchurComplement,
     no duplicate), so the only new memory is the returned array."""
-    lib = _lib()
+    lib = schur_lib()
     s_handle = ctypes.c_void_p()
     status = ctypes.c_int()
     err = lib.MatFactorGetSchurComplement(ctypes.c_void_p(f.handle), ctypes.byref(s_handle),
