@@ -9,12 +9,12 @@ import numpy as np
 import pytest
 from support import CONFIGS, read_summary, run_cli
 
+from app.assembly.loads import unique_names
 from app.output.reactions import (
     body_balance,
     interface_resultants,
     support_owner,
     support_reactions,
-    unique_names,
 )
 
 CANTILEVER = (CONFIGS / "cantilever.toml").read_text()

@@ -22,7 +22,7 @@ import numpy as np
 import scipy.sparse as sp
 from petsc4py import PETSc
 
-from app.condensation.schur_solver import read_dense_symmetric, schur_lib
+from app.condensation.schur_solver import petsc_call, read_dense_symmetric, schur_lib
 from app.errors import InputError, SolveError
 
 
@@ -47,16 +47,13 @@ def schur_complement(k: PETSc.Mat, dofs: np.ndarray) -> np.ndarray | None:
     f = pc.getFactorMatrix()
     idx = dofs.astype(PETSc.IntType) if rank == 0 else np.zeros(0, dtype=PETSc.IntType)
     iset = PETSc.IS().createGeneral(idx, comm=comm)
-    err = lib.MatFactorSetSchurIS(ctypes.c_void_p(f.handle), ctypes.c_void_p(iset.handle))
-    if err:
-        raise SolveError(f"MatFactorSetSchurIS failed (PETSc error {err})")
+    petsc_call(lib, "MatFactorSetSchurIS", ctypes.c_void_p(f.handle),
+               ctypes.c_void_p(iset.handle))
     ksp.setUp()
     s_handle = ctypes.c_void_p()
     status = ctypes.c_int()
-    err = lib.MatFactorCreateSchurComplement(ctypes.c_void_p(f.handle), ctypes.byref(s_handle),
-                                             ctypes.byref(status))
-    if err:
-        raise SolveError(f"MatFactorCreateSchurComplement failed (PETSc error {err})")
+    petsc_call(lib, "MatFactorCreateSchurComplement", ctypes.c_void_p(f.handle),
+               ctypes.byref(s_handle), ctypes.byref(status))
     out = read_dense_symmetric(lib, s_handle, dofs.size) if rank == 0 else None
     lib.MatDestroy(ctypes.byref(s_handle))
     ksp.destroy()

@@ -37,6 +37,13 @@ def schur_lib() -> ctypes.CDLL:
     return lib
 
 
+def petsc_call(lib: ctypes.CDLL, name: str, *args) -> None:
+    """Call the PETSc C function `name` with `args`; SolveError naming it when it fails."""
+    err = getattr(lib, name)(*args)
+    if err:
+        raise SolveError(f"{name} failed (PETSc error {err})")
+
+
 def set_schur_dofs(pc: PETSc.PC, dofs: np.ndarray) -> PETSc.Mat:
     """Ask the (not yet set up) MUMPS LU of `pc` for a Schur complement onto `dofs`.
 
@@ -47,10 +54,11 @@ def set_schur_dofs(pc: PETSc.PC, dofs: np.ndarray) -> PETSc.Mat:
     comm = f.getComm()
     idx = dofs.astype(PETSc.IntType) if comm.getRank() == 0 else np.zeros(0, PETSc.IntType)
     iset = PETSc.IS().createGeneral(idx, comm=comm)
-    err = schur_lib().MatFactorSetSchurIS(ctypes.c_void_p(f.handle), ctypes.c_void_p(iset.handle))
-    iset.destroy()
-    if err:
-        raise SolveError(f"MatFactorSetSchurIS failed (PETSc error {err})")
+    try:
+        petsc_call(schur_lib(), "MatFactorSetSchurIS", ctypes.c_void_p(f.handle),
+                   ctypes.c_void_p(iset.handle))
+    finally:
+        iset.destroy()
     return f
 
 
@@ -80,10 +88,8 @@ def schur_from_factor(f: PETSc.Mat, n: int) -> np.ndarray | None:
     lib = schur_lib()
     s_handle = ctypes.c_void_p()
     status = ctypes.c_int()
-    err = lib.MatFactorGetSchurComplement(ctypes.c_void_p(f.handle), ctypes.byref(s_handle),
-                                          ctypes.byref(status))
-    if err:
-        raise SolveError(f"MatFactorGetSchurComplement failed (PETSc error {err})")
+    petsc_call(lib, "MatFactorGetSchurComplement", ctypes.c_void_p(f.handle),
+               ctypes.byref(s_handle), ctypes.byref(status))
     out = None
     try:
         if f.getComm().getRank() == 0:

@@ -18,8 +18,6 @@ from __future__ import annotations
 import numpy as np
 from petsc4py import PETSc
 
-from app.assembly.loads import unique_names  # noqa: F401  (re-exported)
-
 _BALANCE_FLOOR = 1e-300
 BALANCE_FLOOR_FRACTION = 1e-6
 """The balance's force scale is at least this times max diag(K) times max |u|."""
