@@ -191,7 +191,7 @@ def split_modes(n_modes: np.ndarray, t_modes: np.ndarray,
     r = a.shape[1]
     if a.shape[0] == 0:
         return np.zeros((r, 0)), np.eye(r)
-    _, sv, vt = np.linalg.svd(a, full_matrices=True)
+    _, sv, vt = np.linalg.svd(a, full_matrices=a.shape[0] < a.shape[1])  # vt: (r, r)
     sv = np.concatenate([sv, np.zeros(r - sv.size)])
     null = sv <= rel * max(sv.max(initial=0.0), 1e-300)
     return vt[~null].T, vt[null].T
@@ -212,7 +212,7 @@ def undetermined_modes(n_modes: np.ndarray, t_modes: np.ndarray, names: list[str
     a = np.vstack([n_modes, t_modes])
     if a.shape[0] == 0:
         return list(names)
-    _, sv, vt = np.linalg.svd(a, full_matrices=True)
+    _, sv, vt = np.linalg.svd(a, full_matrices=a.shape[0] < a.shape[1])  # vt: (r, r)
     sv = np.concatenate([sv, np.zeros(vt.shape[0] - sv.size)])
     null = vt[sv <= rel * max(sv.max(initial=0.0), 1e-300)]
     return [names[int(np.argmax(np.abs(v)))] for v in null]
