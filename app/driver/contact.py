@@ -4,6 +4,7 @@ recovered from the stored factorization."""
 
 from __future__ import annotations
 
+import sys
 from dataclasses import dataclass
 
 import numpy as np
@@ -15,6 +16,7 @@ from app.driver.linear import LinearSystem, UnitSolutions
 from app.driver.model import Model
 from app.errors import SolveError
 from app.interface.steps import ContactStepper, StepSolution
+from app.interface.weak_modes import slide_warning
 from app.parallel import to_numpy_all
 
 CONSISTENCY_TOL = 1e-9
@@ -81,7 +83,26 @@ def solve_contact_step(ctx: RunContext, model: Model, system: LinearSystem,
         refinements += 1
     result.info["consistency_refinements"] = refinements
     result.info["lcp_displacement_mismatch"] = rel
+    _held_mode_warnings(ctx, result, step)
     return ContactStep(u, result)
+
+
+def _held_mode_warnings(ctx: RunContext, result: StepSolution, step: int) -> None:
+    """A warning (summary `warnings`, one stderr line on rank 0) the first time an unloaded
+    contact-held mode of a body slid an interface beyond SLIDE_WARN (app/interface/
+    weak_modes.py); `steps[k].contact_held_modes` holds every measured ratio."""
+    warnings = ctx.summary.setdefault("warnings", [])
+    for entry in result.info.get("contact_held_modes", []):
+        head = f"body '{entry['body']}': its "
+        where = f"contact '{entry['interface']}'"
+        if not entry["warn"] or any(w.startswith(head) and where in w for w in warnings):
+            continue
+        text = slide_warning(entry, step + 1)
+        warnings.append(text)
+        if ctx.rank == 0:
+            print(f"warning: {text}", file=sys.stderr, flush=True)
+    if not warnings:
+        del ctx.summary["warnings"]
 
 
 def _displacement(model: Model, system: LinearSystem, u_free: np.ndarray,

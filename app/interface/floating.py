@@ -7,7 +7,7 @@ free mode and no contact is an error that names it. Plain numpy on the mesh (ran
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -92,12 +92,17 @@ class FloatingModes:
     """Rigid-body modes of bodies held only by contact.
 
     r: (2n, n_modes) displacement fields of the modes; pins: DOFs fixed to make the
-    factorization regular (their reactions vanish at equilibrium); names: per mode text.
+    factorization regular (their reactions vanish at equilibrium); names: per mode text;
+    bodies: per mode its body's name; rigid: (3, n_modes) coefficients of (tx, ty, rotation
+    about the body centroid) per mode (NaN for hourglass modes); centroids (n_modes, 2).
     """
 
     r: np.ndarray
     pins: np.ndarray
     names: list[str]
+    bodies: list[str] = field(default_factory=list)
+    rigid: np.ndarray | None = None
+    centroids: np.ndarray | None = None
 
 
 def floating_modes(mesh: Mesh, cfg: Config, fixed: np.ndarray,
@@ -114,7 +119,7 @@ def floating_modes(mesh: Mesh, cfg: Config, fixed: np.ndarray,
     if not free:
         return None
     _check_held(mesh, cfg, fixed, contact)
-    cols, pins, names = [], [], []
+    cols, pins, names, bodies, rigid, centres = [], [], [], [], [], []
     node_body = mesh.node_body()
     for b, modes in sorted(free.items()):
         nodes = np.flatnonzero(node_body == b)
@@ -127,9 +132,11 @@ def floating_modes(mesh: Mesh, cfg: Config, fixed: np.ndarray,
             )
         rb = rigid_modes(mesh.points, nodes) @ modes  # (2 nb, r_b)
         labels = mode_names(modes, centroid) if modes.shape[1] else []
+        coef = modes
         if hourglass:  # rigid and hourglass modes together, from the body stiffness
             rb = zero_energy_modes(mesh, disc, b, fixed)
             labels = [f"zero-energy mode {i + 1}" for i in range(rb.shape[1])]
+            coef = np.full((3, rb.shape[1]), np.nan)
             if rb.shape[1] == 0:
                 continue
         dofs = np.stack([2 * nodes, 2 * nodes + 1], axis=1).ravel()
@@ -139,9 +146,13 @@ def floating_modes(mesh: Mesh, cfg: Config, fixed: np.ndarray,
         full[dofs] = rb
         cols.append(full)
         names += [f"{mesh.body_names[b]}: {t}" for t in labels]
+        bodies += [mesh.body_names[b]] * rb.shape[1]
+        rigid.append(coef)
+        centres += [centroid] * rb.shape[1]
     if not cols:
         return None
-    return FloatingModes(np.hstack(cols), np.concatenate(pins).astype(np.int64), names)
+    return FloatingModes(np.hstack(cols), np.concatenate(pins).astype(np.int64), names,
+                         bodies, np.hstack(rigid), np.array(centres))
 
 
 def _check_held(mesh: Mesh, cfg: Config, fixed: np.ndarray,
@@ -180,7 +191,7 @@ def split_modes(n_modes: np.ndarray, t_modes: np.ndarray,
     r = a.shape[1]
     if a.shape[0] == 0:
         return np.zeros((r, 0)), np.eye(r)
-    _, sv, vt = np.linalg.svd(a, full_matrices=True)
+    _, sv, vt = np.linalg.svd(a, full_matrices=a.shape[0] < a.shape[1])  # vt: (r, r)
     sv = np.concatenate([sv, np.zeros(r - sv.size)])
     null = sv <= rel * max(sv.max(initial=0.0), 1e-300)
     return vt[~null].T, vt[null].T
@@ -201,7 +212,7 @@ def undetermined_modes(n_modes: np.ndarray, t_modes: np.ndarray, names: list[str
     a = np.vstack([n_modes, t_modes])
     if a.shape[0] == 0:
         return list(names)
-    _, sv, vt = np.linalg.svd(a, full_matrices=True)
+    _, sv, vt = np.linalg.svd(a, full_matrices=a.shape[0] < a.shape[1])  # vt: (r, r)
     sv = np.concatenate([sv, np.zeros(vt.shape[0] - sv.size)])
     null = vt[sv <= rel * max(sv.max(initial=0.0), 1e-300)]
     return [names[int(np.argmax(np.abs(v)))] for v in null]

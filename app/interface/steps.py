@@ -17,6 +17,7 @@ import numpy as np
 from app.interface.candidates import CandidateLCP, candidate_pairs
 from app.interface.coulomb import ContactLCP, ContactSolution
 from app.interface.floating import split_modes
+from app.interface.weak_modes import held_mode_entries
 from app.lcp.solvers import lcp_solver
 
 if TYPE_CHECKING:
@@ -194,9 +195,11 @@ class ContactStepper:
         g = setup.g
         self.gu = [g @ uc for uc in unit]  # (2m,) per load case
         self.v_keep = self.v_null = None
+        self.floating = floating
         if floating is not None and floating.r.shape[1]:
             gr = g @ floating.r  # (2m, r)
             self.n_modes, self.t_modes = gr[:m], gr[m:]
+            self.modes_full = (self.n_modes, self.t_modes)  # for the held-mode check
             self.v_keep, self.v_null = split_modes(self.n_modes,
                                                    self.t_modes[setup.frictional])
             if self.v_null.shape[1]:  # amplitudes no pair sees: left out of the LCP
@@ -328,6 +331,12 @@ class ContactStepper:
                                            strict=True))
         if self.undetermined:
             info["undetermined_modes"] = self.undetermined
+        if self.mode_names:  # unloaded modes held only by contact: how far they slid it
+            held = held_mode_entries(sol.p, sol.q, sol.tau, it, pr.length, *self.modes_full,
+                                     self.setup.frictional, self.floating,
+                                     [i.name for i in self.setup.cfg.interfaces])
+            if held:
+                info["contact_held_modes"] = held
         out.info, out.state, out.debonded_step = info, res.state, res.debonded_step
         out.tau_prev, out.slip, out.f_scale = tau_prev, self.slip.copy(), self.f_scale
         out.a, out.c = self.hist.a.copy(), self.hist.c.copy()

@@ -1,0 +1,124 @@
+"""Unloaded contact-held modes (app/interface/weak_modes.py): the kernel on a synthetic
+cylinder-on-flat contact, and the run's warning on hertz.toml (coarse: warns; default: not)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from app.interface.floating import FloatingModes
+from app.interface.weak_modes import (
+    SLIDE_WARN,
+    describe,
+    held_mode_entries,
+    held_mode_slides,
+    slide_warning,
+)
+from tests.support import CONFIGS, read_summary, run_cli
+
+R = 1.0  # radius: the cylinder's centre is at (0, R), the contact at y = 0
+
+
+def _cylinder(theta: float, elastic: float = 0.0, m: int = 21, a: float = 0.1):
+    """Pairs on y = 0 under a cylinder with modes (rotation about (0, R), translation y),
+    Hertzian p, and tau = the rotation's slide R theta + an antisymmetric elastic part."""
+    x = np.linspace(-1.5 * a, 1.5 * a, m)
+    length = np.full(m, x[1] - x[0])
+    p = np.sqrt(np.clip(1 - (x / a) ** 2, 0.0, None)) * length
+    n_modes = np.stack([x, np.ones(m)], axis=1)  # gap change per unit theta, unit ty
+    t_modes = np.stack([np.full(m, R), np.zeros(m)], axis=1)
+    tau = R * theta + elastic * x / a
+    return dict(p=p, q=np.zeros(m), tau=tau, interface=np.zeros(m, dtype=np.int64),
+                length=length, n_modes=n_modes, t_modes=t_modes,
+                frictional=np.zeros(m, dtype=bool))
+
+
+def test_a_rolled_cylinder_fires_and_names_the_slide():
+    case = _cylinder(theta=0.01)
+    (h,) = held_mode_slides(**case, groups=[np.array([0, 1])])
+    width = case["length"][case["p"] > 0].sum()
+    assert h.slide == pytest.approx(0.01 * R, rel=1e-9)
+    assert h.width == pytest.approx(width)
+    assert h.ratio == pytest.approx(0.01 * R / width, rel=1e-9)
+    assert h.ratio > SLIDE_WARN
+    assert abs(h.v[0]) == pytest.approx(1.0, abs=1e-9)  # the rotation, not the loaded ty
+
+
+def test_a_small_roll_and_the_elastic_antisymmetric_slip_stay_silent():
+    case = _cylinder(theta=1e-5, elastic=1e-3)  # elastic slip 100 x the roll, odd in x
+    (h,) = held_mode_slides(**case, groups=[np.array([0, 1])])
+    assert h.slide == pytest.approx(1e-5 * R, rel=1e-6)
+    assert h.ratio < SLIDE_WARN
+
+
+def test_loaded_and_undetermined_modes_are_not_checked():
+    case = _cylinder(theta=0.05)
+    # only translation y: the load's mode (net force = sum p), nothing unloaded is left
+    one = dict(case, n_modes=case["n_modes"][:, 1:], t_modes=case["t_modes"][:, 1:])
+    assert held_mode_slides(**one, groups=[np.array([0])]) == []
+    # a frictionless sideways translation moves no gap: undetermined, reported elsewhere
+    side = dict(case, n_modes=np.zeros((case["p"].size, 1)),
+                t_modes=np.ones((case["p"].size, 1)))
+    assert held_mode_slides(**side, groups=[np.array([0])]) == []
+    # a friction-held translation that carries a tangential load (net q != 0) is loaded
+    fric = dict(side, frictional=np.ones(case["p"].size, dtype=bool), q=0.3 * case["p"])
+    assert held_mode_slides(**fric, groups=[np.array([0])]) == []
+
+
+def test_entries_name_the_rotation_centre_and_warn_once_above_the_threshold():
+    case = _cylinder(theta=0.01)
+    centroid = np.array([0.0, 0.5])
+    # rotation about (0, R) = rotation about the centroid + translation x of 0.5 R
+    rigid = np.array([[R - centroid[1], 0.0], [0.0, 1.0], [1.0, 0.0]])
+    modes = FloatingModes(np.zeros((4, 2)), np.zeros(2, dtype=np.int64),
+                          ["cyl: rotation about (x=0, y=1)", "cyl: translation y"],
+                          ["cyl", "cyl"], rigid, np.array([centroid, centroid]))
+    (e,) = held_mode_entries(**case, floating=modes, interface_names=["contact"])
+    assert e["body"] == "cyl" and e["interface"] == "contact"
+    assert e["mode"] == "rotation about (x=0, y=1)"
+    assert e["warn"] and e["slide_ratio"] > SLIDE_WARN
+    text = slide_warning(e, 3)
+    assert "body 'cyl'" in text and "contact 'contact'" in text and "step 3" in text
+    assert "support" in text and "refine" in text
+    assert describe(np.array([0.0, 1.0]), rigid, centroid, ["r", "ty"]) == "translation y"
+    assert describe(np.array([1.0, 0.0]), None, None, ["r", "ty"]) == "r"
+
+
+def _run(tmp_path, name: str, *args: str, ranks: int = 1):
+    out = tmp_path / name
+    r = run_cli(["run", str(CONFIGS / "hertz.toml"), "--out", str(out), "--quiet", *args],
+                ranks=ranks)
+    assert r.returncode == 0, r.stderr
+    return r, read_summary(out)
+
+
+def _held(summary: dict) -> dict:
+    (entry,) = summary["steps"][-1]["contact_held_modes"]
+    assert entry["body"] == "cylinder" and entry["interface"] == "contact"
+    assert entry["mode"] == "rotation about (x=0, y=1)"
+    return entry
+
+
+def test_coarse_hertz_warns_in_the_summary_and_on_stderr(tmp_path):
+    r, s = _run(tmp_path, "coarse", "--mesh-size", "1.0")
+    entry = _held(s)
+    assert entry["warn"] and entry["slide_ratio"] > 5 * SLIDE_WARN  # measured 2.0e-2
+    lines = [ln for ln in r.stderr.splitlines() if ln.startswith("warning: body 'cylinder'")]
+    assert len(lines) == 1 and "rotation about (x=0, y=1)" in lines[0]
+    assert [w for w in s["warnings"] if w.startswith("body 'cylinder'")] == [lines[0][9:]]
+
+
+def test_default_hertz_is_silent(tmp_path):
+    r, s = _run(tmp_path, "default")
+    entry = _held(s)
+    assert not entry["warn"] and entry["slide_ratio"] < SLIDE_WARN / 3  # measured 4.9e-4
+    assert "warning" not in r.stderr and "warnings" not in s
+
+
+@pytest.mark.mpi
+def test_coarse_hertz_warns_once_on_two_ranks(tmp_path):
+    r, s = _run(tmp_path, "coarse2", "--mesh-size", "1.0", ranks=2)
+    assert s["ranks"] == 2
+    assert _held(s)["warn"]
+    assert sum(ln.startswith("warning: body 'cylinder'") for ln in r.stderr.splitlines()) == 1
+    assert len(s["warnings"]) == 1
