@@ -90,6 +90,11 @@ def _parser() -> argparse.ArgumentParser:
     s.add_argument("--reference-method", default=None, metavar="LABEL",
                    help="method whose finest level is the model reference for the ref_* "
                    "errors, e.g. 4SD or FEM-Q4 (default 4SD if run, else the last method)")
+    s.add_argument("--reference", default="richardson", choices=("richardson", "finest"),
+                   help="model reference of the ref_* errors: richardson (default: energy, "
+                   "p_max and point displacements extrapolated over the reference method's "
+                   "last three levels, fields against its finest level; richardson.csv) or "
+                   "finest (its finest level for everything)")
     s.add_argument("--sweep", action="append", default=[], metavar="KEY=V1,V2,...",
                    help="parameter study instead of a convergence study (repeatable; every "
                    "combination runs once): KEY is a config path as in --set, e.g. "
@@ -163,7 +168,8 @@ def _study_command(args, petsc_args: list[str], rank: int) -> int:
             print(f"{len(rows)} rows -> {out / 'sweep.csv'}", file=sys.stderr)
         return 0
     rows = run_study(cfg, out, args.levels, parse_methods(args.methods), scale,
-                     args.quiet, args.first_level, args.remesh, args.reference_method)
+                     args.quiet, args.first_level, args.remesh, args.reference_method,
+                     args.reference)
     if not rows:
         raise InputError(f"every run of the study failed (see the lines above and "
                          f"{out}/*/summary.json)")

@@ -36,6 +36,14 @@ from app.study_reference import (
     profile,
     write_tables,
 )
+from app.study_richardson import (
+    REFERENCE_MODES,
+    add_limit_spread,
+    method_limits,
+    order_summary,
+    reference_scalars,
+    tables,
+)
 
 PHASES = ("mesh", "assembly", "factorization", "solve", "pair_search", "compliance", "lcp",
           "recovery", "output", "total")
@@ -69,12 +77,17 @@ def label(method: str, sd: int) -> str:
 
 def run_study(cfg: Config, out: Path, levels: int, methods: list[tuple[str, int]],
               base_scale: float = 1.0, quiet: bool = False, first_level: int = 0,
-              remesh: bool = False, reference: str | None = None) -> list[dict]:
+              remesh: bool = False, reference: str | None = None,
+              reference_mode: str = "richardson") -> list[dict]:
     """Run every (level, method); returns the rows written to OUT/study.csv.
 
-    reference: label of the method whose finest level is the model reference (default
-    4SD if run, else the last method). Raises SolveError if every run fails.
+    reference: label of the reference method (default 4SD if run, else the last method).
+    reference_mode: "richardson" (its scalars extrapolated over its levels,
+    app/study_richardson.py) or "finest" (its finest level). Raises SolveError if every
+    run fails.
     """
+    if reference_mode not in REFERENCE_MODES:
+        raise InputError(f"--reference must be one of {', '.join(REFERENCE_MODES)}")
     rank = PETSc.COMM_WORLD.getRank()
     if cfg.reference is None:
         raise InputError(f"{cfg.path}: a study needs a [reference] table with type one of "
@@ -136,15 +149,28 @@ def run_study(cfg: Config, out: Path, levels: int, methods: list[tuple[str, int]
                          f"{failures[0].splitlines()[0] if failures else 'none'})")
     if rank == 0:
         ref_label = reference or ("4SD" if "4SD" in labels else labels[-1])
-        note = add_reference_errors(rows, profiles, ref_label)
+        limits = method_limits(rows, profiles) if reference_mode == "richardson" else []
+        scalars = reference_scalars(limits, ref_label)
+        missing = bool(limits) and scalars is None
+        limits = [] if missing else limits
+        note = add_reference_errors(rows, profiles, ref_label, scalars) + (
+            f" (Richardson needs three consecutive levels of {ref_label})" if missing else "")
         bracket = energy_bracket(rows)
         write_csv(out / "study.csv", rows)
         if bracket:
             write_csv(out / "energy_bracket.csv", bracket)
         table = write_tables(rows, bracket, out, note)
+        if limits:
+            add_limit_spread(limits, ref_label)
+            write_csv(out / "richardson.csv", limits)
+            table += tables(limits, order_summary(rows))
+            (out / "study_tables.md").write_text(table)
         if not quiet:
             print(table, flush=True)
-        plot_study(rows, out, title=f"{cfg.path.stem} ({cfg.reference['type']})", note=note)
+        floors = {f"ref_{r['quantity']}": r["uncertainty_rel"] for r in limits
+                  if r["method"] == ref_label}
+        plot_study(rows, out, title=f"{cfg.path.stem} ({cfg.reference['type']})", note=note,
+                   floors=floors)
         if bracket:
             plot_bracket(bracket, out)
     return rows
@@ -160,9 +186,11 @@ def write_csv(path: Path, rows: list[dict]) -> None:
     tmp.replace(path)
 
 
-def plot_study(rows: list[dict], out: Path, title: str = "", note: str = "") -> list[Path]:
+def plot_study(rows: list[dict], out: Path, title: str = "", note: str = "",
+               floors: dict[str, float] | None = None) -> list[Path]:
     """error_vs_dofs.png, error_vs_time.png (closed-form errors err_* and errors against
-    the model reference ref_*, one panel each) and energy_vs_sd.png in OUT."""
+    the model reference ref_*, one panel each) and energy_vs_sd.png in OUT; floors
+    {column: relative uncertainty of the reference} are drawn as dotted lines."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -191,6 +219,9 @@ def plot_study(rows: list[dict], out: Path, title: str = "", note: str = "") -> 
                     last = next((o for o in reversed(orders) if math.isfinite(o)), math.nan)
                     lab += f" (rate {fitted_rate(x, y):.2f}, last order {last:.2f})"
                 ax.loglog(x, y, "o-", label=lab, ms=3)
+            if (floors or {}).get(ek, 0) > 0:
+                ax.axhline(floors[ek], color="grey", ls=":", lw=1,
+                           label="uncertainty of the Richardson limit")
             ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
             ax.set_xlabel(xlabel)
             ax.set_ylabel("relative error")
