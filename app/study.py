@@ -78,12 +78,14 @@ def label(method: str, sd: int) -> str:
 def run_study(cfg: Config, out: Path, levels: int, methods: list[tuple[str, int]],
               base_scale: float = 1.0, quiet: bool = False, first_level: int = 0,
               remesh: bool = False, reference: str | None = None,
-              reference_mode: str = "richardson") -> list[dict]:
+              reference_mode: str = "richardson", reference_levels: int = 0) -> list[dict]:
     """Run every (level, method); returns the rows written to OUT/study.csv.
 
     reference: label of the reference method (default 4SD if run, else the last method).
     reference_mode: "richardson" (its scalars extrapolated over its levels,
-    app/study_richardson.py) or "finest" (its finest level). Raises SolveError if every
+    app/study_richardson.py) or "finest" (its finest level). reference_levels: the
+    reference method alone also runs that many levels finer than the others, so that
+    their finest levels are compared with a finer reference. Raises SolveError if every
     run fails.
     """
     if reference_mode not in REFERENCE_MODES:
@@ -97,15 +99,18 @@ def run_study(cfg: Config, out: Path, levels: int, methods: list[tuple[str, int]
     if reference is not None and reference not in labels:
         raise InputError(f"--reference-method {reference} is not among the methods "
                          f"({', '.join(labels)})")
+    ref_label = reference or ("4SD" if "4SD" in labels else labels[-1])
     out = Path(out)
     cache = out / "mesh_cache"
     rows: list[dict] = []
     profiles: dict[tuple[int, str], dict] = {}
     failures: list[str] = []
     t0 = time.perf_counter()
-    last = first_level + levels - 1
-    for level in range(first_level, first_level + levels):
+    last = first_level + levels - 1 + reference_levels
+    for level in range(first_level, last + 1):
         for method, sd in methods:
+            if level > last - reference_levels and label(method, sd) != ref_label:
+                continue  # finer levels: the reference method only
             tag = f"level {level}/{last} {label(method, sd)}"
             scale = base_scale * 2.0**-level if remesh else base_scale
             opts = RunOptions(out=out / f"L{level}_{label(method, sd)}", method=method, sd=sd,
@@ -148,7 +153,6 @@ def run_study(cfg: Config, out: Path, levels: int, methods: list[tuple[str, int]
         raise SolveError(f"every run of the study failed ({len(failures)} runs; first: "
                          f"{failures[0].splitlines()[0] if failures else 'none'})")
     if rank == 0:
-        ref_label = reference or ("4SD" if "4SD" in labels else labels[-1])
         limits = method_limits(rows, profiles) if reference_mode == "richardson" else []
         scalars = reference_scalars(limits, ref_label)
         missing = bool(limits) and scalars is None
