@@ -7,8 +7,10 @@ with remesh=True gmsh meshes every level anew with every element size scaled by
 base_scale * 2**-l. Meshes are cached and reused across methods and reruns.
 
 Besides the errors against the closed form (`err_*`), every run is compared with a
-reference of the same model (`ref_*`, app/study_reference.py): the finest level of the
-reference method (default 4SD), so the comparison has no model error. Observed orders
+reference of the same model (`ref_*`, app/study_reference.py), so the comparison has no
+model error: by default the Richardson limits of the reference method's (default 4SD)
+energy, peak pressure and point displacements and its finest level for the fields
+(app/study_richardson.py); with reference_mode="finest" its finest level for all. Observed orders
 between successive levels (`order_*`), the energy bracket U(1SD) / U(FEM-Q4 or 16SD) per
 level and a markdown table are written next to study.csv.
 """
