@@ -44,7 +44,10 @@ def pressure_breakdown(x: np.ndarray, p: np.ndarray, length: np.ndarray, a: floa
     """Tributary L2(p) against Hertz (x relative to the contact centre, any order) split
     into the core |x| < core a and the edge pairs core a <= |x| < a (both relative to the
     same ||p_H||, so total^2 = core^2 + edge^2); the worst pair in |x| < a (x / a and
-    (p - p_H) / p0); and average_floor, the same L2 of the exact tributary averages."""
+    (p - p_H) / p0); odd_even_over_p0, the median over the pairs in |x| < a/2 of
+    |e_i - (e_(i-1) + e_(i+1)) / 2| / 2 with e = (p - p_H) / p0 (the amplitude A of an
+    alternation +-A from pair to pair; about 0 for a smooth error); and average_floor, the
+    same L2 of the exact tributary averages."""
     o = np.argsort(x)
     x, p, length = np.asarray(x, float)[o], np.asarray(p, float)[o], np.asarray(length)[o]
     ph = hertz_pressure(x, a, p0)
@@ -58,7 +61,11 @@ def pressure_breakdown(x: np.ndarray, p: np.ndarray, length: np.ndarray, a: floa
     err = np.where(zone, (p - ph) / p0, 0.0)
     k = int(np.argmax(np.abs(err)))
     total, in_core = l2(zone, p), l2(inner, p)
+    mid = np.flatnonzero(np.abs(x) < 0.5 * a)
+    mid = mid[(mid > 0) & (mid < x.size - 1)]
+    wiggle = np.abs(err[mid] - 0.5 * (err[mid - 1] + err[mid + 1])) / 2
     return {"l2": total, "l2_core": in_core, "l2_edge": float(np.sqrt(max(total**2
                                                                           - in_core**2, 0))),
             "worst_x_over_a": float(x[k] / a), "worst_error_over_p0": float(err[k]),
+            "odd_even_over_p0": float(np.median(wiggle)) if mid.size else float("nan"),
             "average_floor": l2(zone, hertz_tributary_average(x, a, p0))}

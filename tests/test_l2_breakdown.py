@@ -47,3 +47,10 @@ def test_breakdown_of_exact_and_averaged_profiles():
     assert b["worst_x_over_a"] == pytest.approx(x[k] / A)
     assert b["worst_error_over_p0"] == pytest.approx(0.01)
     assert b["l2_edge"] == 0 and b["l2_core"] == b["l2"] > 0
+    assert exact["odd_even_over_p0"] == 0
+    x, w = pairs(301)
+    smooth = hertz_pressure(x, A, P0) + 0.002 * P0 * np.cos(3 * x / A)
+    assert pressure_breakdown(x, smooth, w, A, P0)["odd_even_over_p0"] < 1e-5
+    alternating = hertz_pressure(x, A, P0) + 0.0005 * P0 * (-1.0) ** np.arange(x.size)
+    b = pressure_breakdown(x, alternating, w, A, P0)
+    assert b["odd_even_over_p0"] == pytest.approx(0.0005, rel=0.05)
