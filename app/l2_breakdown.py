@@ -44,7 +44,8 @@ def pressure_breakdown(x: np.ndarray, p: np.ndarray, length: np.ndarray, a: floa
     """Tributary L2(p) against Hertz (x relative to the contact centre, any order) split
     into the core |x| < core a and the edge pairs core a <= |x| < a (both relative to the
     same ||p_H||, so total^2 = core^2 + edge^2); the worst pair in |x| < a (x / a and
-    (p - p_H) / p0); odd_even_over_p0, the median over the pairs in |x| < a/2 of
+    (p - p_H) / p0); loaded_outside, the pairs with p > 0 at |x| >= a (left out of the
+    tributary L2); odd_even_over_p0, the median over the pairs in |x| < a/2 of
     |e_i - (e_(i-1) + e_(i+1)) / 2| / 2 with e = (p - p_H) / p0 (the amplitude A of an
     alternation +-A from pair to pair; about 0 for a smooth error); and average_floor, the
     same L2 of the exact tributary averages."""
@@ -68,4 +69,5 @@ def pressure_breakdown(x: np.ndarray, p: np.ndarray, length: np.ndarray, a: floa
                                                                           - in_core**2, 0))),
             "worst_x_over_a": float(x[k] / a), "worst_error_over_p0": float(err[k]),
             "odd_even_over_p0": float(np.median(wiggle)) if mid.size else float("nan"),
+            "loaded_outside": int(np.sum((p > 0) & ~zone)),
             "average_floor": l2(zone, hertz_tributary_average(x, a, p0))}

@@ -32,7 +32,10 @@ def test_tributary_average_conserves_the_force_and_tends_to_point_values():
 def test_breakdown_of_exact_and_averaged_profiles():
     x, w = pairs(47)
     exact = pressure_breakdown(x, hertz_pressure(x, A, P0), w, A, P0)
-    assert exact["l2"] == 0 and exact["average_floor"] > 0
+    assert exact["l2"] == 0 and exact["average_floor"] > 0 and exact["loaded_outside"] == 0
+    wider = hertz_pressure(x, 1.1 * A, P0)  # loaded up to 1.1 a: pairs outside |x| < a
+    assert pressure_breakdown(x, wider, w, A, P0)["loaded_outside"] == int(
+        np.sum((np.abs(x) >= A) & (np.abs(x) < 1.1 * A)))
     avg = hertz_tributary_average(x, A, P0)
     b = pressure_breakdown(x[::-1], avg[::-1], w[::-1], A, P0)  # any order
     assert b["l2"] == pytest.approx(b["average_floor"], rel=1e-12)
