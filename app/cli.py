@@ -70,8 +70,9 @@ def _parser() -> argparse.ArgumentParser:
                        description="Refine level by level (each level splits every quad of "
                        "the level-0 mesh into four; --remesh: gmsh halves every element size) "
                        "and run every method; writes OUT/study.csv, study_tables.md (errors "
-                       "against the closed form and against the finest level of the reference "
-                       "method, observed orders, energy bracket) and the plots "
+                       "against the closed form and against a model reference: Richardson "
+                       "limits or the finest level of the reference method; observed orders, "
+                       "energy bracket), richardson.csv and the plots "
                        "error_vs_dofs.png, error_vs_time.png, energy_vs_sd.png, "
                        "energy_bracket.png. The config needs a [reference] table (timoshenko, "
                        "hertz or cattaneo). With --sweep: a parameter study instead. Unknown "
@@ -90,6 +91,14 @@ def _parser() -> argparse.ArgumentParser:
     s.add_argument("--reference-method", default=None, metavar="LABEL",
                    help="method whose finest level is the model reference for the ref_* "
                    "errors, e.g. 4SD or FEM-Q4 (default 4SD if run, else the last method)")
+    s.add_argument("--reference", default="richardson", choices=("richardson", "finest"),
+                   help="model reference of the ref_* errors: richardson (default: energy, "
+                   "p_max and point displacements extrapolated over the reference method's "
+                   "last three levels, fields against its finest level; richardson.csv) or "
+                   "finest (its finest level for everything)")
+    s.add_argument("--reference-levels", type=int, default=0, metavar="K",
+                   help="the reference method alone also runs K levels finer than --levels "
+                   "(default 0), so every other method's finest level has a finer reference")
     s.add_argument("--sweep", action="append", default=[], metavar="KEY=V1,V2,...",
                    help="parameter study instead of a convergence study (repeatable; every "
                    "combination runs once): KEY is a config path as in --set, e.g. "
@@ -148,7 +157,10 @@ def _study_command(args, petsc_args: list[str], rank: int) -> int:
     cfg = load_config(args.config, args.set)
     if args.levels < 1 or args.first_level < 0:
         raise InputError("--levels must be >= 1 and --first-level >= 0")
-    finest = args.refine if args.sweep else args.first_level + args.levels - 1
+    if not 0 <= args.reference_levels <= 3:
+        raise InputError(f"--reference-levels must be 0..3 (got {args.reference_levels})")
+    finest = (args.refine if args.sweep
+              else args.first_level + args.levels - 1 + args.reference_levels)
     scale = check_run_input(cfg, args, finest)
     out = output_folder(args.out, Path("out") / f"study_{args.config.stem}")
     if args.sweep:
@@ -163,7 +175,8 @@ def _study_command(args, petsc_args: list[str], rank: int) -> int:
             print(f"{len(rows)} rows -> {out / 'sweep.csv'}", file=sys.stderr)
         return 0
     rows = run_study(cfg, out, args.levels, parse_methods(args.methods), scale,
-                     args.quiet, args.first_level, args.remesh, args.reference_method)
+                     args.quiet, args.first_level, args.remesh, args.reference_method,
+                     args.reference, args.reference_levels)
     if not rows:
         raise InputError(f"every run of the study failed (see the lines above and "
                          f"{out}/*/summary.json)")

@@ -7,8 +7,10 @@ with remesh=True gmsh meshes every level anew with every element size scaled by
 base_scale * 2**-l. Meshes are cached and reused across methods and reruns.
 
 Besides the errors against the closed form (`err_*`), every run is compared with a
-reference of the same model (`ref_*`, app/study_reference.py): the finest level of the
-reference method (default 4SD), so the comparison has no model error. Observed orders
+reference of the same model (`ref_*`, app/study_reference.py), so the comparison has no
+model error: by default the Richardson limits of the reference method's (default 4SD)
+energy, peak pressure and point displacements and its finest level for the fields
+(app/study_richardson.py); with reference_mode="finest" its finest level for all. Observed orders
 between successive levels (`order_*`), the energy bracket U(1SD) / U(FEM-Q4 or 16SD) per
 level and a markdown table are written next to study.csv.
 """
@@ -35,6 +37,14 @@ from app.study_reference import (
     plot_bracket,
     profile,
     write_tables,
+)
+from app.study_richardson import (
+    REFERENCE_MODES,
+    add_limit_spread,
+    method_limits,
+    order_summary,
+    reference_scalars,
+    tables,
 )
 
 PHASES = ("mesh", "assembly", "factorization", "solve", "pair_search", "compliance", "lcp",
@@ -69,12 +79,19 @@ def label(method: str, sd: int) -> str:
 
 def run_study(cfg: Config, out: Path, levels: int, methods: list[tuple[str, int]],
               base_scale: float = 1.0, quiet: bool = False, first_level: int = 0,
-              remesh: bool = False, reference: str | None = None) -> list[dict]:
+              remesh: bool = False, reference: str | None = None,
+              reference_mode: str = "richardson", reference_levels: int = 0) -> list[dict]:
     """Run every (level, method); returns the rows written to OUT/study.csv.
 
-    reference: label of the method whose finest level is the model reference (default
-    4SD if run, else the last method). Raises SolveError if every run fails.
+    reference: label of the reference method (default 4SD if run, else the last method).
+    reference_mode: "richardson" (its scalars extrapolated over its levels,
+    app/study_richardson.py) or "finest" (its finest level). reference_levels: the
+    reference method alone also runs that many levels finer than the others, so that
+    their finest levels are compared with a finer reference. Raises SolveError if every
+    run fails.
     """
+    if reference_mode not in REFERENCE_MODES:
+        raise InputError(f"--reference must be one of {', '.join(REFERENCE_MODES)}")
     rank = PETSc.COMM_WORLD.getRank()
     if cfg.reference is None:
         raise InputError(f"{cfg.path}: a study needs a [reference] table with type one of "
@@ -84,15 +101,18 @@ def run_study(cfg: Config, out: Path, levels: int, methods: list[tuple[str, int]
     if reference is not None and reference not in labels:
         raise InputError(f"--reference-method {reference} is not among the methods "
                          f"({', '.join(labels)})")
+    ref_label = reference or ("4SD" if "4SD" in labels else labels[-1])
     out = Path(out)
     cache = out / "mesh_cache"
     rows: list[dict] = []
     profiles: dict[tuple[int, str], dict] = {}
     failures: list[str] = []
     t0 = time.perf_counter()
-    last = first_level + levels - 1
-    for level in range(first_level, first_level + levels):
+    last = first_level + levels - 1 + reference_levels
+    for level in range(first_level, last + 1):
         for method, sd in methods:
+            if level > last - reference_levels and label(method, sd) != ref_label:
+                continue  # finer levels: the reference method only
             tag = f"level {level}/{last} {label(method, sd)}"
             scale = base_scale * 2.0**-level if remesh else base_scale
             opts = RunOptions(out=out / f"L{level}_{label(method, sd)}", method=method, sd=sd,
@@ -135,16 +155,28 @@ def run_study(cfg: Config, out: Path, levels: int, methods: list[tuple[str, int]
         raise SolveError(f"every run of the study failed ({len(failures)} runs; first: "
                          f"{failures[0].splitlines()[0] if failures else 'none'})")
     if rank == 0:
-        ref_label = reference or ("4SD" if "4SD" in labels else labels[-1])
-        note = add_reference_errors(rows, profiles, ref_label)
+        limits = method_limits(rows, profiles) if reference_mode == "richardson" else []
+        scalars = reference_scalars(limits, ref_label)
+        missing = bool(limits) and scalars is None
+        limits = [] if missing else limits
+        note = add_reference_errors(rows, profiles, ref_label, scalars) + (
+            f" (Richardson needs three consecutive levels of {ref_label})" if missing else "")
         bracket = energy_bracket(rows)
         write_csv(out / "study.csv", rows)
         if bracket:
             write_csv(out / "energy_bracket.csv", bracket)
         table = write_tables(rows, bracket, out, note)
+        if limits:
+            add_limit_spread(limits, ref_label)
+            write_csv(out / "richardson.csv", limits)
+            table += tables(limits, order_summary(rows))
+            (out / "study_tables.md").write_text(table)
         if not quiet:
             print(table, flush=True)
-        plot_study(rows, out, title=f"{cfg.path.stem} ({cfg.reference['type']})", note=note)
+        floors = {f"ref_{r['quantity']}": r["uncertainty_rel"] for r in limits
+                  if r["method"] == ref_label}
+        plot_study(rows, out, title=f"{cfg.path.stem} ({cfg.reference['type']})", note=note,
+                   floors=floors)
         if bracket:
             plot_bracket(bracket, out)
     return rows
@@ -160,9 +192,11 @@ def write_csv(path: Path, rows: list[dict]) -> None:
     tmp.replace(path)
 
 
-def plot_study(rows: list[dict], out: Path, title: str = "", note: str = "") -> list[Path]:
+def plot_study(rows: list[dict], out: Path, title: str = "", note: str = "",
+               floors: dict[str, float] | None = None) -> list[Path]:
     """error_vs_dofs.png, error_vs_time.png (closed-form errors err_* and errors against
-    the model reference ref_*, one panel each) and energy_vs_sd.png in OUT."""
+    the model reference ref_*, one panel each) and energy_vs_sd.png in OUT; floors
+    {column: relative uncertainty of the reference} are drawn as dotted lines."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -191,6 +225,9 @@ def plot_study(rows: list[dict], out: Path, title: str = "", note: str = "") -> 
                     last = next((o for o in reversed(orders) if math.isfinite(o)), math.nan)
                     lab += f" (rate {fitted_rate(x, y):.2f}, last order {last:.2f})"
                 ax.loglog(x, y, "o-", label=lab, ms=3)
+            if (floors or {}).get(ek, 0) > 0:
+                ax.axhline(floors[ek], color="grey", ls=":", lw=1,
+                           label="uncertainty of the Richardson limit")
             ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
             ax.set_xlabel(xlabel)
             ax.set_ylabel("relative error")

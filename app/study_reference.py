@@ -1,14 +1,19 @@
 """Study figures that need no closed form: errors against a reference of the same model,
 observed orders of convergence and the CS-FEM energy bracket.
 
-Reference: the finest level of one method (default 4SD). Its pair pressures p(x) and
+Reference: the finest level of one method (default 4SD); with scalars given (study
+--reference richardson, app/study_richardson.py) the Richardson limits of its energy,
+peak pressure and point displacements replace its finest values. Its pair pressures p(x) and
 tractions q(x) (last step, first interface), strain energy, peak pressure and named-point
 displacement are compared with every other run:
   ref_energy      |U - U_ref| / |U_ref|
   ref_p_max       |max p - max p_ref| / max p_ref
   ref_pressure_l2 ||p_h - p_ref|| / ||p_ref||, p_h interpolated linearly between its pairs
                   onto the reference pairs within 1.5 x the reference contact half-width of
-                  the contact centre (trapezoidal rule); ref_traction_l2 the same for q
+                  the contact centre (trapezoidal rule); ref_traction_l2 the same for q;
+                  ref_pressure_l2_core the same within 0.8 x the half-width (without the
+                  contact edges, where the error depends on where the edge falls between
+                  the pairs and converges unsteadily)
   ref_tip         |u_y - u_y,ref| / |u_y,ref| at the [reference] point (timoshenko)
 Observed order between levels l-1 and l (h halves): log2(e_{l-1} / e_l), column order_<e>.
 Energy bracket per level: U(1SD) and U(FEM-Q4), or U(16SD) if FEM-Q4 was not run; with
@@ -23,6 +28,7 @@ from pathlib import Path
 import numpy as np
 
 WINDOW = 1.5  # L2 window, in reference contact half-widths around the contact centre
+CORE = 0.8  # ref_pressure_l2_core: the window without the contact edges (same units)
 
 
 def profile(summary: dict, run_out: Path) -> dict:
@@ -57,23 +63,35 @@ def l2_against(x: np.ndarray, f: np.ndarray, xr: np.ndarray, fr: np.ndarray,
     return float(np.sqrt(np.trapz((fh - fr[sel]) ** 2, xs) / den)) if den > 0 else math.nan
 
 
-def contact_window(x: np.ndarray, p: np.ndarray) -> tuple[float, float]:
-    """(lo, hi): WINDOW x the half-width of the zone where p > 0, around its centre."""
+def contact_window(x: np.ndarray, p: np.ndarray, factor: float = WINDOW
+                   ) -> tuple[float, float]:
+    """(lo, hi): factor x the half-width of the zone where p > 0, around its centre."""
     inside = x[p > 0]
     if inside.size == 0:
         return (math.nan, math.nan)
     c, half = 0.5 * (inside.min() + inside.max()), 0.5 * (inside.max() - inside.min())
-    return (c - WINDOW * half, c + WINDOW * half)
+    return (c - factor * half, c + factor * half)
 
 
-def add_reference_errors(rows: list[dict], profiles: dict, ref_label: str) -> str:
-    """Add ref_* and order_* columns to rows in place; returns a note naming the reference."""
+def add_reference_errors(rows: list[dict], profiles: dict, ref_label: str,
+                         scalars: dict | None = None) -> str:
+    """Add ref_* and order_* columns to rows in place; returns a note naming the reference.
+
+    scalars: {"energy": U*, "p_max": p*, <point>: u*} (e.g. Richardson limits,
+    app/study_richardson.py) replace the finest level's values for those errors; the
+    fields p(x), q(x) are always compared with the finest level of ref_label."""
     levels = [r["level"] for r in rows if r["method"] == ref_label]
     if not levels:
         return "no reference (the reference method has no completed run)"
-    ref = profiles[(max(levels), ref_label)]
+    ref = dict(profiles[(max(levels), ref_label)])
     note = f"reference: level {max(levels)} of {ref_label} ({ref['n_dofs']} DOFs)"
+    if scalars:
+        ref |= {k: scalars[k] for k in ("energy", "p_max") if k in scalars}
+        ref["points"] = {k: scalars.get(k, v) for k, v in ref["points"].items()}
+        note = (f"reference: Richardson limits of {ref_label} for energy, p_max and points; "
+                f"level {max(levels)} of {ref_label} ({ref['n_dofs']} DOFs) for p(x), q(x)")
     win = contact_window(ref["x"], ref["p"]) if "x" in ref else None
+    core = contact_window(ref["x"], ref["p"], CORE) if "x" in ref else None
     has_q = "q" in ref and np.abs(ref["q"]).max(initial=0.0) > 1e-12 * ref.get("p_max", 1)
     for r in rows:
         pr = profiles[(r["level"], r["method"])]
@@ -82,12 +100,16 @@ def add_reference_errors(rows: list[dict], profiles: dict, ref_label: str) -> st
         if win is not None and "x" in pr:
             vals["ref_p_max"] = abs(pr["p_max"] - ref["p_max"]) / ref["p_max"]
             vals["ref_pressure_l2"] = l2_against(pr["x"], pr["p"], ref["x"], ref["p"], win)
+            vals["ref_pressure_l2_core"] = l2_against(pr["x"], pr["p"], ref["x"], ref["p"],
+                                                      core)
             if has_q:
                 vals["ref_traction_l2"] = l2_against(pr["x"], pr["q"], ref["x"], ref["q"], win)
         for name, uy in ref["points"].items():
             if name in pr["points"] and uy != 0:
                 vals[f"ref_{name}"] = abs(pr["points"][name] - uy) / abs(uy)
-        r.update({k: (math.nan if is_ref else v) for k, v in vals.items()})
+        fields = ("ref_pressure_l2", "ref_pressure_l2_core", "ref_traction_l2")
+        r.update({k: (math.nan if is_ref and (k in fields or not scalars) else v)
+                  for k, v in vals.items()})
     add_orders(rows)
     return note
 

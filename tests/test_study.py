@@ -13,7 +13,7 @@ from app.study import fitted_rate, parse_methods
 def test_study_writes_csv_and_plots_and_reuses_meshes(tmp_path):
     out = tmp_path / "study"
     args = ["study", str(CONFIGS / "cantilever.toml"), "--levels", "3", "--mesh-size", "0.25",
-            "--methods", "1,4,q4", "--out", str(out)]
+            "--methods", "1,4,q4", "--reference", "finest", "--out", str(out)]
     res = run_cli(args)
     assert res.returncode == 0, res.stderr
     assert "level 2/2 FEM-Q4" in res.stdout  # progress display

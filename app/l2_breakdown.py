@@ -1,0 +1,73 @@
+"""Where the Hertz L2(p) error of a pair profile sits: the contact core, the pairs next to
+the contact edges, and the floors of the two L2 definitions (README, issue 11).
+
+The tributary definition (closed_form.hertz_errors, `pressure_l2_rel_error`) compares
+each pair's p with the Hertz pressure *at* the pair over |x| < a, weighted by tributary
+length: the exact pressure sampled at the pairs scores 0. A dual-mortar nodal pressure is
+a force over the tributary length, i.e. an average over the tributary; the exact Hertz
+average over each pair's tributary (`hertz_tributary_average`) scores `average_floor`,
+which near the edge (p ~ sqrt(a - |x|)) is O(h) and depends on where x = +-a falls
+between the pairs. Plain numpy.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from app.closed_form import hertz_pressure
+
+
+def _sqrt_integral(s: np.ndarray) -> np.ndarray:
+    """Antiderivative of sqrt(1 - s^2), constant outside [-1, 1]."""
+    s = np.clip(s, -1.0, 1.0)
+    return 0.5 * (s * np.sqrt(1.0 - s * s) + np.arcsin(s))
+
+
+def tributary_bounds(x: np.ndarray) -> np.ndarray:
+    """(m + 1,) tributary bounds of sorted pair positions x (m,): midpoints between
+    neighbours, the outermost pairs' own positions at the ends."""
+    return np.r_[x[0], 0.5 * (x[1:] + x[:-1]), x[-1]]
+
+
+def hertz_tributary_average(x: np.ndarray, a: float, p0: float) -> np.ndarray:
+    """(m,) mean of the Hertz pressure over each pair's tributary (x sorted, relative to
+    the contact centre); a zero-length tributary gets the point value."""
+    b = tributary_bounds(x)
+    width = b[1:] - b[:-1]
+    mean = p0 * a * (_sqrt_integral(b[1:] / a) - _sqrt_integral(b[:-1] / a)) / np.where(
+        width > 0, width, 1.0)
+    return np.where(width > 0, mean, hertz_pressure(x, a, p0))
+
+
+def pressure_breakdown(x: np.ndarray, p: np.ndarray, length: np.ndarray, a: float,
+                       p0: float, core: float = 0.95) -> dict:
+    """Tributary L2(p) against Hertz (x relative to the contact centre, any order) split
+    into the core |x| < core a and the edge pairs core a <= |x| < a (both relative to the
+    same ||p_H||, so total^2 = core^2 + edge^2); the worst pair in |x| < a (x / a and
+    (p - p_H) / p0); loaded_outside, the pairs with p > 0 at |x| >= a (left out of the
+    tributary L2); odd_even_over_p0, the median over the pairs in |x| < a/2 of
+    |e_i - (e_(i-1) + e_(i+1)) / 2| / 2 with e = (p - p_H) / p0 (the amplitude A of an
+    alternation +-A from pair to pair; about 0 for a smooth error); and average_floor, the
+    same L2 of the exact tributary averages."""
+    o = np.argsort(x)
+    x, p, length = np.asarray(x, float)[o], np.asarray(p, float)[o], np.asarray(length)[o]
+    ph = hertz_pressure(x, a, p0)
+    zone = np.abs(x) < a
+    inner = zone & (np.abs(x) < core * a)
+    den = np.sum(length[zone] * ph[zone] ** 2)
+
+    def l2(sel, f):
+        return float(np.sqrt(np.sum(length[sel] * (f[sel] - ph[sel]) ** 2) / den))
+
+    err = np.where(zone, (p - ph) / p0, 0.0)
+    k = int(np.argmax(np.abs(err)))
+    total, in_core = l2(zone, p), l2(inner, p)
+    mid = np.flatnonzero(np.abs(x) < 0.5 * a)
+    mid = mid[(mid > 0) & (mid < x.size - 1)]
+    wiggle = np.abs(err[mid] - 0.5 * (err[mid - 1] + err[mid + 1])) / 2
+    return {"l2": total, "l2_core": in_core, "l2_edge": float(np.sqrt(max(total**2
+                                                                          - in_core**2, 0))),
+            "worst_x_over_a": float(x[k] / a), "worst_error_over_p0": float(err[k]),
+            "odd_even_over_p0": float(np.median(wiggle)) if mid.size else float("nan"),
+            "loaded_outside": int(np.sum((p > 0) & ~zone)),
+            "average_floor": l2(zone, hertz_tributary_average(x, a, p0))}

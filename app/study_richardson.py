@@ -1,0 +1,120 @@
+"""The study's Richardson-extrapolated reference (`study --reference richardson`).
+
+Scalars (strain energy, peak pressure p_max, named-point displacements u_y) are
+extrapolated per method from its finest consecutive levels (app/richardson.py: observed
+order from the last three levels, theoretical order 2 from the last two as the fallback
+and the uncertainty). The reference method's limits replace the finest level's values in
+the ref_* errors of those scalars; every method's own limit is reported too, so the
+limits of different methods can be compared (they share the continuum limit).
+
+The fields p(x), q(x) keep the finest level of the reference method as their reference
+(ref_pressure_l2, ref_traction_l2): pair sets differ per level and, near the contact edges
+and at irregular mesh vertices, the nodal values do not converge monotonically (README,
+issue 11), so a pointwise extrapolation has no asymptotic range to rest on.
+"""
+
+from __future__ import annotations
+
+import math
+
+from app.richardson import THEORETICAL_ORDER, richardson
+
+REFERENCE_MODES = ("richardson", "finest")
+"""`study --reference`: Richardson limits for the scalars (default; needs three
+consecutive levels of the reference method, else the finest level is used) or the finest
+level of the reference method for everything."""
+
+
+def scalar_values(profile: dict) -> dict[str, float]:
+    """The extrapolated scalars of one run: energy, p_max (contact scenes) and the named
+    points' u_y."""
+    out = {"energy": profile["energy"]}
+    if "p_max" in profile:
+        out["p_max"] = profile["p_max"]
+    return out | dict(profile["points"])
+
+
+def consecutive_levels(levels: list[int]) -> list[int]:
+    """The longest run of consecutive levels ending at the finest one."""
+    run = [max(levels)]
+    while run[0] - 1 in levels:
+        run.insert(0, run[0] - 1)
+    return run
+
+
+def method_limits(rows: list[dict], profiles: dict) -> list[dict]:
+    """Per method (with at least two consecutive levels) and scalar: the Richardson result
+    (app.richardson.richardson) with the method, quantity, the levels used and the finest
+    value; one dict per (method, quantity), the rows of richardson.csv."""
+    out = []
+    for m in dict.fromkeys(r["method"] for r in rows):
+        levels = consecutive_levels([r["level"] for r in rows if r["method"] == m])
+        if len(levels) < 2:
+            continue
+        seq = [scalar_values(profiles[(lv, m)]) for lv in levels]
+        for q in seq[-1]:
+            vals = [s.get(q, math.nan) for s in seq]
+            res = richardson(vals, THEORETICAL_ORDER)
+            out.append({"method": m, "quantity": q, "levels": f"{levels[0]}-{levels[-1]}",
+                        "finest": vals[-1]} | res)
+    return out
+
+
+def reference_scalars(limits: list[dict], ref_label: str) -> dict[str, float] | None:
+    """{quantity: limit} of the reference method if it was extrapolated from at least
+    three levels, else None (the finest level is the reference)."""
+    lims = [r for r in limits if r["method"] == ref_label]
+    if not lims or lims[0]["n_levels"] < 3:
+        return None
+    return {r["quantity"]: r["value"] for r in lims}
+
+
+def add_limit_spread(limits: list[dict], ref_label: str) -> None:
+    """rel_to_reference = |limit - reference method's limit| / |reference limit|, in place."""
+    ref = {r["quantity"]: r["value"] for r in limits if r["method"] == ref_label}
+    for r in limits:
+        v = ref.get(r["quantity"], math.nan)
+        r["rel_to_reference"] = abs(r["value"] - v) / abs(v) if v else math.nan
+
+
+def order_summary(rows: list[dict], last: int = 3) -> list[dict]:
+    """Per method and ref_ column: the observed orders (levels 1..finest) and the
+    min/max/spread of the `last` orders (last + 1 levels)."""
+    cols = [k for k in dict.fromkeys(k for r in rows for k in r) if k.startswith("ref_")]
+    out = []
+    for m in dict.fromkeys(r["method"] for r in rows):
+        rr = sorted((r for r in rows if r["method"] == m), key=lambda r: r["level"])
+        for c in cols:
+            orders = [r.get(f"order_{c}", math.nan) for r in rr[1:]]
+            tail = [o for o in orders[-last:] if math.isfinite(o)]
+            row = {"method": m, "error": c, "orders": " ".join(
+                f"{o:.2f}" if math.isfinite(o) else "-" for o in orders)}
+            if len(tail) == last:
+                row |= {"min": min(tail), "max": max(tail), "spread": max(tail) - min(tail)}
+            out.append(row)
+    return out
+
+
+def _g(v, fmt: str = ".6g") -> str:
+    if isinstance(v, float):
+        return "" if math.isnan(v) else format(v, fmt)
+    return str(v)
+
+
+def tables(limits: list[dict], summary: list[dict]) -> str:
+    """Markdown: the Richardson limits per method and the order summary."""
+    keys = ["method", "quantity", "levels", "finest", "order", "order_source", "value",
+            "uncertainty_rel", "change_previous", "rel_to_reference"]
+    lines = ["", "Richardson limits (order: observed from the last three levels; value: the "
+             "limit; uncertainty_rel: the larger of |limit(observed order) - limit(order 2)| "
+             "and change_previous = |limit - limit without the finest level|, over |limit|; "
+             "rel_to_reference: |limit - reference method's limit| / |that limit|)", "",
+             "| " + " | ".join(keys) + " |", "|---" * len(keys) + "|"]
+    lines += ["| " + " | ".join(_g(r.get(k, math.nan)) for k in keys) + " |" for r in limits]
+    keys = ["method", "error", "orders", "min", "max", "spread"]
+    lines += ["", "observed orders against the reference (levels 1..finest; min/max/spread "
+              "of the last three = four levels)", "",
+              "| " + " | ".join(keys) + " |", "|---" * len(keys) + "|"]
+    lines += ["| " + " | ".join(_g(r.get(k, math.nan), ".2f") for k in keys) + " |"
+              for r in summary]
+    return "\n".join(lines) + "\n"

@@ -1,0 +1,55 @@
+"""Where the Hertz L2(p) error of a study sits, per level of one method (JSON lines):
+tributary L2 and its core / edge parts, the worst pair, the floor of the tributary
+definition for tributary averages, and the interpolated L2 with its floor.
+
+    .venv/bin/python scripts/l2_breakdown.py OUT/study_dir [--method 4SD] [--core 0.95]
+
+Reads OUT/L<level>_<method>/summary.json (the Hertz a, p0 and centre) and the last
+step's contact data; see app/l2_breakdown.py for the definitions.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import re
+import sys
+from pathlib import Path
+
+import h5py
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # this checkout's app
+from app.l2_breakdown import pressure_breakdown  # noqa: E402
+
+
+def level_row(run: Path, core: float) -> dict:
+    s = json.loads((run / "summary.json").read_text())
+    ref = s["reference"]
+    hz, x0 = ref["hertz"], ref.get("center_x", 0.0)
+    with h5py.File(run / f"step_{len(s['steps']):04d}.h5") as f:
+        c = f["contact"]
+        sel = c["interface"][()] == 0
+        x, p, length = (c[k][()][sel] for k in ("x", "p", "length"))
+    b = pressure_breakdown(x - x0, p, length, hz["a_hertz"], hz["p0_hertz"], core)
+    return {"n_dofs": s["n_dofs"], "n_pairs": s["n_pairs"],
+            **{k: round(v, 7) for k, v in b.items()},
+            "l2_summary": round(hz["pressure_l2_rel_error"], 7),
+            "l2_interp": round(hz["pressure_l2_interp_rel_error"], 7),
+            "l2_interp_floor": round(hz["pressure_l2_interp_floor"], 7)}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("study", type=Path)
+    ap.add_argument("--method", default="4SD")
+    ap.add_argument("--core", type=float, default=0.95, help="core |x| < CORE a")
+    args = ap.parse_args()
+    runs = sorted(args.study.glob(f"L*_{args.method}"),
+                  key=lambda d: int(re.match(r"L(\d+)_", d.name).group(1)))
+    for run in runs:
+        print(json.dumps({"level": int(run.name[1:].split("_")[0]), "method": args.method,
+                          **level_row(run, args.core)}), flush=True)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,88 @@
+"""Richardson extrapolation kernel (app/richardson.py) on synthetic sequences with a known
+limit and order, and the study's per-method limits (app/study_richardson.py)."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from app.richardson import extrapolate, observed_order, richardson
+from app.study_richardson import consecutive_levels, method_limits, order_summary
+
+
+def seq(limit, terms, levels):
+    """Q_l = limit + sum c h_l^p over (c, p) in terms, h_l = 2^-l."""
+    return [limit + sum(c * 2.0 ** (-p * lv) for c, p in terms) for lv in levels]
+
+
+def test_single_power_gives_exact_order_and_limit():
+    q = seq(1.25, [(0.3, 1.7)], range(5))
+    assert observed_order(*q[-3:]) == pytest.approx(1.7, rel=1e-10)
+    assert extrapolate(q[-2], q[-1], 1.7) == pytest.approx(1.25, rel=1e-12)
+    r = richardson(q)
+    assert r["order_source"] == "observed" and r["order"] == pytest.approx(1.7, rel=1e-10)
+    assert r["value"] == pytest.approx(1.25, rel=1e-12)
+    assert r["change_previous"] == pytest.approx(0.0, abs=1e-12)  # both triples exact
+    # the order-2 extrapolation differs, and that difference is the stated uncertainty
+    assert r["value_theoretical"] != pytest.approx(1.25, rel=1e-6)
+    assert r["uncertainty"] == pytest.approx(abs(r["value_theoretical"] - 1.25), rel=1e-9)
+    assert r["uncertainty_rel"] == pytest.approx(r["uncertainty"] / 1.25)
+
+
+@pytest.mark.parametrize("levels", [range(4), range(6), range(2, 8)])
+def test_two_terms_uncertainty_bounds_the_error(levels):
+    q = seq(-3.0, [(-2.0, 2.0), (-1.5, 3.0)], levels)  # rising to the limit, order -> 2
+    r = richardson(q)
+    err = abs(r["value"] + 3.0)
+    assert err <= r["uncertainty"]
+    assert err < abs(q[-1] + 3.0) / 5  # far better than the finest level
+    assert r["order"] == pytest.approx(2.0, abs=0.6)
+
+
+def test_limits_improve_with_levels():
+    errs = [abs(richardson(seq(0.5, [(1.0, 2.0), (3.0, 3.0)], range(n)))["value"] - 0.5)
+            for n in (3, 4, 5, 6)]
+    assert all(b < a for a, b in zip(errs, errs[1:], strict=False))
+
+
+def test_non_monotone_and_slow_sequences_fall_back_to_the_theoretical_order():
+    q = [1.0, 1.1, 1.05]  # oscillates: no observed order
+    assert math.isnan(observed_order(*q))
+    r = richardson(q)
+    assert r["order_source"] == "theoretical" and r["order_used"] == 2.0
+    assert r["value"] == pytest.approx(1.05 + (1.05 - 1.1) / 3)
+    assert r["uncertainty"] >= abs(r["value"] - 1.05)
+    q = seq(2.0, [(1.0, 0.3)], range(4))  # order 0.3: outside the accepted range
+    r = richardson(q)
+    assert r["order"] == pytest.approx(0.3, rel=1e-9) and r["order_source"] == "theoretical"
+    assert r["uncertainty"] >= abs(r["value"] - 2.0) * (1 - 1e-9)  # the far limit is inside
+    r = richardson([4.0, 3.0])  # two levels: order 2 and the correction as uncertainty
+    assert math.isnan(r["order"]) and r["value"] == pytest.approx(3.0 - 1 / 3)
+    assert r["uncertainty"] == pytest.approx(1 / 3) and math.isnan(r["previous"])
+    assert math.isnan(observed_order(1.0, 1.0, 1.0))
+    with pytest.raises(ValueError):
+        richardson([1.0])
+
+
+def test_method_limits_and_order_summary():
+    levels = [0, 1, 2, 3]
+    profiles, rows = {}, []
+    for m, c in (("4SD", 1.0), ("FEM-Q4", 2.0)):
+        for lv, (u, p) in enumerate(zip(seq(7.0, [(c, 2.0)], levels),
+                                        seq(3.0, [(-c, 1.5)], levels), strict=True)):
+            profiles[(lv, m)] = {"energy": u, "p_max": p, "points": {"tip": -u}, "n_dofs": 1}
+            rows.append({"level": lv, "method": m})
+    lims = method_limits(rows, profiles)
+    got = {(r["method"], r["quantity"]): r for r in lims}
+    assert set(got) == {(m, q) for m in ("4SD", "FEM-Q4") for q in ("energy", "p_max", "tip")}
+    assert got[("FEM-Q4", "energy")]["value"] == pytest.approx(7.0)
+    assert got[("4SD", "tip")]["value"] == pytest.approx(-7.0)
+    assert got[("4SD", "p_max")]["order"] == pytest.approx(1.5)
+    assert got[("4SD", "energy")]["levels"] == "0-3" and got[("4SD", "energy")]["finest"] > 7
+    assert consecutive_levels([0, 2, 3, 4]) == [2, 3, 4]
+    for r in rows:
+        r["ref_energy"] = 2.0 ** (-2 * r["level"])
+        r["order_ref_energy"] = 2.0 if r["level"] else math.nan
+    (s4,) = [s for s in order_summary(rows) if s["method"] == "4SD"]
+    assert s4["orders"] == "2.00 2.00 2.00" and s4["spread"] == 0.0
