@@ -47,7 +47,7 @@ def test_default_and_choices() -> None:
 
 @pytest.mark.parametrize(("value", "message"), [
     ("frontal", r"mesh.algorithm must be one of .*\(did you mean frontal-quad\?\)"),
-    (8, "mesh.algorithm must be one of delaunay-full-quad, frontal-quad"),
+    (8, "mesh.algorithm must be one of delaunay, frontal-delaunay, frontal-quad"),
 ])
 def test_bad_algorithm(value: object, message: str) -> None:
     with pytest.raises(InputError, match=message):
@@ -56,12 +56,14 @@ def test_bad_algorithm(value: object, message: str) -> None:
         parse_config(hertz_cfg(value))  # type: ignore[arg-type]
 
 
-def test_frontal_quad_is_regular_under_the_contact() -> None:
-    """At a/40 (scale 0.25) frontal-quad puts nearly only 4-valent nodes under the contact,
-    where the default full-quad split leaves irregular ones; both are all-quad, convex
-    and keep angles in 45-140 deg there."""
-    default = build_mesh(parse_scene(hertz_cfg()), scale=0.25)
-    frontal = build_mesh(parse_scene(hertz_cfg("frontal-quad")), scale=0.25)
+@pytest.mark.parametrize(("algorithm", "scale"), [("frontal-delaunay", 0.5),
+                                                 ("frontal-quad", 0.25)])
+def test_frontal_recipes_are_regular_under_the_contact(algorithm: str, scale: float) -> None:
+    """Where the README measures them smooth (frontal-delaunay at a/20, frontal-quad at
+    a/40) the recipes put nearly only 4-valent nodes under the contact, where the default
+    leaves irregular ones; both are all-quad and keep angles in 40-140 deg."""
+    default = build_mesh(parse_scene(hertz_cfg()), scale=scale)
+    frontal = build_mesh(parse_scene(hertz_cfg(algorithm)), scale=scale)
     assert regular_fraction(frontal) > 0.98
     assert regular_fraction(default) < 0.95
     for m in (default, frontal):
@@ -71,9 +73,10 @@ def test_frontal_quad_is_regular_under_the_contact() -> None:
     for curve in ("cyl_arc", "block_top"):
         p = frontal.points[frontal.curves[curve]]
         mid, length = p.mean(axis=1), np.linalg.norm(p[:, 1] - p[:, 0], axis=1)
-        assert np.all(np.abs(length[np.abs(mid[:, 0]) < 0.1] - 0.0025) < 2.5e-4), curve
+        near = length[np.abs(mid[:, 0]) < 0.1]
+        assert np.all(np.abs(near - 0.01 * scale) < 0.1 * 0.01 * scale), curve
     # nested refinement splits it like any quad mesh
-    split = refine_mesh(frontal, 1, scene_arcs(parse_scene(hertz_cfg("frontal-quad"))))
+    split = refine_mesh(frontal, 1, scene_arcs(parse_scene(hertz_cfg(algorithm))))
     assert split.n_elements == 4 * frontal.n_elements
     assert mesh_quality(split)["min_corner_angle_deg"] > 40.0
 
