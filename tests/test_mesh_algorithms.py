@@ -1,4 +1,4 @@
-"""`[mesh] algorithm`: the gmsh recipes of app/mesh/algorithms.py."""
+"""`[mesh] algorithm`: the gmsh recipes of app/scene/mesh_algorithms.py."""
 
 from __future__ import annotations
 
@@ -11,12 +11,12 @@ import pytest
 
 from app.config import parse_config
 from app.errors import InputError
-from app.mesh.algorithms import DEFAULT_MESH_ALGORITHM, MESH_ALGORITHMS, gmsh_options
 from app.mesh.build import build_mesh
 from app.mesh.model import Mesh
 from app.mesh.quality import mesh_quality
 from app.mesh.refine import refine_mesh, scene_arcs
 from app.scene import parse_scene
+from app.scene.mesh_algorithms import DEFAULT_MESH_ALGORITHM, MESH_ALGORITHMS, gmsh_options
 
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"
 

@@ -3,7 +3,7 @@
 Each body is meshed on its own (built-in geometry kernel) and the body meshes are
 concatenated with node offsets, so bodies never share nodes and interface meshes are
 non-matching in general. Unstructured bodies use the gmsh recipe named by `mesh.algorithm`
-(app/mesh/algorithms.py; default Delaunay with blossom full-quad recombination);
+(app/scene/mesh_algorithms.py; default Delaunay with blossom full-quad recombination);
 `structured = true` rectangles use a transfinite grid.
 
 Local refinement (`[[mesh.refine]]`) uses gmsh Distance + Threshold fields combined by a
@@ -27,11 +27,11 @@ from typing import Any
 import numpy as np
 
 from app.errors import InputError
-from app.mesh.algorithms import gmsh_options
 from app.mesh.cache import cache_key, cache_path, load_mesh, save_mesh
 from app.mesh.model import Mesh, orient_ccw
 from app.scene import BodySpec, Refine, Scene
 from app.scene.geometry import Piece
+from app.scene.mesh_algorithms import gmsh_options
 from app.scene.parse import POINT_TOL
 
 MAX_BOUNDARY_ELEMENTS = 1e6  # a body's perimeter / element size at most this

@@ -12,10 +12,10 @@ import numpy as np
 
 from app.config_keys import suggestion
 from app.errors import InputError
-from app.mesh.algorithms import DEFAULT_MESH_ALGORITHM, mesh_algorithm
 from app.scene.geometry import Piece
 from app.scene.geometry import number as _number
 from app.scene.geometry import xy_point as _xy
+from app.scene.mesh_algorithms import DEFAULT_MESH_ALGORITHM, mesh_algorithm
 from app.scene.shapes import SHAPES
 
 REFINE_KEYS = ("curves", "points", "size", "distance", "flat")
@@ -71,7 +71,7 @@ class Scene:
     refine: list[Refine]
     points: dict[str, np.ndarray]  # named points
     source: dict = field(default_factory=dict)  # the geometry tables as written: cache key
-    algorithm: str = DEFAULT_MESH_ALGORITHM  # gmsh recipe (app/mesh/algorithms.py)
+    algorithm: str = DEFAULT_MESH_ALGORITHM  # gmsh recipe (app/scene/mesh_algorithms.py)
 
 
 # ----------------------------------------------------------------------------- parsing
