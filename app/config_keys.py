@@ -42,6 +42,7 @@ ALLOWED_KEYS: dict[str, tuple[str, ...]] = {
         "size",
         "file",
         "refine",
+        "algorithm",
     ),
     "mesh.refine": (
         "curves",

@@ -5,7 +5,11 @@ a/10 ... a/80), Cattaneo (stick edges, L2 of q), multibody `indent` (largest dev
 p from a local quadratic fit, relative to max p), frictionless Cattaneo (where it stops).
 
     .venv/bin/python scripts/bench_mortar.py [--only patch hertz cattaneo multibody mu0
-        family] [--hertz-sizes 0.5 0.25 0.125 0.0625]
+        family] [--hertz-sizes 0.5 0.25 0.125 0.0625] [--discretisations mortar]
+        [--set KEY=VALUE ...]
+
+`--set` is passed to every run (for example a mesh option); the Hertz rows also carry the
+peak and half-width errors, the element count, the mesh quality and the meshing time.
 
 `family` (not in the default list): Cattaneo as a/R -> 0 (see `family`).
 """
@@ -104,31 +108,44 @@ def main() -> None:
     ap.add_argument("--only", nargs="+", default=["patch", "hertz", "cattaneo", "multibody",
                                                    "mu0"])
     ap.add_argument("--hertz-sizes", type=float, nargs="+", default=[0.5, 0.25, 0.125, 0.0625])
+    ap.add_argument("--discretisations", nargs="+", choices=DISCS, default=list(DISCS))
+    ap.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUE",
+                    help="config override passed to every run (repeatable)")
     a = ap.parse_args()
+    extra = [x for kv in a.sets for x in ("--set", kv)]
     if "family" in a.only:
         for k in (1, 4, 16, 64, 256):
             for row in family(k, (1, 2)):
                 emit(row)
-    for disc in DISCS:
+    for disc in a.discretisations:
         for swapped in (False, True):
-            base = {"discretisation": disc, "swapped": swapped}
+            base = {"discretisation": disc, "swapped": swapped} | ({"set": a.sets} if a.sets
+                                                                   else {})
             if "patch" in a.only:
-                s, c = run("patch", disc, swapped, [])
+                s, c = run("patch", disc, swapped, extra)
                 emit(base | {"case": "patch", "error": s.get("error"),
                              "max_rel_dev": float(np.abs(c["p"] - 10).max() / 10)})
             if "hertz" in a.only:
                 for h in a.hertz_sizes:
-                    s, c = run("hertz", disc, swapped, ["--mesh-size", str(h)])
+                    s, c = run("hertz", disc, swapped, ["--mesh-size", str(h), *extra])
                     hz = s.get("reference", {}).get("hertz", {})
+                    q = s.get("mesh_quality", {})
                     emit(base | {"case": "hertz", "mesh_size": h, "error": s.get("error"),
-                                 "n_dofs": s.get("n_dofs"), "wall_s": round(s["wall_seconds"], 2),
+                                 "n_dofs": s.get("n_dofs"), "n_elements": s.get("n_elements"),
+                                 "wall_s": round(s["wall_seconds"], 2),
+                                 "min_angle": q.get("min_corner_angle_deg"),
+                                 "max_angle": q.get("max_corner_angle_deg"),
+                                 "max_aspect": q.get("max_aspect_ratio"),
+                                 "p_max_err": hz.get("p_max_rel_error"),
+                                 "half_width_err": hz.get("half_width_rel_error"),
+                                 "p_l2_interp_floor": hz.get("pressure_l2_interp_floor"),
                                  "element": float(np.median(c["length"][c["p"] > 0])),
                                  "seconds": {k: round(v, 3) for k, v in
                                              s.get("timings", {}).items()},
                                  "p_l2_interp": hz.get("pressure_l2_interp_rel_error"),
                                  "p_l2": hz.get("pressure_l2_rel_error")})
             if "cattaneo" in a.only:
-                s, c = run("cattaneo", disc, swapped, [])
+                s, c = run("cattaneo", disc, swapped, extra)
                 ca = s.get("reference", {}).get("cattaneo", {})
                 emit(base | {"case": "cattaneo", "error": s.get("error"),
                              "stick_edges": ca.get("stick_edges"),
@@ -136,15 +153,15 @@ def main() -> None:
                              "q_l2": ca.get("traction_l2_rel_error")})
             if "multibody" in a.only:
                 for block2 in (None, 0.02):  # default block2 mesh (0.08), or at the arc's
-                    extra = [] if block2 is None else ["--set", f"body.block2.size={block2}"]
-                    s, c = run("multibody", disc, swapped, extra)
+                    b2 = [] if block2 is None else ["--set", f"body.block2.size={block2}"]
+                    s, c = run("multibody", disc, swapped, [*b2, *extra])
                     on = c["p"] > 0
                     dev = local_fit_deviation(c["x"][on], c["p"][on])
                     emit(base | {"case": "multibody", "block2_size": block2 or 0.08,
                                  "error": s.get("error"), "n_in_contact": int(on.sum()),
                                  "max_fit_deviation": float(dev.max(initial=0.0))})
             if "mu0" in a.only:
-                s, c = run("cattaneo", disc, swapped, ["--set", "interface.contact.mu=0.0"])
+                s, c = run("cattaneo", disc, swapped, ["--set", "interface.contact.mu=0.0", *extra])
                 emit(base | {"case": "cattaneo_mu0", "failed_step": s.get("failed_step"),
                              "steps_written": len(s.get("steps", [])),
                              "error": (s.get("error") or "")[:120]})

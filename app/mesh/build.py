@@ -2,8 +2,9 @@
 
 Each body is meshed on its own (built-in geometry kernel) and the body meshes are
 concatenated with node offsets, so bodies never share nodes and interface meshes are
-non-matching in general. Unstructured bodies use Frontal-Delaunay for quads with blossom
-full-quad recombination; `structured = true` rectangles use a transfinite grid.
+non-matching in general. Unstructured bodies use the gmsh recipe named by `mesh.algorithm`
+(app/scene/mesh_algorithms.py; default Delaunay with blossom full-quad recombination);
+`structured = true` rectangles use a transfinite grid.
 
 Local refinement (`[[mesh.refine]]`) uses gmsh Distance + Threshold fields combined by a
 Min field: the size is `size` within `flat` of the curves/points and grows linearly to
@@ -30,14 +31,11 @@ from app.mesh.cache import cache_key, cache_path, load_mesh, save_mesh
 from app.mesh.model import Mesh, orient_ccw
 from app.scene import BodySpec, Refine, Scene
 from app.scene.geometry import Piece
+from app.scene.mesh_algorithms import gmsh_options
 from app.scene.parse import POINT_TOL
 
 MAX_BOUNDARY_ELEMENTS = 1e6  # a body's perimeter / element size at most this
 _MAX_SAMPLING = 200_000  # cap on the sampling points of a Distance field curve
-# Frontal-Delaunay (6): unlike 8, it follows the background size field inside the surface.
-ALGORITHM = 5
-RECOMBINATION = 3  # blossom full-quad: no triangle left
-SMOOTHING = 5
 
 
 # ----------------------------------------------------------------------------- gmsh
@@ -181,10 +179,7 @@ def _mesh_body(gmsh: Any, spec: BodySpec, scene: Scene, scale: float) -> tuple:
                 fm.setAsBackgroundMesh(m)
 
         opt = gmsh.option.setNumber
-        opt("Mesh.Algorithm", ALGORITHM)
         opt("Mesh.RecombineAll", 1)
-        opt("Mesh.RecombinationAlgorithm", RECOMBINATION)
-        opt("Mesh.Smoothing", SMOOTHING)
         opt("Mesh.SubdivisionAlgorithm", 0)
         opt("Mesh.ElementOrder", 1)
         opt("Mesh.MeshSizeFromPoints", 0)
@@ -192,6 +187,8 @@ def _mesh_body(gmsh: Any, spec: BodySpec, scene: Scene, scale: float) -> tuple:
         opt("Mesh.MeshSizeExtendFromBoundary", 0)
         opt("Mesh.MeshSizeMin", 0.0)
         opt("Mesh.MeshSizeMax", h)
+        for key, value in gmsh_options(scene.algorithm).items():  # after: a recipe may
+            opt(key, value)  # override the options above
         try:
             gmsh.model.mesh.generate(2)
         except Exception as e:  # gmsh raises a bare Exception with its last error
@@ -325,7 +322,8 @@ def build_mesh(scene: Scene, scale: float = 1.0, cache_dir: str | Path | None = 
 
     cache_file = None
     if cache_dir is not None:
-        payload = scene.source | {"scale": scale, "gmsh": gmsh.__version__}
+        payload = scene.source | {"scale": scale, "gmsh": gmsh.__version__,
+                                  "algorithm": scene.algorithm}
         cache_file = cache_path(cache_dir, cache_key(payload))
         cached = load_mesh(cache_file)
         if cached is not None:

@@ -15,6 +15,7 @@ from app.errors import InputError
 from app.scene.geometry import Piece
 from app.scene.geometry import number as _number
 from app.scene.geometry import xy_point as _xy
+from app.scene.mesh_algorithms import DEFAULT_MESH_ALGORITHM, mesh_algorithm
 from app.scene.shapes import SHAPES
 
 REFINE_KEYS = ("curves", "points", "size", "distance", "flat")
@@ -70,6 +71,7 @@ class Scene:
     refine: list[Refine]
     points: dict[str, np.ndarray]  # named points
     source: dict = field(default_factory=dict)  # the geometry tables as written: cache key
+    algorithm: str = DEFAULT_MESH_ALGORITHM  # gmsh recipe (app/scene/mesh_algorithms.py)
 
 
 # ----------------------------------------------------------------------------- parsing
@@ -173,7 +175,8 @@ def parse_scene(cfg: dict, *, need_shapes: bool | None = None) -> Scene:
     source = {"bodies": [{k: b.get(k) for k in ("name", "shape", "size", "curves")}
                          for b in bodies_cfg],
               "mesh": mesh, "points": cfg.get("points", {})}
-    return Scene(size, file, bodies, refine, named, source)
+    algorithm = mesh_algorithm(mesh.get("algorithm", DEFAULT_MESH_ALGORITHM))
+    return Scene(size, file, bodies, refine, named, source, algorithm)
 
 
 def _body(b: dict, i: int, size: float, need_shapes: bool, named: dict[str, np.ndarray],

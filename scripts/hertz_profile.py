@@ -1,0 +1,99 @@
+"""Where the Hertz L2(p) error comes from: one JSON line per run output folder.
+
+    .venv/bin/python scripts/hertz_profile.py OUT [OUT ...] [--reference REF_OUT]
+    .venv/bin/python scripts/hertz_profile.py --floor-table
+
+For each `run --out` folder of a Hertz scene (last step, first interface), in % (of the
+Hertz figures, or of p0 for the wobble):
+- l2_interp, floor: `reference.hertz` of its summary (p interpolated linearly between
+  pairs over |x| <= 1.5 a; the floor is the same error of the exact pressure sampled at the
+  pairs, what the definition cannot resolve at that pair spacing), l2 (tributary, |x| < a),
+  p_max and half_width errors;
+- wobble_max, wobble_n: the largest second difference of (p - p_Hertz) / p0 over
+  consecutive pairs with |x| < 0.8 a, and how many exceed 0.2% (of n_inner pairs);
+- with --reference (a finer run of the same scene): disc_l2, the tributary L2 over
+  |x| < 0.9 a of p against the reference's p interpolated at the pairs (discretisation
+  error without the model error), and model_l2, the reference against Hertz there.
+--floor-table: the floor of pairs spaced a/n (n = 10, 20, 40, 80), placed symmetrically,
+  as a function of how far inside the edge the last pair sits (fraction s of the spacing).
+"""
+
+from __future__ import annotations
+
+import argparse
+import glob
+import json
+import sys
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from app.closed_form import hertz_pressure, interpolated_l2_rel_error  # noqa: E402
+
+WOBBLE = 0.002  # second difference of (p - p_H) / p0 counted as a jump
+
+
+def load(out: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
+    """Pair x, p, tributary length (sorted by x) of the last step, and the summary."""
+    with h5py.File(sorted(glob.glob(str(Path(out) / "step_*.h5")))[-1]) as f:
+        c = {k: f["contact"][k][()] for k in ("x", "p", "length", "interface")}
+    sel = c["interface"] == 0
+    o = np.argsort(c["x"][sel])
+    s = json.loads((Path(out) / "summary.json").read_text())
+    return c["x"][sel][o], c["p"][sel][o], c["length"][sel][o], s
+
+
+def tributary_l2(length: np.ndarray, f: np.ndarray, g: np.ndarray, zone: np.ndarray) -> float:
+    return float(np.sqrt(np.sum(length[zone] * (f[zone] - g[zone]) ** 2)
+                         / np.sum(length[zone] * g[zone] ** 2)))
+
+
+def profile(out: str, ref: str | None) -> dict:
+    x, p, length, s = load(out)
+    h = s["reference"]["hertz"]
+    a, p0 = h["a_hertz"], h["p0_hertz"]
+    e = (p - hertz_pressure(x, a, p0)) / p0
+    d2 = np.abs(e[2:] - 2 * e[1:-1] + e[:-2])[np.abs(x[1:-1]) < 0.8 * a]
+    row = {"out": out, "n_dofs": s["n_dofs"], "l2_interp": h["pressure_l2_interp_rel_error"],
+           "floor": h["pressure_l2_interp_floor"], "l2": h["pressure_l2_rel_error"],
+           "p_max": h["p_max_rel_error"], "half_width": h["half_width_rel_error"],
+           "wobble_max": float(d2.max(initial=0.0)), "wobble_n": int((d2 > WOBBLE).sum()),
+           "n_inner": int(d2.size)}
+    if ref is not None:
+        xr, pr, lr, _ = load(ref)
+        zone = np.abs(x) < 0.9 * a
+        row["disc_l2"] = tributary_l2(length, p, np.interp(x, xr, pr), zone)
+        row["model_l2"] = tributary_l2(lr, pr, hertz_pressure(xr, a, p0), np.abs(xr) < 0.9 * a)
+    return {k: round(100 * v, 3) if isinstance(v, float) else v for k, v in row.items()}
+
+
+def floor_table() -> None:
+    a = 1.0
+    for n in (10, 20, 40, 80):
+        h, row = a / n, {}
+        for s in np.linspace(0.0, 0.95, 20):
+            xr = a + (np.arange(-n + 1, 2 * n) - s) * h  # a pair at a - s h, then a + (1-s) h
+            xr = xr[xr > 0]
+            x = np.concatenate([-xr[::-1], xr])
+            row[f"{s:.2f}"] = round(100 * interpolated_l2_rel_error(
+                x, hertz_pressure(x, a, 1.0), lambda t: hertz_pressure(t, a, 1.0), 1.5 * a,
+                n_samples=200001), 3)
+        print(json.dumps({"spacing": f"a/{n}", "floor_by_s": row}), flush=True)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("outs", nargs="*")
+    ap.add_argument("--reference")
+    ap.add_argument("--floor-table", action="store_true")
+    args = ap.parse_args()
+    if args.floor_table:
+        floor_table()
+    for out in args.outs:
+        print(json.dumps(profile(out, args.reference)), flush=True)
+
+
+if __name__ == "__main__":
+    main()
