@@ -24,8 +24,14 @@ import scipy.linalg as sla
 
 from app.lcp.scaling import ScaledM
 
+DEEP_START = 0.5
+"""A cold crash starts from the q~_i below this x min q~ (for contact: the deeper half of
+the penetrations; most shallow ones open once the deep ones carry load, and block pivoting
+adds those that do not)."""
 MAX_ITERATIONS = 30
 """Block pivoting iterations before the best set so far is handed to Lemke."""
+_MAX_RUNS = 4
+"""Most column ranges of a `_TwinProduct`."""
 PIVOT_MIN = 1e-13
 """A block whose LU has a pivot below this x its largest counts as singular."""
 GROWTH_MAX = 1e10
@@ -42,12 +48,12 @@ TWIN_SEED = 20261123
 
 
 def column_probe(M: np.ndarray, D: np.ndarray) -> np.ndarray:
-    """(2, n) sums of the columns of D M D with random row weights: R D M D, one BLAS pass
-    over M. Negated columns have negated sums (`twins_from_probe`); a non-finite entry of
-    M makes its column's sums non-finite."""
-    r = np.random.default_rng(TWIN_SEED).standard_normal((2, D.size))
+    """(1, n) sums of the columns of D M D with random row weights r: (r D) M D, one BLAS
+    pass over M. Negated columns have negated sums (`twins_from_probe`); a non-finite entry
+    of M makes its column's sum non-finite."""
+    r = np.random.default_rng(TWIN_SEED).standard_normal(D.size)
     with np.errstate(over="ignore", invalid="ignore"):
-        return ((r * D) @ M) * D
+        return (((r * D) @ M) * D)[None, :]
 
 
 def find_twins(Ms: ScaledM) -> np.ndarray:
@@ -60,16 +66,16 @@ def find_twins(Ms: ScaledM) -> np.ndarray:
 
 
 def twins_from_probe(s: np.ndarray) -> np.ndarray:
-    """Twins (see `find_twins`) from the column sums s (2, n) of `column_probe`."""
+    """Twins (see `find_twins`) from column sums s (k, n) with independent random weights
+    (`column_probe`): columns i, j are twins when s[:, i] = -s[:, j] to 1e-12."""
     n = s.shape[1]
     twin = np.full(n, -1, dtype=np.int64)
     if n < 2 or not np.isfinite(s).all():
         return twin
     order = np.argsort(np.abs(s[0]), kind="stable")
-    sa, sb = s[0, order], s[1, order]
-    tol = 1e-12 * (np.abs(sa[1:]) + np.abs(sb[1:]))
-    close = (np.abs(sa[1:] + sa[:-1]) <= tol) & (np.abs(sb[1:] + sb[:-1]) <= tol)
-    close &= (sa[1:] != 0.0) & (np.sign(sa[1:]) != np.sign(sa[:-1]))
+    so = s[:, order]
+    close = ((np.abs(so[:, 1:] + so[:, :-1]) <= 1e-12 * np.abs(so[:, 1:])).all(axis=0)
+             & (so[0, 1:] != 0.0) & (np.sign(so[0, 1:]) != np.sign(so[0, :-1])))
     for k in np.flatnonzero(close):
         i, j = int(order[k]), int(order[k + 1])
         if twin[i] < 0 and twin[j] < 0:
@@ -77,19 +83,57 @@ def twins_from_probe(s: np.ndarray) -> np.ndarray:
     return twin
 
 
-def _factor(A: np.ndarray):
-    """LU factors of square A, or None when a pivot is not finite or below PIVOT_MIN x the
+class _Factor:
+    """Factors of a square block: Cholesky when it is symmetric positive definite (half the
+    flops of an LU), else LU with partial pivoting."""
+
+    def __init__(self, f, cholesky: bool):
+        self.f, self.cholesky = f, cholesky
+
+    def solve(self, b: np.ndarray) -> np.ndarray:
+        if self.cholesky:
+            return sla.cho_solve(self.f, b, check_finite=False)
+        return sla.lu_solve(self.f, b, check_finite=False)
+
+
+def _factor(A: np.ndarray, cholesky: bool = False) -> _Factor | None:
+    """Factors of square A, or None when a pivot is not finite or below PIVOT_MIN x the
     largest (numerically singular). Cheaper than the condition estimate of
     `app.lcp.scaling.lu_or_none` (about a fifth of the LU at n = 2000); enough for a guess,
-    since the answer on the guessed set is checked."""
+    since the answer on the guessed set is checked. cholesky: try Cholesky first when A is
+    symmetric."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", sla.LinAlgWarning)
+        if cholesky and _symmetric(A):
+            try:
+                c = sla.cho_factor(A, check_finite=False)
+                d = np.diagonal(c[0]) ** 2
+                if np.isfinite(d).all() and d.min() >= PIVOT_MIN * d.max() > 0:
+                    return _Factor(c, True)
+            except np.linalg.LinAlgError:
+                pass
         try:
             lu = sla.lu_factor(A, check_finite=False)
         except (ValueError, np.linalg.LinAlgError):
             return None
     d = np.abs(np.diagonal(lu[0]))
-    return lu if np.isfinite(d).all() and d.min() >= PIVOT_MIN * d.max() > 0 else None
+    ok = np.isfinite(d).all() and d.min() >= PIVOT_MIN * d.max() > 0
+    return _Factor(lu, False) if ok else None
+
+
+def _symmetric(A: np.ndarray) -> bool:
+    """A = A^T to round-off, tested on a few entries, then on one random vector v
+    (A v = A^T v): two BLAS passes instead of a strided comparison of A with A^T. A block
+    that is only nearly symmetric gets a Cholesky factor of its upper triangle: the guess
+    is then a little off, never the checked answer."""
+    k = A.shape[0]
+    i = np.arange(0, k, max(k // 16, 1))
+    j = i[::-1]
+    if not np.array_equal(A[i, j], A[j, i]):
+        return False
+    v = np.random.default_rng(TWIN_SEED).standard_normal(k)
+    a, b = A @ v, v @ A
+    return bool(np.abs(a - b).max() <= 1e-12 * max(np.abs(a).max(), np.abs(b).max()))
 
 
 class _BlockSolver:
@@ -121,7 +165,7 @@ class _BlockSolver:
 
     def factor(self, Z: np.ndarray) -> bool:
         self.base = Z.copy()
-        self.lu = _factor(self.Ms.sub(Z)) if Z.size else None
+        self.lu = _factor(self.Ms.sub(Z), cholesky=True) if Z.size else None
         self.factorizations += 1
         self._reset()
         return Z.size == 0 or self.lu is not None
@@ -152,7 +196,7 @@ class _BlockSolver:
         pos = np.searchsorted(b0, new[inbase])  # base is sorted
         U[pos, np.flatnonzero(inbase)] = 1.0
         V[np.flatnonzero(inbase), pos] = 1.0
-        YT = sla.lu_solve(self.lu, U, check_finite=False).T
+        YT = self.lu.solve(U).T
         c_nn = np.zeros((new.size, new.size))
         if added.size:
             c_nn[np.ix_(~inbase, ~inbase)] = self.Ms.sub(added)
@@ -194,7 +238,7 @@ class _BlockSolver:
         if Z.size == 0:
             return z
         b0 = self.base
-        x0 = sla.lu_solve(self.lu, b[b0], check_finite=False)
+        x0 = self.lu.solve(b[b0])
         if changed.size:
             if refactor or self.last is None:
                 new = np.array([k for k in changed if int(k) not in self.key_pos],
@@ -208,7 +252,7 @@ class _BlockSolver:
                 self.last = (sel, lu_s)
             sel, lu_s = self.last
             rhs2 = np.concatenate([b[A], np.zeros(R.size)]) - self.V[sel] @ x0
-            t = sla.lu_solve(lu_s, rhs2, check_finite=False)
+            t = lu_s.solve(rhs2)
             x0 = x0 - self.YT[sel].T @ t
             z[A] = t[: A.size]
         z[b0] = x0
@@ -223,7 +267,8 @@ def crash_basis(Ms: ScaledM, qs: np.ndarray, twin: np.ndarray | None = None,
     z~ on that set (one residual correction applied) when the iteration converged.
 
     Without `start`, in two stages: first the LCP over the indices without a twin (for
-    contact: the normal pressures, every pair sticking), from Z = {i : q~_i < 0}; then the
+    contact: the normal pressures, every pair sticking), from the deepest q~:
+    Z = {i : q~_i < DEEP_START min q~}; then the
     whole LCP from that answer, where the twins with w~_i < 0 join (for contact: the pairs
     that slip). Returns the set with the fewest infeasible indices met in the second stage
     (the exact answer's set when the iteration converged). start: another first set (e.g. a
@@ -232,12 +277,13 @@ def crash_basis(Ms: ScaledM, qs: np.ndarray, twin: np.ndarray | None = None,
     n = qs.size
     twin = find_twins(Ms) if twin is None else twin
     if start is None:
-        Z = (qs < 0) & (twin < 0)
+        Z = (qs < DEEP_START * qs.min(initial=0.0)) & (twin < 0)
         part = _first_stage(twin)
     else:
         Z = _untwin(start.copy(), start, qs, twin)
         part = None
     solver = _BlockSolver(Ms, qs)
+    product = _TwinProduct(Ms, twin)
     best, best_bad = Z.copy(), n + 1
     for it in range(1, max_iterations + 1):
         z = solver.solve(Z)
@@ -254,7 +300,7 @@ def crash_basis(Ms: ScaledM, qs: np.ndarray, twin: np.ndarray | None = None,
             w = Ms.matvec(z, part) + qs  # second stage: every index may join
             part = None
         else:
-            w = Ms.matvec(z) + qs
+            w = product(z) + qs
         bad_z = Z & (z < -tol)
         bad_w = ~Z & (w < -tol)
         nbad = int(bad_z.sum() + bad_w.sum())
@@ -269,6 +315,36 @@ def crash_basis(Ms: ScaledM, qs: np.ndarray, twin: np.ndarray | None = None,
             return Z, it, None if grown else z
         Z = _untwin((Z & ~bad_z) | bad_w, Z, w, twin)
     return best, max_iterations, None
+
+
+class _TwinProduct:
+    """z~ -> M~ z~ reading one column of each twin pair (M[:, j] = -M[:, twin j]): a third
+    less of M for the contact LCP. Used when the columns kept form at most _MAX_RUNS
+    ranges, else the plain product."""
+
+    def __init__(self, Ms: ScaledM, twin: np.ndarray):
+        self.Ms = Ms
+        n = twin.size
+        self.drop = np.flatnonzero((twin >= 0) & (twin < np.arange(n)))
+        self.to = twin[self.drop]
+        keep = np.ones(n + 2, dtype=bool)
+        keep[1 + self.drop] = False
+        keep[0] = keep[-1] = False
+        edges = np.flatnonzero(np.diff(keep.astype(np.int8)))
+        self.runs = [slice(int(a), int(b)) for a, b in zip(edges[::2], edges[1::2], strict=True)]
+        if not self.drop.size or len(self.runs) > _MAX_RUNS:
+            self.runs = None
+
+    def __call__(self, z: np.ndarray) -> np.ndarray:
+        Ms = self.Ms
+        if self.runs is None:
+            return Ms.matvec(z)
+        v = Ms.D * z
+        v[self.to] -= v[self.drop]
+        y = Ms.M[:, self.runs[0]] @ v[self.runs[0]]
+        for r in self.runs[1:]:
+            y += Ms.M[:, r] @ v[r]
+        return Ms.D * y / Ms.mu
 
 
 def _first_stage(twin: np.ndarray) -> slice | None:
