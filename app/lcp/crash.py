@@ -162,6 +162,7 @@ class _BlockSolver:
         self.V = np.zeros((0, k0))
         self.S = np.zeros((0, 0))
         self.last = None  # (sel, LU of S[sel, sel]) of the last solve
+        self.x0 = None  # A0^-1 (-q~ on the base), the same for every set
 
     def factor(self, Z: np.ndarray) -> bool:
         self.base = Z.copy()
@@ -238,7 +239,12 @@ class _BlockSolver:
         if Z.size == 0:
             return z
         b0 = self.base
-        x0 = self.lu.solve(b[b0])
+        if rhs is not None:
+            x0 = self.lu.solve(b[b0])
+        else:
+            if self.x0 is None:
+                self.x0 = self.lu.solve(b[b0])
+            x0 = self.x0
         if changed.size:
             if refactor or self.last is None:
                 new = np.array([k for k in changed if int(k) not in self.key_pos],
