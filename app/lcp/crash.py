@@ -47,11 +47,23 @@ TWIN_SEED = 20261123
 """Seed of the random row weights that find twins (fixed: repeatable guesses)."""
 
 
+_WEIGHTS = np.zeros(0)
+
+
+def _weights(n: int) -> np.ndarray:
+    """n fixed random weights (standard normal, seed TWIN_SEED; drawn once, a view)."""
+    global _WEIGHTS
+    if _WEIGHTS.size < n:
+        _WEIGHTS = np.random.default_rng(TWIN_SEED).standard_normal(max(n, 2 * _WEIGHTS.size))
+        _WEIGHTS.flags.writeable = False
+    return _WEIGHTS[:n]
+
+
 def column_probe(M: np.ndarray, D: np.ndarray) -> np.ndarray:
     """(1, n) sums of the columns of D M D with random row weights r: (r D) M D, one BLAS
     pass over M. Negated columns have negated sums (`twins_from_probe`); a non-finite entry
     of M makes its column's sum non-finite."""
-    r = np.random.default_rng(TWIN_SEED).standard_normal(D.size)
+    r = _weights(D.size)
     with np.errstate(over="ignore", invalid="ignore"):
         return (((r * D) @ M) * D)[None, :]
 
@@ -131,7 +143,7 @@ def _symmetric(A: np.ndarray) -> bool:
     j = i[::-1]
     if not np.array_equal(A[i, j], A[j, i]):
         return False
-    v = np.random.default_rng(TWIN_SEED).standard_normal(k)
+    v = _weights(k)
     a, b = A @ v, v @ A
     return bool(np.abs(a - b).max() <= 1e-12 * max(np.abs(a).max(), np.abs(b).max()))
 
