@@ -113,7 +113,7 @@ def test_factor_uses_cholesky_only_for_symmetric_positive_definite_blocks():
     b = rng.standard_normal(30)
     for A, chol in ((spd, True), (spd + 0.5 * (G - G.T), False), (-spd, False)):
         assert _symmetric(A) == bool(np.array_equal(A, A.T))
-        f = _factor(A, cholesky=True)
+        f = _factor(A.copy(), cholesky=True)  # (overwrites its argument)
         assert f.cholesky == chol
         np.testing.assert_allclose(A @ f.solve(b), b, rtol=0, atol=1e-10)
     singular = spd.copy()
@@ -128,6 +128,18 @@ def test_symmetric_block_of_the_first_stage_is_solved_by_cholesky():
     Z = np.flatnonzero(qs[:50] < 0)
     A = Ms.sub(Z)
     assert _symmetric(A) and _factor(A, cholesky=True).cholesky
+
+
+def test_a_failed_cholesky_leaves_the_block_for_the_lu():
+    """Symmetric but indefinite: Cholesky fails half way, the upper triangle is restored
+    from the lower one and the LU solves the original block."""
+    rng = np.random.default_rng(2)
+    G = rng.standard_normal((40, 40))
+    A = G + G.T  # symmetric, indefinite
+    b = rng.standard_normal(40)
+    f = _factor(A.copy(), cholesky=True)
+    assert not f.cholesky
+    np.testing.assert_allclose(A @ f.solve(b), b, rtol=0, atol=1e-9)
 
 
 def test_diagonal_scaling_is_the_full_scaling_up_to_mu():

@@ -97,35 +97,44 @@ def twins_from_probe(s: np.ndarray) -> np.ndarray:
 
 class _Factor:
     """Factors of a square block: Cholesky when it is symmetric positive definite (half the
-    flops of an LU), else LU with partial pivoting."""
+    flops of an LU), else LU with partial pivoting. Both factor A^T (the Fortran-order view
+    of a C-order A) in place: no copy of the block."""
 
     def __init__(self, f, cholesky: bool):
         self.f, self.cholesky = f, cholesky
 
-    def solve(self, b: np.ndarray) -> np.ndarray:
+    def solve(self, b: np.ndarray, overwrite: bool = False) -> np.ndarray:
+        """A^-1 b; overwrite: b may be overwritten (no copy when it is in Fortran order)."""
         if self.cholesky:
-            return sla.cho_solve(self.f, b, check_finite=False)
-        return sla.lu_solve(self.f, b, check_finite=False)
+            return sla.cho_solve(self.f, b, overwrite_b=overwrite, check_finite=False)
+        return sla.lu_solve(self.f, b, trans=1, overwrite_b=overwrite,  # (A^T)^T x = b
+                            check_finite=False)
 
 
 def _factor(A: np.ndarray, cholesky: bool = False) -> _Factor | None:
-    """Factors of square A, or None when a pivot is not finite or below PIVOT_MIN x the
-    largest (numerically singular). Cheaper than the condition estimate of
-    `app.lcp.scaling.lu_or_none` (about a fifth of the LU at n = 2000); enough for a guess,
-    since the answer on the guessed set is checked. cholesky: try Cholesky first when A is
-    symmetric."""
+    """Factors of square C-order A (overwritten), or None when a pivot is not finite or
+    below PIVOT_MIN x the largest (numerically singular). Cheaper than the condition
+    estimate of `app.lcp.scaling.lu_or_none` (about a fifth of the LU at n = 2000); enough
+    for a guess, since the answer on the guessed set is checked. cholesky: try Cholesky
+    first when A is symmetric."""
+    At = np.ascontiguousarray(A).T  # Fortran order: LAPACK works in place
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", sla.LinAlgWarning)
         if cholesky and _symmetric(A):
+            dg = np.diagonal(At).copy()
             try:
-                c = sla.cho_factor(A, check_finite=False)
+                c = sla.cho_factor(At, overwrite_a=True, check_finite=False)
                 d = np.diagonal(c[0]) ** 2
                 if np.isfinite(d).all() and d.min() >= PIVOT_MIN * d.max() > 0:
                     return _Factor(c, True)
             except np.linalg.LinAlgError:
                 pass
+            # Cholesky wrote only the upper triangle: restore it from the lower one
+            iu = np.triu_indices(dg.size, 1)
+            At[iu] = At.T[iu]
+            np.fill_diagonal(At, dg)
         try:
-            lu = sla.lu_factor(A, check_finite=False)
+            lu = sla.lu_factor(At, overwrite_a=True, check_finite=False)
         except (ValueError, np.linalg.LinAlgError):
             return None
     d = np.abs(np.diagonal(lu[0]))
@@ -197,7 +206,7 @@ class _BlockSolver:
         b0 = self.base
         inbase = np.isin(new, b0)
         added = new[~inbase]
-        U = np.zeros((b0.size, new.size))
+        U = np.zeros((b0.size, new.size), order="F")  # solved in place below
         V = np.zeros((new.size, b0.size))
         old_added = ~np.isin(self.keys, b0)
         oa = self.keys[old_added]
@@ -209,7 +218,7 @@ class _BlockSolver:
         pos = np.searchsorted(b0, new[inbase])  # base is sorted
         U[pos, np.flatnonzero(inbase)] = 1.0
         V[np.flatnonzero(inbase), pos] = 1.0
-        YT = self.lu.solve(U).T
+        YT = self.lu.solve(U, overwrite=True).T
         c_nn = np.zeros((new.size, new.size))
         if added.size:
             c_nn[np.ix_(~inbase, ~inbase)] = self.Ms.sub(added)

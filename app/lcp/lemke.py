@@ -60,6 +60,8 @@ from app.lcp.tableau import _core_tableau
 
 __all__ = ["LCPResult", "lemke", "default_max_pivots", "STATUSES"]
 
+_CHECK_ROWS = 32
+"""Rows of M per block in the final check (a buffer that stays in cache)."""
 _WARM_CRASH = 5
 """Block pivoting iterations tried from a warm-start basis that does not solve the LCP."""
 
@@ -99,11 +101,14 @@ def _check(M: np.ndarray, q: np.ndarray, z: np.ndarray, tol: float):
     rows = np.flatnonzero(viol > 0)
     s = np.abs(q[rows])
     row_max = np.zeros(rows.size)
-    for i0, i1 in _row_blocks(rows.size):
-        a = np.abs(M[rows[i0:i1]])
-        row_max[i0:i1] = a.max(axis=1) if a.size else 0.0
+    buf = np.empty((min(_CHECK_ROWS, rows.size), q.size))  # one small buffer, reused
+    for i0 in range(0, rows.size, _CHECK_ROWS):
+        a = buf[: min(rows.size - i0, _CHECK_ROWS)]
+        np.take(M, rows[i0:i0 + a.shape[0]], axis=0, out=a)
+        np.abs(a, out=a)
+        row_max[i0:i0 + a.shape[0]] = a.max(axis=1) if a.size else 0.0
         if z.any():
-            s[i0:i1] += a @ z
+            s[i0:i0 + a.shape[0]] += a @ z
     # Floor for rows whose terms all cancel at round-off level (e.g. q_i = -1e-17 where the
     # rest of q is O(1)): 1e-4 x the row's largest coefficient x the problem's z scale.
     z_scale = _z_scale(M, q, z, row_max) if rows.size else 0.0
