@@ -179,11 +179,19 @@ class _BlockSolver:
         k0 = self.base.size
         self.keys = np.zeros(0, dtype=np.int64)  # changed indices seen since the factor
         self.key_pos = {}
-        self.YT = np.zeros((0, k0))  # rows: (A0^-1 u_key)^T
-        self.V = np.zeros((0, k0))
+        self._YT = np.zeros((0, k0))  # rows: (A0^-1 u_key)^T, with spare rows
+        self._V = np.zeros((0, k0))
         self.S = np.zeros((0, 0))
         self.last = None  # (sel, LU of S[sel, sel]) of the last solve
         self.x0 = None  # A0^-1 (-q~ on the base), the same for every set
+
+    @property
+    def YT(self) -> np.ndarray:
+        return self._YT[: self.keys.size]
+
+    @property
+    def V(self) -> np.ndarray:
+        return self._V[: self.keys.size]
 
     def factor(self, Z: np.ndarray) -> bool:
         self.base = Z.copy()
@@ -232,10 +240,14 @@ class _BlockSolver:
         S[:K, :K] = self.S
         S[:K, K:] = c_on - self.V @ YT.T
         S[K:, :K] = c_no - V @ self.YT.T
+        if K + new.size > self._YT.shape[0]:  # grow the key rows by doubling
+            cap = max(2 * (K + new.size), 16)
+            self._YT = np.concatenate([self._YT[:K], np.zeros((cap - K, b0.size))])
+            self._V = np.concatenate([self._V[:K], np.zeros((cap - K, b0.size))])
         S[K:, K:] = c_nn - V @ YT.T
         self.S = S
-        self.YT = np.vstack([self.YT, YT])
-        self.V = np.vstack([self.V, V])
+        self._YT[K:K + new.size] = YT
+        self._V[K:K + new.size] = V
         for i, key in enumerate(new):
             self.key_pos[int(key)] = K + i
         self.keys = np.concatenate([self.keys, new])
