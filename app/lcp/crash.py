@@ -17,17 +17,55 @@ not a solution, runs Lemke from it. Everything here works on the scaled LCP (`_S
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import scipy.linalg as sla
 
-from app.lcp.scaling import ScaledM, lu_or_none
+from app.lcp.scaling import ScaledM
 
+DEEP_START = 0.5
+"""A cold crash starts from the q~_i below this x min q~ (for contact: the deeper half of
+the penetrations; most shallow ones open once the deep ones carry load, and block pivoting
+adds those that do not)."""
 MAX_ITERATIONS = 30
 """Block pivoting iterations before the best set so far is handed to Lemke."""
-_REFACTOR_FRACTION = 0.3
-"""Refactorise the base block when more than this fraction of it changed."""
+_MAX_RUNS = 4
+"""Most column ranges of a `_TwinProduct`."""
+PIVOT_MIN = 1e-13
+"""A block whose LU has a pivot below this x its largest counts as singular."""
+GROWTH_MAX = 1e10
+"""A converged z~ larger than this x max |q~| is not returned (see crash_basis)."""
+_GATHER_FLOPS = 200.0
+"""Cost of gathering one entry of M (fancy indexing) in flops of an LU, for the choice
+between a new factorization and bordered updates (measured: about 4 ns against 20 ps)."""
 _FEAS_REL = 1e-12
 """z_i or w_i counts as negative below -this x max(1, max |z|) (scaled units)."""
+
+
+TWIN_SEED = 20261123
+"""Seed of the random row weights that find twins (fixed: repeatable guesses)."""
+
+
+_WEIGHTS = np.zeros(0)
+
+
+def _weights(n: int) -> np.ndarray:
+    """n fixed random weights (standard normal, seed TWIN_SEED; drawn once, a view)."""
+    global _WEIGHTS
+    if _WEIGHTS.size < n:
+        _WEIGHTS = np.random.default_rng(TWIN_SEED).standard_normal(max(n, 2 * _WEIGHTS.size))
+        _WEIGHTS.flags.writeable = False
+    return _WEIGHTS[:n]
+
+
+def column_probe(M: np.ndarray, D: np.ndarray) -> np.ndarray:
+    """(1, n) sums of the columns of D M D with random row weights r: (r D) M D, one BLAS
+    pass over M. Negated columns have negated sums (`twins_from_probe`); a non-finite entry
+    of M makes its column's sum non-finite."""
+    r = _weights(D.size)
+    with np.errstate(over="ignore", invalid="ignore"):
+        return (((r * D) @ M) * D)[None, :]
 
 
 def find_twins(Ms: ScaledM) -> np.ndarray:
@@ -36,22 +74,87 @@ def find_twins(Ms: ScaledM) -> np.ndarray:
     Found from two products R^T M~ with random R (negated columns have negated sums); a
     false match would only keep two indices apart in the guess, never change an answer.
     """
-    n = Ms.n
+    return twins_from_probe(column_probe(Ms.M, Ms.D))
+
+
+def twins_from_probe(s: np.ndarray) -> np.ndarray:
+    """Twins (see `find_twins`) from column sums s (k, n) with independent random weights
+    (`column_probe`): columns i, j are twins when s[:, i] = -s[:, j] to 1e-12."""
+    n = s.shape[1]
     twin = np.full(n, -1, dtype=np.int64)
-    if n < 2:
+    if n < 2 or not np.isfinite(s).all():
         return twin
-    r = np.random.default_rng(20261123).standard_normal((2, n))
-    s = ((r * Ms.D) @ Ms.M) * Ms.D  # (2, n); the 1/mu factor does not matter here
     order = np.argsort(np.abs(s[0]), kind="stable")
-    sa, sb = s[0, order], s[1, order]
-    tol = 1e-12 * (np.abs(sa[1:]) + np.abs(sb[1:]))
-    close = (np.abs(sa[1:] + sa[:-1]) <= tol) & (np.abs(sb[1:] + sb[:-1]) <= tol)
-    close &= (sa[1:] != 0.0) & (np.sign(sa[1:]) != np.sign(sa[:-1]))
+    so = s[:, order]
+    close = ((np.abs(so[:, 1:] + so[:, :-1]) <= 1e-12 * np.abs(so[:, 1:])).all(axis=0)
+             & (so[0, 1:] != 0.0) & (np.sign(so[0, 1:]) != np.sign(so[0, :-1])))
     for k in np.flatnonzero(close):
         i, j = int(order[k]), int(order[k + 1])
         if twin[i] < 0 and twin[j] < 0:
             twin[i], twin[j] = j, i
     return twin
+
+
+class _Factor:
+    """Factors of a square block: Cholesky when it is symmetric positive definite (half the
+    flops of an LU), else LU with partial pivoting. Both factor A^T (the Fortran-order view
+    of a C-order A) in place: no copy of the block."""
+
+    def __init__(self, f, cholesky: bool):
+        self.f, self.cholesky = f, cholesky
+
+    def solve(self, b: np.ndarray, overwrite: bool = False) -> np.ndarray:
+        """A^-1 b; overwrite: b may be overwritten (no copy when it is in Fortran order)."""
+        if self.cholesky:
+            return sla.cho_solve(self.f, b, overwrite_b=overwrite, check_finite=False)
+        return sla.lu_solve(self.f, b, trans=1, overwrite_b=overwrite,  # (A^T)^T x = b
+                            check_finite=False)
+
+
+def _factor(A: np.ndarray, cholesky: bool = False) -> _Factor | None:
+    """Factors of square C-order A (overwritten), or None when a pivot is not finite or
+    below PIVOT_MIN x the largest (numerically singular). Cheaper than the condition
+    estimate of `app.lcp.scaling.lu_or_none` (about a fifth of the LU at n = 2000); enough
+    for a guess, since the answer on the guessed set is checked. cholesky: try Cholesky
+    first when A is symmetric."""
+    At = np.ascontiguousarray(A).T  # Fortran order: LAPACK works in place
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", sla.LinAlgWarning)
+        if cholesky and _symmetric(A):
+            dg = np.diagonal(At).copy()
+            try:
+                c = sla.cho_factor(At, overwrite_a=True, check_finite=False)
+                d = np.diagonal(c[0]) ** 2
+                if np.isfinite(d).all() and d.min() >= PIVOT_MIN * d.max() > 0:
+                    return _Factor(c, True)
+            except np.linalg.LinAlgError:
+                pass
+            # Cholesky wrote only the upper triangle: restore it from the lower one
+            iu = np.triu_indices(dg.size, 1)
+            At[iu] = At.T[iu]
+            np.fill_diagonal(At, dg)
+        try:
+            lu = sla.lu_factor(At, overwrite_a=True, check_finite=False)
+        except (ValueError, np.linalg.LinAlgError):
+            return None
+    d = np.abs(np.diagonal(lu[0]))
+    ok = np.isfinite(d).all() and d.min() >= PIVOT_MIN * d.max() > 0
+    return _Factor(lu, False) if ok else None
+
+
+def _symmetric(A: np.ndarray) -> bool:
+    """A = A^T to round-off, tested on a few entries, then on one random vector v
+    (A v = A^T v): two BLAS passes instead of a strided comparison of A with A^T. A block
+    that is only nearly symmetric gets a Cholesky factor of its upper triangle: the guess
+    is then a little off, never the checked answer."""
+    k = A.shape[0]
+    i = np.arange(0, k, max(k // 16, 1))
+    j = i[::-1]
+    if not np.array_equal(A[i, j], A[j, i]):
+        return False
+    v = _weights(k)
+    a, b = A @ v, v @ A
+    return bool(np.abs(a - b).max() <= 1e-12 * max(np.abs(a).max(), np.abs(b).max()))
 
 
 class _BlockSolver:
@@ -76,51 +179,75 @@ class _BlockSolver:
         k0 = self.base.size
         self.keys = np.zeros(0, dtype=np.int64)  # changed indices seen since the factor
         self.key_pos = {}
-        self.YT = np.zeros((0, k0))  # rows: (A0^-1 u_key)^T
-        self.V = np.zeros((0, k0))
+        self._YT = np.zeros((0, k0))  # rows: (A0^-1 u_key)^T, with spare rows
+        self._V = np.zeros((0, k0))
         self.S = np.zeros((0, 0))
         self.last = None  # (sel, LU of S[sel, sel]) of the last solve
+        self.x0 = None  # A0^-1 (-q~ on the base), the same for every set
+
+    @property
+    def YT(self) -> np.ndarray:
+        return self._YT[: self.keys.size]
+
+    @property
+    def V(self) -> np.ndarray:
+        return self._V[: self.keys.size]
 
     def factor(self, Z: np.ndarray) -> bool:
         self.base = Z.copy()
-        self.lu = lu_or_none(self.Ms.sub(Z)) if Z.size else None
+        self.lu = _factor(self.Ms.sub(Z), cholesky=True) if Z.size else None
         self.factorizations += 1
         self._reset()
         return Z.size == 0 or self.lu is not None
+
+    def _refactor_is_cheaper(self, k: int, changed: np.ndarray) -> bool:
+        """Whether a new LU of the k x k block costs less than bordering the changed indices
+        (flop counts; gathering an entry of M counts as _GATHER_FLOPS)."""
+        k0, K = self.base.size, self.keys.size
+        new = sum(int(c) not in self.key_pos for c in changed)
+        bordered = (2.0 * k0 * k0 * new + 4.0 * k0 * (K + new) * new
+                    + 2.0 / 3.0 * changed.size ** 3 + _GATHER_FLOPS * self.qs.size * new)
+        return bordered > 2.0 / 3.0 * k ** 3 + _GATHER_FLOPS * k * k
 
     def _add_keys(self, new: np.ndarray) -> None:
         """Columns, rows and Schur entries of indices changed for the first time."""
         b0 = self.base
         inbase = np.isin(new, b0)
         added = new[~inbase]
-        U = np.zeros((b0.size, new.size))
+        U = np.zeros((b0.size, new.size), order="F")  # solved in place below
         V = np.zeros((new.size, b0.size))
-        if added.size:
-            U[:, ~inbase] = self.Ms.cols(added)[b0]
-            V[~inbase] = self.Ms.rows(added)[:, b0]
+        old_added = ~np.isin(self.keys, b0)
+        oa = self.keys[old_added]
+        if added.size:  # one gather of the columns, one of the rows
+            cols = self.Ms.block(np.concatenate([b0, oa]), added)
+            rows = self.Ms.rows(added)
+            U[:, ~inbase] = cols[: b0.size]
+            V[~inbase] = rows[:, b0]
         pos = np.searchsorted(b0, new[inbase])  # base is sorted
         U[pos, np.flatnonzero(inbase)] = 1.0
         V[np.flatnonzero(inbase), pos] = 1.0
-        YT = sla.lu_solve(self.lu, U, check_finite=False).T
-        old_added = ~np.isin(self.keys, b0)
+        YT = self.lu.solve(U, overwrite=True).T
         c_nn = np.zeros((new.size, new.size))
         if added.size:
             c_nn[np.ix_(~inbase, ~inbase)] = self.Ms.sub(added)
         c_no = np.zeros((new.size, self.keys.size))
         c_on = np.zeros((self.keys.size, new.size))
         if added.size and old_added.any():
-            oa = self.keys[old_added]
-            c_no[np.ix_(~inbase, old_added)] = self.Ms.rows(added)[:, oa]
-            c_on[np.ix_(old_added, ~inbase)] = self.Ms.cols(added)[oa]
+            c_no[np.ix_(~inbase, old_added)] = rows[:, oa]
+            c_on[np.ix_(old_added, ~inbase)] = cols[b0.size:]
         K = self.keys.size
         S = np.empty((K + new.size, K + new.size))
         S[:K, :K] = self.S
         S[:K, K:] = c_on - self.V @ YT.T
         S[K:, :K] = c_no - V @ self.YT.T
+        if K + new.size > self._YT.shape[0]:  # grow the key rows by doubling
+            cap = max(2 * (K + new.size), 16)
+            self._YT = np.concatenate([self._YT[:K], np.zeros((cap - K, b0.size))])
+            self._V = np.concatenate([self._V[:K], np.zeros((cap - K, b0.size))])
         S[K:, K:] = c_nn - V @ YT.T
         self.S = S
-        self.YT = np.vstack([self.YT, YT])
-        self.V = np.vstack([self.V, V])
+        self._YT[K:K + new.size] = YT
+        self._V[K:K + new.size] = V
         for i, key in enumerate(new):
             self.key_pos[int(key)] = K + i
         self.keys = np.concatenate([self.keys, new])
@@ -136,9 +263,8 @@ class _BlockSolver:
         inbase[self.base] = True
         A = Z[~inbase[Z]]
         R = self.base[~zset[self.base]]
-        k0 = self.base.size
         changed = np.concatenate([A, R])
-        if refactor and (changed.size > _REFACTOR_FRACTION * max(k0, 1) or self.lu is None):
+        if refactor and (self.lu is None or self._refactor_is_cheaper(Z.size, changed)):
             if not self.factor(Z):
                 return None
             changed = np.zeros(0, dtype=np.int64)
@@ -146,7 +272,12 @@ class _BlockSolver:
         if Z.size == 0:
             return z
         b0 = self.base
-        x0 = sla.lu_solve(self.lu, b[b0], check_finite=False)
+        if rhs is not None:
+            x0 = self.lu.solve(b[b0])
+        else:
+            if self.x0 is None:
+                self.x0 = self.lu.solve(b[b0])
+            x0 = self.x0
         if changed.size:
             if refactor or self.last is None:
                 new = np.array([k for k in changed if int(k) not in self.key_pos],
@@ -154,13 +285,13 @@ class _BlockSolver:
                 if new.size:
                     self._add_keys(new)
                 sel = np.array([self.key_pos[int(k)] for k in changed], dtype=np.int64)
-                lu_s = lu_or_none(self.S[np.ix_(sel, sel)])
+                lu_s = _factor(self.S[np.ix_(sel, sel)])
                 if lu_s is None:
                     return None
                 self.last = (sel, lu_s)
             sel, lu_s = self.last
             rhs2 = np.concatenate([b[A], np.zeros(R.size)]) - self.V[sel] @ x0
-            t = sla.lu_solve(lu_s, rhs2, check_finite=False)
+            t = lu_s.solve(rhs2)
             x0 = x0 - self.YT[sel].T @ t
             z[A] = t[: A.size]
         z[b0] = x0
@@ -174,21 +305,41 @@ def crash_basis(Ms: ScaledM, qs: np.ndarray, twin: np.ndarray | None = None,
     """Guessed active set (n,) bool by block principal pivoting, the iterations used, and
     z~ on that set (one residual correction applied) when the iteration converged.
 
-    Starts from Z = {i : q~_i < 0, i not a twin} (for contact: every pair sticks). Returns
-    the set with the fewest infeasible indices met (the exact answer's set when the
-    iteration converged). start: another first set (e.g. a warm-start basis).
+    Without `start`, in two stages: first the LCP over the indices without a twin (for
+    contact: the normal pressures, every pair sticking), from the deepest q~:
+    Z = {i : q~_i < DEEP_START min q~}; then the
+    whole LCP from that answer, where the twins with w~_i < 0 join (for contact: the pairs
+    that slip). Returns the set with the fewest infeasible indices met in the second stage
+    (the exact answer's set when the iteration converged). start: another first set (e.g. a
+    warm-start basis), with the whole LCP from the first iteration.
     """
     n = qs.size
     twin = find_twins(Ms) if twin is None else twin
-    Z = (qs < 0) & (twin < 0) if start is None else _untwin(start.copy(), start, qs, twin)
+    if start is None:
+        Z = (qs < DEEP_START * qs.min(initial=0.0)) & (twin < 0)
+        part = _first_stage(twin)
+    else:
+        Z = _untwin(start.copy(), start, qs, twin)
+        part = None
     solver = _BlockSolver(Ms, qs)
+    product = _TwinProduct(Ms, twin)
     best, best_bad = Z.copy(), n + 1
     for it in range(1, max_iterations + 1):
         z = solver.solve(Z)
         if z is None:
             return best, it, None
-        w = Ms.matvec(z) + qs
         tol = _FEAS_REL * max(1.0, float(np.abs(z).max()))
+        if part is not None:  # first stage: rows and columns of `part` only
+            w = np.full(n, np.inf)
+            w[part] = Ms.matvec(z, part, rows=True) + qs[part]
+            bad_z = Z & (z < -tol)
+            if (bad_z.any() or (~Z & (w < -tol)).any()) and it < max_iterations // 2:
+                Z = (Z & ~bad_z) | (~Z & (w < -tol))
+                continue
+            w = Ms.matvec(z, part) + qs  # second stage: every index may join
+            part = None
+        else:
+            w = product(z) + qs
         bad_z = Z & (z < -tol)
         bad_w = ~Z & (w < -tol)
         nbad = int(bad_z.sum() + bad_w.sum())
@@ -196,9 +347,52 @@ def crash_basis(Ms: ScaledM, qs: np.ndarray, twin: np.ndarray | None = None,
             best, best_bad = Z.copy(), nbad
         if nbad == 0:
             dz = solver.solve(Z, rhs=np.where(Z, -w, 0.0), refactor=False)
-            return Z, it, (z + dz if dz is not None else z)
+            z = z + dz if dz is not None else z
+            # a huge z~ comes from a numerically singular block (the pivot test of _factor
+            # is weaker than a condition estimate): leave the solve to the caller's LU
+            grown = np.abs(z).max() > GROWTH_MAX * np.abs(qs).max()
+            return Z, it, None if grown else z
         Z = _untwin((Z & ~bad_z) | bad_w, Z, w, twin)
     return best, max_iterations, None
+
+
+class _TwinProduct:
+    """z~ -> M~ z~ reading one column of each twin pair (M[:, j] = -M[:, twin j]): a third
+    less of M for the contact LCP. Used when the columns kept form at most _MAX_RUNS
+    ranges, else the plain product."""
+
+    def __init__(self, Ms: ScaledM, twin: np.ndarray):
+        self.Ms = Ms
+        n = twin.size
+        self.drop = np.flatnonzero((twin >= 0) & (twin < np.arange(n)))
+        self.to = twin[self.drop]
+        keep = np.ones(n + 2, dtype=bool)
+        keep[1 + self.drop] = False
+        keep[0] = keep[-1] = False
+        edges = np.flatnonzero(np.diff(keep.astype(np.int8)))
+        self.runs = [slice(int(a), int(b)) for a, b in zip(edges[::2], edges[1::2], strict=True)]
+        if not self.drop.size or len(self.runs) > _MAX_RUNS:
+            self.runs = None
+
+    def __call__(self, z: np.ndarray) -> np.ndarray:
+        Ms = self.Ms
+        if self.runs is None:
+            return Ms.matvec(z)
+        v = Ms.D * z
+        v[self.to] -= v[self.drop]
+        y = Ms.M[:, self.runs[0]] @ v[self.runs[0]]
+        for r in self.runs[1:]:
+            y += Ms.M[:, r] @ v[r]
+        return Ms.D * y / Ms.mu
+
+
+def _first_stage(twin: np.ndarray) -> slice | None:
+    """The index range of the first stage: the indices without a twin when they form one
+    range [a, b) and twins exist (the layout of the contact LCP), else None (one stage)."""
+    lone = np.flatnonzero(twin < 0)
+    if lone.size in (0, twin.size) or lone[-1] - lone[0] + 1 != lone.size:
+        return None
+    return slice(int(lone[0]), int(lone[-1]) + 1)
 
 
 def _untwin(Znew: np.ndarray, Zold: np.ndarray, w: np.ndarray, twin: np.ndarray) -> np.ndarray:

@@ -37,7 +37,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.linalg as sla
 
-from app.lcp.crash import crash_basis
+from app.lcp.crash import column_probe, crash_basis, twins_from_probe
 from app.lcp.pivoting import _LEX_REL, _PIV_REL, _TIE_REL, _CoreOut, _lexmin  # noqa: F401
 from app.lcp.repair import is_symmetric, qp_basis
 from app.lcp.result import DEFAULT_TOL, STATUSES, LCPResult, default_max_pivots
@@ -51,7 +51,8 @@ from app.lcp.revised import (  # noqa: F401 (the knobs, for tests)
 )
 from app.lcp.scaling import RCOND_MIN as _RCOND_MIN  # noqa: F401
 from app.lcp.scaling import ScaledM as _ScaledM
-from app.lcp.scaling import absmax as _absmax  # noqa: F401
+from app.lcp.scaling import absmax as _absmax
+from app.lcp.scaling import diagonal_scaling
 from app.lcp.scaling import lu_or_none as _lu_or_none  # noqa: F401
 from app.lcp.scaling import row_blocks as _row_blocks
 from app.lcp.scaling import scaling as _scaling
@@ -59,46 +60,77 @@ from app.lcp.tableau import _core_tableau
 
 __all__ = ["LCPResult", "lemke", "default_max_pivots", "STATUSES"]
 
+_CHECK_ROWS = 32
+"""Rows of M per block in the final check (a buffer that stays in cache)."""
 _WARM_CRASH = 5
 """Block pivoting iterations tried from a warm-start basis that does not solve the LCP."""
 
 
-def _validate(M, q) -> tuple[np.ndarray, np.ndarray]:
+def _validate(M, q) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(M, q) as float arrays and the column probe of M (`app.lcp.crash.column_probe` with
+    the diagonal scaling, one BLAS pass, which also shows any non-finite entry); raises
+    ValueError on bad shapes or non-finite data."""
     M = np.asarray(M, dtype=float)
     q = np.asarray(q, dtype=float).reshape(-1)
     n = q.size
     if M.shape != (n, n):
         raise ValueError(f"M must be ({n}, {n}) to match q of length {n}, got {M.shape}")
-    if n and not (np.isfinite(M.max()) and np.isfinite(M.min()) and np.isfinite(q).all()):
+    probe = column_probe(M, _diagonal_D(M)) if n else np.zeros((2, 0))
+    finite = np.isfinite(probe).all() or bool(np.isfinite(M).all())  # (overflow)
+    if not (finite and np.isfinite(q).all()):
         raise ValueError("M and q must be finite")
-    return M, q
+    return M, q, probe
+
+
+def _diagonal_D(M: np.ndarray) -> np.ndarray:
+    """D of `diagonal_scaling` (1 / sqrt|M_ii| as powers of two)."""
+    Ms, _, _ = diagonal_scaling(M, np.zeros(M.shape[0]))
+    return Ms.D
 
 
 def _check(M: np.ndarray, q: np.ndarray, z: np.ndarray, tol: float):
-    """w = M z + q and whether (z, w) passes the final check; returns (w, ok, comp, worst)."""
+    """w = M z + q and whether (z, w) passes the final check; returns (w, ok, comp, worst).
+
+    The row sizes s_i = |q_i| + sum_j |M_ij| z_j are formed only on the rows with a
+    violation (w_i < 0, or w_i != 0 where z_i > 0): elsewhere the relative violation is 0.
+    """
     w = M @ z + q
-    s = np.abs(q)
-    row_max = np.zeros(q.size)
-    for i0, i1 in _row_blocks(q.size):
-        a = np.abs(M[i0:i1])
-        row_max[i0:i1] = a.max(axis=1) if a.size else 0.0
-        if z.any():
-            s[i0:i1] += a @ z
-    # Floor for rows whose terms all cancel at round-off level (e.g. q_i = -1e-17 where the
-    # rest of q is O(1)): 1e-4 x the row's largest coefficient x the problem's z scale.
-    m_max = row_max.max(initial=0.0)
-    z_scale = max(float(z.max(initial=0.0)),
-                  float(np.abs(q).max(initial=0.0)) / m_max if m_max > 0 else 0.0)
-    s = np.maximum(s, 1e-4 * row_max * z_scale)
     neg = np.maximum(-w, 0.0)
     comp_res = np.where(z > 0, np.abs(w), 0.0)
     viol = np.maximum(neg, comp_res)
+    rows = np.flatnonzero(viol > 0)
+    s = np.abs(q[rows])
+    row_max = np.zeros(rows.size)
+    buf = np.empty((min(_CHECK_ROWS, rows.size), q.size))  # one small buffer, reused
+    for i0 in range(0, rows.size, _CHECK_ROWS):
+        a = buf[: min(rows.size - i0, _CHECK_ROWS)]
+        np.take(M, rows[i0:i0 + a.shape[0]], axis=0, out=a)
+        np.abs(a, out=a)
+        row_max[i0:i0 + a.shape[0]] = a.max(axis=1) if a.size else 0.0
+        if z.any():
+            s[i0:i0 + a.shape[0]] += a @ z
+    # Floor for rows whose terms all cancel at round-off level (e.g. q_i = -1e-17 where the
+    # rest of q is O(1)): 1e-4 x the row's largest coefficient x the problem's z scale.
+    z_scale = _z_scale(M, q, z, row_max) if rows.size else 0.0
+    s = np.maximum(s, 1e-4 * row_max * z_scale)
     with np.errstate(divide="ignore", invalid="ignore"):
-        rel = np.where(viol > 0, viol / s, 0.0)
+        rel = np.where(viol[rows] > 0, viol[rows] / s, 0.0)
     worst = float(rel.max()) if rel.size else 0.0
     ok = bool((z >= 0).all() and worst <= tol)
     comp = float(np.abs(z * w).max()) if z.size else 0.0
     return w, ok, comp, worst
+
+
+def _z_scale(M: np.ndarray, q: np.ndarray, z: np.ndarray, row_max: np.ndarray) -> float:
+    """max(max z, max |q| / max |M|); max |M| is read from M (one pass) only when the
+    largest row maximum already known (row_max, the diagonal) does not settle it."""
+    z_max = float(z.max(initial=0.0))
+    q_max = float(np.abs(q).max(initial=0.0))
+    known = max(float(row_max.max(initial=0.0)), float(np.abs(np.diagonal(M)).max()))
+    if known > 0 and q_max / known <= z_max:
+        return z_max  # max |M| >= known, so max |q| / max |M| <= z_max
+    m_max = max((float(_absmax(M[i0:i1])) for i0, i1 in _row_blocks(q.size)), default=0.0)
+    return max(z_max, q_max / m_max if m_max > 0 else 0.0)
 
 
 def _solve_on(Ms: _ScaledM, qs: np.ndarray, zset: np.ndarray) -> np.ndarray | None:
@@ -121,20 +153,28 @@ def _solve_on(Ms: _ScaledM, qs: np.ndarray, zset: np.ndarray) -> np.ndarray | No
 
 
 class _Problem:
-    """Caller data, scaled copy and the final solve + check."""
+    """Caller data, its scaled copy (formed on first use) and the final solve + check."""
 
     def __init__(self, M: np.ndarray, q: np.ndarray, tol: float):
         self.M, self.q, self.tol = M, q, tol
-        self.Ms, self.D, self.mu, self.nu = _scaling(M, q)
-        D = self.D
-        self.qs = D * q / self.nu
-        self.zfac = self.D * (self.nu / self.mu)  # z = zfac * z~
+        self._scaled = None
 
-    def finish(self, zt: np.ndarray | None):
-        """Unscale, clip, check. Returns (z, w, ok, comp, worst) or None if zt is None."""
+    def _scale(self):
+        if self._scaled is None:
+            Ms, D, mu, nu = _scaling(self.M, self.q)
+            self._scaled = (Ms, D * self.q / nu, D * (nu / mu))  # z = zfac * z~
+        return self._scaled
+
+    Ms = property(lambda self: self._scale()[0])
+    qs = property(lambda self: self._scale()[1])
+    zfac = property(lambda self: self._scale()[2])
+
+    def finish(self, zt: np.ndarray | None, zfac: np.ndarray | None = None):
+        """Unscale (z = zfac * zt, by default the scaling's), clip, check. Returns
+        (z, w, ok, comp, worst), or None if zt is None."""
         if zt is None:
             return None
-        z = np.maximum(zt * self.zfac, 0.0)
+        z = np.maximum(zt * (self.zfac if zfac is None else zfac), 0.0)
         w, ok, comp, worst = _check(self.M, self.q, z, self.tol)
         return z, w, ok, comp, worst
 
@@ -149,13 +189,14 @@ class _Problem:
         return first if first[4] <= second[4] else second
 
 
-def _try_basis(P: _Problem, B0: np.ndarray, zt: np.ndarray | None = None):
+def _try_basis(P: _Problem, B0: np.ndarray, zt: np.ndarray | None = None,
+               zfac: np.ndarray | None = None):
     """The checked answer on the complementary basis B0 (z_B = -M_BB^-1 q_B, one LU and one
     refinement step), or None when B0 is singular or its answer fails the check. This is
     exactly what a Lemke run from B0 that needs no pivot returns. zt: z~ on B0 already
-    computed (e.g. by the crash, with one refinement step), tried first."""
+    computed (e.g. by the crash, with one refinement step; z = zfac * zt), tried first."""
     if zt is not None:
-        out = P.finish(zt)
+        out = P.finish(zt, zfac)
         if out[2]:
             return out
     out = P.finish(_solve_on(P.Ms, P.qs, B0))
@@ -172,7 +213,7 @@ def _run(
     cold_start: bool = True,
     crash: bool = True,
 ) -> LCPResult:
-    M, q = _validate(M, q)
+    M, q, probe = _validate(M, q)
     n = q.size
     tol = DEFAULT_TOL if tol is None else float(tol)
     max_pivots = default_max_pivots(n) if max_pivots is None else int(max_pivots)
@@ -187,17 +228,18 @@ def _run(
     warm = "none"
     note = ""
     given = basis is not None
-    zt = None
+    zt = zfac = None
     if given:
         B0 = np.asarray(basis, dtype=bool).reshape(-1)
         if B0.shape != (n,):
             raise ValueError(f"basis must have shape ({n},), got {B0.shape}")
-    elif crash:
-        B0, iters, zt = crash_basis(P.Ms, P.qs)
+    elif crash:  # on the diagonal scaling: no pass over M beyond the probe
+        Mc, qc, zfac = diagonal_scaling(M, q)
+        B0, iters, zt = crash_basis(Mc, qc, twin=twins_from_probe(probe))
         note = f"crash basis ({iters} block pivoting iterations); "
     if (given or crash) and B0.any():
         how = "accepted" if given else "crash"
-        sol = _try_basis(P, B0, zt)
+        sol = _try_basis(P, B0, zt, zfac)
         if sol is not None:
             z, w, ok, comp, worst = sol
             msg = ("the warm-start basis solves it" if given
@@ -280,7 +322,7 @@ def _solve(core, M, q, max_pivots, tol, basis, cold_start, crash) -> LCPResult:
     res = _run(core, M, q, max_pivots, tol, basis, cold_start, crash)
     if res.ok or res.status not in ("inaccurate", "secondary ray"):
         return res
-    M, q = _validate(M, q)
+    M, q, _ = _validate(M, q)
     if not is_symmetric(M):
         return res
     B = qp_basis(M, q)

@@ -13,7 +13,8 @@ import warnings
 import numpy as np
 import scipy.linalg as sla
 
-__all__ = ["ScaledM", "scaling", "lu_or_none", "absmax", "row_blocks", "RCOND_MIN"]
+__all__ = ["ScaledM", "scaling", "diagonal_scaling", "lu_or_none", "absmax", "row_blocks",
+           "RCOND_MIN"]
 
 BLOCK_ROWS = 256
 """Row-block size for passes over M that need an |M| temporary (no n x n temporaries)."""
@@ -59,13 +60,30 @@ class ScaledM:
         """M~[idx, :] as a (k, n) array."""
         return self.M[idx] * (self.D[idx] / self.mu)[:, None] * self.D
 
-    def sub(self, idx: np.ndarray) -> np.ndarray:
-        """M~[idx][:, idx]."""
-        Di = self.D[idx]
-        return self.M[np.ix_(idx, idx)] * Di[:, None] * (Di / self.mu)
+    def block(self, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+        """M~[rows][:, cols] (a new array, scaled in place)."""
+        A = self.M[np.ix_(rows, cols)]
+        A *= self.D[rows][:, None]
+        A *= self.D[cols] / self.mu
+        return A
 
-    def matvec(self, v: np.ndarray) -> np.ndarray:
-        return self.D * (self.M @ (self.D * v)) / self.mu
+    def sub(self, idx: np.ndarray) -> np.ndarray:
+        """M~[idx][:, idx] (a new array, scaled in place)."""
+        Di = self.D[idx]
+        A = self.M[np.ix_(idx, idx)]
+        A *= Di[:, None]
+        A *= Di / self.mu
+        return A
+
+    def matvec(self, v: np.ndarray, part: slice | None = None,
+               rows: bool = False) -> np.ndarray:
+        """M~ v. part: v is zero outside this index range, so only those columns of M are
+        read; with rows=True only the rows of that range are returned (a square block)."""
+        if part is None:
+            return self.D * (self.M @ (self.D * v)) / self.mu
+        blk = self.M[part, part] if rows else self.M[:, part]
+        Dr = self.D[part] if rows else self.D
+        return Dr * (blk @ (self.D[part] * v[part])) / self.mu
 
     def rmatvec(self, v: np.ndarray) -> np.ndarray:
         """v^T M~ as an (n,) array."""
@@ -109,6 +127,20 @@ def scaling(M: np.ndarray, q: np.ndarray) -> tuple[ScaledM, np.ndarray, float, f
     nu = float(np.abs(D * q).max())
     nu = float(pow2(np.array(nu))) if nu > 0 else 1.0
     return ScaledM(M, D, mu), D, mu, nu
+
+
+def diagonal_scaling(M: np.ndarray, q: np.ndarray) -> tuple[ScaledM, np.ndarray, np.ndarray]:
+    """The cheap scaling of a crash (no pass over M): (M~, q~, zfac) with M~ = D M D,
+    q~ = D q / nu, z = zfac z~; D_i = 1 / sqrt|M_ii| as a power of two (1 where M_ii = 0),
+    nu = max |D q| as a power of two. `scaling` is this where no diagonal entry is tiny
+    against its row and column, up to the factor mu."""
+    dg = np.abs(np.diagonal(M))
+    with np.errstate(divide="ignore", over="ignore"):
+        D = pow2(1.0 / np.sqrt(np.where(dg > 0, dg, 1.0)))
+    D[~np.isfinite(D) | (D == 0)] = 1.0
+    nu = float(np.abs(D * q).max(initial=0.0))
+    nu = float(pow2(np.array(nu))) if 0 < nu < np.inf else 1.0
+    return ScaledM(M, D, 1.0), D * q / nu, D * nu
 
 
 def lu_or_none(A: np.ndarray):
