@@ -14,6 +14,11 @@ through a free copy of the curve geometry (not part of its surface, its nodes ar
 so both sides of a contact are refined. Structured bodies ignore refinement. Named
 [points] lying on a body side become geometry vertices (so a node sits there); inside an
 unstructured body they are embedded in the surface.
+
+Structured contact patches (`[[mesh.patch]]`, app/mesh/patch.py): an unstructured body
+that a patch box meets is built with the OpenCASCADE kernel instead, cut by the boxes,
+and its pieces inside them meshed as transfinite grids; named sides are found again
+after the cut, so every named curve keeps all its pieces.
 """
 
 from __future__ import annotations
