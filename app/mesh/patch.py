@@ -176,10 +176,16 @@ def _tangent(gmsh: Any, item: tuple[int, int, int], end: bool) -> np.ndarray:
 
 
 def _split(lengths: list[float], n: int) -> list[int]:
-    """n intervals over consecutive curves in proportion to their lengths (each >= 1)."""
-    from app.mesh.build import _intervals
-
-    return _intervals(lengths, n)
+    """n >= len(lengths) intervals over consecutive curves in proportion to their lengths
+    (each >= 1; rounded cumulative shares, as app.mesh.build's structured sides)."""
+    cum = np.cumsum(lengths) / np.sum(lengths)
+    b = [int(math.floor(c * n + 0.5)) for c in cum]  # a few curves: plain loops
+    b[-1] = n
+    for k in range(len(b)):
+        b[k] = max(b[k], (b[k - 1] if k else 0) + 1)
+    for k in range(len(b) - 2, -1, -1):
+        b[k] = min(b[k], b[k + 1] - 1)
+    return [int(d) for d in np.diff([0, *b])]
 
 
 def apply(gmsh: Any, plans: list[PatchPlan]) -> None:
