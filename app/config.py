@@ -283,6 +283,10 @@ def _mesh_size(raw: dict) -> float:
         if isinstance(r, dict):
             check_keys(r, "mesh.refine", f"mesh.refine[{i}].")
             _check_refine_lengths(r, f"mesh.refine[{i}]")
+    patches = mesh.get("patch", [])
+    for i, r in enumerate(patches if isinstance(patches, list) else []):
+        if isinstance(r, dict):
+            check_keys(r, "mesh.patch", f"mesh.patch[{i}].")
     if "size" not in mesh and mesh.get("file") is None:
         raise InputError("missing key mesh.size (the global element size)")
     return _num(mesh.get("size", 1.0), "mesh.size", positive=True)

@@ -43,6 +43,11 @@ ALLOWED_KEYS: dict[str, tuple[str, ...]] = {
         "file",
         "refine",
         "algorithm",
+        "patch",
+    ),
+    "mesh.patch": (
+        "box",
+        "size",
     ),
     "mesh.refine": (
         "curves",

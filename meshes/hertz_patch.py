@@ -11,7 +11,8 @@ and depth at its bottom, both with the contact element size; the rest is Delauna
 blossom recombination under hertz.toml's size field, and every element is split once
 (`Mesh.SubdivisionAlgorithm = 1`: all quads), so everything is meshed at twice the size
 first. Physical groups carry the config's body and curve names. A demonstration of what
-a structured contact zone does to p (README "Hertz and the mesh"), not a general tool.
+a structured contact zone does to p (README "Hertz and the mesh"), not a general tool:
+the mesh builder does this with `[[mesh.patch]]` (configs/hertz_patch.toml).
 """
 
 from __future__ import annotations

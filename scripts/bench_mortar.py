@@ -42,8 +42,10 @@ SIDES = {  # config: (interface, default slave, default master)
 }
 
 
-def run(config: str, disc: str, swapped: bool, extra: list[str]) -> tuple[dict, dict | None]:
-    """(summary or {"error"}, last step's contact arrays of the interface) of one run."""
+def run(config: str, disc: str, swapped: bool, extra: list[str],
+        file: str | None = None) -> tuple[dict, dict | None]:
+    """(summary or {"error"}, last step's contact arrays of the interface) of one run
+    (`file`: the config's name in configs/ when not `config`, e.g. hertz_patch)."""
     itf, slave, master = SIDES[config]
     if swapped:
         slave, master = master, slave
@@ -53,7 +55,7 @@ def run(config: str, disc: str, swapped: bool, extra: list[str]) -> tuple[dict, 
     out = Path(tempfile.mkdtemp(prefix="mortar_bench_"))
     try:
         t0 = time.perf_counter()
-        res = subprocess.run([sys.executable, "-m", "app", "run", f"configs/{config}.toml",
+        res = subprocess.run([sys.executable, "-m", "app", "run", f"configs/{file or config}.toml",
                               "--out", str(out), "--quiet", *args], cwd=ROOT, env=ENV,
                              capture_output=True, text=True)
         wall = time.perf_counter() - t0
@@ -109,6 +111,8 @@ def main() -> None:
                                                    "mu0"])
     ap.add_argument("--hertz-sizes", type=float, nargs="+", default=[0.5, 0.25, 0.125, 0.0625])
     ap.add_argument("--discretisations", nargs="+", choices=DISCS, default=list(DISCS))
+    ap.add_argument("--hertz-config", default="hertz",
+                    help="config of the Hertz rows in configs/ (e.g. hertz_patch)")
     ap.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUE",
                     help="config override passed to every run (repeatable)")
     a = ap.parse_args()
@@ -127,10 +131,12 @@ def main() -> None:
                              "max_rel_dev": float(np.abs(c["p"] - 10).max() / 10)})
             if "hertz" in a.only:
                 for h in a.hertz_sizes:
-                    s, c = run("hertz", disc, swapped, ["--mesh-size", str(h), *extra])
+                    s, c = run("hertz", disc, swapped, ["--mesh-size", str(h), *extra],
+                               a.hertz_config)
                     hz = s.get("reference", {}).get("hertz", {})
                     q = s.get("mesh_quality", {})
-                    emit(base | {"case": "hertz", "mesh_size": h, "error": s.get("error"),
+                    emit(base | {"case": "hertz", "config": a.hertz_config, "mesh_size": h,
+                                 "error": s.get("error"),
                                  "n_dofs": s.get("n_dofs"), "n_elements": s.get("n_elements"),
                                  "wall_s": round(s["wall_seconds"], 2),
                                  "min_angle": q.get("min_corner_angle_deg"),

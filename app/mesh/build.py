@@ -14,6 +14,11 @@ through a free copy of the curve geometry (not part of its surface, its nodes ar
 so both sides of a contact are refined. Structured bodies ignore refinement. Named
 [points] lying on a body side become geometry vertices (so a node sits there); inside an
 unstructured body they are embedded in the surface.
+
+Structured contact patches (`[[mesh.patch]]`, app/mesh/patch.py): an unstructured body
+that a patch box meets is built with the OpenCASCADE kernel instead, cut by the boxes,
+and its pieces inside them meshed as transfinite grids; named sides are found again
+after the cut, so every named curve keeps all its pieces.
 """
 
 from __future__ import annotations
@@ -29,6 +34,9 @@ import numpy as np
 from app.errors import InputError
 from app.mesh.cache import cache_key, cache_path, load_mesh, save_mesh
 from app.mesh.model import Mesh, orient_ccw
+from app.mesh.patch import apply as patch_apply
+from app.mesh.patch import cut as patch_cut
+from app.mesh.patch import patches_meeting
 from app.scene import BodySpec, Refine, Scene
 from app.scene.geometry import Piece
 from app.scene.mesh_algorithms import gmsh_options
@@ -115,8 +123,9 @@ def _mesh_body(gmsh: Any, spec: BodySpec, scene: Scene, scale: float) -> tuple:
     """
     h = spec.size * scale
     gmsh.model.add(f"body:{spec.name}")
+    meeting = [] if spec.structured else patches_meeting(spec, scene.patches)
     try:
-        geo = gmsh.model.geo
+        geo = gmsh.model.occ if meeting else gmsh.model.geo  # OCC: boxes cut the surface
         pieces = [p for s in spec.sides for p in s.pieces]
         perimeter = sum(p.length for p in pieces)
         if not (math.isfinite(perimeter) and perimeter / h <= MAX_BOUNDARY_ELEMENTS):
@@ -131,6 +140,9 @@ def _mesh_body(gmsh: Any, spec: BodySpec, scene: Scene, scale: float) -> tuple:
             side_tags.append(tags[k : k + len(s.pieces)])
             k += len(s.pieces)
         surf = geo.addPlaneSurface([geo.addCurveLoop(tags)])
+        surfs, plans = [surf], []
+        if meeting:
+            surfs, side_tags, plans = patch_cut(gmsh, spec, surf, meeting, scale)
 
         if spec.structured:
             width = sum(p.length for p in spec.sides[0].pieces)
@@ -155,8 +167,9 @@ def _mesh_body(gmsh: Any, spec: BodySpec, scene: Scene, scale: float) -> tuple:
             embed = [geo.addPoint(p[0], p[1], 0.0) for p in spec.interior_points]
             fields = _add_refinement(geo, spec, scene, side_tags, scale)
             geo.synchronize()
-            if embed:
-                gmsh.model.mesh.embed(0, embed, 2, surf)
+            patch_apply(gmsh, plans)
+            for tag, xy in zip(embed, spec.interior_points, strict=True):
+                gmsh.model.mesh.embed(0, [tag], 2, _surface_at(gmsh, surfs, plans, xy, spec))
             fm = gmsh.model.mesh.field
             thresholds = []
             for r, rpoints, ctags, sampling in fields:
@@ -193,7 +206,7 @@ def _mesh_body(gmsh: Any, spec: BodySpec, scene: Scene, scale: float) -> tuple:
             gmsh.model.mesh.generate(2)
         except Exception as e:  # gmsh raises a bare Exception with its last error
             raise InputError(f"body '{spec.name}': gmsh could not mesh it: {e}") from None
-        return _extract(gmsh, spec, surf, side_tags)
+        return _extract(gmsh, spec, surfs, side_tags)
     finally:
         gmsh.model.remove()
 
@@ -202,10 +215,12 @@ def _add_refinement(geo: Any, spec: BodySpec, scene: Scene, side_tags: list[list
                     scale: float) -> list[tuple[Refine, list[int], list[int], int]]:
     """Geometry for the refinement fields of one body: (refine, point tags, curve tags,
     sampling) per `[[mesh.refine]]` entry. Curves of other bodies become free copies."""
-    own = {}
-    for s, st in zip(spec.sides, side_tags, strict=True):
+    own: dict[str, tuple[list[int], list[Piece]]] = {}
+    for s, st in zip(spec.sides, side_tags, strict=True):  # st: s.pieces, or cut pieces
         if s.curve is not None:
-            own.setdefault(s.curve, []).extend(zip(st, s.pieces, strict=True))
+            tags_, pieces_ = own.setdefault(s.curve, ([], []))
+            tags_.extend(st)
+            pieces_.extend(s.pieces)
     out = []
     for r in scene.refine:
         ptags = [geo.addPoint(x, y, 0.0) for x, y in r.points]
@@ -213,8 +228,8 @@ def _add_refinement(geo: Any, spec: BodySpec, scene: Scene, side_tags: list[list
         lengths: list[float] = []
         for c in r.curves:
             if c in own:
-                ctags.extend(t for t, _ in own[c])
-                lengths.extend(p.length for _, p in own[c])
+                ctags.extend(own[c][0])
+                lengths.extend(p.length for p in own[c][1])
                 continue
             for other in scene.bodies:
                 pieces = other.curve_pieces(c)
@@ -228,20 +243,40 @@ def _add_refinement(geo: Any, spec: BodySpec, scene: Scene, side_tags: list[list
     return out
 
 
-def _extract(gmsh: Any, spec: BodySpec, surf: int, side_tags: list[list[int]]) -> tuple:
+def _surface_at(gmsh: Any, surfs: list[int], plans: list, xy: np.ndarray,
+                spec: BodySpec) -> int:
+    """The surface holding an interior point to embed (not a structured patch piece)."""
+    if len(surfs) == 1:
+        return surfs[0]
+    structured = {p.surface for p in plans}
+    for s in surfs:
+        if gmsh.model.isInside(2, s, [xy[0], xy[1], 0.0]):
+            if s in structured:
+                raise InputError(f"body '{spec.name}': the named point [{xy[0]:g}, "
+                                 f"{xy[1]:g}] lies inside a [[mesh.patch]] box: put it on "
+                                 "the body's side or outside the box")
+            return s
+    return surfs[0]
+
+
+def _extract(gmsh: Any, spec: BodySpec, surfs: list[int],
+             side_tags: list[list[int]]) -> tuple:
     """Quads, used nodes and named curve edges of the current model, renumbered 0..n-1."""
     ntags, coords, _ = gmsh.model.mesh.getNodes()
     ntags = np.asarray(ntags, dtype=np.int64)
     xy = np.asarray(coords).reshape(-1, 3)[:, :2]
-    types, _, enodes = gmsh.model.mesh.getElements(2, surf)
-    types = [int(t) for t in types]
-    if any(t != 3 for t in types):
-        n_other = sum(len(e) for t, e in zip(types, enodes, strict=True) if t != 3) // 3
-        raise InputError(
-            f"body '{spec.name}': gmsh left {n_other} non-quadrilateral elements; "
-            "try another element size"
-        )
-    q = np.asarray(enodes[types.index(3)], dtype=np.int64).reshape(-1, 4)
+    blocks = []
+    for surf in surfs:
+        types, _, enodes = gmsh.model.mesh.getElements(2, surf)
+        types = [int(t) for t in types]
+        if any(t != 3 for t in types):
+            n_other = sum(len(e) for t, e in zip(types, enodes, strict=True) if t != 3) // 3
+            raise InputError(
+                f"body '{spec.name}': gmsh left {n_other} non-quadrilateral elements; "
+                "try another element size"
+            )
+        blocks.append(np.asarray(enodes[types.index(3)], dtype=np.int64).reshape(-1, 4))
+    q = np.concatenate(blocks)
     top = int(ntags.max()) + 1
     row = np.empty(top, dtype=np.int64)
     row[ntags] = np.arange(len(ntags))

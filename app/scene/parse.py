@@ -13,12 +13,14 @@ import numpy as np
 from app.config_keys import suggestion
 from app.errors import InputError
 from app.scene.geometry import Piece
+from app.scene.geometry import is_number as _is_number
 from app.scene.geometry import number as _number
 from app.scene.geometry import xy_point as _xy
 from app.scene.mesh_algorithms import DEFAULT_MESH_ALGORITHM, mesh_algorithm
 from app.scene.shapes import SHAPES
 
 REFINE_KEYS = ("curves", "points", "size", "distance", "flat")
+PATCH_KEYS = ("box", "size")
 POINT_TOL = 1e-6  # named points must lie within POINT_TOL * body size of a mesh node
 
 
@@ -62,6 +64,15 @@ class Refine:
 
 
 @dataclass
+class Patch:
+    """One validated `[[mesh.patch]]`: structured quads of `size` inside `box`
+    [xmin, ymin, xmax, ymax] in every body it meets (app/mesh/patch.py)."""
+
+    box: np.ndarray  # (4,) xmin, ymin, xmax, ymax
+    size: float
+
+
+@dataclass
 class Scene:
     """Validated geometry part of a config."""
 
@@ -72,6 +83,7 @@ class Scene:
     points: dict[str, np.ndarray]  # named points
     source: dict = field(default_factory=dict)  # the geometry tables as written: cache key
     algorithm: str = DEFAULT_MESH_ALGORITHM  # gmsh recipe (app/scene/mesh_algorithms.py)
+    patches: list[Patch] = field(default_factory=list)  # [[mesh.patch]]
 
 
 # ----------------------------------------------------------------------------- parsing
@@ -176,7 +188,12 @@ def parse_scene(cfg: dict, *, need_shapes: bool | None = None) -> Scene:
                          for b in bodies_cfg],
               "mesh": mesh, "points": cfg.get("points", {})}
     algorithm = mesh_algorithm(mesh.get("algorithm", DEFAULT_MESH_ALGORITHM))
-    return Scene(size, file, bodies, refine, named, source, algorithm)
+    patch_cfg = mesh.get("patch", [])
+    if not isinstance(patch_cfg, list):
+        raise InputError("mesh.patch must be an array of tables [[mesh.patch]]")
+    patches = [_patch(_table(r, f"mesh.patch[{i}]"), f"mesh.patch[{i}].")
+               for i, r in enumerate(patch_cfg)]
+    return Scene(size, file, bodies, refine, named, source, algorithm, patches)
 
 
 def _body(b: dict, i: int, size: float, need_shapes: bool, named: dict[str, np.ndarray],
@@ -250,3 +267,18 @@ def _refine(r: dict, where: str, curve_owner: dict[str, str] | None) -> Refine:
     return Refine(curves=list(rc), points=pts, size=_number(r, "size", where),
                   distance=_number(r, "distance", where, strict=False),
                   flat=_number(r, "flat", where, strict=False, default=0.0))
+
+
+def _patch(r: dict, where: str) -> Patch:
+    """One [[mesh.patch]]: box = [xmin, ymin, xmax, ymax] with xmin < xmax, ymin < ymax."""
+    for key in r:
+        if key not in PATCH_KEYS:
+            raise InputError(f"{where}{key} is not a patch key ({', '.join(PATCH_KEYS)})"
+                             f"{suggestion(key, PATCH_KEYS)}")
+    box = r.get("box")
+    if not (isinstance(box, list) and len(box) == 4 and all(_is_number(v) for v in box)):
+        raise InputError(f"{where}box must be [xmin, ymin, xmax, ymax] (got {box!r})")
+    b = np.array(box, dtype=float)
+    if not (b[0] < b[2] and b[1] < b[3]):
+        raise InputError(f"{where}box = {box!r} needs xmin < xmax and ymin < ymax")
+    return Patch(box=b, size=_number(r, "size", where))
