@@ -191,7 +191,7 @@ class _BlockSolver:
     def _reset(self) -> None:
         k0 = self.base.size
         self.keys = np.zeros(0, dtype=np.int64)  # changed indices seen since the factor
-        self.key_pos = {}
+        self.key_pos = np.full(self.qs.size, -1, dtype=np.int64)  # row of a key, or -1
         self._YT = np.zeros((0, k0))  # rows: (A0^-1 u_key)^T, with spare rows
         self._V = np.zeros((0, k0))
         self.S = np.zeros((0, 0))
@@ -225,7 +225,7 @@ class _BlockSolver:
         of M counts as _GATHER_FLOPS, a flop of the bordering's BLAS calls as
         1 + _SMALL_BLAS / max(k0, 250))."""
         k0, K = self.base.size, self.keys.size
-        new = sum(int(c) not in self.key_pos for c in changed)
+        new = int((self.key_pos[changed] < 0).sum())
         blas = (1.0 + _SMALL_BLAS / max(k0, 250)) * (2.0 * k0 * k0 * new
                                                    + 4.0 * k0 * (K + new) * new)
         bordered = (blas + 2.0 / 3.0 * changed.size ** 3
@@ -273,8 +273,7 @@ class _BlockSolver:
         self.S = S
         self._YT[K:K + new.size] = YT
         self._V[K:K + new.size] = V
-        for i, key in enumerate(new):
-            self.key_pos[int(key)] = K + i
+        self.key_pos[new] = K + np.arange(new.size)
         self.keys = np.concatenate([self.keys, new])
 
     def solve(self, zset: np.ndarray, rhs: np.ndarray | None = None,
@@ -305,11 +304,10 @@ class _BlockSolver:
             x0 = self.x0
         if changed.size:
             if refactor or self.last is None:
-                new = np.array([k for k in changed if int(k) not in self.key_pos],
-                               dtype=np.int64)
+                new = changed[self.key_pos[changed] < 0]
                 if new.size:
                     self._add_keys(new)
-                sel = np.array([self.key_pos[int(k)] for k in changed], dtype=np.int64)
+                sel = self.key_pos[changed]
                 lu_s = _factor(self.S[np.ix_(sel, sel)])
                 if lu_s is None:
                     return None
