@@ -183,6 +183,7 @@ class _BlockSolver:
     def __init__(self, Ms: ScaledM, qs: np.ndarray):
         self.Ms, self.qs = Ms, qs
         self.base = np.zeros(0, dtype=np.int64)
+        self.in_base = np.zeros(qs.size, dtype=bool)
         self.lu = None
         self.factorizations = 0
         self.symmetric = False  # the blocks to come are symmetric (for the cost model)
@@ -214,6 +215,8 @@ class _BlockSolver:
 
     def factor(self, Z: np.ndarray) -> bool:
         self.base = Z.copy()
+        self.in_base = np.zeros(self.qs.size, dtype=bool)
+        self.in_base[Z] = True
         self.lu = _factor(self.Ms.sub(Z), cholesky=True) if Z.size else None
         self.factorizations += 1
         self._reset()
@@ -236,11 +239,11 @@ class _BlockSolver:
     def _add_keys(self, new: np.ndarray) -> None:
         """Columns, rows and Schur entries of indices changed for the first time."""
         b0 = self.base
-        inbase = np.isin(new, b0)
+        inbase = self.in_base[new]
         added = new[~inbase]
         U = np.zeros((b0.size, new.size), order="F")  # solved in place below
         V = np.zeros((new.size, b0.size))
-        old_added = ~np.isin(self.keys, b0)
+        old_added = ~self.in_base[self.keys]
         oa = self.keys[old_added]
         if added.size:  # one gather of the columns, one of the rows
             b0oa = np.concatenate([b0, oa])
@@ -283,8 +286,7 @@ class _BlockSolver:
         n = self.qs.size
         b = -self.qs if rhs is None else rhs
         Z = np.flatnonzero(zset)
-        inbase = np.zeros(n, dtype=bool)
-        inbase[self.base] = True
+        inbase = self.in_base
         A = Z[~inbase[Z]]
         R = self.base[~zset[self.base]]
         changed = np.concatenate([A, R])
@@ -362,8 +364,9 @@ def crash_basis(Ms: ScaledM, qs: np.ndarray, twin: np.ndarray | None = None,
             if (bad_z.any() or (~Z & (w < -tol)).any()) and it < max_iterations // 2:
                 Z = (Z & ~bad_z) | (~Z & (w < -tol))
                 continue
-            w = Ms.matvec(z, part) + qs  # second stage: every index may join
             if tpart is not None:  # the twins' LCP with these z fixed, then the whole
+                v = Ms.D[part] * z[part]  # its q': the rows of the twins only
+                w[tpart] = Ms.D[tpart] * (Ms.M[tpart, part] @ v) / Ms.mu + qs[tpart]
                 S, k, s_solver = _twin_stage(Ms, w, twin, tpart, max_iterations)
                 extra += k
                 tpart = None
@@ -373,6 +376,7 @@ def crash_basis(Ms: ScaledM, qs: np.ndarray, twin: np.ndarray | None = None,
                         solver = s_solver.retarget(qs)
                     part = None
                     continue
+            w = Ms.matvec(z, part) + qs  # second stage: every index may join
             part = None
             solver.symmetric = False
         else:
