@@ -330,13 +330,15 @@ def crash_basis(Ms: ScaledM, qs: np.ndarray, twin: np.ndarray | None = None,
     """Guessed active set (n,) bool by block principal pivoting, the iterations used, and
     z~ on that set (one residual correction applied) when the iteration converged.
 
-    Without `start`, in two stages: first the LCP over the indices without a twin (for
+    Without `start`, in up to three stages: first the LCP over the indices without a twin (for
     contact: the normal pressures, every pair sticking), from the deepest q~:
-    Z = {i : q~_i < DEEP_START min q~}; then the
-    whole LCP from that answer, where the twins with w~_i < 0 join (for contact: the pairs
-    that slip). Returns the set with the fewest infeasible indices met in the second stage
-    (the exact answer's set when the iteration converged). start: another first set (e.g. a
-    warm-start basis), with the whole LCP from the first iteration.
+    Z = {i : q~_i < DEEP_START min q~}; then, when the twins form one range, the LCP of the
+    twins alone with those z fixed (`_twin_stage`; for contact: the slips under those
+    pressures); then the whole LCP from the union (or, without that stage, from the first
+    answer, where the twins with w~_i < 0 join). Returns the set with the fewest infeasible
+    indices met on the whole LCP (the exact answer's set when the iteration converged).
+    start: another first set (e.g. a warm-start basis), with the whole LCP from the first
+    iteration.
     """
     n = qs.size
     twin = find_twins(Ms) if twin is None else twin
