@@ -15,13 +15,15 @@ from app.lcp.crash import (
     _factor,
     _first_stage,
     _symmetric,
+    _twin_range,
+    _twin_stage,
     _TwinProduct,
     column_probe,
     crash_basis,
     find_twins,
     twins_from_probe,
 )
-from app.lcp.scaling import ScaledM, diagonal_scaling, scaling
+from app.lcp.scaling import ScaledM, diagonal_scaling, gather, scaling
 from tests.test_lemke import assert_solution, near_duplicate_lcp, p_matrix
 
 LM = importlib.import_module("app.lcp.lemke")
@@ -220,7 +222,10 @@ def _psd_without_solution():
 def test_a_converged_crash_on_a_singular_block_leaves_the_solve_to_lemke(monkeypatch):
     """z on the singular block is about 1e16 and passes the relative check: the growth
     test hands it back, and Lemke ends on a secondary ray. Without the test it would be
-    reported solved."""
+    reported solved. (The second iteration is forced through the bordered system, where
+    the pivot test of the small Schur block does not see the singularity.)"""
+    crash = importlib.import_module("app.lcp.crash")
+    monkeypatch.setattr(crash._BlockSolver, "_refactor_is_cheaper", lambda *a: False)
     M, q = _psd_without_solution()
     Ms, qs, _ = diagonal_scaling(M, q)
     B, _, zt = crash_basis(Ms, qs)
@@ -229,3 +234,97 @@ def test_a_converged_crash_on_a_singular_block_leaves_the_solve_to_lemke(monkeyp
     monkeypatch.setattr(importlib.import_module("app.lcp.crash"), "GROWTH_MAX", np.inf)
     wrong = lemke(M, q)
     assert wrong.ok and np.abs(wrong.z).max() > 1e10
+
+
+def _greedy_twins(s: np.ndarray) -> np.ndarray:
+    """twins_from_probe with the pairing loop of its first version (the reference)."""
+    n = s.shape[1]
+    twin = np.full(n, -1, dtype=np.int64)
+    order = np.argsort(np.abs(s[0]), kind="stable")
+    so = s[:, order]
+    close = ((np.abs(so[:, 1:] + so[:, :-1]) <= 1e-12 * np.abs(so[:, 1:])).all(axis=0)
+             & (so[0, 1:] != 0.0) & (np.sign(so[0, 1:]) != np.sign(so[0, :-1])))
+    for k in np.flatnonzero(close):
+        i, j = int(order[k]), int(order[k + 1])
+        if twin[i] < 0 and twin[j] < 0:
+            twin[i], twin[j] = j, i
+    return twin
+
+
+def test_vectorized_twin_pairing_equals_the_greedy_loop_on_chains():
+    rng = np.random.default_rng(3)
+    # runs of 2 to 5 columns with sums of one size and alternating signs: chains of close
+    # neighbours, where the greedy pairing keeps every other pair
+    sizes = rng.permutation(np.arange(1.0, 41.0))
+    cols = [a * np.array([1.0, -1.0, 1.0, -1.0, 1.0][:k]) for a, k in
+            zip(sizes, rng.integers(1, 6, sizes.size), strict=True)]
+    s = np.concatenate(cols)[None, :]
+    s = s[:, rng.permutation(s.shape[1])]
+    twin = twins_from_probe(s)
+    np.testing.assert_array_equal(twin, _greedy_twins(s))
+    paired = twin >= 0
+    np.testing.assert_array_equal(twin[twin[paired]], np.flatnonzero(paired))
+    np.testing.assert_array_equal(s[0, paired], -s[0, twin[paired]])
+
+
+def test_gather_equals_fancy_indexing_for_any_layout():
+    rng = np.random.default_rng(5)
+    M = rng.standard_normal((30, 40))
+    rows, cols = rng.choice(30, 12, replace=False), rng.choice(40, 7, replace=False)
+    for A in (M, np.asfortranarray(M), M[:, ::2]):
+        c = cols[cols < A.shape[1]]
+        out = gather(A, rows, c)
+        np.testing.assert_array_equal(out, A[np.ix_(rows, c)])
+        assert out.flags.c_contiguous
+
+
+def test_twin_product_on_the_twin_range_equals_the_block_product():
+    M, q = strip_contact_lcp(40, seed=1)
+    Ms, _, _ = diagonal_scaling(M, q)
+    twin = find_twins(Ms)
+    tpart = _twin_range(twin)
+    assert tpart == slice(40, 120)
+    assert _twin_range(np.full(4, -1)) is None
+    assert _twin_range(np.array([2, -1, 0, -1])) is None  # twins not one range
+    product = _TwinProduct(Ms, twin, tpart)
+    assert product.runs == [slice(40, 80)]
+    rng = np.random.default_rng(2)
+    z = np.zeros(q.size)
+    z[tpart] = np.where(rng.random(80) < 0.5, rng.random(80), 0.0)
+    ref = Ms.matvec(z)[tpart]
+    np.testing.assert_allclose(product(z), ref, rtol=0, atol=1e-13 * np.abs(ref).max())
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_twin_stage_solves_the_slips_under_fixed_normal_pressures(seed):
+    """The set the twins' stage returns solves the LCP over the twin indices with
+    q' = M~ z~ + q~ of a fixed normal part (z~ = 0 on the twins), checked directly."""
+    m = 60
+    M, q = strip_contact_lcp(m, seed=seed)
+    Ms, qs, _ = diagonal_scaling(M, q)
+    twin = find_twins(Ms)
+    tpart = _twin_range(twin)
+    z = np.zeros(q.size)
+    z[:m] = np.maximum(-qs[:m], 0.0)  # some normal pressures
+    w = Ms.matvec(z) + qs
+    S, iterations, _ = _twin_stage(Ms, w, twin, tpart, 30)
+    assert S is not None and not S[:m].any() and 1 <= iterations < 30
+    assert not (S & S[twin.clip(0)] & (twin >= 0)).any()  # never both slips of a pair
+    Md = Ms.dense()[tpart, tpart]
+    idx = np.flatnonzero(S[tpart])
+    x = np.zeros(2 * m)
+    x[idx] = np.linalg.solve(Md[np.ix_(idx, idx)], -w[tpart][idx])
+    wt = Md @ x + w[tpart]
+    assert (x >= -1e-12).all() and (wt >= -1e-12).all()
+
+
+def test_check_lower_bound_keeps_the_verdict_and_bounds_the_residual():
+    """Rows settled by the lower bound |q_i| + |w_i - q_i| of their row size: the verdict
+    is that of the exact row sizes and the residual at least the exact one."""
+    for seed in range(4):
+        M, q = strip_contact_lcp(50, seed=seed)
+        z = lemke(M, q).z
+        for zz in (z, z * (1 + 1e-15), z * (1 + 1e-6)):
+            new, old = LM._check(M, q, zz, 1e-9), _old_check(M, q, zz, 1e-9)
+            assert new[1] == old[1]
+            assert old[3] * (1 - 1e-12) <= new[3] <= max(old[3], LM._SETTLE_REL) * (1 + 1e-12)

@@ -36,9 +36,17 @@ PIVOT_MIN = 1e-13
 """A block whose LU has a pivot below this x its largest counts as singular."""
 GROWTH_MAX = 1e10
 """A converged z~ larger than this x max |q~| is not returned (see crash_basis)."""
-_GATHER_FLOPS = 200.0
+_GATHER_FLOPS = 60.0
 """Cost of gathering one entry of M (fancy indexing) in flops of an LU, for the choice
-between a new factorization and bordered updates (measured: about 4 ns against 20 ps)."""
+between a new factorization and bordered updates (measured at n = 1500, one thread:
+about 2.5 ns an entry against 40 ps a flop of the LU of the 463 x 463 block)."""
+_SMALL_BLAS = 500.0
+"""A flop of the solves and products of a bordered update on a base block of k0 indices
+costs 1 + _SMALL_BLAS / max(k0, 250) flops of an LU (thin BLAS-3 calls run slower than an
+LU, more so on small blocks; below a few hundred indices both ways cost mostly call
+overhead): measured with one thread, bordering 87 indices on a 375 x 375
+Cholesky factor took 4.5 ms against 2.8 ms for an LU of the 463 x 463 block, and bordering
+340 indices on a 1483 x 1483 one 82 ms against 130 ms for the 1826 x 1826 LU."""
 _FEAS_REL = 1e-12
 """z_i or w_i counts as negative below -this x max(1, max |z|) (scaled units)."""
 
@@ -88,10 +96,14 @@ def twins_from_probe(s: np.ndarray) -> np.ndarray:
     so = s[:, order]
     close = ((np.abs(so[:, 1:] + so[:, :-1]) <= 1e-12 * np.abs(so[:, 1:])).all(axis=0)
              & (so[0, 1:] != 0.0) & (np.sign(so[0, 1:]) != np.sign(so[0, :-1])))
-    for k in np.flatnonzero(close):
-        i, j = int(order[k]), int(order[k + 1])
-        if twin[i] < 0 and twin[j] < 0:
-            twin[i], twin[j] = j, i
+    # pair k joins order[k] and order[k + 1]; in a run of consecutive close pairs, taking
+    # them in turn where both are still free keeps every other one, from the run's first
+    k = np.flatnonzero(close)
+    if k.size:
+        first = np.r_[True, np.diff(k) != 1]
+        k = k[(k - k[first][np.cumsum(first) - 1]) % 2 == 0]
+        i, j = order[k], order[k + 1]
+        twin[i], twin[j] = j, i
     return twin
 
 
@@ -122,16 +134,16 @@ def _factor(A: np.ndarray, cholesky: bool = False) -> _Factor | None:
         warnings.simplefilter("ignore", sla.LinAlgWarning)
         if cholesky and _symmetric(A):
             dg = np.diagonal(At).copy()
-            try:
-                c = sla.cho_factor(At, overwrite_a=True, check_finite=False)
+            try:  # the lower factor: about a quarter faster than the upper one here
+                c = sla.cho_factor(At, lower=True, overwrite_a=True, check_finite=False)
                 d = np.diagonal(c[0]) ** 2
                 if np.isfinite(d).all() and d.min() >= PIVOT_MIN * d.max() > 0:
                     return _Factor(c, True)
             except np.linalg.LinAlgError:
                 pass
-            # Cholesky wrote only the upper triangle: restore it from the lower one
-            iu = np.triu_indices(dg.size, 1)
-            At[iu] = At.T[iu]
+            # Cholesky wrote only the lower triangle: restore it from the upper one
+            il = np.tril_indices(dg.size, -1)
+            At[il] = At.T[il]
             np.fill_diagonal(At, dg)
         try:
             lu = sla.lu_factor(At, overwrite_a=True, check_finite=False)
@@ -171,14 +183,16 @@ class _BlockSolver:
     def __init__(self, Ms: ScaledM, qs: np.ndarray):
         self.Ms, self.qs = Ms, qs
         self.base = np.zeros(0, dtype=np.int64)
+        self.in_base = np.zeros(qs.size, dtype=bool)
         self.lu = None
         self.factorizations = 0
+        self.symmetric = False  # the blocks to come are symmetric (for the cost model)
         self._reset()
 
     def _reset(self) -> None:
         k0 = self.base.size
         self.keys = np.zeros(0, dtype=np.int64)  # changed indices seen since the factor
-        self.key_pos = {}
+        self.key_pos = np.full(self.qs.size, -1, dtype=np.int64)  # row of a key, or -1
         self._YT = np.zeros((0, k0))  # rows: (A0^-1 u_key)^T, with spare rows
         self._V = np.zeros((0, k0))
         self.S = np.zeros((0, 0))
@@ -193,36 +207,50 @@ class _BlockSolver:
     def V(self) -> np.ndarray:
         return self._V[: self.keys.size]
 
+    def retarget(self, qs: np.ndarray) -> _BlockSolver:
+        """The same solver for another q~ (factors and bordered keys depend on M~ only)."""
+        self.qs, self.x0, self.last = qs, None, None
+        self.symmetric = False
+        return self
+
     def factor(self, Z: np.ndarray) -> bool:
         self.base = Z.copy()
+        self.in_base = np.zeros(self.qs.size, dtype=bool)
+        self.in_base[Z] = True
         self.lu = _factor(self.Ms.sub(Z), cholesky=True) if Z.size else None
         self.factorizations += 1
         self._reset()
         return Z.size == 0 or self.lu is not None
 
     def _refactor_is_cheaper(self, k: int, changed: np.ndarray) -> bool:
-        """Whether a new LU of the k x k block costs less than bordering the changed indices
-        (flop counts; gathering an entry of M counts as _GATHER_FLOPS)."""
+        """Whether a new factorization of the k x k block (Cholesky when `symmetric`, else
+        LU) costs less than bordering the changed indices (flop counts; gathering an entry
+        of M counts as _GATHER_FLOPS, a flop of the bordering's BLAS calls as
+        1 + _SMALL_BLAS / max(k0, 250))."""
         k0, K = self.base.size, self.keys.size
-        new = sum(int(c) not in self.key_pos for c in changed)
-        bordered = (2.0 * k0 * k0 * new + 4.0 * k0 * (K + new) * new
-                    + 2.0 / 3.0 * changed.size ** 3 + _GATHER_FLOPS * self.qs.size * new)
-        return bordered > 2.0 / 3.0 * k ** 3 + _GATHER_FLOPS * k * k
+        new = int((self.key_pos[changed] < 0).sum())
+        blas = (1.0 + _SMALL_BLAS / max(k0, 250)) * (2.0 * k0 * k0 * new
+                                                   + 4.0 * k0 * (K + new) * new)
+        bordered = (blas + 2.0 / 3.0 * changed.size ** 3
+                    + 2.0 * _GATHER_FLOPS * (k0 + K + new) * new)
+        factor = (1.0 if self.symmetric else 2.0) / 3.0 * k ** 3
+        return bordered > factor + _GATHER_FLOPS * k * k
 
     def _add_keys(self, new: np.ndarray) -> None:
         """Columns, rows and Schur entries of indices changed for the first time."""
         b0 = self.base
-        inbase = np.isin(new, b0)
+        inbase = self.in_base[new]
         added = new[~inbase]
         U = np.zeros((b0.size, new.size), order="F")  # solved in place below
         V = np.zeros((new.size, b0.size))
-        old_added = ~np.isin(self.keys, b0)
+        old_added = ~self.in_base[self.keys]
         oa = self.keys[old_added]
         if added.size:  # one gather of the columns, one of the rows
-            cols = self.Ms.block(np.concatenate([b0, oa]), added)
-            rows = self.Ms.rows(added)
+            b0oa = np.concatenate([b0, oa])
+            cols = self.Ms.block(b0oa, added)
+            rows = self.Ms.block(added, b0oa)
             U[:, ~inbase] = cols[: b0.size]
-            V[~inbase] = rows[:, b0]
+            V[~inbase] = rows[:, : b0.size]
         pos = np.searchsorted(b0, new[inbase])  # base is sorted
         U[pos, np.flatnonzero(inbase)] = 1.0
         V[np.flatnonzero(inbase), pos] = 1.0
@@ -233,7 +261,7 @@ class _BlockSolver:
         c_no = np.zeros((new.size, self.keys.size))
         c_on = np.zeros((self.keys.size, new.size))
         if added.size and old_added.any():
-            c_no[np.ix_(~inbase, old_added)] = rows[:, oa]
+            c_no[np.ix_(~inbase, old_added)] = rows[:, b0.size:]
             c_on[np.ix_(old_added, ~inbase)] = cols[b0.size:]
         K = self.keys.size
         S = np.empty((K + new.size, K + new.size))
@@ -248,8 +276,7 @@ class _BlockSolver:
         self.S = S
         self._YT[K:K + new.size] = YT
         self._V[K:K + new.size] = V
-        for i, key in enumerate(new):
-            self.key_pos[int(key)] = K + i
+        self.key_pos[new] = K + np.arange(new.size)
         self.keys = np.concatenate([self.keys, new])
 
     def solve(self, zset: np.ndarray, rhs: np.ndarray | None = None,
@@ -259,8 +286,7 @@ class _BlockSolver:
         n = self.qs.size
         b = -self.qs if rhs is None else rhs
         Z = np.flatnonzero(zset)
-        inbase = np.zeros(n, dtype=bool)
-        inbase[self.base] = True
+        inbase = self.in_base
         A = Z[~inbase[Z]]
         R = self.base[~zset[self.base]]
         changed = np.concatenate([A, R])
@@ -280,11 +306,10 @@ class _BlockSolver:
             x0 = self.x0
         if changed.size:
             if refactor or self.last is None:
-                new = np.array([k for k in changed if int(k) not in self.key_pos],
-                               dtype=np.int64)
+                new = changed[self.key_pos[changed] < 0]
                 if new.size:
                     self._add_keys(new)
-                sel = np.array([self.key_pos[int(k)] for k in changed], dtype=np.int64)
+                sel = self.key_pos[changed]
                 lu_s = _factor(self.S[np.ix_(sel, sel)])
                 if lu_s is None:
                     return None
@@ -305,29 +330,34 @@ def crash_basis(Ms: ScaledM, qs: np.ndarray, twin: np.ndarray | None = None,
     """Guessed active set (n,) bool by block principal pivoting, the iterations used, and
     z~ on that set (one residual correction applied) when the iteration converged.
 
-    Without `start`, in two stages: first the LCP over the indices without a twin (for
+    Without `start`, in up to three stages: first the LCP over the indices without a twin (for
     contact: the normal pressures, every pair sticking), from the deepest q~:
-    Z = {i : q~_i < DEEP_START min q~}; then the
-    whole LCP from that answer, where the twins with w~_i < 0 join (for contact: the pairs
-    that slip). Returns the set with the fewest infeasible indices met in the second stage
-    (the exact answer's set when the iteration converged). start: another first set (e.g. a
-    warm-start basis), with the whole LCP from the first iteration.
+    Z = {i : q~_i < DEEP_START min q~}; then, when the twins form one range, the LCP of the
+    twins alone with those z fixed (`_twin_stage`; for contact: the slips under those
+    pressures); then the whole LCP from the union (or, without that stage, from the first
+    answer, where the twins with w~_i < 0 join). Returns the set with the fewest infeasible
+    indices met on the whole LCP (the exact answer's set when the iteration converged).
+    start: another first set (e.g. a warm-start basis), with the whole LCP from the first
+    iteration.
     """
     n = qs.size
     twin = find_twins(Ms) if twin is None else twin
     if start is None:
         Z = (qs < DEEP_START * qs.min(initial=0.0)) & (twin < 0)
         part = _first_stage(twin)
+        tpart = _twin_range(twin) if part is not None else None
     else:
         Z = _untwin(start.copy(), start, qs, twin)
-        part = None
+        part = tpart = None
+    extra = 0  # iterations of the twins' stage
     solver = _BlockSolver(Ms, qs)
+    solver.symmetric = part is not None
     product = _TwinProduct(Ms, twin)
     best, best_bad = Z.copy(), n + 1
     for it in range(1, max_iterations + 1):
         z = solver.solve(Z)
         if z is None:
-            return best, it, None
+            return best, it + extra, None
         tol = _FEAS_REL * max(1.0, float(np.abs(z).max()))
         if part is not None:  # first stage: rows and columns of `part` only
             w = np.full(n, np.inf)
@@ -336,8 +366,21 @@ def crash_basis(Ms: ScaledM, qs: np.ndarray, twin: np.ndarray | None = None,
             if (bad_z.any() or (~Z & (w < -tol)).any()) and it < max_iterations // 2:
                 Z = (Z & ~bad_z) | (~Z & (w < -tol))
                 continue
+            if tpart is not None:  # the twins' LCP with these z fixed, then the whole
+                v = Ms.D[part] * z[part]  # its q': the rows of the twins only
+                w[tpart] = Ms.D[tpart] * (Ms.M[tpart, part] @ v) / Ms.mu + qs[tpart]
+                S, k, s_solver = _twin_stage(Ms, w, twin, tpart, max_iterations)
+                extra += k
+                tpart = None
+                if S is not None:
+                    Z = (Z & ~bad_z) | S
+                    if S.any():  # its factors and bordered keys serve the whole LCP
+                        solver = s_solver.retarget(qs)
+                    part = None
+                    continue
             w = Ms.matvec(z, part) + qs  # second stage: every index may join
             part = None
+            solver.symmetric = False
         else:
             w = product(z) + qs
         bad_z = Z & (z < -tol)
@@ -351,39 +394,86 @@ def crash_basis(Ms: ScaledM, qs: np.ndarray, twin: np.ndarray | None = None,
             # a huge z~ comes from a numerically singular block (the pivot test of _factor
             # is weaker than a condition estimate): leave the solve to the caller's LU
             grown = np.abs(z).max() > GROWTH_MAX * np.abs(qs).max()
-            return Z, it, None if grown else z
+            return Z, it + extra, None if grown else z
         Z = _untwin((Z & ~bad_z) | bad_w, Z, w, twin)
-    return best, max_iterations, None
+    return best, max_iterations + extra, None
+
+
+def _twin_range(twin: np.ndarray) -> slice | None:
+    """The index range of the twins when they form one range (the contact layout: the
+    slips after the normal pressures), else None."""
+    tw = np.flatnonzero(twin >= 0)
+    if tw.size == 0 or tw[-1] - tw[0] + 1 != tw.size:
+        return None
+    return slice(int(tw[0]), int(tw[-1]) + 1)
+
+
+def _twin_stage(Ms: ScaledM, w: np.ndarray, twin: np.ndarray, tpart: slice,
+                max_iterations: int) -> tuple[np.ndarray | None, int, _BlockSolver]:
+    """Block pivoting on the LCP over the twin indices (range tpart) alone, with the other
+    z~ fixed: q' = w (n,), the w~ of the first stage's answer. For contact: the slips under
+    the normal pressures found, a symmetric block (Cholesky) and products with M~[tpart,
+    tpart] reading one column of each twin pair, so the cascade of slips that the whole
+    LCP would repeat on its larger block and passes over M costs a fraction of it.
+    Returns the set (n,) bool that solves that LCP (None if none was found), the
+    iterations used and the block solver (its factors serve the whole LCP next)."""
+    n = w.size
+    qt = np.zeros(n)
+    qt[tpart] = w[tpart]
+    solver = _BlockSolver(Ms, qt)
+    solver.symmetric = True
+    product = _TwinProduct(Ms, twin, tpart)
+    none = np.zeros(n, dtype=bool)
+    Z = _untwin(qt < -_FEAS_REL, none, qt, twin)
+    for it in range(1, max_iterations + 1):
+        if not Z.any():
+            return Z, it, solver
+        z = solver.solve(Z)
+        if z is None:
+            return None, it, solver
+        tol = _FEAS_REL * max(1.0, float(np.abs(z).max()))
+        wt = np.full(n, np.inf)
+        wt[tpart] = product(z) + qt[tpart]
+        bad_z = Z & (z < -tol)
+        bad_w = ~Z & (wt < -tol)
+        if not (bad_z.any() or bad_w.any()):
+            return Z, it, solver
+        Z = _untwin((Z & ~bad_z) | bad_w, Z, wt, twin)
+    return None, max_iterations, solver
 
 
 class _TwinProduct:
     """z~ -> M~ z~ reading one column of each twin pair (M[:, j] = -M[:, twin j]): a third
     less of M for the contact LCP. Used when the columns kept form at most _MAX_RUNS
-    ranges, else the plain product."""
+    ranges, else the plain product. part: z~ is zero outside this index range and only
+    its rows are wanted (returns (len(part),)): the block M~[part, part], twins read once."""
 
-    def __init__(self, Ms: ScaledM, twin: np.ndarray):
-        self.Ms = Ms
+    def __init__(self, Ms: ScaledM, twin: np.ndarray, part: slice | None = None):
+        self.Ms, self.part = Ms, part
         n = twin.size
         self.drop = np.flatnonzero((twin >= 0) & (twin < np.arange(n)))
         self.to = twin[self.drop]
         keep = np.ones(n + 2, dtype=bool)
         keep[1 + self.drop] = False
         keep[0] = keep[-1] = False
+        if part is not None:  # columns outside the part hold no z
+            keep[1:1 + part.start] = False
+            keep[1 + part.stop:] = False
         edges = np.flatnonzero(np.diff(keep.astype(np.int8)))
         self.runs = [slice(int(a), int(b)) for a, b in zip(edges[::2], edges[1::2], strict=True)]
         if not self.drop.size or len(self.runs) > _MAX_RUNS:
             self.runs = None
 
     def __call__(self, z: np.ndarray) -> np.ndarray:
-        Ms = self.Ms
+        Ms, rows = self.Ms, (slice(None) if self.part is None else self.part)
         if self.runs is None:
-            return Ms.matvec(z)
+            return Ms.matvec(z, self.part, rows=True)
         v = Ms.D * z
         v[self.to] -= v[self.drop]
-        y = Ms.M[:, self.runs[0]] @ v[self.runs[0]]
+        y = Ms.M[rows, self.runs[0]] @ v[self.runs[0]]
         for r in self.runs[1:]:
-            y += Ms.M[:, r] @ v[r]
-        return Ms.D * y / Ms.mu
+            y += Ms.M[rows, r] @ v[r]
+        return Ms.D[rows] * y / Ms.mu
 
 
 def _first_stage(twin: np.ndarray) -> slice | None:

