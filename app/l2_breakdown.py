@@ -39,6 +39,14 @@ def hertz_tributary_average(x: np.ndarray, a: float, p0: float) -> np.ndarray:
     return np.where(width > 0, mean, hertz_pressure(x, a, p0))
 
 
+def tributary_l2(length: np.ndarray, f: np.ndarray, g: np.ndarray, zone: np.ndarray
+                 ) -> float:
+    """||f - g|| / ||g|| over the pairs in `zone` (bool, (m,)), weighted by their
+    tributary lengths (m,)."""
+    return float(np.sqrt(np.sum(length[zone] * (f[zone] - g[zone]) ** 2)
+                         / np.sum(length[zone] * g[zone] ** 2)))
+
+
 def pressure_breakdown(x: np.ndarray, p: np.ndarray, length: np.ndarray, a: float,
                        p0: float, core: float = 0.95) -> dict:
     """Tributary L2(p) against Hertz (x relative to the contact centre, any order) split

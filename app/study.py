@@ -126,23 +126,7 @@ def run_study(cfg: Config, out: Path, levels: int, methods: list[tuple[str, int]
                     print(f"[{time.perf_counter() - t0:8.2f} s] {tag}: failed: {exc}",
                           flush=True)
                 continue
-            row = {"level": level, "method": label(method, sd), "n_dofs": s["n_dofs"],
-                   "n_elements": s["n_elements"], "n_pairs": s.get("n_pairs", 0),
-                   "ranks": s["ranks"], "strain_energy": s["strain_energy"]}
-            for ph in PHASES:
-                row[f"t_{ph}"] = s["timings"].get(ph, 0.0)
-            if "steps" in s and s["steps"] and "lemke_pivots" in s["steps"][-1]:
-                row["lemke_pivots"] = sum(st["lemke_pivots"] for st in s["steps"])
-                row["lcp_size"] = s["steps"][-1]["lcp_size"]
-            ref = s.get("reference", {})
-            for path, name in columns:
-                v = ref
-                for key in path:
-                    v = v.get(key, {}) if isinstance(v, dict) else {}
-                row[f"err_{name}"] = float(v) if isinstance(v, int | float) else math.nan
-            floor = ref.get("hertz", {}).get("pressure_l2_interp_floor")
-            if floor is not None:  # the interpolated L2's own floor at this pair spacing
-                row["floor_pressure_l2_interp"] = floor
+            row = study_row(s, level, label(method, sd), columns)
             rows.append(row)
             if rank == 0:
                 profiles[(level, row["method"])] = profile(s, opts.out)
@@ -155,31 +139,61 @@ def run_study(cfg: Config, out: Path, levels: int, methods: list[tuple[str, int]
         raise SolveError(f"every run of the study failed ({len(failures)} runs; first: "
                          f"{failures[0].splitlines()[0] if failures else 'none'})")
     if rank == 0:
-        limits = method_limits(rows, profiles) if reference_mode == "richardson" else []
-        scalars = reference_scalars(limits, ref_label)
-        missing = bool(limits) and scalars is None
-        limits = [] if missing else limits
-        note = add_reference_errors(rows, profiles, ref_label, scalars) + (
-            f" (Richardson needs three consecutive levels of {ref_label})" if missing else "")
-        bracket = energy_bracket(rows)
-        write_csv(out / "study.csv", rows)
-        if bracket:
-            write_csv(out / "energy_bracket.csv", bracket)
-        table = write_tables(rows, bracket, out, note)
-        if limits:
-            add_limit_spread(limits, ref_label)
-            write_csv(out / "richardson.csv", limits)
-            table += tables(limits, order_summary(rows))
-            (out / "study_tables.md").write_text(table)
-        if not quiet:
-            print(table, flush=True)
-        floors = {f"ref_{r['quantity']}": r["uncertainty_rel"] for r in limits
-                  if r["method"] == ref_label}
-        plot_study(rows, out, title=f"{cfg.path.stem} ({cfg.reference['type']})", note=note,
-                   floors=floors)
-        if bracket:
-            plot_bracket(bracket, out)
+        finish_study(cfg, out, rows, profiles, ref_label, reference_mode, quiet)
     return rows
+
+
+def study_row(s: dict, level: int, method: str, columns) -> dict:
+    """One study.csv row from a run's summary: sizes, phase seconds, pivots and the
+    err_* columns of the reference type (`columns`: (summary path, name) pairs)."""
+    row = {"level": level, "method": method, "n_dofs": s["n_dofs"],
+           "n_elements": s["n_elements"], "n_pairs": s.get("n_pairs", 0),
+           "ranks": s["ranks"], "strain_energy": s["strain_energy"]}
+    for ph in PHASES:
+        row[f"t_{ph}"] = s["timings"].get(ph, 0.0)
+    if "steps" in s and s["steps"] and "lemke_pivots" in s["steps"][-1]:
+        row["lemke_pivots"] = sum(st["lemke_pivots"] for st in s["steps"])
+        row["lcp_size"] = s["steps"][-1]["lcp_size"]
+    ref = s.get("reference", {})
+    for path, name in columns:
+        v = ref
+        for key in path:
+            v = v.get(key, {}) if isinstance(v, dict) else {}
+        row[f"err_{name}"] = float(v) if isinstance(v, int | float) else math.nan
+    floor = ref.get("hertz", {}).get("pressure_l2_interp_floor")
+    if floor is not None:  # the interpolated L2's own floor at this pair spacing
+        row["floor_pressure_l2_interp"] = floor
+    return row
+
+
+def finish_study(cfg: Config, out: Path, rows: list[dict], profiles: dict, ref_label: str,
+                 reference_mode: str, quiet: bool) -> None:
+    """Rank 0, after every run: the ref_* errors (Richardson limits or the finest level),
+    the energy bracket, study.csv, the tables (printed unless quiet) and the plots."""
+    limits = method_limits(rows, profiles) if reference_mode == "richardson" else []
+    scalars = reference_scalars(limits, ref_label)
+    missing = bool(limits) and scalars is None
+    limits = [] if missing else limits
+    note = add_reference_errors(rows, profiles, ref_label, scalars) + (
+        f" (Richardson needs three consecutive levels of {ref_label})" if missing else "")
+    bracket = energy_bracket(rows)
+    write_csv(out / "study.csv", rows)
+    if bracket:
+        write_csv(out / "energy_bracket.csv", bracket)
+    table = write_tables(rows, bracket, out, note)
+    if limits:
+        add_limit_spread(limits, ref_label)
+        write_csv(out / "richardson.csv", limits)
+        table += tables(limits, order_summary(rows))
+        (out / "study_tables.md").write_text(table)
+    if not quiet:
+        print(table, flush=True)
+    floors = {f"ref_{r['quantity']}": r["uncertainty_rel"] for r in limits
+              if r["method"] == ref_label}
+    plot_study(rows, out, title=f"{cfg.path.stem} ({cfg.reference['type']})", note=note,
+               floors=floors)
+    if bracket:
+        plot_bracket(bracket, out)
 
 
 def write_csv(path: Path, rows: list[dict]) -> None:

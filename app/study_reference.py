@@ -27,6 +27,8 @@ from pathlib import Path
 
 import numpy as np
 
+from app.output.read import read_pairs
+
 WINDOW = 1.5  # L2 window, in reference contact half-widths around the contact centre
 CORE = 0.8  # ref_pressure_l2_core: the window without the contact edges (same units)
 
@@ -39,14 +41,8 @@ def profile(summary: dict, run_out: Path) -> dict:
     steps = summary.get("steps") or []
     path = Path(run_out) / f"step_{len(steps):04d}.h5"
     if steps and "max_contact_pressure" in steps[-1] and path.is_file():
-        import h5py
-
-        with h5py.File(path) as f:
-            c = f["contact"]
-            sel = c["interface"][()] == 0
-            x, p, q = (c[k][()][sel] for k in ("x", "p", "q"))
-        o = np.argsort(x)
-        out |= {"x": x[o], "p": p[o], "q": q[o], "p_max": float(p.max(initial=0.0))}
+        pairs = read_pairs(path, 0, ("x", "p", "q"))
+        out |= {**pairs, "p_max": float(pairs["p"].max(initial=0.0))}
     return out
 
 

@@ -17,7 +17,6 @@ peak and half-width errors, the element count, the mesh quality and the meshing 
 from __future__ import annotations
 
 import argparse
-import glob
 import json
 import shutil
 import subprocess
@@ -26,12 +25,12 @@ import tempfile
 import time
 from pathlib import Path
 
-import h5py
 import numpy as np
 from app_runner import ENV, ROOT
 
 sys.path.insert(0, str(ROOT))
 from app.contact.smoothness import local_fit_deviation  # noqa: E402
+from app.output.read import last_step_file, read_pairs  # noqa: E402
 
 DISCS = ("node-to-segment", "mortar")
 SIDES = {  # config: (interface, default slave, default master)
@@ -64,14 +63,11 @@ def run(config: str, disc: str, swapped: bool, extra: list[str],
         s["wall_seconds"] = wall
         if res.returncode:
             s["error"] = res.stderr.strip()[-300:]
-        files = sorted(glob.glob(str(out / "step_*.h5")))
-        if not files:
+        last = last_step_file(out)
+        if last is None:
             return s, None
-        with h5py.File(files[-1]) as f:
-            c = {k: f["contact"][k][()] for k in f["contact"]}
         k = 2 if config == "multibody" else 0  # `indent` is the third [[interface]]
-        sel = c["interface"] == k
-        return s, {key: v[sel] for key, v in c.items() if v.shape[:1] == sel.shape}
+        return s, read_pairs(last, k)
     finally:
         shutil.rmtree(out, ignore_errors=True)
 

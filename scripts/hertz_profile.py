@@ -21,33 +21,25 @@ Hertz figures, or of p0 for the wobble):
 from __future__ import annotations
 
 import argparse
-import glob
 import json
 import sys
 from pathlib import Path
 
-import h5py
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from app.closed_form import hertz_pressure, interpolated_l2_rel_error  # noqa: E402
+from app.l2_breakdown import tributary_l2  # noqa: E402
+from app.output.read import last_step_file, read_pairs  # noqa: E402
 
 WOBBLE = 0.002  # second difference of (p - p_H) / p0 counted as a jump
 
 
 def load(out: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
     """Pair x, p, tributary length (sorted by x) of the last step, and the summary."""
-    with h5py.File(sorted(glob.glob(str(Path(out) / "step_*.h5")))[-1]) as f:
-        c = {k: f["contact"][k][()] for k in ("x", "p", "length", "interface")}
-    sel = c["interface"] == 0
-    o = np.argsort(c["x"][sel])
+    c = read_pairs(last_step_file(Path(out)), 0, ("x", "p", "length"))
     s = json.loads((Path(out) / "summary.json").read_text())
-    return c["x"][sel][o], c["p"][sel][o], c["length"][sel][o], s
-
-
-def tributary_l2(length: np.ndarray, f: np.ndarray, g: np.ndarray, zone: np.ndarray) -> float:
-    return float(np.sqrt(np.sum(length[zone] * (f[zone] - g[zone]) ** 2)
-                         / np.sum(length[zone] * g[zone] ** 2)))
+    return c["x"], c["p"], c["length"], s
 
 
 def profile(out: str, ref: str | None) -> dict:

@@ -16,20 +16,17 @@ import re
 import sys
 from pathlib import Path
 
-import h5py
-
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # this checkout's app
 from app.l2_breakdown import pressure_breakdown  # noqa: E402
+from app.output.read import read_pairs  # noqa: E402
 
 
 def level_row(run: Path, core: float) -> dict:
     s = json.loads((run / "summary.json").read_text())
     ref = s["reference"]
     hz, x0 = ref["hertz"], ref.get("center_x", 0.0)
-    with h5py.File(run / f"step_{len(s['steps']):04d}.h5") as f:
-        c = f["contact"]
-        sel = c["interface"][()] == 0
-        x, p, length = (c[k][()][sel] for k in ("x", "p", "length"))
+    c = read_pairs(run / f"step_{len(s['steps']):04d}.h5", 0, ("x", "p", "length"))
+    x, p, length = c["x"], c["p"], c["length"]
     b = pressure_breakdown(x - x0, p, length, hz["a_hertz"], hz["p0_hertz"], core)
     return {"n_dofs": s["n_dofs"], "n_pairs": s["n_pairs"],
             **{k: round(v, 7) for k, v in b.items()},

@@ -1,0 +1,39 @@
+"""Reading a written step's pairs back (app/output/read.py)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+from app.output.read import last_step_file, read_pairs
+
+
+def _write(path: Path) -> None:
+    with h5py.File(path, "w") as f:
+        c = f.create_group("contact")
+        c["interface"] = np.array([1, 0, 0, 1, 0])
+        c["x"] = np.array([0.5, 0.3, -0.2, -0.1, 0.1])
+        c["p"] = np.array([5.0, 3.0, -2.0, -1.0, 1.0])
+        c["normal"] = np.arange(10.0).reshape(5, 2)
+        c["vertices"] = np.zeros((7, 2))  # not per pair: left out
+
+
+def test_read_pairs_selects_one_interface_sorted_by_x(tmp_path: Path) -> None:
+    _write(tmp_path / "step_0002.h5")
+    c = read_pairs(tmp_path / "step_0002.h5", 0)
+    np.testing.assert_array_equal(c["x"], [-0.2, 0.1, 0.3])
+    np.testing.assert_array_equal(c["p"], [-2.0, 1.0, 3.0])
+    np.testing.assert_array_equal(c["normal"], [[4, 5], [8, 9], [2, 3]])
+    assert "vertices" not in c
+    only = read_pairs(tmp_path / "step_0002.h5", 1, ("x", "p"))
+    assert set(only) == {"x", "p"} and list(only["x"]) == [-0.1, 0.5]
+
+
+def test_last_step_file(tmp_path: Path) -> None:
+    assert last_step_file(tmp_path) is None
+    for k in (1, 10, 2):
+        _write(tmp_path / f"step_{k:04d}.h5")
+    (tmp_path / "step_0011.h5.tmp").write_text("")
+    assert last_step_file(tmp_path).name == "step_0010.h5"
