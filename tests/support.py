@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import csv
 import json
 import os
 import shutil
@@ -34,6 +35,12 @@ def run_cli(args: list[str], ranks: int = 1, timeout: float = 600) -> subprocess
         cmd = [mpiexec, "-n", str(ranks), *cmd]
     return subprocess.run(cmd, cwd=ROOT, env=mpi_env(), capture_output=True, text=True,
                           timeout=timeout)
+
+
+def read_csv(path: Path) -> list[dict]:
+    """The rows of a CSV file written by a study or sweep, as dicts of strings."""
+    with open(path, newline="") as fh:
+        return list(csv.DictReader(fh))
 
 
 def read_summary(out: Path) -> dict:

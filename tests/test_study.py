@@ -2,10 +2,8 @@
 
 from __future__ import annotations
 
-import csv
-
 import numpy as np
-from support import CONFIGS, run_cli
+from support import CONFIGS, read_csv, run_cli
 
 from app.study import fitted_rate, parse_methods
 
@@ -17,7 +15,7 @@ def test_study_writes_csv_and_plots_and_reuses_meshes(tmp_path):
     res = run_cli(args)
     assert res.returncode == 0, res.stderr
     assert "level 2/2 FEM-Q4" in res.stdout  # progress display
-    rows = list(csv.DictReader(open(out / "study.csv")))
+    rows = read_csv(out / "study.csv")
     assert len(rows) == 9
     for name in ("error_vs_dofs.png", "error_vs_time.png", "energy_vs_sd.png"):
         assert (out / name).stat().st_size > 5000
@@ -36,7 +34,7 @@ def test_study_writes_csv_and_plots_and_reuses_meshes(tmp_path):
         rr = sorted((r for r in rows if r["method"] == m), key=lambda r: int(r["level"]))
         assert float(rr[0]["ref_energy"]) > float(rr[1]["ref_energy"]) > 0
         assert float(rr[1]["order_ref_tip"]) > 1.5 and rr[0]["order_ref_tip"] in ("", "nan")
-    bracket = list(csv.DictReader(open(out / "energy_bracket.csv")))
+    bracket = read_csv(out / "energy_bracket.csv")
     widths = [float(b["width_rel"]) for b in bracket]
     assert len(widths) == 3 and widths[0] > widths[1] > widths[2] > 0
     assert all(b["one_sd_is_upper"] == "True" for b in bracket)
@@ -64,7 +62,7 @@ def test_study_remesh_and_contact_reference_columns(tmp_path):
                    "--methods", "4,q4", "--reference-method", "FEM-Q4", "--out", str(out),
                    "--quiet"])
     assert res.returncode == 0, res.stderr
-    rows = list(csv.DictReader(open(out / "study.csv")))
+    rows = read_csv(out / "study.csv")
     for r in rows:
         assert float(r["err_pressure_l2_interp"]) >= float(r["floor_pressure_l2_interp"]) * 0.5
         is_ref = r["method"] == "FEM-Q4" and r["level"] == "1"

@@ -4,15 +4,10 @@ levels 0-2."""
 
 from __future__ import annotations
 
-import csv
 import math
 
 import pytest
-from support import CONFIGS, run_cli
-
-
-def _read(path):
-    return list(csv.DictReader(open(path)))
+from support import CONFIGS, read_csv, run_cli
 
 
 def test_richardson_reference_on_hertz_halfspace(tmp_path):
@@ -21,8 +16,8 @@ def test_richardson_reference_on_hertz_halfspace(tmp_path):
                    "--reference-levels", "1", "--methods", "4,q4", "--out", str(out),
                    "--quiet"])
     assert res.returncode == 0, res.stderr
-    rows = _read(out / "study.csv")
-    lims = {(r["method"], r["quantity"]): r for r in _read(out / "richardson.csv")}
+    rows = read_csv(out / "study.csv")
+    lims = {(r["method"], r["quantity"]): r for r in read_csv(out / "richardson.csv")}
     assert set(lims) == {(m, q) for m in ("4SD", "FEM-Q4") for q in ("energy", "p_max")}
     u_ref = float(lims[("4SD", "energy")]["value"])
     assert lims[("4SD", "energy")]["levels"] == "0-2"  # the reference runs one level more
@@ -66,10 +61,10 @@ def test_richardson_reference_named_point_and_finest_mode(tmp_path):
             "--methods", "4", "--out", str(out), "--quiet"]
     res = run_cli(args)
     assert res.returncode == 0, res.stderr
-    lims = {r["quantity"]: r for r in _read(out / "richardson.csv")}
+    lims = {r["quantity"]: r for r in read_csv(out / "richardson.csv")}
     assert set(lims) == {"energy", "tip"}
     tip = float(lims["tip"]["value"])
-    rows = sorted(_read(out / "study.csv"), key=lambda r: int(r["level"]))
+    rows = sorted(read_csv(out / "study.csv"), key=lambda r: int(r["level"]))
     errs = [float(r["ref_tip"]) for r in rows]
     assert errs[0] > errs[1] > errs[2] > 0
     finest, finest_err = float(lims["tip"]["finest"]), float(rows[-1]["err_tip_deflection"])
@@ -82,6 +77,6 @@ def test_richardson_reference_named_point_and_finest_mode(tmp_path):
                    "--quiet"])
     assert res.returncode == 0, res.stderr
     assert not (tmp_path / "f" / "richardson.csv").exists()
-    assert math.isnan(float(_read(tmp_path / "f" / "study.csv")[-1]["ref_tip"]))
+    assert math.isnan(float(read_csv(tmp_path / "f" / "study.csv")[-1]["ref_tip"]))
     res = run_cli([*args[:-3], "--reference", "median", "--out", str(tmp_path / "g")])
     assert res.returncode == 2 and "--reference" in res.stderr

@@ -3,17 +3,11 @@ contact's physics (balance, friction + bond bound, sliding at mu P)."""
 
 from __future__ import annotations
 
-import csv
-
 import pytest
-from support import CONFIGS, run_cli
+from support import CONFIGS, read_csv, run_cli
 
 from app.errors import InputError
 from app.sweep import parse_sweeps, split_values
-
-
-def read(path) -> list[dict]:
-    return list(csv.DictReader(open(path)))
 
 
 def test_split_and_parse_sweeps():
@@ -31,7 +25,7 @@ def test_sweep_mu_on_cattaneo_balances_the_load_below_mu_p(tmp_path):
                    "--sweep", "interface.contact.mu=0.1,0.2,0.4", "--out", str(out)])
     assert res.returncode == 0, res.stderr
     assert "run 3/3 interface.contact.mu=0.4" in res.stderr  # progress per run
-    rows = read(out / "sweep.csv")
+    rows = read_csv(out / "sweep.csv")
     assert [float(r["interface.contact.mu"]) for r in rows] == [0.1, 0.2, 0.4]
     assert (out / "sweep_interface_contact_mu.png").stat().st_size > 5000
     stick = []
@@ -42,7 +36,7 @@ def test_sweep_mu_on_cattaneo_balances_the_load_below_mu_p(tmp_path):
         assert q <= mu * p
         stick.append(float(r["stick_length"]))
     assert stick[0] < stick[1] < stick[2]  # more friction, larger stick zone
-    for s in read(out / "sweep_steps.csv"):
+    for s in read_csv(out / "sweep_steps.csv"):
         mu = float(s["interface.contact.mu"])
         assert abs(float(s["tangential_force"])) <= mu * float(s["normal_force"]) * (1 + 1e-9)
 
@@ -53,7 +47,7 @@ def test_sweep_c_and_a_on_bonded_bounds_and_sliding(tmp_path):
                    "--sweep", "interface.bond.a=1,3", "--at-step", "10", "--out", str(out),
                    "--quiet"])
     assert res.returncode == 0, res.stderr
-    rows = read(out / "sweep.csv")
+    rows = read_csv(out / "sweep.csv")
     assert len(rows) == 4 and all(r["status"] == "completed" for r in rows)
     for key in ("c", "a"):
         assert (out / f"sweep_interface_bond_{key}.png").is_file()
@@ -61,7 +55,7 @@ def test_sweep_c_and_a_on_bonded_bounds_and_sliding(tmp_path):
              for r in rows}
     assert peaks[("8.0", "3.0")] > peaks[("1.0", "3.0")]  # a stronger bond resists more
     sliding = 0
-    for s in read(out / "sweep_steps.csv"):
+    for s in read_csv(out / "sweep_steps.csv"):
         mu = 0.3
         p, q, strength = (float(s[k]) for k in ("normal_force", "tangential_force",
                                                 "bond_strength_force"))
@@ -94,6 +88,6 @@ def test_sweep_combination_rejected_by_the_config_checks_fails_alone(tmp_path):
     res = run_cli(["study", str(CONFIGS / "bonded.toml"), "--sweep", "interface.bond.c=0.5,4",
                    "--out", str(tmp_path), "--quiet"])
     assert res.returncode == 0, res.stderr
-    rows = read(tmp_path / "sweep.csv")
+    rows = read_csv(tmp_path / "sweep.csv")
     assert [r["status"] for r in rows] == ["failed", "completed"]
     assert "c = 0.5 < mu * a" in rows[0]["error"]

@@ -91,18 +91,15 @@ def _held_mode_warnings(ctx: RunContext, result: StepSolution, step: int) -> Non
     """A warning (summary `warnings`, one stderr line on rank 0) the first time an unloaded
     contact-held mode of a body slid an interface beyond SLIDE_WARN (app/interface/
     weak_modes.py); `steps[k].contact_held_modes` holds every measured ratio."""
-    warnings = ctx.summary.setdefault("warnings", [])
     for entry in result.info.get("contact_held_modes", []):
-        head = f"body '{entry['body']}': its "
-        where = f"contact '{entry['interface']}'"
-        if not entry["warn"] or any(w.startswith(head) and where in w for w in warnings):
+        key = ("contact-held mode", entry["body"], entry["interface"])
+        if not entry["warn"] or key in ctx.warned:
             continue
+        ctx.warned.add(key)
         text = slide_warning(entry, step + 1)
-        warnings.append(text)
+        ctx.summary.setdefault("warnings", []).append(text)
         if ctx.rank == 0:
             print(f"warning: {text}", file=sys.stderr, flush=True)
-    if not warnings:
-        del ctx.summary["warnings"]
 
 
 def _displacement(model: Model, system: LinearSystem, u_free: np.ndarray,

@@ -37,6 +37,7 @@ class RunContext:
     summary: dict
     comm: PETSc.Comm = field(default_factory=lambda: PETSc.COMM_WORLD)
     timer: Timer = field(init=False)
+    warned: set = field(default_factory=set)  # keys of the once-per-run warnings given
 
     def __post_init__(self) -> None:
         prefix = f"{self.opts.progress_prefix}: " if self.opts.progress_prefix else ""
