@@ -73,16 +73,10 @@ def _groups(m, fname: str) -> dict[tuple[int, str], list[tuple[int, np.ndarray]]
     return out
 
 
-def read_mesh(path: str | Path, body_names: list[str]) -> Mesh:
-    """Read a gmsh .msh file of linear quadrilaterals into a Mesh.
-
-    path: the .msh file. body_names: the config's [[body]] names; every physical surface
-    must be one of them and every body needs one. Raises InputError (one line) naming the
-    file and the group or element type to fix.
-    """
+def _load_msh(path: Path):
+    """meshio's mesh of a .msh file whose cells are all accepted kinds; InputError if not."""
     import meshio.gmsh
 
-    path = Path(path)
     fname = str(path)
     if not path.is_file():
         raise InputError(f"mesh file {fname} not found (mesh.file)")
@@ -91,20 +85,25 @@ def read_mesh(path: str | Path, body_names: list[str]) -> Mesh:
     except Exception as e:  # meshio raises assorted exception types on bad input
         msg = str(e).splitlines()[0] if str(e).strip() else type(e).__name__
         raise InputError(f"mesh file {fname} is not a readable gmsh .msh file: {msg}") from None
-
     counts: dict[str, int] = {}
     for blk in m.cells:
         counts[blk.type] = counts.get(blk.type, 0) + len(blk.data)
     for kind, n in sorted(counts.items(), key=lambda kn: not kn[0].startswith("triangle")):
         if kind not in _KINDS and kind not in _IGNORED_1D:
             raise _other_cell_error(fname, kind, n)
+    return m
+
+
+def _planar_points(m, fname: str) -> np.ndarray:
+    """(n, 2) node coordinates; InputError unless every z is 0."""
     pts = np.asarray(m.points, dtype=float)
     if pts.shape[1] > 2 and np.any(np.abs(pts[:, 2]) > 1e-12 * max(1.0, np.abs(pts).max())):
         raise InputError(f"mesh file {fname} is not planar: every node needs z = 0")
-    xy = pts[:, :2]
+    return pts[:, :2]
 
-    groups = _groups(m, fname)
-    surfaces = {name: v for (dim, name), v in groups.items() if dim == 2}
+
+def _check_surfaces(surfaces: dict, body_names: list[str], fname: str) -> None:
+    """Every physical surface is a body and every body has one."""
     for name in surfaces:
         if name not in body_names:
             raise InputError(
@@ -115,22 +114,26 @@ def read_mesh(path: str | Path, body_names: list[str]) -> Mesh:
         if name not in surfaces:
             raise InputError(f"mesh file {fname} has no physical surface for body '{name}'")
 
-    n_quads = sum(len(blk.data) for blk in m.cells if blk.type == "quad")
-    quad_parts, body_parts = [], []
-    for i, name in enumerate(body_names):
-        q = np.concatenate([m.cells[b].data[idx] for b, idx in surfaces[name]]).astype(np.int64)
-        quad_parts.append(q)
-        body_parts.append(np.full(len(q), i, dtype=np.int64))
-    quads = np.concatenate(quad_parts) if quad_parts else np.zeros((0, 4), np.int64)
-    body = np.concatenate(body_parts) if body_parts else np.zeros(0, np.int64)
-    if len(quads) != n_quads:
-        raise InputError(
-            f"mesh file {fname}: {abs(n_quads - len(quads))} quadrilaterals are in no or in "
-            "several physical surfaces: put each in exactly one body surface"
-        )
 
-    owner = np.full(len(xy), -1, dtype=np.int64)  # body of every node, checked disjoint
-    for i, q in enumerate(quad_parts):
+def _body_quads(m, surfaces: dict, body_names: list[str], fname: str) -> list[np.ndarray]:
+    """(n_b, 4) raw node ids of each body's quads; every quad in exactly one body."""
+    n_quads = sum(len(blk.data) for blk in m.cells if blk.type == "quad")
+    parts = [
+        np.concatenate([m.cells[b].data[idx] for b, idx in surfaces[name]]).astype(np.int64)
+        for name in body_names
+    ]
+    if sum(len(q) for q in parts) != n_quads:
+        raise InputError(
+            f"mesh file {fname}: {abs(n_quads - sum(len(q) for q in parts))} quadrilaterals "
+            "are in no or in several physical surfaces: put each in exactly one body surface"
+        )
+    return parts
+
+
+def _node_owner(n_points: int, parts: list[np.ndarray], body_names: list[str], fname: str):
+    """(n_points,) body index of every node (-1: unused); InputError if bodies share nodes."""
+    owner = np.full(n_points, -1, dtype=np.int64)
+    for i, q in enumerate(parts):
         nodes = np.unique(q)
         taken = owner[nodes] >= 0
         if np.any(taken):
@@ -140,15 +143,11 @@ def read_mesh(path: str | Path, body_names: list[str]) -> Mesh:
                 "mesh each body separately so that bodies have their own nodes"
             )
         owner[nodes] = i
+    return owner
 
-    # Drop unused nodes; number nodes in order of first use by body.
-    used = np.flatnonzero(owner >= 0)
-    order = used[np.argsort(owner[used], kind="stable")]
-    new = np.full(len(xy), -1, dtype=np.int64)
-    new[order] = np.arange(len(order))
-    points = xy[order].copy()
-    quads = orient_ccw(points, new[quads])
 
+def _lower_groups(m, groups: dict, new: np.ndarray, fname: str):
+    """Named curves ((k, 2) segments) and point groups in the new node numbering."""
     curves: dict[str, np.ndarray] = {}
     point_groups: dict[str, np.ndarray] = {}
     for (dim, name), parts in groups.items():
@@ -170,4 +169,33 @@ def read_mesh(path: str | Path, body_names: list[str]) -> Mesh:
             raise InputError(
                 f"mesh file {fname}: '{name}' is both a physical curve and a physical point"
             )
+    return curves, point_groups
+
+
+def read_mesh(path: str | Path, body_names: list[str]) -> Mesh:
+    """Read a gmsh .msh file of linear quadrilaterals into a Mesh.
+
+    path: the .msh file. body_names: the config's [[body]] names; every physical surface
+    must be one of them and every body needs one. Raises InputError (one line) naming the
+    file and the group or element type to fix.
+    """
+    path = Path(path)
+    fname = str(path)
+    m = _load_msh(path)
+    xy = _planar_points(m, fname)
+    groups = _groups(m, fname)
+    surfaces = {name: v for (dim, name), v in groups.items() if dim == 2}
+    _check_surfaces(surfaces, body_names, fname)
+    parts = _body_quads(m, surfaces, body_names, fname)
+    quads = np.concatenate(parts) if parts else np.zeros((0, 4), np.int64)
+    body = np.repeat(np.arange(len(parts), dtype=np.int64), [len(q) for q in parts])
+    owner = _node_owner(len(xy), parts, body_names, fname)
+    # Drop unused nodes; number nodes in order of first use by body.
+    used = np.flatnonzero(owner >= 0)
+    order = used[np.argsort(owner[used], kind="stable")]
+    new = np.full(len(xy), -1, dtype=np.int64)
+    new[order] = np.arange(len(order))
+    points = xy[order].copy()
+    quads = orient_ccw(points, new[quads])
+    curves, point_groups = _lower_groups(m, groups, new, fname)
     return Mesh(points, quads, body, list(body_names), curves, point_groups)
