@@ -212,6 +212,44 @@ def closest_segments(x: np.ndarray, xa: np.ndarray, xb: np.ndarray,
     return seg, xi_raw, dist
 
 
+def _checked_search_distance(label: str, slave: str, master: str, search_distance) -> float:
+    """search_distance as a positive float; InputError if not, or if slave == master."""
+    if slave == master:
+        raise InputError(f"interface '{label}': slave and master are the same curve "
+                         f"'{slave}'; use two different curves")
+    sd = float(search_distance)
+    if not np.isfinite(sd) or sd <= 0:
+        raise InputError(f"interface '{label}': search_distance must be a positive length, "
+                         f"got {search_distance}")
+    return sd
+
+
+def _penetration_tolerance(label: str, pts: np.ndarray, seg_len: np.ndarray,
+                           penetration_tol: float | None) -> float:
+    """The given tolerance (checked >= 0) or PENETRATION_REL_TOL x mean master segment."""
+    if penetration_tol is None:
+        scale = float(np.ptp(pts, axis=0).max()) if pts.size else 0.0
+        return max(PENETRATION_REL_TOL * float(seg_len.mean()), 1e-12 * scale)
+    tol = float(penetration_tol)
+    if not np.isfinite(tol) or tol < 0:
+        raise InputError(f"interface '{label}': penetration_tol must be a non-negative "
+                         f"length, got {penetration_tol}")
+    return tol
+
+
+def _refuse_penetration(label: str, xs: np.ndarray, g0: np.ndarray, pen: np.ndarray,
+                        tol: float) -> None:
+    """InputError naming the first penetrating slave nodes (pen: (m,) bool), if any."""
+    if not pen.any():
+        return
+    ip = np.flatnonzero(pen)
+    locs = "; ".join(f"x={xs[i, 0]:.6g}, y={xs[i, 1]:.6g}" for i in ip[:3])
+    raise InputError(f"interface '{label}': {ip.size} slave nodes penetrate the master by "
+                     f"more than {tol:.3g} (first at {locs}; deepest g0={g0[ip].min():.3g})"
+                     f": fix the geometry, raise penetration_tol, or set interference = true "
+                     f"if the overlap is an intended interference fit")
+
+
 def contact_pairs(mesh: Mesh, slave: str, master: str, search_distance: float, *,
                   interface: int = 0, penetration_tol: float | None = None,
                   name: str | None = None, interference: bool = False) -> ContactPairs:
@@ -237,13 +275,7 @@ def contact_pairs(mesh: Mesh, slave: str, master: str, search_distance: float, *
     See the module docstring for the sign conventions.
     """
     label = name if name is not None else f"{slave}/{master}"
-    if slave == master:
-        raise InputError(f"interface '{label}': slave and master are the same curve "
-                         f"'{slave}'; use two different curves")
-    sd = float(search_distance)
-    if not np.isfinite(sd) or sd <= 0:
-        raise InputError(f"interface '{label}': search_distance must be a positive length, "
-                         f"got {search_distance}")
+    sd = _checked_search_distance(label, slave, master, search_distance)
     s_edges = _curve_edges(mesh, slave, "slave", label)
     m_edges = _curve_edges(mesh, master, "master", label)
     pts = np.asarray(mesh.points, dtype=float)
@@ -252,14 +284,7 @@ def contact_pairs(mesh: Mesh, slave: str, master: str, search_distance: float, *
                                     f"interface '{label}': master curve '{master}'")
     xa, xb = pts[m_edges[:, 0]], pts[m_edges[:, 1]]
     seg_len = np.linalg.norm(xb - xa, axis=1)
-    if penetration_tol is None:
-        scale = float(np.ptp(pts, axis=0).max()) if pts.size else 0.0
-        tol = max(PENETRATION_REL_TOL * float(seg_len.mean()), 1e-12 * scale)
-    else:
-        tol = float(penetration_tol)
-        if not np.isfinite(tol) or tol < 0:
-            raise InputError(f"interface '{label}': penetration_tol must be a non-negative "
-                             f"length, got {penetration_tol}")
+    tol = _penetration_tolerance(label, pts, seg_len, penetration_tol)
     if np.any(seg_len == 0):
         raise InputError(f"interface '{label}': master curve '{master}' has an edge of zero "
                          f"length (coincident nodes)")
@@ -288,14 +313,8 @@ def contact_pairs(mesh: Mesh, slave: str, master: str, search_distance: float, *
         raise InputError(f"interface '{label}': no slave node of '{slave}' lies within "
                          f"search_distance={sd:g} of '{master}' (raise search_distance or "
                          f"check the curves)")
-    pen = keep & (g0 < -tol)
-    if pen.any() and not interference:
-        ip = np.flatnonzero(pen)
-        locs = "; ".join(f"x={xs[i, 0]:.6g}, y={xs[i, 1]:.6g}" for i in ip[:3])
-        raise InputError(f"interface '{label}': {ip.size} slave nodes penetrate the master by "
-                         f"more than {tol:.3g} (first at {locs}; deepest g0={g0[ip].min():.3g})"
-                         f": fix the geometry, raise penetration_tol, or set interference = true "
-                         f"if the overlap is an intended interference fit")
+    if not interference:
+        _refuse_penetration(label, xs, g0, keep & (g0 < -tol), tol)
     k = np.flatnonzero(keep)
     return ContactPairs(
         interface=np.full(k.size, int(interface), dtype=np.int64),
