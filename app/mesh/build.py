@@ -115,6 +115,82 @@ def _intervals(lengths: list[float], n: int) -> list[int]:
     return list(np.diff([0, *b]))
 
 
+def _check_boundary_count(spec: BodySpec, h: float) -> None:
+    """InputError if the body's boundary over the element size h is absurdly many elements."""
+    perimeter = sum(p.length for s in spec.sides for p in s.pieces)
+    if not (math.isfinite(perimeter) and perimeter / h <= MAX_BOUNDARY_ELEMENTS):
+        raise InputError(
+            f"body '{spec.name}': its boundary ({perimeter:.3g}) over the element size "
+            f"({h:.3g}) would need more than {MAX_BOUNDARY_ELEMENTS:.0e} boundary "
+            "elements: check the body's dimensions and mesh.size / body size"
+        )
+
+
+def _set_structured(gmsh: Any, geo: Any, spec: BodySpec, surf: int, side_tags: list,
+                    ptags: list, h: float, scale: float) -> None:
+    """Transfinite quads on a four-sided body: counts from `divisions` or the size h."""
+    width = sum(p.length for p in spec.sides[0].pieces)
+    height = sum(p.length for p in spec.sides[1].pieces)
+    npieces = [len(s.pieces) for s in spec.sides]
+    if "divisions" in spec.shape:  # element counts, refined with the scale
+        fx, fy = (max(1, int(math.floor(k / scale + 0.5))) for k in spec.shape["divisions"])
+    else:
+        fx = int(math.floor(width / h + 0.5))
+        fy = int(math.floor(height / h + 0.5))
+    nx = max(1, fx, npieces[0], npieces[2])
+    ny = max(1, fy, npieces[1], npieces[3])
+    for s, st, n in zip(spec.sides, side_tags, (nx, ny, nx, ny), strict=True):
+        for tag, m in zip(st, _intervals([p.length for p in s.pieces], n), strict=True):
+            geo.mesh.setTransfiniteCurve(tag, int(m) + 1)
+    corners = [ptags[k] for k in np.cumsum([0, *npieces[:3]])]
+    geo.synchronize()
+    gmsh.model.mesh.setTransfiniteSurface(surf, "Left", corners)
+    gmsh.model.mesh.setRecombine(2, surf)
+
+
+def _set_size_fields(gmsh: Any, fields: list, h: float, scale: float, size: float) -> None:
+    """One Distance + Threshold field per refinement, their Min as the background size."""
+    fm = gmsh.model.mesh.field
+    thresholds = []
+    for r, rpoints, ctags, sampling in fields:
+        d = fm.add("Distance")
+        if rpoints:
+            fm.setNumbers(d, "PointsList", rpoints)
+        if ctags:
+            fm.setNumbers(d, "CurvesList", ctags)
+            fm.setNumber(d, "Sampling", sampling)
+        t = fm.add("Threshold")
+        fm.setNumber(t, "InField", d)
+        fm.setNumber(t, "SizeMin", r.size * scale)
+        fm.setNumber(t, "SizeMax", h)
+        fm.setNumber(t, "DistMin", r.flat)
+        fm.setNumber(t, "DistMax", r.flat + max(r.distance, 1e-9 * size))
+        thresholds.append(t)
+    if thresholds:
+        m = fm.add("Min")
+        fm.setNumbers(m, "FieldsList", thresholds)
+        fm.setAsBackgroundMesh(m)
+
+
+def _generate(gmsh: Any, spec: BodySpec, scene: Scene, h: float) -> None:
+    """Quad meshing options (the algorithm recipe last), then gmsh's 2D mesh."""
+    opt = gmsh.option.setNumber
+    opt("Mesh.RecombineAll", 1)
+    opt("Mesh.SubdivisionAlgorithm", 0)
+    opt("Mesh.ElementOrder", 1)
+    opt("Mesh.MeshSizeFromPoints", 0)
+    opt("Mesh.MeshSizeFromCurvature", 0)
+    opt("Mesh.MeshSizeExtendFromBoundary", 0)
+    opt("Mesh.MeshSizeMin", 0.0)
+    opt("Mesh.MeshSizeMax", h)
+    for key, value in gmsh_options(scene.algorithm).items():  # after: a recipe may
+        opt(key, value)  # override the options above
+    try:
+        gmsh.model.mesh.generate(2)
+    except Exception as e:  # gmsh raises a bare Exception with its last error
+        raise InputError(f"body '{spec.name}': gmsh could not mesh it: {e}") from None
+
+
 def _mesh_body(gmsh: Any, spec: BodySpec, scene: Scene, scale: float) -> tuple:
     """Mesh one body in its own gmsh model.
 
@@ -126,15 +202,8 @@ def _mesh_body(gmsh: Any, spec: BodySpec, scene: Scene, scale: float) -> tuple:
     meeting = [] if spec.structured else patches_meeting(spec, scene.patches)
     try:
         geo = gmsh.model.occ if meeting else gmsh.model.geo  # OCC: boxes cut the surface
-        pieces = [p for s in spec.sides for p in s.pieces]
-        perimeter = sum(p.length for p in pieces)
-        if not (math.isfinite(perimeter) and perimeter / h <= MAX_BOUNDARY_ELEMENTS):
-            raise InputError(
-                f"body '{spec.name}': its boundary ({perimeter:.3g}) over the element size "
-                f"({h:.3g}) would need more than {MAX_BOUNDARY_ELEMENTS:.0e} boundary "
-                "elements: check the body's dimensions and mesh.size / body size"
-            )
-        tags, ptags = _add_pieces(geo, pieces, closed=True)
+        _check_boundary_count(spec, h)
+        tags, ptags = _add_pieces(geo, [p for s in spec.sides for p in s.pieces], closed=True)
         side_tags, k = [], 0
         for s in spec.sides:
             side_tags.append(tags[k : k + len(s.pieces)])
@@ -143,26 +212,8 @@ def _mesh_body(gmsh: Any, spec: BodySpec, scene: Scene, scale: float) -> tuple:
         surfs, plans = [surf], []
         if meeting:
             surfs, side_tags, plans = patch_cut(gmsh, spec, surf, meeting, scale)
-
         if spec.structured:
-            width = sum(p.length for p in spec.sides[0].pieces)
-            height = sum(p.length for p in spec.sides[1].pieces)
-            npieces = [len(s.pieces) for s in spec.sides]
-            if "divisions" in spec.shape:  # element counts, refined with the scale
-                fx, fy = (max(1, int(math.floor(k / scale + 0.5)))
-                          for k in spec.shape["divisions"])
-            else:
-                fx = int(math.floor(width / h + 0.5))
-                fy = int(math.floor(height / h + 0.5))
-            nx = max(1, fx, npieces[0], npieces[2])
-            ny = max(1, fy, npieces[1], npieces[3])
-            for s, st, n in zip(spec.sides, side_tags, (nx, ny, nx, ny), strict=True):
-                for tag, m in zip(st, _intervals([p.length for p in s.pieces], n), strict=True):
-                    geo.mesh.setTransfiniteCurve(tag, int(m) + 1)
-            corners = [ptags[k] for k in np.cumsum([0, *npieces[:3]])]
-            geo.synchronize()
-            gmsh.model.mesh.setTransfiniteSurface(surf, "Left", corners)
-            gmsh.model.mesh.setRecombine(2, surf)
+            _set_structured(gmsh, geo, spec, surf, side_tags, ptags, h, scale)
         else:
             embed = [geo.addPoint(p[0], p[1], 0.0) for p in spec.interior_points]
             fields = _add_refinement(geo, spec, scene, side_tags, scale)
@@ -170,42 +221,8 @@ def _mesh_body(gmsh: Any, spec: BodySpec, scene: Scene, scale: float) -> tuple:
             patch_apply(gmsh, plans)
             for tag, xy in zip(embed, spec.interior_points, strict=True):
                 gmsh.model.mesh.embed(0, [tag], 2, _surface_at(gmsh, surfs, plans, xy, spec))
-            fm = gmsh.model.mesh.field
-            thresholds = []
-            for r, rpoints, ctags, sampling in fields:
-                d = fm.add("Distance")
-                if rpoints:
-                    fm.setNumbers(d, "PointsList", rpoints)
-                if ctags:
-                    fm.setNumbers(d, "CurvesList", ctags)
-                    fm.setNumber(d, "Sampling", sampling)
-                t = fm.add("Threshold")
-                fm.setNumber(t, "InField", d)
-                fm.setNumber(t, "SizeMin", r.size * scale)
-                fm.setNumber(t, "SizeMax", h)
-                fm.setNumber(t, "DistMin", r.flat)
-                fm.setNumber(t, "DistMax", r.flat + max(r.distance, 1e-9 * spec.size))
-                thresholds.append(t)
-            if thresholds:
-                m = fm.add("Min")
-                fm.setNumbers(m, "FieldsList", thresholds)
-                fm.setAsBackgroundMesh(m)
-
-        opt = gmsh.option.setNumber
-        opt("Mesh.RecombineAll", 1)
-        opt("Mesh.SubdivisionAlgorithm", 0)
-        opt("Mesh.ElementOrder", 1)
-        opt("Mesh.MeshSizeFromPoints", 0)
-        opt("Mesh.MeshSizeFromCurvature", 0)
-        opt("Mesh.MeshSizeExtendFromBoundary", 0)
-        opt("Mesh.MeshSizeMin", 0.0)
-        opt("Mesh.MeshSizeMax", h)
-        for key, value in gmsh_options(scene.algorithm).items():  # after: a recipe may
-            opt(key, value)  # override the options above
-        try:
-            gmsh.model.mesh.generate(2)
-        except Exception as e:  # gmsh raises a bare Exception with its last error
-            raise InputError(f"body '{spec.name}': gmsh could not mesh it: {e}") from None
+            _set_size_fields(gmsh, fields, h, scale, spec.size)
+        _generate(gmsh, spec, scene, h)
         return _extract(gmsh, spec, surfs, side_tags)
     finally:
         gmsh.model.remove()
