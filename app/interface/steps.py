@@ -255,10 +255,12 @@ class ContactStepper:
         self.start = StepStart(step, copy.deepcopy(self.hist), self.slip.copy())
         return self._solve(step, cases, None)
 
-    def _solve(self, step: int, cases, correction: np.ndarray | None) -> StepSolution:
+    def _free_terms(self, step: int, cases) -> tuple[np.ndarray, np.ndarray, np.ndarray, str]:
+        """Free gap (m,), free tangential displacement (m,) and the floating-mode load e0 of
+        step `step` (0-based); the last item names modes loaded but not resistable ("" if
+        none)."""
         m = self.m
-        pr = self.setup.pairs
-        gap_free = pr.g0.copy()
+        gap_free = self.setup.pairs.g0.copy()
         tau_free = np.zeros(m)
         e0 = np.zeros(len(self.mode_names))
         for case, gu, e in zip(cases, self.gu, self.e0, strict=True):
@@ -272,9 +274,71 @@ class ContactStepper:
             if loaded.any():
                 names = ", ".join(n for n, k in zip(self.undetermined, loaded, strict=True)
                                   if k)
-                return StepSolution("unbalanced load", f"a load on {names}; the contact "
-                                    f"cannot resist {names}")
+                return gap_free, tau_free, e0, names
             e0 = self.v_keep.T @ e0
+        return gap_free, tau_free, e0, ""
+
+    def _interface_info(self, sol, state: np.ndarray, debonded: np.ndarray) -> dict:
+        """Per-interface figures of a solved step: forces (per unit thickness x thickness),
+        max pressure, state counts and zone lengths, debonding."""
+        pr = self.setup.pairs
+        length_t = pr.length * self.setup.cfg.thickness
+        per_if = {}
+        for i, itf in enumerate(self.setup.cfg.interfaces):
+            sel = pr.interface == i
+            per_if[itf.name] = {
+                "n_pairs": int(sel.sum()),
+                "normal_force": float(sol.p[sel].sum()),
+                "tangential_force": float(sol.q[sel].sum()),
+                "max_pressure": float((sol.p[sel] / length_t[sel]).max(initial=0.0)),
+                "states": {name: int(np.sum(state[sel] == k))
+                           for k, name in enumerate(STATE_NAMES)},
+                # zone sizes (sum of pair lengths) and the intact bond (for studies)
+                "state_lengths": {name: float(pr.length[sel & (state == k)].sum())
+                                  for k, name in enumerate(STATE_NAMES)},
+                "contact_length": float(pr.length[sel & (sol.p > 0)].sum()),
+                "debonded_pairs": int(np.sum(debonded[sel] > 0)),
+                "bond_strength_force": float(self.hist.c[sel].sum()),
+            }
+        return per_if
+
+    def _step_info(self, step: int, res, alpha: np.ndarray) -> dict:
+        """summary.json figures of a solved step (states, LCP, modes, held modes)."""
+        sol, pr = res.solution, self.setup.pairs
+        length_t = pr.length * self.setup.cfg.thickness
+        info = {
+            "n_pairs": self.m,
+            "states": {name: int(np.sum(res.state == k)) for k, name in enumerate(STATE_NAMES)},
+            "interfaces": self._interface_info(sol, res.state, res.debonded_step),
+            "max_contact_pressure": float((sol.p / length_t).max(initial=0.0)),
+            "lcp_size": getattr(self.lcp, "full_size", self.lcp.size),
+            "lcp_size_solved": self.lcp.size,
+            "lemke_pivots": res.pivots,
+            "lcp_residual": sol.residual,
+            "dependent_tangential_directions": self.lcp.dependent_tangential,
+            "lcp_seconds": res.seconds,
+            "lcp_solves": res.iterations,
+            "debonded_this_step": int(np.sum(res.debonded_step == step + 1)),
+            "dissipation": res.dissipation,
+        }
+        if self.mode_names:
+            info["rigid_modes"] = dict(zip(self.mode_names, map(float, alpha), strict=True))
+        if self.undetermined:
+            info["undetermined_modes"] = self.undetermined
+        if self.mode_names:  # unloaded modes held only by contact: how far they slid it
+            held = held_mode_entries(sol.p, sol.q, sol.tau, pr.interface, pr.length,
+                                     *self.modes_full, self.setup.frictional, self.floating,
+                                     [i.name for i in self.setup.cfg.interfaces])
+            if held:
+                info["contact_held_modes"] = held
+        return info
+
+    def _solve(self, step: int, cases, correction: np.ndarray | None) -> StepSolution:
+        m, pr = self.m, self.setup.pairs
+        gap_free, tau_free, e0, unresisted = self._free_terms(step, cases)
+        if unresisted:
+            return StepSolution("unbalanced load", f"a load on {unresisted}; the contact "
+                                f"cannot resist {unresisted}")
         if correction is not None:
             gap_free += correction[:m]
             tau_free += correction[m:]
@@ -290,6 +354,12 @@ class ContactStepper:
             if self.undetermined:
                 out.message += "; the contact cannot resist " + ", ".join(self.undetermined)
             return out
+        self.slip += sol.slip_plus - sol.slip_minus
+        out.info = self._step_info(step, res, out.alpha)
+        out.state, out.debonded_step = res.state, res.debonded_step
+        out.tau_prev, out.slip, out.f_scale = tau_prev, self.slip.copy(), self.f_scale
+        out.a, out.c = self.hist.a.copy(), self.hist.c.copy()
+        return out
         self.slip += sol.slip_plus - sol.slip_minus
         it = pr.interface
         counts = {name: int(np.sum(res.state == k)) for k, name in enumerate(STATE_NAMES)}
