@@ -184,7 +184,7 @@ def ccx_rows(a, cfg, mesh, slave, deck, dat: str, frd: str | None = None) -> lis
             row["native"] = e | locked(tr["x"], nat[:, 3], sign * nat[:, 4], mu, a_h)
             row["_native"] = (nat[:, 3], sign * nat[:, 4])
         row["_profile"] = {"x": tr["x"], "p": tr["fy"], "q": -tr["fx"], "p_arc": tr["pn"],
-                           "q_arc": -tr["qt"]}
+                           "q_arc": -tr["qt"], "q_def": -tr["qt_def"]}
         rows.append(row)
     return rows
 
@@ -224,6 +224,7 @@ def plot(rows: list[dict], path: str, mu: float, R: float, E_star: float) -> Non
         ax, pr = axes[int(end)], r["_profile"]
         if r["code"] == "calculix":
             ax.plot(pr["x"], pr["q"], "b.-", label="CalculiX, recovered, x axis")
+            ax.plot(pr["x"], pr["q_def"], "g.-", label="CalculiX, recovered, deformed arc frame")
             if "_native" in r:
                 ax.plot(pr["x"], r["_native"][1], "m.--", label="CalculiX CSHEAR1 (its frame)")
         else:
@@ -235,6 +236,8 @@ def plot(rows: list[dict], path: str, mu: float, R: float, E_star: float) -> Non
         xs = np.linspace(-1.5 * a_h, 1.5 * a_h, 601)
         axes[1].plot(xs, cattaneo_traction(xs, a_h, p0, mu, e["Q_over_muP"]), "r-",
                      label="Cattaneo-Mindlin")
+        for ax in axes:
+            ax.set_xlim(-1.5 * a_h, 1.5 * a_h)
     for ax, title in zip(axes, ("after the normal step", "end (ux = 3e-3)"), strict=True):
         ax.set(xlabel="x", ylabel="q, traction on the cylinder against the shear", title=title)
         ax.grid(True)
