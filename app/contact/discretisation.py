@@ -14,6 +14,7 @@ import numpy as np
 
 from app.contact.constraints import ContactConstraints
 from app.contact.mortar import mortar_constraints
+from app.contact.mortar_bisector import mortar_bisector_constraints
 from app.contact.pairs import ContactPairs, contact_pairs
 from app.errors import InputError
 from app.mesh.model import Mesh
@@ -55,6 +56,7 @@ Builder = Callable[[Mesh, InterfaceSpec, int], ContactConstraints]
 DISCRETISATIONS: dict[str, Builder] = {
     "node-to-segment": node_to_segment,
     "mortar": mortar_constraints,
+    "mortar-bisector": mortar_bisector_constraints,
 }
 """Contact discretisations by config name."""
 

@@ -169,8 +169,11 @@ def _rows(nodes: np.ndarray, n_nodes: int, s_edges: np.ndarray, m_edges: np.ndar
     return sp.csr_matrix((val[ok], (r[ok], c[ok])), shape=(nodes.size, n_nodes))
 
 
-def mortar_constraints(mesh: Mesh, itf, index: int) -> ContactConstraints:
+def mortar_constraints(mesh: Mesh, itf, index: int, normal_rule=None) -> ContactConstraints:
     """Dual mortar rows of one interface (see the module docstring).
+
+    normal_rule: (nu_s, k_s, nu_m, k_m) -> (p, 2) unit contact normals (master -> slave);
+    None: `contact_normal` (app/contact/mortar_bisector.py registers another).
 
     itf: an `[[interface]]` (name, slave, master, search_distance, penetration_tol,
     interference). Slave nodes farther than search_distance from the master, with less
@@ -204,8 +207,9 @@ def mortar_constraints(mesh: Mesh, itf, index: int) -> ContactConstraints:
     nu_mp = _unit((1 - xi)[:, None] * nu_m[ma] + xi[:, None] * nu_m[mb])
     k_mp = (1 - xi) * k_m[ma] + xi * k_m[mb]
     normal = np.zeros((n, 2))
-    normal[nodes] = np.where(found[:, None], contact_normal(nu_s[nodes], k_s[nodes], nu_mp,
-                                                            k_mp), -nu_s[nodes])
+    rule = contact_normal if normal_rule is None else normal_rule
+    normal[nodes] = np.where(found[:, None], rule(nu_s[nodes], k_s[nodes], nu_mp, k_mp),
+                             -nu_s[nodes])
 
     active = found[np.searchsorted(nodes, s_edges)].any(axis=1)
     se = s_edges[active]
