@@ -22,6 +22,7 @@ import warnings
 import numpy as np
 import scipy.linalg as sla
 
+from app.lcp.check_product import CheckProduct
 from app.lcp.scaling import ScaledM
 
 DEEP_START = 0.5
@@ -40,15 +41,22 @@ _GATHER_FLOPS = 60.0
 """Cost of gathering one entry of M (fancy indexing) in flops of an LU, for the choice
 between a new factorization and bordered updates (measured at n = 1500, one thread:
 about 2.5 ns an entry against 40 ps a flop of the LU of the 463 x 463 block)."""
-_SMALL_BLAS = 500.0
+_SMALL_BLAS = 250.0
 """A flop of the solves and products of a bordered update on a base block of k0 indices
 costs 1 + _SMALL_BLAS / max(k0, 250) flops of an LU (thin BLAS-3 calls run slower than an
 LU, more so on small blocks; below a few hundred indices both ways cost mostly call
-overhead): measured with one thread, bordering 87 indices on a 375 x 375
-Cholesky factor took 4.5 ms against 2.8 ms for an LU of the 463 x 463 block, and bordering
-340 indices on a 1483 x 1483 one 82 ms against 130 ms for the 1826 x 1826 LU."""
+overhead). Measured with one thread at the whole LCP's first round of the bench_lemke
+LCPs (M read from memory): bordering 87 new indices on the 375 x 375 Cholesky factor of
+the twins' stage took 3.3-4.3 ms against 3.9-5.4 ms for gathering and factorizing the
+463 x 463 block (n = 1500), and 162 on a 747 x 747 one 15 ms against 25 ms for the
+916 x 916 block (n = 3000)."""
 _FEAS_REL = 1e-12
 """z_i or w_i counts as negative below -this x max(1, max |z|) (scaled units)."""
+EXACT_AFTER = 8
+"""A round on the whole LCP that follows one with at most this many infeasible indices is
+expected to be the last: its product is the final check's (`CheckProduct`), a whole pass
+over M instead of the two thirds that `_TwinProduct` reads, and the check does not
+repeat it. (A round that then does not end costs a third of a pass more.)"""
 
 
 TWIN_SEED = 20261123
@@ -325,10 +333,13 @@ class _BlockSolver:
 
 
 def crash_basis(Ms: ScaledM, qs: np.ndarray, twin: np.ndarray | None = None,
-                max_iterations: int = MAX_ITERATIONS, start: np.ndarray | None = None
+                max_iterations: int = MAX_ITERATIONS, start: np.ndarray | None = None,
+                exact: CheckProduct | None = None
                 ) -> tuple[np.ndarray, int, np.ndarray | None]:
     """Guessed active set (n,) bool by block principal pivoting, the iterations used, and
-    z~ on that set (one residual correction applied) when the iteration converged.
+    z~ on that set when the iteration converged: with one residual correction applied, or
+    as solved when the last round's product was `exact`'s (the final check's product,
+    which a correction would make stale; see `_whole_product`).
 
     Without `start`, in up to three stages: first the LCP over the indices without a twin (for
     contact: the normal pressures, every pair sticking), from the deepest q~:
@@ -338,7 +349,8 @@ def crash_basis(Ms: ScaledM, qs: np.ndarray, twin: np.ndarray | None = None,
     answer, where the twins with w~_i < 0 join). Returns the set with the fewest infeasible
     indices met on the whole LCP (the exact answer's set when the iteration converged).
     start: another first set (e.g. a warm-start basis), with the whole LCP from the first
-    iteration.
+    iteration. exact: the final check's product for Ms = the diagonal scaling of the
+    caller's M (`CheckProduct`), used in the rounds on the whole LCP expected to be last.
     """
     n = qs.size
     twin = find_twins(Ms) if twin is None else twin
@@ -354,6 +366,7 @@ def crash_basis(Ms: ScaledM, qs: np.ndarray, twin: np.ndarray | None = None,
     solver.symmetric = part is not None
     product = _TwinProduct(Ms, twin)
     best, best_bad = Z.copy(), n + 1
+    prev_bad = None  # infeasible indices of the last round on the whole LCP
     for it in range(1, max_iterations + 1):
         z = solver.solve(Z)
         if z is None:
@@ -379,24 +392,41 @@ def crash_basis(Ms: ScaledM, qs: np.ndarray, twin: np.ndarray | None = None,
                     part = None
                     continue
             w = Ms.matvec(z, part) + qs  # second stage: every index may join
+            checked = False
             part = None
             solver.symmetric = False
-        else:
-            w = product(z) + qs
+        else:  # checked: w~ from the final check's product (no correction after it)
+            w, checked = _whole_product(z, qs, product, exact, prev_bad)
         bad_z = Z & (z < -tol)
         bad_w = ~Z & (w < -tol)
-        nbad = int(bad_z.sum() + bad_w.sum())
+        nbad = prev_bad = int(bad_z.sum() + bad_w.sum())
         if nbad < best_bad:
             best, best_bad = Z.copy(), nbad
         if nbad == 0:
-            dz = solver.solve(Z, rhs=np.where(Z, -w, 0.0), refactor=False)
-            z = z + dz if dz is not None else z
+            if not checked:
+                dz = solver.solve(Z, rhs=np.where(Z, -w, 0.0), refactor=False)
+                z = z + dz if dz is not None else z
             # a huge z~ comes from a numerically singular block (the pivot test of _factor
             # is weaker than a condition estimate): leave the solve to the caller's LU
             grown = np.abs(z).max() > GROWTH_MAX * np.abs(qs).max()
             return Z, it + extra, None if grown else z
         Z = _untwin((Z & ~bad_z) | bad_w, Z, w, twin)
     return best, max_iterations + extra, None
+
+
+def _whole_product(z: np.ndarray, qs: np.ndarray, product: _TwinProduct,
+                   exact: CheckProduct | None, prev_bad: int | None
+                   ) -> tuple[np.ndarray, bool]:
+    """w~ = M~ z~ + q~ of a round on the whole LCP, and whether it came from `exact` (the
+    final check's product) rather than `product`. exact serves when it reads no more of M
+    than `product` (a plain product), or when the last round had at most EXACT_AFTER
+    infeasible indices (this one is then likely the last), and z~ >= 0."""
+    if exact is not None and (product.runs is None or (prev_bad is not None
+                                                       and prev_bad <= EXACT_AFTER)):
+        w = exact(z)
+        if w is not None:
+            return w, True
+    return product(z) + qs, False
 
 
 def _twin_range(twin: np.ndarray) -> slice | None:

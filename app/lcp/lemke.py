@@ -37,6 +37,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.linalg as sla
 
+from app.lcp.check_product import CheckProduct
 from app.lcp.crash import column_probe, crash_basis, twins_from_probe
 from app.lcp.pivoting import _LEX_REL, _PIV_REL, _TIE_REL, _CoreOut, _lexmin  # noqa: F401
 from app.lcp.repair import is_symmetric, qp_basis
@@ -94,8 +95,10 @@ def _diagonal_D(M: np.ndarray) -> np.ndarray:
     return Ms.D
 
 
-def _check(M: np.ndarray, q: np.ndarray, z: np.ndarray, tol: float):
+def _check(M: np.ndarray, q: np.ndarray, z: np.ndarray, tol: float,
+           w: np.ndarray | None = None):
     """w = M z + q and whether (z, w) passes the final check; returns (w, ok, comp, worst).
+    w: M z + q formed by this expression already (`CheckProduct.w_for`), not formed again.
 
     The row sizes s_i = |q_i| + sum_j |M_ij| z_j are formed only on the rows with a
     violation (w_i < 0, or w_i != 0 where z_i > 0) that their lower bound
@@ -103,7 +106,7 @@ def _check(M: np.ndarray, q: np.ndarray, z: np.ndarray, tol: float):
     a row with violation <= min(tol, _SETTLE_REL) b_i passes, and counts in `worst` with
     violation / b_i (a bound of its relative violation, at round-off level).
     """
-    w = M @ z + q
+    w = M @ z + q if w is None else w
     neg = np.maximum(-w, 0.0)
     comp_res = np.where(z > 0, np.abs(w), 0.0)
     viol = np.maximum(neg, comp_res)
@@ -181,13 +184,16 @@ class _Problem:
     qs = property(lambda self: self._scale()[1])
     zfac = property(lambda self: self._scale()[2])
 
-    def finish(self, zt: np.ndarray | None, zfac: np.ndarray | None = None):
-        """Unscale (z = zfac * zt, by default the scaling's), clip, check. Returns
-        (z, w, ok, comp, worst), or None if zt is None."""
+    def finish(self, zt: np.ndarray | None, zfac: np.ndarray | None = None,
+               exact: CheckProduct | None = None):
+        """Unscale (z = zfac * zt, by default the scaling's), clip, check (with exact's
+        product when it was formed for this z). Returns (z, w, ok, comp, worst), or None
+        if zt is None."""
         if zt is None:
             return None
         z = np.maximum(zt * (self.zfac if zfac is None else zfac), 0.0)
-        w, ok, comp, worst = _check(self.M, self.q, z, self.tol)
+        w = None if exact is None else exact.w_for(z)
+        w, ok, comp, worst = _check(self.M, self.q, z, self.tol, w)
         return z, w, ok, comp, worst
 
     def candidate(self, core: _CoreOut):
@@ -202,13 +208,14 @@ class _Problem:
 
 
 def _try_basis(P: _Problem, B0: np.ndarray, zt: np.ndarray | None = None,
-               zfac: np.ndarray | None = None):
+               zfac: np.ndarray | None = None, exact: CheckProduct | None = None):
     """The checked answer on the complementary basis B0 (z_B = -M_BB^-1 q_B, one LU and one
     refinement step), or None when B0 is singular or its answer fails the check. This is
     exactly what a Lemke run from B0 that needs no pivot returns. zt: z~ on B0 already
-    computed (e.g. by the crash, with one refinement step; z = zfac * zt), tried first."""
+    computed (e.g. by the crash; z = zfac * zt), tried first, checked with exact's
+    product when that was formed for it."""
     if zt is not None:
-        out = P.finish(zt, zfac)
+        out = P.finish(zt, zfac, exact)
         if out[2]:
             return out
     out = P.finish(_solve_on(P.Ms, P.qs, B0))
@@ -240,18 +247,19 @@ def _run(
     warm = "none"
     note = ""
     given = basis is not None
-    zt = zfac = None
+    zt = zfac = exact = None
     if given:
         B0 = np.asarray(basis, dtype=bool).reshape(-1)
         if B0.shape != (n,):
             raise ValueError(f"basis must have shape ({n},), got {B0.shape}")
     elif crash:  # on the diagonal scaling: no pass over M beyond the probe
         Mc, qc, zfac = diagonal_scaling(M, q)
-        B0, iters, zt = crash_basis(Mc, qc, twin=twins_from_probe(probe))
+        exact = CheckProduct(M, q, Mc.D, zfac)  # the last round's product, the check's
+        B0, iters, zt = crash_basis(Mc, qc, twin=twins_from_probe(probe), exact=exact)
         note = f"crash basis ({iters} block pivoting iterations); "
     if (given or crash) and B0.any():
         how = "accepted" if given else "crash"
-        sol = _try_basis(P, B0, zt, zfac)
+        sol = _try_basis(P, B0, zt, zfac, exact)
         if sol is not None:
             z, w, ok, comp, worst = sol
             msg = ("the warm-start basis solves it" if given
