@@ -23,7 +23,7 @@ import numpy as np
 import scipy.linalg as sla
 
 from app.lcp.check_product import CheckProduct
-from app.lcp.scaling import ScaledM
+from app.lcp.scaling import ScaledM, gather
 
 DEEP_START = 0.5
 """A cold crash starts from the q~_i below this x min q~ (for contact: the deeper half of
@@ -118,41 +118,59 @@ def twins_from_probe(s: np.ndarray) -> np.ndarray:
 class _Factor:
     """Factors of a square block: Cholesky when it is symmetric positive definite (half the
     flops of an LU), else LU with partial pivoting. Both factor A^T (the Fortran-order view
-    of a C-order A) in place: no copy of the block."""
+    of a C-order A) in place: no copy of the block. dinv: the block is diag(1 / dinv) B
+    diag(1 / dinv) and these are the factors of B (see `_factor`)."""
 
-    def __init__(self, f, cholesky: bool):
-        self.f, self.cholesky = f, cholesky
+    def __init__(self, f, cholesky: bool, dinv: np.ndarray | None = None):
+        self.f, self.cholesky, self.dinv = f, cholesky, dinv
 
     def solve(self, b: np.ndarray, overwrite: bool = False) -> np.ndarray:
         """A^-1 b; overwrite: b may be overwritten (no copy when it is in Fortran order)."""
+        if self.dinv is not None:  # A^-1 b = dinv B^-1 (dinv b): exact powers of two
+            s = self.dinv[:, None] if b.ndim == 2 else self.dinv
+            b, overwrite = b * s, True
         if self.cholesky:
-            return sla.cho_solve(self.f, b, overwrite_b=overwrite, check_finite=False)
-        return sla.lu_solve(self.f, b, trans=1, overwrite_b=overwrite,  # (A^T)^T x = b
-                            check_finite=False)
+            x = sla.cho_solve(self.f, b, overwrite_b=overwrite, check_finite=False)
+        else:
+            x = sla.lu_solve(self.f, b, trans=1, overwrite_b=overwrite,  # (A^T)^T x = b
+                             check_finite=False)
+        if self.dinv is not None:
+            x *= s
+        return x
 
 
-def _factor(A: np.ndarray, cholesky: bool = False) -> _Factor | None:
+def _factor(A: np.ndarray, cholesky: bool = False,
+            d: np.ndarray | None = None) -> _Factor | None:
     """Factors of square C-order A (overwritten), or None when a pivot is not finite or
     below PIVOT_MIN x the largest (numerically singular). Cheaper than the condition
     estimate of `app.lcp.scaling.lu_or_none` (about a fifth of the LU at n = 2000); enough
     for a guess, since the answer on the guessed set is checked. cholesky: try Cholesky
-    first when A is symmetric."""
+    first when A is symmetric.
+
+    d: A is unscaled and the block to factor is diag(d) A diag(d), d powers of two. Its
+    Cholesky factor is diag(d) L with L that of A, to the bit (every rounding scales
+    exactly), so A is factorized as it is, without the two scaling passes, and the solves
+    scale their right-hand sides (`_Factor`); when that fails, the LU gets the scaled
+    block, as without d."""
     At = np.ascontiguousarray(A).T  # Fortran order: LAPACK works in place
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", sla.LinAlgWarning)
-        if cholesky and _symmetric(A):
+        if cholesky and _symmetric(A, d):
             dg = np.diagonal(At).copy()
             try:  # the lower factor: about a quarter faster than the upper one here
                 c = sla.cho_factor(At, lower=True, overwrite_a=True, check_finite=False)
-                d = np.diagonal(c[0]) ** 2
-                if np.isfinite(d).all() and d.min() >= PIVOT_MIN * d.max() > 0:
-                    return _Factor(c, True)
+                dd = np.diagonal(c[0]) ** 2 * (1.0 if d is None else d * d)
+                if np.isfinite(dd).all() and dd.min() >= PIVOT_MIN * dd.max() > 0:
+                    return _Factor(c, True, None if d is None else 1.0 / d)
             except np.linalg.LinAlgError:
                 pass
             # Cholesky wrote only the lower triangle: restore it from the upper one
             il = np.tril_indices(dg.size, -1)
             At[il] = At.T[il]
             np.fill_diagonal(At, dg)
+        if d is not None:  # the LU factorizes the scaled block
+            At *= d[:, None]
+            At *= d
         try:
             lu = sla.lu_factor(At, overwrite_a=True, check_finite=False)
         except (ValueError, np.linalg.LinAlgError):
@@ -162,18 +180,23 @@ def _factor(A: np.ndarray, cholesky: bool = False) -> _Factor | None:
     return _Factor(lu, False) if ok else None
 
 
-def _symmetric(A: np.ndarray) -> bool:
+def _symmetric(A: np.ndarray, d: np.ndarray | None = None) -> bool:
     """A = A^T to round-off, tested on a few entries, then on one random vector v
     (A v = A^T v): two BLAS passes instead of a strided comparison of A with A^T. A block
     that is only nearly symmetric gets a Cholesky factor of its upper triangle: the guess
-    is then a little off, never the checked answer."""
+    is then a little off, never the checked answer. d: test diag(d) A diag(d) (powers of
+    two: the same products to the bit, formed without scaling A)."""
     k = A.shape[0]
     i = np.arange(0, k, max(k // 16, 1))
     j = i[::-1]
     if not np.array_equal(A[i, j], A[j, i]):
         return False
     v = _weights(k)
-    a, b = A @ v, v @ A
+    if d is None:
+        a, b = A @ v, v @ A
+    else:
+        dv = d * v
+        a, b = d * (A @ dv), d * (dv @ A)
     return bool(np.abs(a - b).max() <= 1e-12 * max(np.abs(a).max(), np.abs(b).max()))
 
 
@@ -225,10 +248,18 @@ class _BlockSolver:
         self.base = Z.copy()
         self.in_base = np.zeros(self.qs.size, dtype=bool)
         self.in_base[Z] = True
-        self.lu = _factor(self.Ms.sub(Z), cholesky=True) if Z.size else None
+        self.lu = self._factor_block(Z) if Z.size else None
         self.factorizations += 1
         self._reset()
         return Z.size == 0 or self.lu is not None
+
+    def _factor_block(self, Z: np.ndarray) -> _Factor | None:
+        """Factors of M~[Z, Z]: with the scaling D folded into the solves when mu = 1
+        (the diagonal scaling of a cold crash; `_factor`'s d), else of the scaled block."""
+        Ms = self.Ms
+        if Ms.mu == 1.0:
+            return _factor(gather(Ms.M, Z, Z), cholesky=True, d=Ms.D[Z])
+        return _factor(Ms.sub(Z), cholesky=True)
 
     def _refactor_is_cheaper(self, k: int, changed: np.ndarray) -> bool:
         """Whether a new factorization of the k x k block (Cholesky when `symmetric`, else
