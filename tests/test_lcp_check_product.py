@@ -125,3 +125,49 @@ def test_an_unscaled_block_that_is_not_positive_definite_gets_the_scaled_lu():
     b = rng.standard_normal(30)
     np.testing.assert_array_equal(f.solve(b), ref.solve(b))
     np.testing.assert_allclose(As @ f.solve(b), b, rtol=0, atol=1e-9 * np.abs(b).max())
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf])
+def test_a_non_finite_entry_outside_the_sampled_rows_is_still_rejected(bad):
+    """The cold start reads PROBE_ROWS rows for the twins; M is checked to be finite by
+    the final check's product (or the full probe): every position, also with q >= 0."""
+    M, q = strip_contact_lcp(150, seed=2)  # n = 450 > 2 PROBE_ROWS: the sampled probe
+    assert LM._validate(M, q, sample=True)[3]
+    crash = importlib.import_module("app.lcp.crash")
+    rows = np.random.default_rng(crash.TWIN_SEED).choice(q.size, crash.PROBE_ROWS, False)
+    outside = np.setdiff1d(np.arange(q.size), rows)
+    res = lemke(M, q)
+    zero = np.flatnonzero(res.z == 0)  # a column that the answer's z does not use
+    for i, j in ((outside[0], zero[0]), (outside[-1], outside[-1]), (outside[5], 3)):
+        B = M.copy()
+        B[i, j] = bad
+        with pytest.raises(ValueError, match="finite"):
+            lemke(B, q)
+        with pytest.raises(ValueError, match="finite"):
+            lemke(B, np.abs(q))  # q >= 0: z = 0 without a crash, still validated
+    F = np.asfortranarray(M)  # not C-ordered: the full probe at once
+    assert not LM._validate(F, q, sample=True)[3]
+
+
+def test_twins_of_a_sampled_probe_are_verified_on_their_own_rows():
+    """Columns that are negatives of each other except on the diagonal (a regularized
+    slip pair) look like twins to rows sampled elsewhere; the check on rows i and j
+    drops them, and true twins stay."""
+    crash = importlib.import_module("app.lcp.crash")
+    M, q = strip_contact_lcp(150, seed=3)
+    m = 150
+    D = LM._diagonal_D(M)
+    full = crash.twins_from_probe(crash.column_probe(M, D))
+    sampled = crash.verified_twins(M, crash.twins_from_probe(crash.sampled_probe(M, D)))
+    np.testing.assert_array_equal(sampled, full)
+    k = np.arange(m, 2 * m)
+    R = M.copy()
+    R[k, k] += 1e-3  # M[f, f] = H + eps I, M[b, b] = H + eps I: no longer twins
+    R[k + m, k + m] += 1e-3
+    raw = crash.twins_from_probe(crash.sampled_probe(R, D))
+    rows = np.random.default_rng(crash.TWIN_SEED).choice(3 * m, crash.PROBE_ROWS, False)
+    hidden = np.setdiff1d(k, np.concatenate([rows, rows - m]))  # both rows unsampled
+    assert (raw[hidden] >= 0).all()  # taken for twins by the sampled rows
+    assert (crash.verified_twins(R, raw)[k] < 0).all()
+    res = lemke(R, q)
+    assert_solution(R, q, res)

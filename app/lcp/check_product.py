@@ -29,14 +29,17 @@ class CheckProduct:
         self.z: np.ndarray | None = None
         self.w: np.ndarray | None = None
         self.products = 0  # passes over M made (for tests and profiles)
+        self.finite = False  # some w was finite: then so is every entry of M
 
     def __call__(self, zt: np.ndarray) -> np.ndarray | None:
         """w~ (n,) for z~ (n,), or None when some z~_i < 0 (the caller's product then)."""
         if not (zt >= 0).all():
             return None
         z = np.maximum(zt * self.zfac, 0.0)  # the expression of the check (lemke.finish)
-        self.z, self.w = z, self.M @ z + self.q  # the expression of the check (_check)
+        with np.errstate(over="ignore", invalid="ignore"):  # (M is checked by `finite`)
+            self.z, self.w = z, self.M @ z + self.q  # the expression of the check (_check)
         self.products += 1
+        self.finite = self.finite or bool(np.isfinite(self.w).all())
         return self.wscale * self.w
 
     def w_for(self, z: np.ndarray) -> np.ndarray | None:

@@ -34,11 +34,20 @@ Conventions shared by both cores:
 
 from __future__ import annotations
 
+import contextlib
+
 import numpy as np
 import scipy.linalg as sla
 
 from app.lcp.check_product import CheckProduct
-from app.lcp.crash import column_probe, crash_basis, twins_from_probe
+from app.lcp.crash import (
+    PROBE_ROWS,
+    column_probe,
+    crash_basis,
+    sampled_probe,
+    twins_from_probe,
+    verified_twins,
+)
 from app.lcp.pivoting import _LEX_REL, _PIV_REL, _TIE_REL, _CoreOut, _lexmin  # noqa: F401
 from app.lcp.repair import is_symmetric, qp_basis
 from app.lcp.result import DEFAULT_TOL, STATUSES, LCPResult, default_max_pivots
@@ -73,20 +82,32 @@ _WARM_CRASH = 5
 """Block pivoting iterations tried from a warm-start basis that does not solve the LCP."""
 
 
-def _validate(M, q) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(M, q) as float arrays and the column probe of M (`app.lcp.crash.column_probe` with
-    the diagonal scaling, one BLAS pass, which also shows any non-finite entry); raises
-    ValueError on bad shapes or non-finite data."""
+def _validate(M, q, sample: bool = False
+              ) -> tuple[np.ndarray, np.ndarray, np.ndarray, bool]:
+    """(M, q) as float arrays, the column probe of M (`app.lcp.crash.column_probe` with
+    the diagonal scaling, one BLAS pass, which also shows any non-finite entry) and False;
+    raises ValueError on bad shapes or non-finite data.
+
+    sample (for a cold crash): when M is C-ordered and n > 2 PROBE_ROWS, the probe reads
+    PROBE_ROWS rows only (`sampled_probe`, enough for the twins), and the last value is
+    True: M is then checked to be finite later, by the final check's product
+    (`CheckProduct.finite`: a non-finite entry makes M z + q non-finite whatever z, since
+    0 x inf and 0 x nan are nan), else by this function without sample, before any
+    answer is returned or Lemke pivots."""
     M = np.asarray(M, dtype=float)
     q = np.asarray(q, dtype=float).reshape(-1)
     n = q.size
     if M.shape != (n, n):
         raise ValueError(f"M must be ({n}, {n}) to match q of length {n}, got {M.shape}")
-    probe = column_probe(M, _diagonal_D(M)) if n else np.zeros((2, 0))
+    deferred = sample and n > 2 * PROBE_ROWS and M.flags.c_contiguous
+    if deferred:
+        probe = sampled_probe(M, _diagonal_D(M))
+    else:
+        probe = column_probe(M, _diagonal_D(M)) if n else np.zeros((2, 0))
     finite = np.isfinite(probe).all() or bool(np.isfinite(M).all())  # (overflow)
     if not (finite and np.isfinite(q).all()):
         raise ValueError("M and q must be finite")
-    return M, q, probe
+    return M, q, probe, deferred
 
 
 def _diagonal_D(M: np.ndarray) -> np.ndarray:
@@ -232,12 +253,14 @@ def _run(
     cold_start: bool = True,
     crash: bool = True,
 ) -> LCPResult:
-    M, q, probe = _validate(M, q)
+    M, q, probe, deferred = _validate(M, q, sample=basis is None and crash)
     n = q.size
     tol = DEFAULT_TOL if tol is None else float(tol)
     max_pivots = default_max_pivots(n) if max_pivots is None else int(max_pivots)
     zero = np.zeros(n)
     if (q >= 0).all():
+        if deferred:
+            _validate(M, q)  # every entry of M, before an answer
         return LCPResult(
             zero, q.copy(), 0, "solved", 0.0, np.zeros(n, dtype=bool), "q >= 0: z = 0 solves it"
         )
@@ -255,7 +278,14 @@ def _run(
     elif crash:  # on the diagonal scaling: no pass over M beyond the probe
         Mc, qc, zfac = diagonal_scaling(M, q)
         exact = CheckProduct(M, q, Mc.D, zfac)  # the last round's product, the check's
-        B0, iters, zt = crash_basis(Mc, qc, twin=twins_from_probe(probe), exact=exact)
+        twin = twins_from_probe(probe)
+        if deferred:
+            twin = verified_twins(M, twin)
+        quiet = np.errstate(all="ignore") if deferred else contextlib.nullcontext()
+        with quiet:  # a non-finite M is reported below, not by warnings of the guess
+            B0, iters, zt = crash_basis(Mc, qc, twin=twin, exact=exact)
+        if deferred and not exact.finite:
+            _validate(M, q)  # every entry of M, before an answer or a pivot
         note = f"crash basis ({iters} block pivoting iterations); "
     if (given or crash) and B0.any():
         how = "accepted" if given else "crash"
@@ -342,7 +372,7 @@ def _solve(core, M, q, max_pivots, tol, basis, cold_start, crash) -> LCPResult:
     res = _run(core, M, q, max_pivots, tol, basis, cold_start, crash)
     if res.ok or res.status not in ("inaccurate", "secondary ray"):
         return res
-    M, q, _ = _validate(M, q)
+    M, q, _, _ = _validate(M, q)
     if not is_symmetric(M):
         return res
     B = qp_basis(M, q)
