@@ -88,14 +88,20 @@ PROBE_ROWS = 128
 """Rows of M read by `sampled_probe` (when n > 2 x this)."""
 
 
+def probe_rows(n: int) -> slice:
+    """The rows of `sampled_probe`: PROBE_ROWS rows evenly spaced over 0..n (n >= PROBE_ROWS),
+    a strided view of M (no copy)."""
+    step = n // PROBE_ROWS
+    return slice(step // 2, step // 2 + step * PROBE_ROWS, step)
+
+
 def sampled_probe(M: np.ndarray, D: np.ndarray) -> np.ndarray:
-    """`column_probe` over PROBE_ROWS fixed random rows of M only (seed TWIN_SEED): the
-    column sums that find twins (`twins_from_probe`, then `verified_twins`) for a tenth
-    of a pass over M at n = 1500. It does not see every entry: the caller checks that M is
-    finite otherwise (see `app.lcp.lemke._validate`)."""
-    n = D.size
-    rows = np.sort(np.random.default_rng(TWIN_SEED).choice(n, PROBE_ROWS, replace=False))
-    r = _weights(n)[:PROBE_ROWS]
+    """`column_probe` over the PROBE_ROWS rows `probe_rows` of M only: the column sums that
+    find twins (`twins_from_probe`, then `verified_twins`) for a twelfth of a pass over M
+    at n = 1500. It does not see every entry: the caller checks that M is finite
+    otherwise (see `app.lcp.lemke._validate`)."""
+    rows = probe_rows(D.size)
+    r = _weights(PROBE_ROWS)
     with np.errstate(over="ignore", invalid="ignore"):
         return (((r * D[rows]) @ M[rows]) * D)[None, :]
 
