@@ -22,7 +22,8 @@ import warnings
 import numpy as np
 import scipy.linalg as sla
 
-from app.lcp.scaling import ScaledM
+from app.lcp.check_product import CheckProduct
+from app.lcp.scaling import ScaledM, gather
 
 DEEP_START = 0.5
 """A cold crash starts from the q~_i below this x min q~ (for contact: the deeper half of
@@ -40,15 +41,22 @@ _GATHER_FLOPS = 60.0
 """Cost of gathering one entry of M (fancy indexing) in flops of an LU, for the choice
 between a new factorization and bordered updates (measured at n = 1500, one thread:
 about 2.5 ns an entry against 40 ps a flop of the LU of the 463 x 463 block)."""
-_SMALL_BLAS = 500.0
+_SMALL_BLAS = 250.0
 """A flop of the solves and products of a bordered update on a base block of k0 indices
 costs 1 + _SMALL_BLAS / max(k0, 250) flops of an LU (thin BLAS-3 calls run slower than an
 LU, more so on small blocks; below a few hundred indices both ways cost mostly call
-overhead): measured with one thread, bordering 87 indices on a 375 x 375
-Cholesky factor took 4.5 ms against 2.8 ms for an LU of the 463 x 463 block, and bordering
-340 indices on a 1483 x 1483 one 82 ms against 130 ms for the 1826 x 1826 LU."""
+overhead). Measured with one thread at the whole LCP's first round of the bench_lemke
+LCPs (M read from memory): bordering 87 new indices on the 375 x 375 Cholesky factor of
+the twins' stage took 3.3-4.3 ms against 3.9-5.4 ms for gathering and factorizing the
+463 x 463 block (n = 1500), and 162 on a 747 x 747 one 15 ms against 25 ms for the
+916 x 916 block (n = 3000)."""
 _FEAS_REL = 1e-12
 """z_i or w_i counts as negative below -this x max(1, max |z|) (scaled units)."""
+EXACT_AFTER = 8
+"""A round on the whole LCP that follows one with at most this many infeasible indices is
+expected to be the last: its product is the final check's (`CheckProduct`), a whole pass
+over M instead of the two thirds that `_TwinProduct` reads, and the check does not
+repeat it. (A round that then does not end costs a third of a pass more.)"""
 
 
 TWIN_SEED = 20261123
@@ -74,6 +82,43 @@ def column_probe(M: np.ndarray, D: np.ndarray) -> np.ndarray:
     r = _weights(D.size)
     with np.errstate(over="ignore", invalid="ignore"):
         return (((r * D) @ M) * D)[None, :]
+
+
+PROBE_ROWS = 128
+"""Rows of M read by `sampled_probe` (when n > 2 x this)."""
+
+
+def probe_rows(n: int) -> slice:
+    """The rows of `sampled_probe`: PROBE_ROWS rows evenly spaced over 0..n (n >= PROBE_ROWS),
+    a strided view of M (no copy)."""
+    step = n // PROBE_ROWS
+    return slice(step // 2, step // 2 + step * PROBE_ROWS, step)
+
+
+def sampled_probe(M: np.ndarray, D: np.ndarray) -> np.ndarray:
+    """`column_probe` over the PROBE_ROWS rows `probe_rows` of M only: the column sums that
+    find twins (`twins_from_probe`, then `verified_twins`) for a twelfth of a pass over M
+    at n = 1500. It does not see every entry: the caller checks that M is finite
+    otherwise (see `app.lcp.lemke._validate`)."""
+    rows = probe_rows(D.size)
+    r = _weights(PROBE_ROWS)
+    with np.errstate(over="ignore", invalid="ignore"):
+        return (((r * D[rows]) @ M[rows]) * D)[None, :]
+
+
+def verified_twins(M: np.ndarray, twin: np.ndarray) -> np.ndarray:
+    """Twins (from a sampled probe) kept only where M[i, i] = -M[i, j] and
+    M[j, j] = -M[j, i] exactly (j = twin i): columns that are negatives of each other
+    except in their own rows, e.g. twins with a regularized diagonal, which rows sampled
+    elsewhere would take for twins. Other false twins only cost speed: the crash's guess
+    is then off, never the checked answer."""
+    i = np.flatnonzero(twin >= 0)
+    j = twin[i]
+    bad = (M[i, i] != -M[i, j]) | (M[j, j] != -M[j, i])
+    out = twin.copy()
+    out[i[bad]] = -1
+    out[j[bad]] = -1
+    return out
 
 
 def find_twins(Ms: ScaledM) -> np.ndarray:
@@ -110,41 +155,59 @@ def twins_from_probe(s: np.ndarray) -> np.ndarray:
 class _Factor:
     """Factors of a square block: Cholesky when it is symmetric positive definite (half the
     flops of an LU), else LU with partial pivoting. Both factor A^T (the Fortran-order view
-    of a C-order A) in place: no copy of the block."""
+    of a C-order A) in place: no copy of the block. dinv: the block is diag(1 / dinv) B
+    diag(1 / dinv) and these are the factors of B (see `_factor`)."""
 
-    def __init__(self, f, cholesky: bool):
-        self.f, self.cholesky = f, cholesky
+    def __init__(self, f, cholesky: bool, dinv: np.ndarray | None = None):
+        self.f, self.cholesky, self.dinv = f, cholesky, dinv
 
     def solve(self, b: np.ndarray, overwrite: bool = False) -> np.ndarray:
         """A^-1 b; overwrite: b may be overwritten (no copy when it is in Fortran order)."""
+        if self.dinv is not None:  # A^-1 b = dinv B^-1 (dinv b): exact powers of two
+            s = self.dinv[:, None] if b.ndim == 2 else self.dinv
+            b, overwrite = b * s, True
         if self.cholesky:
-            return sla.cho_solve(self.f, b, overwrite_b=overwrite, check_finite=False)
-        return sla.lu_solve(self.f, b, trans=1, overwrite_b=overwrite,  # (A^T)^T x = b
-                            check_finite=False)
+            x = sla.cho_solve(self.f, b, overwrite_b=overwrite, check_finite=False)
+        else:
+            x = sla.lu_solve(self.f, b, trans=1, overwrite_b=overwrite,  # (A^T)^T x = b
+                             check_finite=False)
+        if self.dinv is not None:
+            x *= s
+        return x
 
 
-def _factor(A: np.ndarray, cholesky: bool = False) -> _Factor | None:
+def _factor(A: np.ndarray, cholesky: bool = False,
+            d: np.ndarray | None = None) -> _Factor | None:
     """Factors of square C-order A (overwritten), or None when a pivot is not finite or
     below PIVOT_MIN x the largest (numerically singular). Cheaper than the condition
     estimate of `app.lcp.scaling.lu_or_none` (about a fifth of the LU at n = 2000); enough
     for a guess, since the answer on the guessed set is checked. cholesky: try Cholesky
-    first when A is symmetric."""
+    first when A is symmetric.
+
+    d: A is unscaled and the block to factor is diag(d) A diag(d), d powers of two. Its
+    Cholesky factor is diag(d) L with L that of A, to the bit (every rounding scales
+    exactly), so A is factorized as it is, without the two scaling passes, and the solves
+    scale their right-hand sides (`_Factor`); when that fails, the LU gets the scaled
+    block, as without d."""
     At = np.ascontiguousarray(A).T  # Fortran order: LAPACK works in place
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", sla.LinAlgWarning)
-        if cholesky and _symmetric(A):
+        if cholesky and _symmetric(A, d):
             dg = np.diagonal(At).copy()
             try:  # the lower factor: about a quarter faster than the upper one here
                 c = sla.cho_factor(At, lower=True, overwrite_a=True, check_finite=False)
-                d = np.diagonal(c[0]) ** 2
-                if np.isfinite(d).all() and d.min() >= PIVOT_MIN * d.max() > 0:
-                    return _Factor(c, True)
+                dd = np.diagonal(c[0]) ** 2 * (1.0 if d is None else d * d)
+                if np.isfinite(dd).all() and dd.min() >= PIVOT_MIN * dd.max() > 0:
+                    return _Factor(c, True, None if d is None else 1.0 / d)
             except np.linalg.LinAlgError:
                 pass
             # Cholesky wrote only the lower triangle: restore it from the upper one
             il = np.tril_indices(dg.size, -1)
             At[il] = At.T[il]
             np.fill_diagonal(At, dg)
+        if d is not None:  # the LU factorizes the scaled block
+            At *= d[:, None]
+            At *= d
         try:
             lu = sla.lu_factor(At, overwrite_a=True, check_finite=False)
         except (ValueError, np.linalg.LinAlgError):
@@ -154,18 +217,23 @@ def _factor(A: np.ndarray, cholesky: bool = False) -> _Factor | None:
     return _Factor(lu, False) if ok else None
 
 
-def _symmetric(A: np.ndarray) -> bool:
+def _symmetric(A: np.ndarray, d: np.ndarray | None = None) -> bool:
     """A = A^T to round-off, tested on a few entries, then on one random vector v
     (A v = A^T v): two BLAS passes instead of a strided comparison of A with A^T. A block
     that is only nearly symmetric gets a Cholesky factor of its upper triangle: the guess
-    is then a little off, never the checked answer."""
+    is then a little off, never the checked answer. d: test diag(d) A diag(d) (powers of
+    two: the same products to the bit, formed without scaling A)."""
     k = A.shape[0]
     i = np.arange(0, k, max(k // 16, 1))
     j = i[::-1]
     if not np.array_equal(A[i, j], A[j, i]):
         return False
     v = _weights(k)
-    a, b = A @ v, v @ A
+    if d is None:
+        a, b = A @ v, v @ A
+    else:
+        dv = d * v
+        a, b = d * (A @ dv), d * (dv @ A)
     return bool(np.abs(a - b).max() <= 1e-12 * max(np.abs(a).max(), np.abs(b).max()))
 
 
@@ -217,10 +285,18 @@ class _BlockSolver:
         self.base = Z.copy()
         self.in_base = np.zeros(self.qs.size, dtype=bool)
         self.in_base[Z] = True
-        self.lu = _factor(self.Ms.sub(Z), cholesky=True) if Z.size else None
+        self.lu = self._factor_block(Z) if Z.size else None
         self.factorizations += 1
         self._reset()
         return Z.size == 0 or self.lu is not None
+
+    def _factor_block(self, Z: np.ndarray) -> _Factor | None:
+        """Factors of M~[Z, Z]: with the scaling D folded into the solves when mu = 1
+        (the diagonal scaling of a cold crash; `_factor`'s d), else of the scaled block."""
+        Ms = self.Ms
+        if Ms.mu == 1.0:
+            return _factor(gather(Ms.M, Z, Z), cholesky=True, d=Ms.D[Z])
+        return _factor(Ms.sub(Z), cholesky=True)
 
     def _refactor_is_cheaper(self, k: int, changed: np.ndarray) -> bool:
         """Whether a new factorization of the k x k block (Cholesky when `symmetric`, else
@@ -325,10 +401,13 @@ class _BlockSolver:
 
 
 def crash_basis(Ms: ScaledM, qs: np.ndarray, twin: np.ndarray | None = None,
-                max_iterations: int = MAX_ITERATIONS, start: np.ndarray | None = None
+                max_iterations: int = MAX_ITERATIONS, start: np.ndarray | None = None,
+                exact: CheckProduct | None = None
                 ) -> tuple[np.ndarray, int, np.ndarray | None]:
     """Guessed active set (n,) bool by block principal pivoting, the iterations used, and
-    z~ on that set (one residual correction applied) when the iteration converged.
+    z~ on that set when the iteration converged: with one residual correction applied, or
+    as solved when the last round's product was `exact`'s (the final check's product,
+    which a correction would make stale; see `_whole_product`).
 
     Without `start`, in up to three stages: first the LCP over the indices without a twin (for
     contact: the normal pressures, every pair sticking), from the deepest q~:
@@ -338,7 +417,8 @@ def crash_basis(Ms: ScaledM, qs: np.ndarray, twin: np.ndarray | None = None,
     answer, where the twins with w~_i < 0 join). Returns the set with the fewest infeasible
     indices met on the whole LCP (the exact answer's set when the iteration converged).
     start: another first set (e.g. a warm-start basis), with the whole LCP from the first
-    iteration.
+    iteration. exact: the final check's product for Ms = the diagonal scaling of the
+    caller's M (`CheckProduct`), used in the rounds on the whole LCP expected to be last.
     """
     n = qs.size
     twin = find_twins(Ms) if twin is None else twin
@@ -354,6 +434,7 @@ def crash_basis(Ms: ScaledM, qs: np.ndarray, twin: np.ndarray | None = None,
     solver.symmetric = part is not None
     product = _TwinProduct(Ms, twin)
     best, best_bad = Z.copy(), n + 1
+    prev_bad = None  # infeasible indices of the last round on the whole LCP
     for it in range(1, max_iterations + 1):
         z = solver.solve(Z)
         if z is None:
@@ -379,24 +460,41 @@ def crash_basis(Ms: ScaledM, qs: np.ndarray, twin: np.ndarray | None = None,
                     part = None
                     continue
             w = Ms.matvec(z, part) + qs  # second stage: every index may join
+            checked = False
             part = None
             solver.symmetric = False
-        else:
-            w = product(z) + qs
+        else:  # checked: w~ from the final check's product (no correction after it)
+            w, checked = _whole_product(z, qs, product, exact, prev_bad)
         bad_z = Z & (z < -tol)
         bad_w = ~Z & (w < -tol)
-        nbad = int(bad_z.sum() + bad_w.sum())
+        nbad = prev_bad = int(bad_z.sum() + bad_w.sum())
         if nbad < best_bad:
             best, best_bad = Z.copy(), nbad
         if nbad == 0:
-            dz = solver.solve(Z, rhs=np.where(Z, -w, 0.0), refactor=False)
-            z = z + dz if dz is not None else z
+            if not checked:
+                dz = solver.solve(Z, rhs=np.where(Z, -w, 0.0), refactor=False)
+                z = z + dz if dz is not None else z
             # a huge z~ comes from a numerically singular block (the pivot test of _factor
             # is weaker than a condition estimate): leave the solve to the caller's LU
             grown = np.abs(z).max() > GROWTH_MAX * np.abs(qs).max()
             return Z, it + extra, None if grown else z
         Z = _untwin((Z & ~bad_z) | bad_w, Z, w, twin)
     return best, max_iterations + extra, None
+
+
+def _whole_product(z: np.ndarray, qs: np.ndarray, product: _TwinProduct,
+                   exact: CheckProduct | None, prev_bad: int | None
+                   ) -> tuple[np.ndarray, bool]:
+    """w~ = M~ z~ + q~ of a round on the whole LCP, and whether it came from `exact` (the
+    final check's product) rather than `product`. exact serves when it reads no more of M
+    than `product` (a plain product), or when the last round had at most EXACT_AFTER
+    infeasible indices (this one is then likely the last), and z~ >= 0."""
+    if exact is not None and (product.runs is None or (prev_bad is not None
+                                                       and prev_bad <= EXACT_AFTER)):
+        w = exact(z)
+        if w is not None:
+            return w, True
+    return product(z) + qs, False
 
 
 def _twin_range(twin: np.ndarray) -> slice | None:

@@ -34,10 +34,20 @@ Conventions shared by both cores:
 
 from __future__ import annotations
 
+import contextlib
+
 import numpy as np
 import scipy.linalg as sla
 
-from app.lcp.crash import column_probe, crash_basis, twins_from_probe
+from app.lcp.check_product import CheckProduct
+from app.lcp.crash import (
+    PROBE_ROWS,
+    column_probe,
+    crash_basis,
+    sampled_probe,
+    twins_from_probe,
+    verified_twins,
+)
 from app.lcp.pivoting import _LEX_REL, _PIV_REL, _TIE_REL, _CoreOut, _lexmin  # noqa: F401
 from app.lcp.repair import is_symmetric, qp_basis
 from app.lcp.result import DEFAULT_TOL, STATUSES, LCPResult, default_max_pivots
@@ -72,20 +82,32 @@ _WARM_CRASH = 5
 """Block pivoting iterations tried from a warm-start basis that does not solve the LCP."""
 
 
-def _validate(M, q) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(M, q) as float arrays and the column probe of M (`app.lcp.crash.column_probe` with
-    the diagonal scaling, one BLAS pass, which also shows any non-finite entry); raises
-    ValueError on bad shapes or non-finite data."""
+def _validate(M, q, sample: bool = False
+              ) -> tuple[np.ndarray, np.ndarray, np.ndarray, bool]:
+    """(M, q) as float arrays, the column probe of M (`app.lcp.crash.column_probe` with
+    the diagonal scaling, one BLAS pass, which also shows any non-finite entry) and False;
+    raises ValueError on bad shapes or non-finite data.
+
+    sample (for a cold crash): when M is C-ordered and n > 2 PROBE_ROWS, the probe reads
+    PROBE_ROWS rows only (`sampled_probe`, enough for the twins), and the last value is
+    True: M is then checked to be finite later, by the final check's product
+    (`CheckProduct.finite`: a non-finite entry makes M z + q non-finite whatever z, since
+    0 x inf and 0 x nan are nan), else by this function without sample, before any
+    answer is returned or Lemke pivots."""
     M = np.asarray(M, dtype=float)
     q = np.asarray(q, dtype=float).reshape(-1)
     n = q.size
     if M.shape != (n, n):
         raise ValueError(f"M must be ({n}, {n}) to match q of length {n}, got {M.shape}")
-    probe = column_probe(M, _diagonal_D(M)) if n else np.zeros((2, 0))
+    deferred = sample and n > 2 * PROBE_ROWS and M.flags.c_contiguous
+    if deferred:
+        probe = sampled_probe(M, _diagonal_D(M))
+    else:
+        probe = column_probe(M, _diagonal_D(M)) if n else np.zeros((2, 0))
     finite = np.isfinite(probe).all() or bool(np.isfinite(M).all())  # (overflow)
     if not (finite and np.isfinite(q).all()):
         raise ValueError("M and q must be finite")
-    return M, q, probe
+    return M, q, probe, deferred
 
 
 def _diagonal_D(M: np.ndarray) -> np.ndarray:
@@ -94,8 +116,10 @@ def _diagonal_D(M: np.ndarray) -> np.ndarray:
     return Ms.D
 
 
-def _check(M: np.ndarray, q: np.ndarray, z: np.ndarray, tol: float):
+def _check(M: np.ndarray, q: np.ndarray, z: np.ndarray, tol: float,
+           w: np.ndarray | None = None):
     """w = M z + q and whether (z, w) passes the final check; returns (w, ok, comp, worst).
+    w: M z + q formed by this expression already (`CheckProduct.w_for`), not formed again.
 
     The row sizes s_i = |q_i| + sum_j |M_ij| z_j are formed only on the rows with a
     violation (w_i < 0, or w_i != 0 where z_i > 0) that their lower bound
@@ -103,7 +127,7 @@ def _check(M: np.ndarray, q: np.ndarray, z: np.ndarray, tol: float):
     a row with violation <= min(tol, _SETTLE_REL) b_i passes, and counts in `worst` with
     violation / b_i (a bound of its relative violation, at round-off level).
     """
-    w = M @ z + q
+    w = M @ z + q if w is None else w
     neg = np.maximum(-w, 0.0)
     comp_res = np.where(z > 0, np.abs(w), 0.0)
     viol = np.maximum(neg, comp_res)
@@ -181,13 +205,16 @@ class _Problem:
     qs = property(lambda self: self._scale()[1])
     zfac = property(lambda self: self._scale()[2])
 
-    def finish(self, zt: np.ndarray | None, zfac: np.ndarray | None = None):
-        """Unscale (z = zfac * zt, by default the scaling's), clip, check. Returns
-        (z, w, ok, comp, worst), or None if zt is None."""
+    def finish(self, zt: np.ndarray | None, zfac: np.ndarray | None = None,
+               exact: CheckProduct | None = None):
+        """Unscale (z = zfac * zt, by default the scaling's), clip, check (with exact's
+        product when it was formed for this z). Returns (z, w, ok, comp, worst), or None
+        if zt is None."""
         if zt is None:
             return None
         z = np.maximum(zt * (self.zfac if zfac is None else zfac), 0.0)
-        w, ok, comp, worst = _check(self.M, self.q, z, self.tol)
+        w = None if exact is None else exact.w_for(z)
+        w, ok, comp, worst = _check(self.M, self.q, z, self.tol, w)
         return z, w, ok, comp, worst
 
     def candidate(self, core: _CoreOut):
@@ -202,13 +229,14 @@ class _Problem:
 
 
 def _try_basis(P: _Problem, B0: np.ndarray, zt: np.ndarray | None = None,
-               zfac: np.ndarray | None = None):
+               zfac: np.ndarray | None = None, exact: CheckProduct | None = None):
     """The checked answer on the complementary basis B0 (z_B = -M_BB^-1 q_B, one LU and one
     refinement step), or None when B0 is singular or its answer fails the check. This is
     exactly what a Lemke run from B0 that needs no pivot returns. zt: z~ on B0 already
-    computed (e.g. by the crash, with one refinement step; z = zfac * zt), tried first."""
+    computed (e.g. by the crash; z = zfac * zt), tried first, checked with exact's
+    product when that was formed for it."""
     if zt is not None:
-        out = P.finish(zt, zfac)
+        out = P.finish(zt, zfac, exact)
         if out[2]:
             return out
     out = P.finish(_solve_on(P.Ms, P.qs, B0))
@@ -225,12 +253,14 @@ def _run(
     cold_start: bool = True,
     crash: bool = True,
 ) -> LCPResult:
-    M, q, probe = _validate(M, q)
+    M, q, probe, deferred = _validate(M, q, sample=basis is None and crash)
     n = q.size
     tol = DEFAULT_TOL if tol is None else float(tol)
     max_pivots = default_max_pivots(n) if max_pivots is None else int(max_pivots)
     zero = np.zeros(n)
     if (q >= 0).all():
+        if deferred:
+            _validate(M, q)  # every entry of M, before an answer
         return LCPResult(
             zero, q.copy(), 0, "solved", 0.0, np.zeros(n, dtype=bool), "q >= 0: z = 0 solves it"
         )
@@ -240,18 +270,26 @@ def _run(
     warm = "none"
     note = ""
     given = basis is not None
-    zt = zfac = None
+    zt = zfac = exact = None
     if given:
         B0 = np.asarray(basis, dtype=bool).reshape(-1)
         if B0.shape != (n,):
             raise ValueError(f"basis must have shape ({n},), got {B0.shape}")
     elif crash:  # on the diagonal scaling: no pass over M beyond the probe
         Mc, qc, zfac = diagonal_scaling(M, q)
-        B0, iters, zt = crash_basis(Mc, qc, twin=twins_from_probe(probe))
+        exact = CheckProduct(M, q, Mc.D, zfac)  # the last round's product, the check's
+        twin = twins_from_probe(probe)
+        if deferred:
+            twin = verified_twins(M, twin)
+        quiet = np.errstate(all="ignore") if deferred else contextlib.nullcontext()
+        with quiet:  # a non-finite M is reported below, not by warnings of the guess
+            B0, iters, zt = crash_basis(Mc, qc, twin=twin, exact=exact)
+        if deferred and not exact.finite:
+            _validate(M, q)  # every entry of M, before an answer or a pivot
         note = f"crash basis ({iters} block pivoting iterations); "
     if (given or crash) and B0.any():
         how = "accepted" if given else "crash"
-        sol = _try_basis(P, B0, zt, zfac)
+        sol = _try_basis(P, B0, zt, zfac, exact)
         if sol is not None:
             z, w, ok, comp, worst = sol
             msg = ("the warm-start basis solves it" if given
@@ -334,7 +372,7 @@ def _solve(core, M, q, max_pivots, tol, basis, cold_start, crash) -> LCPResult:
     res = _run(core, M, q, max_pivots, tol, basis, cold_start, crash)
     if res.ok or res.status not in ("inaccurate", "secondary ray"):
         return res
-    M, q, _ = _validate(M, q)
+    M, q, _, _ = _validate(M, q)
     if not is_symmetric(M):
         return res
     B = qp_basis(M, q)
