@@ -13,7 +13,8 @@ same error of the exact field (Hertz p or Cattaneo-Mindlin q, with a, p0, Q/(mu 
 reference run) sampled at the level's pairs, and its parts `floor_<band>`; `floor_cf`, the
 closed-form interpolated L2 of the exact field sampled at the pairs (the floor of
 err_*_l2_interp); and `lockin_rms`, `lockin_max`: q over mu p0 at the end of the normal
-steps (rms over |x| < a, max |q|), which theory says is 0. A last line lists the observed orders of every column.
+steps (rms over |x| < a, max |q|), which theory says is 0. A last line lists the observed
+orders of every column.
 """
 
 from __future__ import annotations
