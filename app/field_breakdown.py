@@ -19,7 +19,8 @@ from collections.abc import Callable
 
 import numpy as np
 
-from app.study_reference import l2_against
+from app.closed_form import interpolated_l2_rel_error
+from app.study_reference import contact_window, l2_against
 
 
 def trapezoid_weights(x: np.ndarray) -> np.ndarray:
@@ -79,3 +80,30 @@ def orders(errors: list[float]) -> list[float]:
     """Observed orders log2(e_{l-1} / e_l) of successive errors (NaN where not positive)."""
     return [math.log2(a / b) if a > 0 and b > 0 else math.nan
             for a, b in zip(errors, errors[1:], strict=False)]
+
+
+def bisect_pairs(x: np.ndarray, times: int) -> np.ndarray:
+    """Sorted pair positions (n,) with a midpoint inserted between every two neighbours,
+    `times` times: (2^times (n - 1) + 1,); the pairs of a level split `times` times."""
+    x = np.sort(np.asarray(x, dtype=float))
+    for _ in range(times):
+        x = np.insert(x, np.arange(1, x.size), 0.5 * (x[1:] + x[:-1]))
+    return x
+
+
+def floor_sequence(x0: np.ndarray, exact: Callable[[np.ndarray], np.ndarray],
+                   half_range: float, levels: int, ref_levels: int = 1,
+                   window: float = 1.5) -> list[dict[str, float]]:
+    """Per level l = 0..levels-1 (the pairs x0 (n,) bisected l times; x relative to the
+    contact centre): `floor_cf`, the interpolated L2 of the exact field sampled at the
+    pairs over |x| <= half_range (closed_form.interpolated_l2_rel_error), and `floor_ref`,
+    sampled_floor against the pairs of level l + ref_levels within `window` x the
+    half-width of the zone where the exact field is non-zero."""
+    out = []
+    for lev in range(levels):
+        x, xr = bisect_pairs(x0, lev), bisect_pairs(x0, lev + ref_levels)
+        win = contact_window(xr, np.abs(exact(xr)), window)
+        out.append({"level": lev, "pairs": int(x.size),
+                    "floor_cf": interpolated_l2_rel_error(x, exact(x), exact, half_range),
+                    "floor_ref": sampled_floor(x, xr, exact, win)})
+    return out

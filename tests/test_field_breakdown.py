@@ -8,10 +8,12 @@ import math
 import numpy as np
 import pytest
 
-from app.closed_form import cattaneo_traction
+from app.closed_form import cattaneo_traction, interpolated_l2_rel_error
 from app.field_breakdown import (
     band_index,
+    bisect_pairs,
     field_breakdown,
+    floor_sequence,
     orders,
     sampled_floor,
     trapezoid_weights,
@@ -71,3 +73,26 @@ def test_floor_orders_sqrt_kinks_near_one_smooth_two():
     assert np.allclose(orders(fs), 2.0, atol=0.1)
     assert sampled_floor(levels[0], xr, lambda s: 3.0 * s + 1.0, win) < 1e-12
     assert orders([4.0, 2.0, 0.0]) [0] == 1.0 and math.isnan(orders([4.0, 2.0, 0.0])[1])
+
+
+def test_bisect_pairs_nests_the_levels():
+    x = np.array([0.3, -1.0, 0.0])
+    assert bisect_pairs(x, 0).tolist() == [-1.0, 0.0, 0.3]
+    assert bisect_pairs(x, 1).tolist() == [-1.0, -0.5, 0.0, 0.15, 0.3]
+    b2 = bisect_pairs(x, 2)
+    assert b2.size == 9 and np.all(np.isin(bisect_pairs(x, 1), b2)) and np.all(np.diff(b2) > 0)
+
+
+def test_floor_sequence_matches_the_direct_floors():
+    q = lambda s: cattaneo_traction(s, A, P0, MU, 0.5)  # noqa: E731
+    x0 = np.linspace(-1.5 * A, 1.5 * A, 16) + 0.013 * A
+    seq = floor_sequence(x0, q, 1.5 * A, levels=3, ref_levels=2)
+    x1, xr = bisect_pairs(x0, 1), bisect_pairs(x0, 3)
+    assert [r["pairs"] for r in seq] == [16, 31, 61]
+    assert seq[1]["floor_cf"] == pytest.approx(
+        interpolated_l2_rel_error(x1, q(x1), q, 1.5 * A), rel=1e-12)
+    inside = xr[q(xr) != 0]
+    c, h = 0.5 * (inside[0] + inside[-1]), 0.5 * (inside[-1] - inside[0])
+    assert seq[1]["floor_ref"] == pytest.approx(
+        sampled_floor(x1, xr, q, (c - 1.5 * h, c + 1.5 * h)), rel=1e-12)
+    assert seq[0]["floor_cf"] > seq[1]["floor_cf"] > seq[2]["floor_cf"] > 0
