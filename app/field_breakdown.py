@@ -107,3 +107,17 @@ def floor_sequence(x0: np.ndarray, exact: Callable[[np.ndarray], np.ndarray],
                     "floor_cf": interpolated_l2_rel_error(x, exact(x), exact, half_range),
                     "floor_ref": sampled_floor(x, xr, exact, win)})
     return out
+
+
+def nodal_l2(x: np.ndarray, f: np.ndarray, xr: np.ndarray, fr: np.ndarray,
+             window: tuple[float, float]) -> float:
+    """||f - f_ref|| / ||f_ref|| at the level's own pairs x (sorted) in window, f_ref
+    interpolated linearly at x (on nested levels the pairs x are reference pairs, so no
+    interpolation error enters), trapezoid weights over x: a definition whose floor is 0."""
+    sel = (x >= window[0]) & (x <= window[1])
+    if sel.sum() < 2:
+        return math.nan
+    xs, w = x[sel], trapezoid_weights(x[sel])
+    g = np.interp(xs, xr, fr)
+    den = float(np.sum(w * g**2))
+    return math.sqrt(float(np.sum(w * (f[sel] - g) ** 2)) / den) if den > 0 else math.nan

@@ -8,7 +8,9 @@ Per level: the error against the finest level of the reference method, recompute
 app/study_reference.py and split (app/field_breakdown.py) into bands of +-BAND x the
 level's pair spacing around the contact edges +-a (`edge`), the stick/slip boundaries +-c
 (`stick`, q only) and the contact edges of the normal steps before the last one
-(`lockin`: the level's own and the reference's), and the rest (`core`); `floor_ref`, the
+(`lockin`: the level's own and the reference's), and the rest (`core`); `nodal`, the
+error at the level's own pairs only (app/field_breakdown.nodal_l2: no interpolation
+between pairs, floor 0); `floor_ref`, the
 same error of the exact field (Hertz p or Cattaneo-Mindlin q, with a, p0, Q/(mu P) of the
 reference run) sampled at the level's pairs, and its parts `floor_<band>`; `floor_cf`, the
 closed-form interpolated L2 of the exact field sampled at the pairs (the floor of
@@ -35,7 +37,7 @@ from app.closed_form import (  # noqa: E402
     hertz_pressure,
     interpolated_l2_rel_error,
 )
-from app.field_breakdown import field_breakdown, orders, sampled_floor  # noqa: E402
+from app.field_breakdown import field_breakdown, nodal_l2, orders, sampled_floor  # noqa: E402
 from app.output.read import read_pairs  # noqa: E402
 from app.study_reference import contact_window  # noqa: E402
 
@@ -126,6 +128,7 @@ def main() -> None:
         row = {"level": level, "method": args.method, "pairs": int(x.size),
                "h_over_a": round(h / a, 5), "study_csv": float(study[(str(level),
                run.name.split("_", 1)[1])].get(col) or "nan"), **b,
+               "nodal": nodal_l2(x, d[args.field], ref["x"], ref[args.field], win),
                "floor_ref": sampled_floor(x, ref["x"], exact, win),
                **{f"floor_{k}": v for k, v in fb.items() if k != "total"},
                "floor_cf": interpolated_l2_rel_error(x - x0, exact(x), lambda t: exact(t + x0),

@@ -14,6 +14,7 @@ from app.field_breakdown import (
     bisect_pairs,
     field_breakdown,
     floor_sequence,
+    nodal_l2,
     orders,
     sampled_floor,
     trapezoid_weights,
@@ -96,3 +97,14 @@ def test_floor_sequence_matches_the_direct_floors():
     assert seq[1]["floor_ref"] == pytest.approx(
         sampled_floor(x1, xr, q, (c - 1.5 * h, c + 1.5 * h)), rel=1e-12)
     assert seq[0]["floor_cf"] > seq[1]["floor_cf"] > seq[2]["floor_cf"] > 0
+
+
+def test_nodal_l2_has_no_interpolation_floor():
+    q = lambda s: cattaneo_traction(s, A, P0, MU, 0.5)  # noqa: E731
+    xr = bisect_pairs(np.linspace(-1.5 * A, 1.5 * A, 16) + 0.013 * A, 3)
+    x = xr[::4]  # a coarser nested level
+    win = (-1.5 * A, 1.5 * A)
+    assert nodal_l2(x, q(x), xr, q(xr), win) < 1e-14 < sampled_floor(x, xr, q, win)
+    f = q(x) * 1.01  # 1% everywhere
+    assert nodal_l2(x, f, xr, q(xr), win) == pytest.approx(0.01, rel=1e-12)
+    assert math.isnan(nodal_l2(x, f, xr, q(xr), (9.0, 10.0)))
