@@ -121,3 +121,14 @@ def nodal_l2(x: np.ndarray, f: np.ndarray, xr: np.ndarray, fr: np.ndarray,
     g = np.interp(xs, xr, fr)
     den = float(np.sum(w * g**2))
     return math.sqrt(float(np.sum(w * (f[sel] - g) ** 2)) / den) if den > 0 else math.nan
+
+
+def edge_phase(x: np.ndarray, t: float) -> float:
+    """Fractional position (t - x_k) / (x_(k+1) - x_k) of the point t in the interval of the
+    sorted pairs x (n,) that holds it: where a singular point falls between the pairs
+    (on nested levels it follows the doubling map theta -> frac(2 theta)). NaN outside."""
+    x = np.asarray(x, dtype=float)
+    k = int(np.searchsorted(x, t, side="right")) - 1
+    if k < 0 or k >= x.size - 1:
+        return math.nan
+    return float((t - x[k]) / (x[k + 1] - x[k]))

@@ -12,6 +12,7 @@ from app.closed_form import cattaneo_traction, interpolated_l2_rel_error
 from app.field_breakdown import (
     band_index,
     bisect_pairs,
+    edge_phase,
     field_breakdown,
     floor_sequence,
     nodal_l2,
@@ -108,3 +109,11 @@ def test_nodal_l2_has_no_interpolation_floor():
     f = q(x) * 1.01  # 1% everywhere
     assert nodal_l2(x, f, xr, q(xr), win) == pytest.approx(0.01, rel=1e-12)
     assert math.isnan(nodal_l2(x, f, xr, q(xr), (9.0, 10.0)))
+
+
+def test_edge_phase_follows_the_doubling_map_on_bisected_pairs():
+    x0 = np.linspace(-1.0, 1.0, 11)  # spacing 0.2
+    th = [edge_phase(bisect_pairs(x0, k), 0.13) for k in range(4)]
+    assert th == pytest.approx([0.65, 0.3, 0.6, 0.2])  # frac(2 theta) each level
+    assert math.isnan(edge_phase(x0, 1.5)) and math.isnan(edge_phase(x0, -1.5))
+    assert edge_phase(x0, 0.0) == 0.0
