@@ -1,5 +1,5 @@
 """Where a study's field error against the model-free reference sits, and the floor of its
-definition (README, issue 11, "Why L2(q) has no steady order").
+definition (README, issue 11, "Why L2(q), and L2(p) over 1.5 a, have no steady order").
 
 `ref_pressure_l2` / `ref_traction_l2` (app/study_reference.l2_against) interpolate a
 level's pair values f (m,) linearly onto the reference pairs xr (n,) and integrate

@@ -1,5 +1,5 @@
 """Where a study's ref_traction_l2 (or ref_pressure_l2) sits, per level of one method, and
-the floor of that definition (JSON lines; README "Why L2(q) has no steady order").
+the floor of that definition (JSON lines; README "Why L2(q) ... have no steady order").
 
     .venv/bin/python scripts/field_breakdown.py OUT/study_dir [--method 4SD] [--field q|p]
         [--reference 4SD] [--band 1.0]

@@ -1,6 +1,6 @@
 """The floors of the L2 definitions over many levels, with no runs beyond level 0: the
 exact field (Hertz p or Cattaneo-Mindlin q) sampled at a study's level-0 pairs bisected l
-times (JSON lines; README "Why L2(q) has no steady order").
+times (JSON lines; README "Why L2(q) ... have no steady order").
 
     .venv/bin/python scripts/floor_orders.py OUT/study_dir [--field q|p] [--levels 9]
         [--ref-levels 1] [--method 4SD] [--reference 4SD]
