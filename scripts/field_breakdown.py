@@ -1,0 +1,146 @@
+"""Where a study's ref_traction_l2 (or ref_pressure_l2) sits, per level of one method, and
+the floor of that definition (JSON lines; README "Why L2(q) ... have no steady order").
+
+    .venv/bin/python scripts/field_breakdown.py OUT/study_dir [--method 4SD] [--field q|p]
+        [--reference 4SD] [--band 1.0]
+
+Per level: the error against the finest level of the reference method, recomputed as in
+app/study_reference.py and split (app/field_breakdown.py) into bands of +-BAND x the
+level's pair spacing around the contact edges +-a (`edge`), the stick/slip boundaries +-c
+(`stick`, q only) and the contact edges of the normal steps before the last one
+(`lockin`: the level's own and the reference's), and the rest (`core`); `nodal`, the
+error at the level's own pairs only (app/field_breakdown.nodal_l2: no interpolation
+between pairs, floor 0); `floor_ref`, the
+same error of the exact field (Hertz p or Cattaneo-Mindlin q, with a, p0, Q/(mu P) of the
+reference run) sampled at the level's pairs, and its parts `floor_<band>`; `floor_cf`, the
+closed-form interpolated L2 of the exact field sampled at the pairs (the floor of
+err_*_l2_interp); and `lockin_rms`, `lockin_max`: q over mu p0 at the end of the normal
+steps (rms over |x| < a, max |q|), which theory says is 0. A last line lists the observed
+orders of every column.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import re
+import sys
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # this checkout's app
+from app.closed_form import (  # noqa: E402
+    INTERPOLATED_L2_RANGE,
+    cattaneo_traction,
+    hertz_pressure,
+    interpolated_l2_rel_error,
+)
+from app.field_breakdown import field_breakdown, nodal_l2, orders, sampled_floor  # noqa: E402
+from app.output.read import read_pairs  # noqa: E402
+from app.study_reference import contact_window  # noqa: E402
+
+
+def runs_of(study: Path, method: str) -> dict[int, Path]:
+    return {int(re.match(r"L(\d+)_", d.name).group(1)): d for d in study.glob(f"L*_{method}")}
+
+
+def normal_steps(run: Path) -> list[int]:
+    """Steps at which every prescribed load's factor is 0 (only supports move)."""
+    s = json.loads((run / "summary.json").read_text())
+    return [st["step"] for st in s["steps"]
+            if all(v == 0 for k, v in st["load_factor"].items() if k.startswith("load:"))]
+
+
+def earlier_edges(run: Path) -> np.ndarray:
+    """Outermost loaded pair positions at the normal steps whose contact is narrower than
+    at the last normal step (the edges that the later steps lock in)."""
+    steps = normal_steps(run)
+    ext = []
+    for k in steps:
+        c = read_pairs(run / f"step_{k:04d}.h5", 0, ("x", "p"))
+        inside = c["x"][c["p"] > 0]
+        ext.append((inside.min(), inside.max()) if inside.size else (np.nan, np.nan))
+    if not ext:
+        return np.empty(0)
+    last = ext[-1][1] - ext[-1][0]
+    return np.array([e for lo, hi in ext if hi - lo < 0.99 * last for e in (lo, hi)])
+
+
+def lockin(run: Path, a: float, p0: float, mu: float, x0: float) -> tuple[float, float]:
+    steps = normal_steps(run)
+    if not steps or mu <= 0:
+        return np.nan, np.nan
+    c = read_pairs(run / f"step_{steps[-1]:04d}.h5", 0, ("x", "q"))
+    q = c["q"][np.abs(c["x"] - x0) < a] / (mu * p0)
+    return float(np.sqrt(np.mean(q**2))), float(np.abs(q).max(initial=0.0))
+
+
+def exact_field(ref_summary: dict, field: str, mu: float):
+    r = ref_summary["reference"]
+    hz, x0 = r["hertz"], r.get("center_x", 0.0)
+    a, p0 = hz["a_hertz"], hz["p0_hertz"]
+    if field == "p":
+        return (lambda s: hertz_pressure(s - x0, a, p0)), a, p0, x0, None
+    ca = r["cattaneo"]
+    sign = float(np.sign(ca["Q"])) or 1.0
+    return ((lambda s: sign * cattaneo_traction(s - x0, a, p0, mu, ca["Q_over_muP"])),
+            a, p0, x0, ca["stick_half_width_exact"])
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("study", type=Path)
+    ap.add_argument("--method", default="4SD")
+    ap.add_argument("--reference", default="4SD")
+    ap.add_argument("--field", choices=("q", "p"), default="q")
+    ap.add_argument("--band", type=float, default=1.0, help="band half-width, pair spacings")
+    args = ap.parse_args()
+    refs = runs_of(args.study, args.reference)
+    ref_run = refs[max(refs)]
+    ref_s = json.loads((ref_run / "summary.json").read_text())
+    ref_last = len(ref_s["steps"])
+    ref = read_pairs(ref_run / f"step_{ref_last:04d}.h5", 0, ("x", "p", "q", "mu"))
+    mu = float(ref["mu"].max())
+    exact, a, p0, x0, c = exact_field(ref_s, args.field, mu)
+    win = contact_window(ref["x"], ref["p"])
+    ref_edges = earlier_edges(ref_run)
+    study = {(r["level"], r["method"]): r for r in csv.DictReader(open(args.study / "study.csv"))}
+    col = "ref_traction_l2" if args.field == "q" else "ref_pressure_l2"
+    rows = []
+    for level, run in sorted(runs_of(args.study, args.method).items()):
+        if run == ref_run:
+            continue
+        s = json.loads((run / "summary.json").read_text())
+        d = read_pairs(run / f"step_{len(s['steps']):04d}.h5", 0, ("x", "p", "q"))
+        x = d["x"]
+        h = float(np.median(np.diff(x[np.abs(x - x0) < a])))
+        bands = {"edge": x0 + np.array([-a, a])}
+        if c is not None:
+            bands["stick"] = x0 + np.array([-c, c])
+            bands["lockin"] = np.r_[earlier_edges(run), ref_edges]
+        b = field_breakdown(x, d[args.field], ref["x"], ref[args.field], win, bands,
+                            args.band * h)
+        fb = field_breakdown(x, exact(x), ref["x"], exact(ref["x"]), win, bands,
+                             args.band * h)
+        lr, lm = lockin(run, a, p0, mu, x0) if c is not None else (np.nan, np.nan)
+        row = {"level": level, "method": args.method, "pairs": int(x.size),
+               "h_over_a": round(h / a, 5), "study_csv": float(study[(str(level),
+               run.name.split("_", 1)[1])].get(col) or "nan"), **b,
+               "nodal": nodal_l2(x, d[args.field], ref["x"], ref[args.field], win),
+               "floor_ref": sampled_floor(x, ref["x"], exact, win),
+               **{f"floor_{k}": v for k, v in fb.items() if k != "total"},
+               "floor_cf": interpolated_l2_rel_error(x - x0, exact(x), lambda t: exact(t + x0),
+                                                     INTERPOLATED_L2_RANGE * a),
+               "lockin_rms": lr, "lockin_max": lm}
+        rows.append(row)
+        print(json.dumps({k: round(v, 6) if isinstance(v, float) else v
+                          for k, v in row.items()}), flush=True)
+    keys = [k for k, v in rows[0].items() if isinstance(v, float) and k != "h_over_a"]
+    print(json.dumps({"orders": args.method, **{k: [round(o, 2) for o in orders(
+        [r[k] for r in rows])] for k in keys}}))
+
+
+if __name__ == "__main__":
+    main()
