@@ -60,14 +60,16 @@ def slip_guess(Ms: ScaledM, qt: np.ndarray, twin: np.ndarray, tpart: slice,
     hd = d * d * np.diagonal(Ha) / Ms.mu
     if not (hd > 0).all():
         return None
-    qa, qb = qt[a], qt[b]
+    # x_k = max(ca - t, 0) + min(cb - t, 0) with t = (H x)_k / H_kk - x_k; H x = d (M[a, a]
+    # (d x)) / mu: a product with the unscaled block, no scaled copy of it
+    ca, cb, g = -qt[a] / hd, qt[b] / hd, d / (Ms.mu * hd)
     x = np.zeros(a.size)
     pos = neg = None
     steady, last_step = 0, np.inf
     with np.errstate(all="ignore"):
-        for _ in range(sweeps):
-            r = d * (Ha @ (d * x)) / Ms.mu - hd * x  # (H x)_k without the pair's own term
-            xn = np.maximum(-(r + qa) / hd, 0.0) + np.minimum((qb - r) / hd, 0.0)
+        for k in range(sweeps):
+            t = g * (Ha @ (d * x)) - x if k else x  # the first sweep: H x = 0
+            xn = np.maximum(ca - t, 0.0) + np.minimum(cb - t, 0.0)
             step = float(np.abs(xn - x).max())
             if not step < last_step:  # growing (or not finite): Jacobi diverges here
                 break
