@@ -24,6 +24,7 @@ import scipy.linalg as sla
 
 from app.lcp.check_product import CheckProduct
 from app.lcp.scaling import ScaledM, gather
+from app.lcp.slip_guess import slip_guess
 
 DEEP_START = 0.5
 """A cold crash starts from the q~_i below this x min q~ (for contact: the deeper half of
@@ -512,7 +513,9 @@ def _twin_stage(Ms: ScaledM, w: np.ndarray, twin: np.ndarray, tpart: slice,
     z~ fixed: q' = w (n,), the w~ of the first stage's answer. For contact: the slips under
     the normal pressures found, a symmetric block (Cholesky) and products with M~[tpart,
     tpart] reading one column of each twin pair, so the cascade of slips that the whole
-    LCP would repeat on its larger block and passes over M costs a fraction of it.
+    LCP would repeat on its larger block and passes over M costs a fraction of it. The
+    first set is `app.lcp.slip_guess.slip_guess`'s (a few projected Jacobi sweeps), else
+    the trial guess (the pairs whose stick force leaves the cone: q'_i < 0).
     Returns the set (n,) bool that solves that LCP (None if none was found), the
     iterations used and the block solver (its factors serve the whole LCP next)."""
     n = w.size
@@ -522,7 +525,9 @@ def _twin_stage(Ms: ScaledM, w: np.ndarray, twin: np.ndarray, tpart: slice,
     solver.symmetric = True
     product = _TwinProduct(Ms, twin, tpart)
     none = np.zeros(n, dtype=bool)
-    Z = _untwin(qt < -_FEAS_REL, none, qt, twin)
+    Z = slip_guess(Ms, qt, twin, tpart)
+    if Z is None:  # the trial guess: the pairs whose stick force leaves the cone
+        Z = _untwin(qt < -_FEAS_REL, none, qt, twin)
     for it in range(1, max_iterations + 1):
         if not Z.any():
             return Z, it, solver
