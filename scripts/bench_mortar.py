@@ -107,6 +107,8 @@ def main() -> None:
                                                    "mu0"])
     ap.add_argument("--hertz-sizes", type=float, nargs="+", default=[0.5, 0.25, 0.125, 0.0625])
     ap.add_argument("--discretisations", nargs="+", choices=DISCS, default=list(DISCS))
+    ap.add_argument("--block2-sizes", type=float, nargs="+", default=[0.08, 0.02],
+                    help="element sizes of block2 in the multibody rows (0.08: as shipped)")
     ap.add_argument("--hertz-config", default="hertz",
                     help="config of the Hertz rows in configs/ (e.g. hertz_patch)")
     ap.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUE",
@@ -154,12 +156,12 @@ def main() -> None:
                              "q_l2_interp": ca.get("traction_l2_interp_rel_error"),
                              "q_l2": ca.get("traction_l2_rel_error")})
             if "multibody" in a.only:
-                for block2 in (None, 0.02):  # default block2 mesh (0.08), or at the arc's
-                    b2 = [] if block2 is None else ["--set", f"body.block2.size={block2}"]
+                for block2 in a.block2_sizes:  # 0.08 as shipped, 0.02 about the arc's
+                    b2 = ["--set", f"body.block2.size={block2}"]
                     s, c = run("multibody", disc, swapped, [*b2, *extra])
                     on = c["p"] > 0
                     dev = local_fit_deviation(c["x"][on], c["p"][on])
-                    emit(base | {"case": "multibody", "block2_size": block2 or 0.08,
+                    emit(base | {"case": "multibody", "block2_size": block2,
                                  "error": s.get("error"), "n_in_contact": int(on.sum()),
                                  "max_fit_deviation": float(dev.max(initial=0.0))})
             if "mu0" in a.only:
