@@ -17,6 +17,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from app.contact.mortar import nodal_normals
+from app.contact.pairs import tributary_length
 from app.discretisation.elements import elasticity_matrix
 from app.discretisation.fem_q4 import cell_gradients
 
@@ -298,23 +300,15 @@ def surface_tractions(points: np.ndarray, edges: np.ndarray, force: np.ndarray,
     """
     nodes = chain_nodes(edges)
     out = {"node": nodes, "x": points[nodes, 0], "y": points[nodes, 1]}
-    seg = np.diff(points[nodes], axis=0)
-    ln = np.hypot(seg[:, 0], seg[:, 1])
-    trib = np.zeros(nodes.size)
-    trib[:-1] += 0.5 * ln
-    trib[1:] += 0.5 * ln
+    on, length = tributary_length(points, edges)
+    trib = length[np.searchsorted(on, nodes)]
     out["length"] = trib
     f = force[nodes]
     out["fx"], out["fy"] = f[:, 0] / trib, f[:, 1] / trib
     for key, xy in (("", points), ("_def", None if u is None else points + u)):
         if xy is None:
             continue
-        d = np.diff(xy[nodes], axis=0)
-        en = np.stack([d[:, 1], -d[:, 0]], axis=1) / np.hypot(d[:, 0], d[:, 1])[:, None]
-        nn = np.zeros((nodes.size, 2))
-        nn[:-1] += en
-        nn[1:] += en
-        nn /= np.hypot(nn[:, 0], nn[:, 1])[:, None]
+        nn = nodal_normals(xy, edges, xy.shape[0])[0][nodes]
         tt = np.stack([-nn[:, 1], nn[:, 0]], axis=1)
         out["pn" + key] = -np.einsum("ij,ij->i", f, nn) / trib
         out["qt" + key] = np.einsum("ij,ij->i", f, tt) / trib
