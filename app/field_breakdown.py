@@ -20,7 +20,7 @@ from collections.abc import Callable
 import numpy as np
 
 from app.closed_form import interpolated_l2_rel_error
-from app.study_reference import contact_window, l2_against
+from app.study_reference import contact_window, l2_against, observed_order
 
 
 def trapezoid_weights(x: np.ndarray) -> np.ndarray:
@@ -78,8 +78,7 @@ def sampled_floor(x: np.ndarray, xr: np.ndarray, exact: Callable[[np.ndarray], n
 
 def orders(errors: list[float]) -> list[float]:
     """Observed orders log2(e_{l-1} / e_l) of successive errors (NaN where not positive)."""
-    return [math.log2(a / b) if a > 0 and b > 0 else math.nan
-            for a, b in zip(errors, errors[1:], strict=False)]
+    return [observed_order(a, b) for a, b in zip(errors, errors[1:], strict=False)]
 
 
 def bisect_pairs(x: np.ndarray, times: int) -> np.ndarray:

@@ -110,6 +110,12 @@ def add_reference_errors(rows: list[dict], profiles: dict, ref_label: str,
     return note
 
 
+def observed_order(coarse: float, fine: float) -> float:
+    """log2(coarse / fine): the observed order of an error between two levels whose h
+    halves; NaN unless both errors are positive."""
+    return math.log2(coarse / fine) if coarse > 0 and fine > 0 else math.nan
+
+
 def add_orders(rows: list[dict]) -> None:
     """order_<col> = log2(e_{l-1} / e_l) for every err_/ref_ column, per method."""
     cols = [k for k in dict.fromkeys(k for r in rows for k in r)
@@ -119,8 +125,8 @@ def add_orders(rows: list[dict]) -> None:
         for prev, cur in zip(rr, rr[1:], strict=False):
             for c in cols:
                 a, b = prev.get(c, math.nan), cur.get(c, math.nan)
-                ok = cur["level"] == prev["level"] + 1 and a > 0 and b > 0
-                cur[f"order_{c}"] = math.log2(a / b) if ok else math.nan
+                ok = cur["level"] == prev["level"] + 1
+                cur[f"order_{c}"] = observed_order(a, b) if ok else math.nan
 
 
 def energy_bracket(rows: list[dict]) -> list[dict]:
@@ -142,8 +148,9 @@ def energy_bracket(rows: list[dict]) -> list[dict]:
             row[f"ref_energy_{m}"] = r.get("ref_energy", math.nan)
         out.append(row)
     for prev, cur in zip(out, out[1:], strict=False):
-        ok = cur["level"] == prev["level"] + 1 and cur["width_rel"] > 0
-        cur["order_width"] = math.log2(prev["width_rel"] / cur["width_rel"]) if ok else math.nan
+        ok = cur["level"] == prev["level"] + 1
+        cur["order_width"] = (observed_order(prev["width_rel"], cur["width_rel"]) if ok
+                              else math.nan)
     return out
 
 
