@@ -78,21 +78,36 @@ def add_limit_spread(limits: list[dict], ref_label: str) -> None:
 
 
 def order_summary(rows: list[dict], last: int = 3) -> list[dict]:
-    """Per method and ref_ column: the observed orders (levels 1..finest) and the
-    min/max/spread of the `last` orders (last + 1 levels)."""
+    """Per method and ref_ column: the observed orders (levels 1..finest), the
+    min/max/spread of its `last` finest finite orders (last + 1 levels; the reference
+    method's own finest level has no order), and the steadiest window: the `last`
+    successive orders with the smallest spread (`window`: its levels, `window_spread`)."""
     cols = [k for k in dict.fromkeys(k for r in rows for k in r) if k.startswith("ref_")]
     out = []
     for m in dict.fromkeys(r["method"] for r in rows):
         rr = sorted((r for r in rows if r["method"] == m), key=lambda r: r["level"])
         for c in cols:
             orders = [r.get(f"order_{c}", math.nan) for r in rr[1:]]
-            tail = [o for o in orders[-last:] if math.isfinite(o)]
             row = {"method": m, "error": c, "orders": " ".join(
                 f"{o:.2f}" if math.isfinite(o) else "-" for o in orders)}
+            tail = [o for o in orders if math.isfinite(o)][-last:]
             if len(tail) == last:
                 row |= {"min": min(tail), "max": max(tail), "spread": max(tail) - min(tail)}
-            out.append(row)
+            out.append(row | _steadiest_window(orders, [r["level"] for r in rr], last))
     return out
+
+
+def _steadiest_window(orders: list[float], levels: list[int], last: int) -> dict:
+    """{window: "l0-l1", window_spread} of the `last` successive finite orders with the
+    smallest max - min; orders[k] compares levels[k] and levels[k + 1]. {} if none."""
+    best: dict = {}
+    for k in range(len(orders) - last + 1):
+        w = orders[k : k + last]
+        if all(math.isfinite(o) for o in w) and (
+                not best or max(w) - min(w) < best["window_spread"]):
+            best = {"window": f"{levels[k]}-{levels[k + last]}",
+                    "window_spread": max(w) - min(w)}
+    return best
 
 
 def _g(v, fmt: str = ".6g") -> str:
@@ -111,9 +126,10 @@ def tables(limits: list[dict], summary: list[dict]) -> str:
              "rel_to_reference: |limit - reference method's limit| / |that limit|)", "",
              "| " + " | ".join(keys) + " |", "|---" * len(keys) + "|"]
     lines += ["| " + " | ".join(_g(r.get(k, math.nan)) for k in keys) + " |" for r in limits]
-    keys = ["method", "error", "orders", "min", "max", "spread"]
+    keys = ["method", "error", "orders", "min", "max", "spread", "window", "window_spread"]
     lines += ["", "observed orders against the reference (levels 1..finest; min/max/spread "
-              "of the last three = four levels)", "",
+              "of the last three finite orders = four levels; window: the four successive "
+              "levels whose three orders have the smallest spread, window_spread)", "",
               "| " + " | ".join(keys) + " |", "|---" * len(keys) + "|"]
     lines += ["| " + " | ".join(_g(r.get(k, math.nan), ".2f") for k in keys) + " |"
               for r in summary]

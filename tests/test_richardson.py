@@ -86,3 +86,18 @@ def test_method_limits_and_order_summary():
         r["order_ref_energy"] = 2.0 if r["level"] else math.nan
     (s4,) = [s for s in order_summary(rows) if s["method"] == "4SD"]
     assert s4["orders"] == "2.00 2.00 2.00" and s4["spread"] == 0.0
+    assert s4["window"] == "0-3" and s4["window_spread"] == 0.0
+
+
+def test_order_summary_skips_the_reference_level_and_finds_the_steadiest_window():
+    errs = [1.0, 0.5, 0.3, 0.15, 0.075, 0.0375, math.nan]  # orders 1, 0.74, 1, 1, 1, -
+    rows = [{"level": lv, "method": "4SD", "ref_x": e} for lv, e in enumerate(errs)]
+    for a, b in zip(rows, rows[1:], strict=False):
+        b["order_ref_x"] = math.log2(a["ref_x"] / b["ref_x"]) if b["level"] < 6 else math.nan
+    (s,) = order_summary(rows)
+    assert s["orders"].endswith(" -") and s["spread"] == pytest.approx(0.0, abs=1e-12)
+    assert s["window"] == "2-5" and s["window_spread"] == pytest.approx(0.0, abs=1e-12)
+    rows[5]["order_ref_x"] = 0.2  # the finest order drops: the last window is not steady
+    (s,) = order_summary(rows)
+    assert s["spread"] == pytest.approx(0.8) and s["window"] == "0-3"  # first of the ties
+    assert s["window_spread"] == pytest.approx(1.0 - math.log2(0.5 / 0.3))
