@@ -189,6 +189,8 @@ def test_mortar_multibody_indent_smooth_on_non_matching_meshes(tmp_path):
     on = (c["interface"] == 2) & (c["p"] > 0)
     assert on.sum() >= 15
     assert local_fit_deviation(c["x"][on], c["p"][on]).max() < 0.03
+    warnings = json.loads((out / "summary.json").read_text()).get("warnings", [])
+    assert not [w for w in warnings if "'indent'" in w]  # no stripes: no stripe warning
     for step in range(1, 5):
         v = kkt_violations(out, step)
         assert max(v.values()) < 1e-6, (step, v)

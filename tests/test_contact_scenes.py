@@ -164,6 +164,9 @@ def test_multibody_one_and_two_ranks_agree(tmp_path):
         outs[ranks] = out
     s = read_summary(outs[1])
     assert s["n_bodies"] >= 4 and len(s["steps"][0]["interfaces"]) >= 3
+    for ranks in (1, 2):  # the coarse masters' stripes (README "Verification table")
+        stripes = [w for w in read_summary(outs[ranks])["warnings"] if "element period" in w]
+        assert [w.split("'")[1] for w in stripes] == ["bond", "indent"], stripes
     for step in range(1, s["n_steps"] + 1):
         with h5py.File(outs[1] / f"step_{step:04d}.h5") as a, \
                 h5py.File(outs[2] / f"step_{step:04d}.h5") as b:

@@ -4,13 +4,13 @@ recovered from the stored factorization."""
 
 from __future__ import annotations
 
-import sys
 from dataclasses import dataclass
 
 import numpy as np
 
 from app.condensation.compliance import compliance_from_factor, compliance_solve
 from app.condensation.recovery import contact_displacement, mismatch
+from app.contact.resolution import stripe_checks, stripe_warning
 from app.driver.context import RunContext, write_summary
 from app.driver.linear import LinearSystem, UnitSolutions
 from app.driver.model import Model
@@ -83,7 +83,9 @@ def solve_contact_step(ctx: RunContext, model: Model, system: LinearSystem,
         refinements += 1
     result.info["consistency_refinements"] = refinements
     result.info["lcp_displacement_mismatch"] = rel
-    _held_mode_warnings(ctx, result, step)
+    with ctx.phase("lcp"):  # checks of the step's contact answer
+        _held_mode_warnings(ctx, result, step)
+        _stripe_warnings(ctx, model, result, step)
     return ContactStep(u, result)
 
 
@@ -92,14 +94,20 @@ def _held_mode_warnings(ctx: RunContext, result: StepSolution, step: int) -> Non
     contact-held mode of a body slid an interface beyond SLIDE_WARN (app/interface/
     weak_modes.py); `steps[k].contact_held_modes` holds every measured ratio."""
     for entry in result.info.get("contact_held_modes", []):
-        key = ("contact-held mode", entry["body"], entry["interface"])
-        if not entry["warn"] or key in ctx.warned:
-            continue
-        ctx.warned.add(key)
-        text = slide_warning(entry, step + 1)
-        ctx.summary.setdefault("warnings", []).append(text)
-        if ctx.rank == 0:
-            print(f"warning: {text}", file=sys.stderr, flush=True)
+        if entry["warn"]:
+            ctx.warn(slide_warning(entry, step + 1),
+                     ("contact-held mode", entry["body"], entry["interface"]))
+
+
+def _stripe_warnings(ctx: RunContext, model: Model, result: StepSolution, step: int) -> None:
+    """A warning the first time an interface's tractions follow its master's element
+    period (app/contact/resolution.py); every rank holds the broadcast result."""
+    pairs = model.contact.pairs
+    names = [itf.name for itf in ctx.cfg.interfaces]
+    normal = result.lam[: pairs.n_pairs]
+    for check in stripe_checks(model.mesh, pairs, normal, names, result.f_scale):
+        if check["warn"]:
+            ctx.warn(stripe_warning(check, step + 1), ("stripes", check["interface"]))
 
 
 def _displacement(model: Model, system: LinearSystem, u_free: np.ndarray,

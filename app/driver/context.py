@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -63,6 +64,17 @@ class RunContext:
     def phase(self, name: str):
         """A named phase (seconds in summary.json timings, a PETSc log stage)."""
         return self.timer.phase(name)
+
+    def warn(self, text: str, key: tuple | None = None) -> None:
+        """A warning: appended to the summary's `warnings`, one stderr line on rank 0;
+        with a key, only the first time that key is given in the run."""
+        if key is not None:
+            if key in self.warned:
+                return
+            self.warned.add(key)
+        self.summary.setdefault("warnings", []).append(text)
+        if self.rank == 0:
+            print(f"warning: {text}", file=sys.stderr, flush=True)
 
 
 def write_summary(out: Path, summary: dict) -> None:

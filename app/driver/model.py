@@ -90,9 +90,8 @@ def build_model(ctx: RunContext) -> Model:
         floating = floating_modes(mesh, cfg, fixed, contact, disc)
         pins = floating.pins if floating else np.zeros(0, dtype=np.int64)
     with ctx.phase("setup"):
-        warnings = _prescribed_load_warnings(cases, fixed, ctx.rank)
-        if warnings:
-            ctx.summary["warnings"] = ctx.summary.get("warnings", []) + warnings
+        for text in _prescribed_load_warnings(cases, fixed):
+            ctx.warn(text)
     return Model(mesh, disc, cases, fixed, np.union1d(fixed, pins), contact, floating)
 
 
@@ -121,7 +120,7 @@ def _mesh_quality(mesh: Mesh, summary: dict, quiet: bool) -> None:
         print(quality_line(summary["mesh_quality"]), file=sys.stderr, flush=True)
 
 
-def _prescribed_load_warnings(cases: list[LoadCase], fixed: np.ndarray, rank: int) -> list[str]:
+def _prescribed_load_warnings(cases: list[LoadCase], fixed: np.ndarray) -> list[str]:
     """Loads acting on prescribed DOFs go straight into the support reaction: say so."""
     out = []
     for case in cases:
@@ -130,7 +129,4 @@ def _prescribed_load_warnings(cases: list[LoadCase], fixed: np.ndarray, rank: in
             out.append(f"{case.name}: {np.count_nonzero(on_fixed)} of its nodal forces act on "
                        f"prescribed DOFs (sum {np.abs(on_fixed).sum():.4g}) and are taken by "
                        "the supports, not by the bodies; see steps[k].reactions")
-    if rank == 0:
-        for w in out:
-            print(f"warning: {w}", file=sys.stderr)
     return out

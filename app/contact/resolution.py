@@ -1,0 +1,83 @@
+"""Stripes: contact tractions that follow the master's element period.
+
+A slave curve much finer than its master makes the tractions oscillate with the master's
+element period, with node-to-segment and mortar alike: the slave nodes follow the
+master's piecewise-linear surface, kinks included (README "Verification table").
+Measured on configs/multibody.toml: `indent` (master elements 4.3x the slave's) 30% of
+max p off a local quadratic fit, `bond` (2.0x) 8.8%, and 0.1% with the foundation refined
+to the slave's size. A step's check needs both the cause (the size ratio) and the symptom
+(the deviation inside the closed zone), so a coarse master that stays straight, or a
+sharp but real feature of the tractions, is not reported.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from app.contact.pairs import ContactPairs
+from app.contact.smoothness import local_fit_deviation
+from app.mesh.model import Mesh
+
+SIZE_RATIO_WARN = 1.5
+"""The master's median element length over the slave's above which stripes can appear."""
+STRIPE_DEVIATION_WARN = 0.05
+"""Largest |p - local quadratic fit| / max p inside the closed zone that is reported."""
+MIN_CLOSED_PAIRS = 9
+"""Fewer closed pairs than this are not judged (the fit needs 5, the ends are left out)."""
+EDGE_PAIRS = 2
+"""Closed pairs at each end of the zone left out of the deviation (contact edges)."""
+CLOSED_REL = 1e-6
+"""A pair is closed when its normal force exceeds this times the problem's force scale
+(round-off forces of a zone being pulled off are not a traction profile)."""
+
+
+def master_slave_size_ratio(mesh: Mesh, pairs: ContactPairs, sel: np.ndarray) -> float:
+    """Median length of the master segments the selected pairs project on over the median
+    slave tributary length (dimensionless); nan for an empty selection."""
+    if not np.any(sel):
+        return float("nan")
+    ends = mesh.points[pairs.master[sel]]  # (k, 2, 2)
+    master = np.median(np.linalg.norm(ends[:, 1] - ends[:, 0], axis=1))
+    return float(master / np.median(pairs.length[sel]))
+
+
+def interior_deviation(position: np.ndarray, p: np.ndarray) -> float:
+    """Largest local-fit deviation (app/contact/smoothness.py, / max p) of the tractions p
+    (k,) at positions (k, 2), ordered along their principal direction, leaving out
+    EDGE_PAIRS pairs at each end."""
+    centred = position - position.mean(axis=0)
+    axis = np.linalg.svd(centred, full_matrices=False)[2][0]  # principal direction
+    s = centred @ axis
+    order = np.argsort(s)
+    dev = local_fit_deviation(s[order], p[order])
+    return float(dev[EDGE_PAIRS:-EDGE_PAIRS].max())
+
+
+def stripe_checks(mesh: Mesh, pairs: ContactPairs, normal_force: np.ndarray,
+                  names: Sequence[str], force_scale: float) -> list[dict]:
+    """Per interface with at least MIN_CLOSED_PAIRS pairs in compression (normal_force (m,),
+    the LCP's normal pair forces, above CLOSED_REL x force_scale):
+    {interface, closed, size_ratio, deviation, warn}."""
+    out = []
+    for i, name in enumerate(names):
+        sel = (pairs.interface == i) & (normal_force > CLOSED_REL * force_scale)
+        if np.count_nonzero(sel) < MIN_CLOSED_PAIRS:
+            continue
+        ratio = master_slave_size_ratio(mesh, pairs, sel)
+        dev = interior_deviation(pairs.position[sel], normal_force[sel] / pairs.length[sel])
+        out.append({"interface": name, "closed": int(np.count_nonzero(sel)),
+                    "size_ratio": ratio, "deviation": dev,
+                    "warn": ratio > SIZE_RATIO_WARN and dev > STRIPE_DEVIATION_WARN})
+    return out
+
+
+def stripe_warning(check: dict, step: int) -> str:
+    """The one-line warning for a check with warn set, at 1-based `step`."""
+    return (f"interface '{check['interface']}', step {step}: p deviates by "
+            f"{100 * check['deviation']:.1f}% of max p from a smooth fit inside the closed "
+            f"zone, and the master's elements are {check['size_ratio']:.1f}x the slave's: "
+            "the tractions follow the master's element period. Make the coarser side the "
+            f"slave or refine the master to within {SIZE_RATIO_WARN}x (README "
+            "\"Verification table\")")

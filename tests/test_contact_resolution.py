@@ -1,0 +1,73 @@
+"""app/contact/resolution.py: stripes need both a coarse master and a striped profile."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from app.contact.pairs import ContactPairs
+from app.contact.resolution import (
+    master_slave_size_ratio,
+    stripe_checks,
+    stripe_warning,
+)
+from app.mesh.model import Mesh
+
+
+def flat_interface(master_h: float, traction) -> tuple[Mesh, ContactPairs, np.ndarray]:
+    """Slave nodes every 0.05 on y = 0 over [-1, 1], each paired with the master segment
+    (nodes every master_h on y = 0) below it; the normal forces traction(x) x length."""
+    xs = np.linspace(-1.0, 1.0, 41)
+    xm = np.arange(-1.0, 1.0 + 1e-9, master_h)
+    n_s = xs.size
+    points = np.vstack([np.c_[xs, np.zeros(n_s)], np.c_[xm, np.zeros(xm.size)]])
+    seg = np.minimum(np.floor((xs + 1.0) / master_h + 1e-9), xm.size - 2).astype(int)
+    master = np.c_[seg, seg + 1] + n_s
+    length = np.full(n_s, 0.05)
+    length[[0, -1]] = 0.025
+    m = n_s
+    pairs = ContactPairs(np.zeros(m, int), np.arange(m), master, np.zeros(m),
+                         np.tile([0.0, 1.0], (m, 1)), np.tile([-1.0, 0.0], (m, 1)),
+                         np.zeros(m), points[:n_s], length)
+    mesh = Mesh(points, np.zeros((0, 4), int), np.zeros(0, int), [])
+    return mesh, pairs, traction(xs) * length
+
+
+def smooth(x):
+    return 1.0 - 0.5 * x * x
+
+
+def striped(x):  # bumps of 20% with the period of 0.2 master segments
+    return smooth(x) * (1.0 + 0.2 * np.abs(np.sin(np.pi * (x + 1.0) / 0.2)))
+
+
+def test_size_ratio_is_master_over_slave():
+    mesh, pairs, _ = flat_interface(0.2, smooth)
+    assert master_slave_size_ratio(mesh, pairs, np.ones(41, bool)) == pytest.approx(4.0)
+    assert np.isnan(master_slave_size_ratio(mesh, pairs, np.zeros(41, bool)))
+
+
+@pytest.mark.parametrize("master_h, traction, warn", [
+    (0.2, striped, True),    # coarse master, striped: reported
+    (0.2, smooth, False),    # coarse master that the profile does not see
+    (0.05, striped, False),  # a striped profile on a matching master: not this cause
+])
+def test_stripe_checks_need_cause_and_symptom(master_h, traction, warn):
+    mesh, pairs, force = flat_interface(master_h, traction)
+    (check,) = stripe_checks(mesh, pairs, force, ["itf"], force_scale=1.0)
+    assert check["warn"] is warn and check["closed"] == 41
+    assert (check["deviation"] > 0.05) is (traction is striped)
+
+
+def test_round_off_forces_and_small_zones_are_not_judged():
+    mesh, pairs, force = flat_interface(0.2, striped)
+    assert stripe_checks(mesh, pairs, force * 1e-12, ["itf"], force_scale=1.0) == []
+    few = np.where(np.abs(pairs.position[:, 0]) < 0.2, force, 0.0)  # 7 closed pairs
+    assert stripe_checks(mesh, pairs, few, ["itf"], force_scale=1.0) == []
+
+
+def test_stripe_warning_names_interface_step_and_ratio():
+    mesh, pairs, force = flat_interface(0.2, striped)
+    (check,) = stripe_checks(mesh, pairs, force, ["indent"], force_scale=1.0)
+    text = stripe_warning(check, 3)
+    assert text.startswith("interface 'indent', step 3:") and "4.0x" in text
