@@ -21,6 +21,7 @@ import csv
 import math
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from petsc4py import PETSc
@@ -260,7 +261,7 @@ def plot_study(rows: list[dict], out: Path, title: str = "", note: str = "",
     return paths
 
 
-def _error_panel(ax, rows: list[dict], methods: list[str], ek: str, xkey: str, xlabel: str,
+def _error_panel(ax: Any, rows: list[dict], methods: list[str], ek: str, xkey: str, xlabel: str,
                  floors: dict[str, float] | None) -> None:
     """One log-log panel of plot_study: column ek against xkey ("n_dofs": the legend
     gives the fitted rate and the last observed order), one line per method, and the

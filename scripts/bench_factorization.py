@@ -30,9 +30,14 @@ import shutil
 import subprocess
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 from app_runner import ENV, ROOT
+
+if TYPE_CHECKING:
+    import numpy as np
 
 sys.path.insert(0, str(ROOT))  # this checkout's app, not another one installed in .venv
 
@@ -71,7 +76,7 @@ def run_route(args) -> None:
         }), flush=True)
 
 
-def _route_problem(args) -> tuple:
+def _route_problem(args: argparse.Namespace) -> tuple:
     """The scene of `python -m app run` for --config / --mesh-size / --mesh-cache:
     (mesh, ContactSetup, stiffness with the supports and floating pins applied, those
     constrained DOFs)."""
@@ -106,12 +111,12 @@ def _route_problem(args) -> tuple:
 class _Timed:
     """Calls timed between barriers: wall and CPU seconds, max over ranks, by name."""
 
-    def __init__(self, comm) -> None:
+    def __init__(self, comm: Any) -> None:
         self.comm, self.mpi = comm, comm.tompi4py()
         self.times: dict[str, float] = {}
         self.cpu: dict[str, float] = {}
 
-    def __call__(self, name: str, fn, *a):
+    def __call__(self, name: str, fn: Callable, *a: Any) -> Any:
         """fn(*a), timed as `name`; returns its result."""
         self.comm.barrier()
         t0, c0 = time.perf_counter(), time.process_time()
@@ -123,7 +128,8 @@ class _Timed:
         return out
 
 
-def _time_route(route: str, timed: _Timed, solver, k, b, contact, fixed_all) -> None:
+def _time_route(route: str, timed: _Timed, solver: Any, k: Any, b: Any, contact: Any,
+                fixed_all: np.ndarray) -> None:
     """The timed steps of one route (module docstring) on the stiffness k and a right-hand
     side b; the schur route also records n_schur_dofs in timed.times."""
     import numpy as np

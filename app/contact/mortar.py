@@ -27,6 +27,8 @@ the formula is symmetric in the two sides. Tangent t_j = (-n_y, n_x) as in
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 import scipy.sparse as sp
 from scipy.spatial import cKDTree
@@ -230,8 +232,8 @@ def _no_slave_error(itf, sd: float) -> InputError:
 
 
 def _slave_normals(pts: np.ndarray, s_edges: np.ndarray, m_edges: np.ndarray,
-                   nodes: np.ndarray, sd: float,
-                   rule) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+                   nodes: np.ndarray, sd: float, rule: Callable[..., np.ndarray]
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Closest master point and contact normal of the slave nodes `nodes` (q,).
 
     Returns found (q,) bool (a master segment within sd and the node not on the master
