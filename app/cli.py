@@ -36,9 +36,17 @@ ALLOW_LARGE_HELP = ("run even when the mesh estimated from the geometry and elem
 
 
 def _parser() -> argparse.ArgumentParser:
+    """The `python -m app` parser: subcommands run and study."""
     p = argparse.ArgumentParser(prog="python -m app", description=DESCRIPTION,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = p.add_subparsers(dest="command", required=True)
+    _run_parser(sub)
+    _study_parser(sub)
+    return p
+
+
+def _run_parser(sub: argparse._SubParsersAction) -> None:
+    """The `run` subcommand and its arguments."""
     r = sub.add_parser("run", help="solve one scene (a TOML config)",
                        description="Solve one scene and write OUT/results.xdmf, "
                        "OUT/contact.xdmf (if any contact), step_*.h5 and summary.json. "
@@ -66,6 +74,10 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     r.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help=SET_HELP)
+
+
+def _study_parser(sub: argparse._SubParsersAction) -> None:
+    """The `study` subcommand and its arguments (convergence study, or --sweep)."""
     s = sub.add_parser("study", help="convergence study: methods x refinement levels",
                        description="Refine level by level (each level splits every quad of "
                        "the level-0 mesh into four; --remesh: gmsh halves every element size) "
@@ -99,6 +111,14 @@ def _parser() -> argparse.ArgumentParser:
     s.add_argument("--reference-levels", type=int, default=0, metavar="K",
                    help="the reference method alone also runs K levels finer than --levels "
                    "(default 0), so every other method's finest level has a finer reference")
+    _sweep_arguments(s)
+    s.add_argument("--out", default=None, help="default: out/study_<config>")
+    s.add_argument("--quiet", action="store_true", help="no progress lines")
+    s.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help=SET_HELP)
+
+
+def _sweep_arguments(s: argparse.ArgumentParser) -> None:
+    """The study arguments of a parameter sweep (--sweep, --at-step, --refine)."""
     s.add_argument("--sweep", action="append", default=[], metavar="KEY=V1,V2,...",
                    help="parameter study instead of a convergence study (repeatable; every "
                    "combination runs once): KEY is a config path as in --set, e.g. "
@@ -109,10 +129,6 @@ def _parser() -> argparse.ArgumentParser:
                    "(default 0: the last; negative counts back from the last)")
     s.add_argument("--refine", type=int, default=0, metavar="N",
                    help="with --sweep: uniform splits of the config mesh (as run --refine)")
-    s.add_argument("--out", default=None, help="default: out/study_<config>")
-    s.add_argument("--quiet", action="store_true", help="no progress lines")
-    s.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help=SET_HELP)
-    return p
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -21,6 +21,7 @@ import csv
 import math
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from petsc4py import PETSc
@@ -90,20 +91,9 @@ def run_study(cfg: Config, out: Path, levels: int, methods: list[tuple[str, int]
     their finest levels are compared with a finer reference. Raises SolveError if every
     run fails.
     """
-    if reference_mode not in REFERENCE_MODES:
-        raise InputError(f"--reference must be one of {', '.join(REFERENCE_MODES)}")
+    columns, ref_label = _study_reference(cfg, methods, reference, reference_mode)
     rank = PETSc.COMM_WORLD.getRank()
-    if cfg.reference is None:
-        raise InputError(f"{cfg.path}: a study needs a [reference] table with type one of "
-                         f"{sorted(REFERENCES)}")
-    columns = REFERENCES[cfg.reference["type"]].columns
-    labels = [label(m, sd) for m, sd in methods]
-    if reference is not None and reference not in labels:
-        raise InputError(f"--reference-method {reference} is not among the methods "
-                         f"({', '.join(labels)})")
-    ref_label = reference or ("4SD" if "4SD" in labels else labels[-1])
     out = Path(out)
-    cache = out / "mesh_cache"
     rows: list[dict] = []
     profiles: dict[tuple[int, str], dict] = {}
     failures: list[str] = []
@@ -113,34 +103,67 @@ def run_study(cfg: Config, out: Path, levels: int, methods: list[tuple[str, int]
         for method, sd in methods:
             if level > last - reference_levels and label(method, sd) != ref_label:
                 continue  # finer levels: the reference method only
-            tag = f"level {level}/{last} {label(method, sd)}"
             scale = base_scale * 2.0**-level if remesh else base_scale
             opts = RunOptions(out=out / f"L{level}_{label(method, sd)}", method=method, sd=sd,
-                              mesh_scale=scale, quiet=quiet, mesh_cache=cache,
-                              progress_prefix=tag, refine=0 if remesh else level)
-            try:
-                s = run(cfg, opts)
-            except SolveError as exc:
-                failures.append(f"{tag}: {exc}")
-                if rank == 0 and not quiet:
-                    print(f"[{time.perf_counter() - t0:8.2f} s] {tag}: failed: {exc}",
-                          flush=True)
+                              mesh_scale=scale, quiet=quiet, mesh_cache=out / "mesh_cache",
+                              progress_prefix=f"level {level}/{last} {label(method, sd)}",
+                              refine=0 if remesh else level)
+            s = _try_run(cfg, opts, failures, t0)
+            if s is None:
                 continue
-            row = study_row(s, level, label(method, sd), columns)
-            rows.append(row)
+            rows.append(study_row(s, level, label(method, sd), columns))
             if rank == 0:
-                profiles[(level, row["method"])] = profile(s, opts.out)
-                write_csv(out / "study.csv", rows)
-                if not quiet:
-                    errs = ", ".join(f"{k[4:]} {row[k]:.3e}" for k in row if k.startswith("err_"))
-                    print(f"[{time.perf_counter() - t0:8.2f} s] {tag}: {row['n_dofs']} DOFs, "
-                          f"{row['t_total']:.2f} s, {errs}", flush=True)
+                _record_row(out, rows, profiles, s, opts, t0)
     if not rows:
         raise SolveError(f"every run of the study failed ({len(failures)} runs; first: "
                          f"{failures[0].splitlines()[0] if failures else 'none'})")
     if rank == 0:
         finish_study(cfg, out, rows, profiles, ref_label, reference_mode, quiet)
     return rows
+
+
+def _study_reference(cfg: Config, methods: list[tuple[str, int]], reference: str | None,
+                     reference_mode: str) -> tuple[list, str]:
+    """The err_* columns of the config's reference type and the reference method's label;
+    InputError for an unknown reference_mode, a config without [reference] or a
+    reference method that is not run."""
+    if reference_mode not in REFERENCE_MODES:
+        raise InputError(f"--reference must be one of {', '.join(REFERENCE_MODES)}")
+    if cfg.reference is None:
+        raise InputError(f"{cfg.path}: a study needs a [reference] table with type one of "
+                         f"{sorted(REFERENCES)}")
+    columns = REFERENCES[cfg.reference["type"]].columns
+    labels = [label(m, sd) for m, sd in methods]
+    if reference is not None and reference not in labels:
+        raise InputError(f"--reference-method {reference} is not among the methods "
+                         f"({', '.join(labels)})")
+    return columns, reference or ("4SD" if "4SD" in labels else labels[-1])
+
+
+def _try_run(cfg: Config, opts: RunOptions, failures: list[str], t0: float) -> dict | None:
+    """The summary of one study run, or None if it raised SolveError (the message is
+    appended to failures and, on rank 0 unless quiet, printed; t0: the study's start)."""
+    tag = opts.progress_prefix
+    try:
+        return run(cfg, opts)
+    except SolveError as exc:
+        failures.append(f"{tag}: {exc}")
+        if PETSc.COMM_WORLD.getRank() == 0 and not opts.quiet:
+            print(f"[{time.perf_counter() - t0:8.2f} s] {tag}: failed: {exc}", flush=True)
+        return None
+
+
+def _record_row(out: Path, rows: list[dict], profiles: dict, s: dict, opts: RunOptions,
+                t0: float) -> None:
+    """Rank 0, after a run whose row is rows[-1] (summary s): its profile, study.csv
+    rewritten, and the progress line unless quiet (t0: the study's start)."""
+    row = rows[-1]
+    profiles[(row["level"], row["method"])] = profile(s, opts.out)
+    write_csv(out / "study.csv", rows)
+    if not opts.quiet:
+        errs = ", ".join(f"{k[4:]} {row[k]:.3e}" for k in row if k.startswith("err_"))
+        print(f"[{time.perf_counter() - t0:8.2f} s] {opts.progress_prefix}: "
+              f"{row['n_dofs']} DOFs, {row['t_total']:.2f} s, {errs}", flush=True)
 
 
 def study_row(s: dict, level: int, method: str, columns) -> dict:
@@ -215,7 +238,6 @@ def plot_study(rows: list[dict], out: Path, title: str = "", note: str = "",
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    import matplotlib.ticker
 
     methods = list(dict.fromkeys(r["method"] for r in rows))
     errs = [k for k in dict.fromkeys(k for r in rows for k in r)
@@ -229,31 +251,50 @@ def plot_study(rows: list[dict], out: Path, title: str = "", note: str = "",
         for ax in axes.ravel()[len(errs):]:
             ax.axis("off")
         for ax, ek in zip(axes.ravel(), errs, strict=False):
-            for m in methods:
-                rr = [r for r in rows if r["method"] == m]
-                x = np.array([r[xkey] for r in rr], dtype=float)
-                y = np.array([r.get(ek, math.nan) for r in rr], dtype=float)
-                lab = m
-                if xkey == "n_dofs":
-                    orders = [r.get(f"order_{ek}", math.nan) for r in rr]
-                    last = next((o for o in reversed(orders) if math.isfinite(o)), math.nan)
-                    lab += f" (rate {fitted_rate(x, y):.2f}, last order {last:.2f})"
-                ax.loglog(x, y, "o-", label=lab, ms=3)
-            if (floors or {}).get(ek, 0) > 0:
-                ax.axhline(floors[ek], color="grey", ls=":", lw=1,
-                           label="uncertainty of the Richardson limit")
-            ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
-            ax.set_xlabel(xlabel)
-            ax.set_ylabel("relative error")
-            ax.set_title(("vs closed form: " if ek.startswith("err_") else "vs reference: ")
-                         + ek[4:], fontsize=9)
-            ax.grid(True, which="both", alpha=0.3)
-            ax.legend(fontsize=7)
+            _error_panel(ax, rows, methods, ek, xkey, xlabel, floors)
         fig.suptitle(f"{title}; {note}" if note else title, fontsize=10)
         fig.tight_layout()
         fig.savefig(out / fname, dpi=100)
         plt.close(fig)
         paths.append(out / fname)
+    paths.append(_plot_energy_vs_sd(rows, methods, out))
+    return paths
+
+
+def _error_panel(ax: Any, rows: list[dict], methods: list[str], ek: str, xkey: str, xlabel: str,
+                 floors: dict[str, float] | None) -> None:
+    """One log-log panel of plot_study: column ek against xkey ("n_dofs": the legend
+    gives the fitted rate and the last observed order), one line per method, and the
+    reference's uncertainty floors[ek] dotted if > 0."""
+    import matplotlib.ticker
+
+    for m in methods:
+        rr = [r for r in rows if r["method"] == m]
+        x = np.array([r[xkey] for r in rr], dtype=float)
+        y = np.array([r.get(ek, math.nan) for r in rr], dtype=float)
+        lab = m
+        if xkey == "n_dofs":
+            orders = [r.get(f"order_{ek}", math.nan) for r in rr]
+            last = next((o for o in reversed(orders) if math.isfinite(o)), math.nan)
+            lab += f" (rate {fitted_rate(x, y):.2f}, last order {last:.2f})"
+        ax.loglog(x, y, "o-", label=lab, ms=3)
+    if (floors or {}).get(ek, 0) > 0:
+        ax.axhline(floors[ek], color="grey", ls=":", lw=1,
+                   label="uncertainty of the Richardson limit")
+    ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel("relative error")
+    ax.set_title(("vs closed form: " if ek.startswith("err_") else "vs reference: ")
+                 + ek[4:], fontsize=9)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=7)
+
+
+def _plot_energy_vs_sd(rows: list[dict], methods: list[str], out: Path) -> Path:
+    """OUT/energy_vs_sd.png: strain energy against the smoothing domains per element, one
+    line per level, FEM-Q4 dashed; returns its path."""
+    import matplotlib.pyplot as plt
+
     fig, ax = plt.subplots(figsize=(5, 3.8))
     sds = [m for m in methods if m.endswith("SD")]
     for level in sorted({r["level"] for r in rows}):
@@ -271,5 +312,4 @@ def plot_study(rows: list[dict], out: Path, title: str = "", note: str = "",
     fig.tight_layout()
     fig.savefig(out / "energy_vs_sd.png", dpi=100)
     plt.close(fig)
-    paths.append(out / "energy_vs_sd.png")
-    return paths
+    return out / "energy_vs_sd.png"

@@ -30,9 +30,14 @@ import shutil
 import subprocess
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 from app_runner import ENV, ROOT
+
+if TYPE_CHECKING:
+    import numpy as np
 
 sys.path.insert(0, str(ROOT))  # this checkout's app, not another one installed in .venv
 
@@ -47,26 +52,45 @@ def _peak_mb() -> float:
 
 def run_route(args) -> None:
     """One route in this process; prints its JSON line on rank 0."""
+    from petsc4py import PETSc
+
+    from app.assembly.solve import LinearSolver
+
+    comm = PETSc.COMM_WORLD
+    mpi = comm.tompi4py()
+    mesh, contact, k, fixed_all = _route_problem(args)
+    timed = _Timed(comm)
+    before = mpi.allreduce(_peak_mb())
+    solver = LinearSolver(k)
+    b = k.createVecLeft()
+    b.setRandom()
+    _time_route(args.route, timed, solver, k, b, contact, fixed_all)
+    peak = mpi.allreduce(_peak_mb())
+    if comm.getRank() == 0:
+        print(json.dumps({
+            "route": args.route, "ranks": comm.getSize(), "n_dofs": 2 * mesh.n_nodes,
+            "n_pairs": contact.pairs.n_pairs, "seconds": {k: round(v, 3) for k, v in
+                                                          timed.times.items()},
+            "cpu_seconds": {k: round(v, 3) for k, v in timed.cpu.items()},
+            "peak_memory_mb": round(peak, 1), "peak_before_factorization_mb": round(before, 1),
+        }), flush=True)
+
+
+def _route_problem(args: argparse.Namespace) -> tuple:
+    """The scene of `python -m app run` for --config / --mesh-size / --mesh-cache:
+    (mesh, ContactSetup, stiffness with the supports and floating pins applied, those
+    constrained DOFs)."""
     import numpy as np
     from petsc4py import PETSc
 
     from app.assembly.loads import constrained_dofs
-    from app.assembly.solve import LinearSolver, apply_dirichlet, set_default_options
+    from app.assembly.solve import apply_dirichlet, set_default_options
     from app.assembly.stiffness import assemble_stiffness
-    from app.condensation.compliance import (
-        attach_schur,
-        compliance_from_factor,
-        compliance_schur,
-        request_schur,
-    )
-    from app.condensation.recovery import contact_displacement
     from app.config import load_config
     from app.interface.contact import ContactSetup
     from app.interface.floating import floating_modes
     from app.run import RunOptions, build_scene_mesh, collective, make_discretisation
 
-    comm = PETSc.COMM_WORLD
-    mpi = comm.tompi4py()
     cfg = load_config(Path(args.config))
     opts = RunOptions(mesh_scale=args.mesh_size / cfg.mesh_size if args.mesh_size else 1.0,
                       mesh_cache=Path(args.mesh_cache) if args.mesh_cache else None,
@@ -79,33 +103,53 @@ def run_route(args) -> None:
     floating = floating_modes(mesh, cfg, fixed, contact, disc)
     pins = floating.pins if floating else np.zeros(0, dtype=np.int64)
     fixed_all = np.union1d(fixed, pins)
-    k = assemble_stiffness(mesh, disc, comm)
+    k = assemble_stiffness(mesh, disc, PETSc.COMM_WORLD)
     apply_dirichlet(k, fixed_all)
-    times: dict[str, float] = {}
-    cpu: dict[str, float] = {}
+    return mesh, contact, k, fixed_all
 
-    def timed(name, fn, *a):
-        comm.barrier()
+
+class _Timed:
+    """Calls timed between barriers: wall and CPU seconds, max over ranks, by name."""
+
+    def __init__(self, comm: Any) -> None:
+        self.comm, self.mpi = comm, comm.tompi4py()
+        self.times: dict[str, float] = {}
+        self.cpu: dict[str, float] = {}
+
+    def __call__(self, name: str, fn: Callable, *a: Any) -> Any:
+        """fn(*a), timed as `name`; returns its result."""
+        self.comm.barrier()
         t0, c0 = time.perf_counter(), time.process_time()
         out = fn(*a)
         c1 = time.process_time()
-        comm.barrier()
-        times[name] = mpi.allreduce(time.perf_counter() - t0, op=_max())
-        cpu[name] = mpi.allreduce(c1 - c0, op=_max())
+        self.comm.barrier()
+        self.times[name] = self.mpi.allreduce(time.perf_counter() - t0, op=_max())
+        self.cpu[name] = self.mpi.allreduce(c1 - c0, op=_max())
         return out
 
-    before = mpi.allreduce(_peak_mb())
-    solver = LinearSolver(k)
-    b = k.createVecLeft()
-    b.setRandom()
-    if args.route == "schur":
+
+def _time_route(route: str, timed: _Timed, solver: Any, k: Any, b: Any, contact: Any,
+                fixed_all: np.ndarray) -> None:
+    """The timed steps of one route (module docstring) on the stiffness k and a right-hand
+    side b; the schur route also records n_schur_dofs in timed.times."""
+    import numpy as np
+
+    from app.condensation.compliance import (
+        attach_schur,
+        compliance_from_factor,
+        compliance_schur,
+        request_schur,
+    )
+    from app.condensation.recovery import contact_displacement
+
+    if route == "schur":
         def factor():
             dofs = request_schur(solver, contact.g, fixed_all)
             timed("mumps_with_schur_set", solver.factor)
             timed("schur_dense_factorization", attach_schur, solver, k, dofs)
             return dofs
         dofs = timed("factorization", factor)
-        times["n_schur_dofs"] = dofs.size
+        timed.times["n_schur_dofs"] = dofs.size
         timed("compliance", compliance_from_factor, solver, contact.g, fixed_all)
         timed("solve", solver.solve, b)
         lam = np.random.default_rng(0).random(contact.g.shape[0])
@@ -113,17 +157,8 @@ def run_route(args) -> None:
     else:
         timed("factorization", solver.factor)
         timed("solve", solver.solve, b)
-        if args.route == "two":
+        if route == "two":
             timed("compliance", compliance_schur, k, contact.g, fixed_all)
-    peak = mpi.allreduce(_peak_mb())
-    if comm.getRank() == 0:
-        print(json.dumps({
-            "route": args.route, "ranks": comm.getSize(), "n_dofs": 2 * mesh.n_nodes,
-            "n_pairs": contact.pairs.n_pairs, "seconds": {k: round(v, 3) for k, v in
-                                                          times.items()},
-            "cpu_seconds": {k: round(v, 3) for k, v in cpu.items()},
-            "peak_memory_mb": round(peak, 1), "peak_before_factorization_mb": round(before, 1),
-        }), flush=True)
 
 
 def _to_all(vec):

@@ -23,6 +23,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import numpy as np
@@ -101,7 +102,8 @@ def emit(row: dict) -> None:
     print(json.dumps(row), flush=True)
 
 
-def main() -> None:
+def _arguments() -> argparse.Namespace:
+    """The command line (see the module docstring)."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--only", nargs="+", default=["patch", "hertz", "cattaneo", "multibody",
                                                    "mu0"])
@@ -113,7 +115,11 @@ def main() -> None:
                     help="config of the Hertz rows in configs/ (e.g. hertz_patch)")
     ap.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUE",
                     help="config override passed to every run (repeatable)")
-    a = ap.parse_args()
+    return ap.parse_args()
+
+
+def main() -> None:
+    a = _arguments()
     extra = [x for kv in a.sets for x in ("--set", kv)]
     if "family" in a.only:
         for k in (1, 4, 16, 64, 256):
@@ -123,52 +129,78 @@ def main() -> None:
         for swapped in (False, True):
             base = {"discretisation": disc, "swapped": swapped} | ({"set": a.sets} if a.sets
                                                                    else {})
-            if "patch" in a.only:
-                s, c = run("patch", disc, swapped, extra)
-                emit(base | {"case": "patch", "error": s.get("error"),
-                             "max_rel_dev": float(np.abs(c["p"] - 10).max() / 10)})
-            if "hertz" in a.only:
-                for h in a.hertz_sizes:
-                    s, c = run("hertz", disc, swapped, ["--mesh-size", str(h), *extra],
-                               a.hertz_config)
-                    hz = s.get("reference", {}).get("hertz", {})
-                    q = s.get("mesh_quality", {})
-                    emit(base | {"case": "hertz", "config": a.hertz_config, "mesh_size": h,
-                                 "error": s.get("error"),
-                                 "n_dofs": s.get("n_dofs"), "n_elements": s.get("n_elements"),
-                                 "wall_s": round(s["wall_seconds"], 2),
-                                 "min_angle": q.get("min_corner_angle_deg"),
-                                 "max_angle": q.get("max_corner_angle_deg"),
-                                 "max_aspect": q.get("max_aspect_ratio"),
-                                 "p_max_err": hz.get("p_max_rel_error"),
-                                 "half_width_err": hz.get("half_width_rel_error"),
-                                 "p_l2_interp_floor": hz.get("pressure_l2_interp_floor"),
-                                 "element": float(np.median(c["length"][c["p"] > 0])),
-                                 "seconds": {k: round(v, 3) for k, v in
-                                             s.get("timings", {}).items()},
-                                 "p_l2_interp": hz.get("pressure_l2_interp_rel_error"),
-                                 "p_l2": hz.get("pressure_l2_rel_error")})
-            if "cattaneo" in a.only:
-                s, c = run("cattaneo", disc, swapped, extra)
-                ca = s.get("reference", {}).get("cattaneo", {})
-                emit(base | {"case": "cattaneo", "error": s.get("error"),
-                             "stick_edges": ca.get("stick_edges"),
-                             "q_l2_interp": ca.get("traction_l2_interp_rel_error"),
-                             "q_l2": ca.get("traction_l2_rel_error")})
-            if "multibody" in a.only:
-                for block2 in a.block2_sizes:  # 0.08 as shipped, 0.02 about the arc's
-                    b2 = ["--set", f"body.block2.size={block2}"]
-                    s, c = run("multibody", disc, swapped, [*b2, *extra])
-                    on = c["p"] > 0
-                    dev = local_fit_deviation(c["x"][on], c["p"][on])
-                    emit(base | {"case": "multibody", "block2_size": block2,
-                                 "error": s.get("error"), "n_in_contact": int(on.sum()),
-                                 "max_fit_deviation": float(dev.max(initial=0.0))})
-            if "mu0" in a.only:
-                s, c = run("cattaneo", disc, swapped, ["--set", "interface.contact.mu=0.0", *extra])
-                emit(base | {"case": "cattaneo_mu0", "failed_step": s.get("failed_step"),
-                             "steps_written": len(s.get("steps", [])),
-                             "error": (s.get("error") or "")[:120]})
+            for case, rows in CASES.items():
+                if case in a.only:
+                    for row in rows(disc, swapped, extra, a):
+                        emit(base | row)
+
+
+def _patch_rows(disc: str, swapped: bool, extra: list[str],
+                a: argparse.Namespace) -> Iterator[dict]:
+    """Patch test: the largest relative deviation of p from 10."""
+    s, c = run("patch", disc, swapped, extra)
+    yield {"case": "patch", "error": s.get("error"),
+           "max_rel_dev": float(np.abs(c["p"] - 10).max() / 10)}
+
+
+def _hertz_rows(disc: str, swapped: bool, extra: list[str],
+                a: argparse.Namespace) -> Iterator[dict]:
+    """Hertz at every --hertz-sizes: pressure errors, sizes, mesh quality, seconds."""
+    for h in a.hertz_sizes:
+        s, c = run("hertz", disc, swapped, ["--mesh-size", str(h), *extra], a.hertz_config)
+        hz = s.get("reference", {}).get("hertz", {})
+        q = s.get("mesh_quality", {})
+        yield {"case": "hertz", "config": a.hertz_config, "mesh_size": h,
+               "error": s.get("error"),
+               "n_dofs": s.get("n_dofs"), "n_elements": s.get("n_elements"),
+               "wall_s": round(s["wall_seconds"], 2),
+               "min_angle": q.get("min_corner_angle_deg"),
+               "max_angle": q.get("max_corner_angle_deg"),
+               "max_aspect": q.get("max_aspect_ratio"),
+               "p_max_err": hz.get("p_max_rel_error"),
+               "half_width_err": hz.get("half_width_rel_error"),
+               "p_l2_interp_floor": hz.get("pressure_l2_interp_floor"),
+               "element": float(np.median(c["length"][c["p"] > 0])),
+               "seconds": {k: round(v, 3) for k, v in s.get("timings", {}).items()},
+               "p_l2_interp": hz.get("pressure_l2_interp_rel_error"),
+               "p_l2": hz.get("pressure_l2_rel_error")}
+
+
+def _cattaneo_rows(disc: str, swapped: bool, extra: list[str],
+                   a: argparse.Namespace) -> Iterator[dict]:
+    """Cattaneo: stick edges and the L2 errors of q."""
+    s, c = run("cattaneo", disc, swapped, extra)
+    ca = s.get("reference", {}).get("cattaneo", {})
+    yield {"case": "cattaneo", "error": s.get("error"), "stick_edges": ca.get("stick_edges"),
+           "q_l2_interp": ca.get("traction_l2_interp_rel_error"),
+           "q_l2": ca.get("traction_l2_rel_error")}
+
+
+def _multibody_rows(disc: str, swapped: bool, extra: list[str],
+                    a: argparse.Namespace) -> Iterator[dict]:
+    """Multibody `indent` at every --block2-sizes: the largest deviation of p from a
+    local quadratic fit."""
+    for block2 in a.block2_sizes:  # 0.08 as shipped, 0.02 about the arc's
+        b2 = ["--set", f"body.block2.size={block2}"]
+        s, c = run("multibody", disc, swapped, [*b2, *extra])
+        on = c["p"] > 0
+        dev = local_fit_deviation(c["x"][on], c["p"][on])
+        yield {"case": "multibody", "block2_size": block2, "error": s.get("error"),
+               "n_in_contact": int(on.sum()), "max_fit_deviation": float(dev.max(initial=0.0))}
+
+
+def _mu0_rows(disc: str, swapped: bool, extra: list[str],
+              a: argparse.Namespace) -> Iterator[dict]:
+    """Frictionless Cattaneo: the step where it stops."""
+    s, c = run("cattaneo", disc, swapped, ["--set", "interface.contact.mu=0.0", *extra])
+    yield {"case": "cattaneo_mu0", "failed_step": s.get("failed_step"),
+           "steps_written": len(s.get("steps", [])), "error": (s.get("error") or "")[:120]}
+
+
+CASES: dict[str, Callable[[str, bool, list[str], argparse.Namespace], Iterator[dict]]] = {
+    "patch": _patch_rows, "hertz": _hertz_rows, "cattaneo": _cattaneo_rows,
+    "multibody": _multibody_rows, "mu0": _mu0_rows}
+"""The rows of each --only case for one (discretisation, swapped), in the output order."""
 
 
 if __name__ == "__main__":

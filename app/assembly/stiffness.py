@@ -91,6 +91,28 @@ def petsc_matrix(csr: compiled.SplitCSR, n_glob: int, comm) -> PETSc.Mat:
 def _assemble_numpy(mesh: Mesh, disc: Discretisation, comm, n0: int, n1: int) -> PETSc.Mat:
     """The reference route: numpy sort + bincount, PETSc copies the CSR."""
     n_nodes = mesh.n_nodes
+    uniq, inv, vals = _node_pair_entries(mesh, disc, n0, n1)
+    n_local = n1 - n0
+    indptr, indices, data = _block_csr(uniq, inv, vals, n_nodes, n_local)
+    n_glob = 2 * n_nodes
+    mat = PETSc.Mat().createAIJ(
+        size=((2 * n_local, n_glob), (2 * n_local, n_glob)),
+        csr=(indptr, indices, data),
+        comm=comm,
+    )
+    mat.assemble()
+    return mat
+
+
+def _node_pair_entries(mesh: Mesh, disc: Discretisation, n0: int,
+                       n1: int) -> tuple[np.ndarray, np.ndarray, list[np.ndarray]]:
+    """Element-matrix entries of the node pairs (a, b) whose row node a is in [n0, n1).
+
+    Returns uniq (P,) sorted keys (a - n0) * n_nodes + b of the distinct pairs, inv (E,)
+    the key index of every entry, and vals: 4 arrays (E,), the uu, uv, vu, vv values of
+    the entries (to be summed per key).
+    """
+    n_nodes = mesh.n_nodes
     quads = mesh.quads
     touches = np.any((quads >= n0) & (quads < n1), axis=1)
     elements = np.flatnonzero(touches)
@@ -112,6 +134,13 @@ def _assemble_numpy(mesh: Mesh, disc: Discretisation, comm, n0: int, n1: int) ->
         key = (rows[e_idx, p_idx] - n0).astype(np.int64) * n_nodes + cols[e_idx, p_idx]
         uniq, inv = np.unique(key, return_inverse=True)
         vals = [kb[k][e_idx, p_idx // 4, p_idx % 4] for k in range(4)]
+    return uniq, inv, vals
+
+
+def _block_csr(uniq: np.ndarray, inv: np.ndarray, vals: list[np.ndarray], n_nodes: int,
+               n_local: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Scalar CSR (indptr, indices, data) of the n_local owned nodes' DOF rows from the
+    node-pair entries of `_node_pair_entries` (2x2 blocks summed per pair, column-sorted)."""
     n_pairs = uniq.size
     # 2x2 block values of each entry, summed into the unique node pairs.
     blocks = np.empty((n_pairs, 2, 2))
@@ -119,7 +148,6 @@ def _assemble_numpy(mesh: Mesh, disc: Discretisation, comm, n0: int, n1: int) ->
         blocks[:, k // 2, k % 2] = np.bincount(inv, weights=vals[k], minlength=n_pairs)
     row_node = uniq // n_nodes  # local node index, sorted
     col_node = uniq % n_nodes
-    n_local = n1 - n0
     per_node = np.bincount(row_node, minlength=n_local)  # neighbours per local node
     # Scalar CSR: rows 2I and 2I+1 each hold 2 * per_node[I] entries.
     row_len = np.repeat(2 * per_node, 2)
@@ -141,12 +169,4 @@ def _assemble_numpy(mesh: Mesh, disc: Discretisation, comm, n0: int, n1: int) ->
     data[base0 + 1] = blocks[:, 0, 1]
     data[base1] = blocks[:, 1, 0]
     data[base1 + 1] = blocks[:, 1, 1]
-
-    n_glob = 2 * n_nodes
-    mat = PETSc.Mat().createAIJ(
-        size=((2 * n_local, n_glob), (2 * n_local, n_glob)),
-        csr=(indptr, indices, data),
-        comm=comm,
-    )
-    mat.assemble()
-    return mat
+    return indptr, indices, data

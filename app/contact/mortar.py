@@ -27,6 +27,8 @@ the formula is symmetric in the two sides. Tangent t_j = (-n_y, n_x) as in
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 import scipy.sparse as sp
 from scipy.spatial import cKDTree
@@ -183,57 +185,20 @@ def mortar_constraints(mesh: Mesh, itf, index: int, normal_rule=None) -> Contact
     convex master is slightly negative (dual shape functions are negative in part), an
     O(h^2 / R) property of the discretisation, not an overlap.
     """
-    label = itf.name
     sd = float(itf.search_distance)
     pts = np.asarray(mesh.points, dtype=float)
-    n = mesh.n_nodes
-    s_edges = orient_boundary_edges(mesh, _curve_edges(mesh, itf.slave, "slave", label),
-                                    f"interface '{label}': slave curve '{itf.slave}'")
-    m_edges = orient_boundary_edges(mesh, _curve_edges(mesh, itf.master, "master", label),
-                                    f"interface '{label}': master curve '{itf.master}'")
-    xa, xb = pts[m_edges[:, 0]], pts[m_edges[:, 1]]
-    if np.any(np.linalg.norm(xb - xa, axis=1) == 0):
-        raise InputError(f"interface '{label}': master curve '{itf.master}' has an edge of "
-                         "zero length (coincident nodes)")
-    nu_s, k_s = nodal_normals(pts, s_edges, n)
-    nu_m, k_m = nodal_normals(pts, m_edges, n)
+    s_edges, m_edges = _interface_edges(mesh, itf, pts)
     nodes, d_len = tributary_length(pts, s_edges)
-    m_degree = np.bincount(m_edges.ravel(), minlength=n)
-    seg, xr, dist = closest_segments(pts[nodes], xa, xb, sd)
-    found = (seg >= 0) & (m_degree[nodes] == 0)
-    sg = np.where(found, seg, 0)
-    xi = np.clip(np.nan_to_num(xr), 0.0, 1.0)
-    ma, mb = m_edges[sg, 0], m_edges[sg, 1]
-    nu_mp = _unit((1 - xi)[:, None] * nu_m[ma] + xi[:, None] * nu_m[mb])
-    k_mp = (1 - xi) * k_m[ma] + xi * k_m[mb]
-    normal = np.zeros((n, 2))
     rule = contact_normal if normal_rule is None else normal_rule
-    normal[nodes] = np.where(found[:, None], rule(nu_s[nodes], k_s[nodes], nu_mp, k_mp),
-                             -nu_s[nodes])
-
-    active = found[np.searchsorted(nodes, s_edges)].any(axis=1)
-    se = s_edges[active]
-    if se.shape[0] == 0:
-        raise InputError(f"interface '{label}': no slave node of '{itf.slave}' lies within "
-                         f"search_distance={sd:g} of '{itf.master}' (raise search_distance "
-                         "or check the curves)")
-    xs1, xs2 = pts[se[:, 0]], pts[se[:, 1]]
-    e, f = _candidates(xs1, xs2, xa, xb, sd)
-    pair, jj, ll, val = segment_integrals(xs1, xs2, normal[se[:, 0]], normal[se[:, 1]],
-                                          xa, xb, e, f)
-    mm = _rows(nodes, n, se, m_edges, pair, jj, ll, val, e, f)
-    cover = np.asarray(mm.sum(axis=1)).ravel()
+    found, sg, xi, normal = _slave_normals(pts, s_edges, m_edges, nodes, sd, rule)
+    w, cover = _covered_weights(pts, nodes, s_edges, m_edges, found, normal, itf, sd)
     nrm = normal[nodes]
-    w = sp.diags(1.0 / np.where(cover > 0, cover, 1.0)) @ mm  # rows sum to 1
     g0 = np.einsum("ij,ij->i", nrm, pts[nodes] - w @ pts)
     keep = found & (cover >= MIN_COVER * d_len) & (g0 <= sd)
     if not keep.any():
-        raise InputError(f"interface '{label}': no slave node of '{itf.slave}' lies within "
-                         f"search_distance={sd:g} of '{itf.master}' (raise search_distance "
-                         "or check the curves)")
-    d = xb[sg] - xa[sg]
-    xp = xa[sg] + xi[:, None] * d
-    g_node = _cross(pts[nodes] - xp, d) / np.linalg.norm(d, axis=1)  # signed, open > 0
+        raise _no_slave_error(itf, sd)
+    xa, xb = pts[m_edges[:, 0]], pts[m_edges[:, 1]]
+    g_node = _nodal_gap(pts[nodes], xa[sg], xb[sg], xi)
     _check_penetration(itf, pts, xa, xb, nodes[keep], g_node[keep])
     k = np.flatnonzero(keep)
     tan = np.column_stack([-nrm[:, 1], nrm[:, 0]])
@@ -242,6 +207,88 @@ def mortar_constraints(mesh: Mesh, itf, index: int, normal_rule=None) -> Contact
         master=m_edges[sg[k]].copy(), xi=xi[k], normal=nrm[k], tangent=tan[k], g0=g0[k],
         position=pts[nodes[k]].copy(), length=d_len[k])
     return ContactConstraints(pairs, *_padded_rows(w[k].tocsr(), pairs))
+
+
+def _interface_edges(mesh: Mesh, itf, pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Slave and master edges (k, 2) of the interface, each oriented with its body on the
+    left; InputError if a master edge has zero length. pts: (n_nodes, 2) coordinates."""
+    label = itf.name
+    s_edges = orient_boundary_edges(mesh, _curve_edges(mesh, itf.slave, "slave", label),
+                                    f"interface '{label}': slave curve '{itf.slave}'")
+    m_edges = orient_boundary_edges(mesh, _curve_edges(mesh, itf.master, "master", label),
+                                    f"interface '{label}': master curve '{itf.master}'")
+    xa, xb = pts[m_edges[:, 0]], pts[m_edges[:, 1]]
+    if np.any(np.linalg.norm(xb - xa, axis=1) == 0):
+        raise InputError(f"interface '{label}': master curve '{itf.master}' has an edge of "
+                         "zero length (coincident nodes)")
+    return s_edges, m_edges
+
+
+def _no_slave_error(itf, sd: float) -> InputError:
+    """The InputError of an interface with no slave node facing its master."""
+    return InputError(f"interface '{itf.name}': no slave node of '{itf.slave}' lies within "
+                      f"search_distance={sd:g} of '{itf.master}' (raise search_distance "
+                      "or check the curves)")
+
+
+def _slave_normals(pts: np.ndarray, s_edges: np.ndarray, m_edges: np.ndarray,
+                   nodes: np.ndarray, sd: float, rule: Callable[..., np.ndarray]
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Closest master point and contact normal of the slave nodes `nodes` (q,).
+
+    Returns found (q,) bool (a master segment within sd and the node not on the master
+    curve), sg (q,) that segment (0 if not found), xi (q,) its parameter in [0, 1], and
+    normal (n_nodes, 2): rule(nu_s, k_s, nu_m, k_m) (master -> slave) at the found nodes,
+    -nu_s at the other slave nodes, zero elsewhere.
+    """
+    n = pts.shape[0]
+    nu_s, k_s = nodal_normals(pts, s_edges, n)
+    nu_m, k_m = nodal_normals(pts, m_edges, n)
+    m_degree = np.bincount(m_edges.ravel(), minlength=n)
+    seg, xr, dist = closest_segments(pts[nodes], pts[m_edges[:, 0]], pts[m_edges[:, 1]], sd)
+    found = (seg >= 0) & (m_degree[nodes] == 0)
+    sg = np.where(found, seg, 0)
+    xi = np.clip(np.nan_to_num(xr), 0.0, 1.0)
+    ma, mb = m_edges[sg, 0], m_edges[sg, 1]
+    nu_mp = _unit((1 - xi)[:, None] * nu_m[ma] + xi[:, None] * nu_m[mb])
+    k_mp = (1 - xi) * k_m[ma] + xi * k_m[mb]
+    normal = np.zeros((n, 2))
+    normal[nodes] = np.where(found[:, None], rule(nu_s[nodes], k_s[nodes], nu_mp, k_mp),
+                             -nu_s[nodes])
+    return found, sg, xi, normal
+
+
+def _covered_weights(pts: np.ndarray, nodes: np.ndarray, s_edges: np.ndarray,
+                     m_edges: np.ndarray, found: np.ndarray, normal: np.ndarray, itf,
+                     sd: float) -> tuple[sp.csr_matrix, np.ndarray]:
+    """Mortar weights of the slave nodes `nodes` (q,) on the master nodes.
+
+    Integrates the slave edges with a found node against the master segments within sd
+    (normal: (n_nodes, 2) contact normals). Returns w (q, n_nodes), the covered mortar
+    matrix M with its rows divided by their sums (rows of uncovered nodes stay zero), and
+    cover (q,) those row sums (length). InputError if no slave edge has a found node.
+    """
+    xa, xb = pts[m_edges[:, 0]], pts[m_edges[:, 1]]
+    active = found[np.searchsorted(nodes, s_edges)].any(axis=1)
+    se = s_edges[active]
+    if se.shape[0] == 0:
+        raise _no_slave_error(itf, sd)
+    xs1, xs2 = pts[se[:, 0]], pts[se[:, 1]]
+    e, f = _candidates(xs1, xs2, xa, xb, sd)
+    pair, jj, ll, val = segment_integrals(xs1, xs2, normal[se[:, 0]], normal[se[:, 1]],
+                                          xa, xb, e, f)
+    mm = _rows(nodes, pts.shape[0], se, m_edges, pair, jj, ll, val, e, f)
+    cover = np.asarray(mm.sum(axis=1)).ravel()
+    w = sp.diags(1.0 / np.where(cover > 0, cover, 1.0)) @ mm  # rows sum to 1
+    return w, cover
+
+
+def _nodal_gap(x: np.ndarray, xa: np.ndarray, xb: np.ndarray, xi: np.ndarray) -> np.ndarray:
+    """Signed distance (q,) of the points x (q, 2) to the lines xa -> xb (q, 2) at their
+    closest points xa + xi (xb - xa): open > 0 (master body on the left of xa -> xb)."""
+    d = xb - xa
+    xp = xa + xi[:, None] * d
+    return _cross(x - xp, d) / np.linalg.norm(d, axis=1)
 
 
 def _padded_rows(w: sp.csr_matrix, pairs: ContactPairs):

@@ -163,7 +163,7 @@ def closest_segments(x: np.ndarray, xa: np.ndarray, xb: np.ndarray,
     """
     x = np.asarray(x, dtype=float)
     sd = float(search_distance)
-    ns, p = xa.shape[0], x.shape[0]
+    p = x.shape[0]
     ab = xb - xa
     len2 = np.einsum("ij,ij->i", ab, ab)
     lens = np.sqrt(len2)
@@ -177,39 +177,67 @@ def closest_segments(x: np.ndarray, xa: np.ndarray, xb: np.ndarray,
     exc_best = np.full(p, np.inf)
     for c in np.unique(cls):
         ids = np.flatnonzero(cls == c)
-        nc = ids.size
         half = 0.5 * float(lens[ids].max())
-        tree = cKDTree(mid[ids])
-        ub = (sd + half) * (1 + 1e-9) + tie_abs
-        todo = np.arange(p)
-        k = min(_K0, nc)
-        while todo.size:
-            dm, im = tree.query(x[todo], k=k, distance_upper_bound=ub)
-            dm, im = dm.reshape(todo.size, k), im.reshape(todo.size, k)
-            valid = im < nc
-            ic = ids[np.where(valid, im, 0)]  # (q, k) candidate segments
-            rel = x[todo][:, None, :] - xa[ic]
-            xr = np.einsum("qkj,qkj->qk", rel, ab[ic]) / len2[ic]
-            diff = rel - np.clip(xr, 0.0, 1.0)[..., None] * ab[ic]
-            dd = np.where(valid, np.hypot(diff[..., 0], diff[..., 1]), np.inf)
-            exc = np.maximum(np.maximum(-xr, xr - 1.0), 0.0)
-            # column 0: the best so far (from earlier classes or rounds)
-            dd = np.column_stack([dist[todo], dd])
-            xr = np.column_stack([xi_raw[todo], xr])
-            exc = np.column_stack([exc_best[todo], exc])
-            ic = np.column_stack([seg[todo], ic])
-            j = _pick(dd, exc, np.where(ic < 0, ns, ic), tie_abs)
-            rows = np.arange(todo.size)
-            dist[todo], xi_raw[todo] = dd[rows, j], xr[rows, j]
-            exc_best[todo], seg[todo] = exc[rows, j], ic[rows, j]
-            # all k midpoints inside the radius: there may be more candidates, query again
-            radius = np.minimum(dist[todo], sd) * (1 + 1e-9) + half + tie_abs
-            more = valid[:, -1] & (dm[:, -1] <= radius) & (k < nc)
-            todo = todo[more]
-            k = min(2 * k, nc)
+        _search_class(x, xa, ab, len2, mid, ids, half, sd, tie_abs,
+                      (seg, xi_raw, dist, exc_best))
     far = ~(dist <= sd)
     seg[far], xi_raw[far], dist[far] = -1, np.nan, np.inf
     return seg, xi_raw, dist
+
+
+def _search_class(x: np.ndarray, xa: np.ndarray, ab: np.ndarray, len2: np.ndarray,
+                  mid: np.ndarray, ids: np.ndarray, half: float, sd: float, tie_abs: float,
+                  best: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]) -> None:
+    """Improve the best segment of every point with the segments `ids` of one length class.
+
+    x: (p, 2) points; xa, ab, len2, mid: (s, 2), (s, 2), (s,), (s, 2) segment starts,
+    A -> B vectors, squared lengths and midpoints; half: the class's largest half length.
+    best: (seg, xi_raw, dist, exc) (p,) arrays, updated in place (see `_pick`). The k
+    nearest midpoints within (sd + half) are queried, k doubled for the points whose
+    k-th midpoint still lies inside the radius that could hold a closer segment.
+    """
+    seg, xi_raw, dist, exc_best = best
+    ns, nc = xa.shape[0], ids.size
+    tree = cKDTree(mid[ids])
+    ub = (sd + half) * (1 + 1e-9) + tie_abs
+    todo = np.arange(x.shape[0])
+    k = min(_K0, nc)
+    while todo.size:
+        dm, im = tree.query(x[todo], k=k, distance_upper_bound=ub)
+        dm, im = dm.reshape(todo.size, k), im.reshape(todo.size, k)
+        valid = im < nc
+        ic = ids[np.where(valid, im, 0)]  # (q, k) candidate segments
+        xr, dd, exc = _candidate_distances(x[todo], xa, ab, len2, ic, valid)
+        # column 0: the best so far (from earlier classes or rounds)
+        dd = np.column_stack([dist[todo], dd])
+        xr = np.column_stack([xi_raw[todo], xr])
+        exc = np.column_stack([exc_best[todo], exc])
+        ic = np.column_stack([seg[todo], ic])
+        j = _pick(dd, exc, np.where(ic < 0, ns, ic), tie_abs)
+        rows = np.arange(todo.size)
+        dist[todo], xi_raw[todo] = dd[rows, j], xr[rows, j]
+        exc_best[todo], seg[todo] = exc[rows, j], ic[rows, j]
+        # all k midpoints inside the radius: there may be more candidates, query again
+        radius = np.minimum(dist[todo], sd) * (1 + 1e-9) + half + tie_abs
+        more = valid[:, -1] & (dm[:, -1] <= radius) & (k < nc)
+        todo = todo[more]
+        k = min(2 * k, nc)
+
+
+def _candidate_distances(x: np.ndarray, xa: np.ndarray, ab: np.ndarray, len2: np.ndarray,
+                         ic: np.ndarray,
+                         valid: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Projections of the points x (q, 2) onto their candidate segments ic (q, k).
+
+    Returns xr (q, k) the unclipped parameter, dd (q, k) the distance to the clipped
+    projection (inf where not `valid`), exc (q, k) the excursion of xr outside [0, 1].
+    """
+    rel = x[:, None, :] - xa[ic]
+    xr = np.einsum("qkj,qkj->qk", rel, ab[ic]) / len2[ic]
+    diff = rel - np.clip(xr, 0.0, 1.0)[..., None] * ab[ic]
+    dd = np.where(valid, np.hypot(diff[..., 0], diff[..., 1]), np.inf)
+    exc = np.maximum(np.maximum(-xr, xr - 1.0), 0.0)
+    return xr, dd, exc
 
 
 def _checked_search_distance(label: str, slave: str, master: str, search_distance) -> float:
@@ -279,7 +307,34 @@ def contact_pairs(mesh: Mesh, slave: str, master: str, search_distance: float, *
     s_edges = _curve_edges(mesh, slave, "slave", label)
     m_edges = _curve_edges(mesh, master, "master", label)
     pts = np.asarray(mesh.points, dtype=float)
+    m_edges, seg_len, tol = _master_segments(mesh, pts, m_edges, label, master,
+                                             penetration_tol)
 
+    nodes, trib = tributary_length(pts, s_edges)
+    m_degree = np.bincount(m_edges.ravel(), minlength=mesh.n_nodes)
+    keep_s = m_degree[nodes] == 0
+    nodes, trib = nodes[keep_s], trib[keep_s]
+    xs = pts[nodes]
+
+    keep, sg, xi, t, nrm, g0 = _project_slaves(xs, pts, m_edges, seg_len, m_degree, sd)
+    if not keep.any():
+        raise InputError(f"interface '{label}': no slave node of '{slave}' lies within "
+                         f"search_distance={sd:g} of '{master}' (raise search_distance or "
+                         f"check the curves)")
+    if not interference:
+        _refuse_penetration(label, xs, g0, keep & (g0 < -tol), tol)
+    k = np.flatnonzero(keep)
+    return ContactPairs(interface=np.full(k.size, int(interface), dtype=np.int64),
+                        slave=nodes[k].astype(np.int64), master=m_edges[sg[k]].copy(),
+                        xi=xi[k], normal=nrm[k], tangent=t[k], g0=g0[k],
+                        position=xs[k].copy(), length=trib[k])
+
+
+def _master_segments(mesh: Mesh, pts: np.ndarray, m_edges: np.ndarray, label: str,
+                     master: str,
+                     penetration_tol: float | None) -> tuple[np.ndarray, np.ndarray, float]:
+    """Master edges oriented with the master body on the left (k, 2), their lengths (k,)
+    and the penetration tolerance (length); InputError for a zero-length edge."""
     m_edges = orient_boundary_edges(mesh, m_edges,
                                     f"interface '{label}': master curve '{master}'")
     xa, xb = pts[m_edges[:, 0]], pts[m_edges[:, 1]]
@@ -288,13 +343,20 @@ def contact_pairs(mesh: Mesh, slave: str, master: str, search_distance: float, *
     if np.any(seg_len == 0):
         raise InputError(f"interface '{label}': master curve '{master}' has an edge of zero "
                          f"length (coincident nodes)")
+    return m_edges, seg_len, tol
 
-    nodes, trib = tributary_length(pts, s_edges)
-    m_degree = np.bincount(m_edges.ravel(), minlength=mesh.n_nodes)
-    keep_s = m_degree[nodes] == 0
-    nodes, trib = nodes[keep_s], trib[keep_s]
-    xs = pts[nodes]
 
+def _project_slaves(xs: np.ndarray, pts: np.ndarray, m_edges: np.ndarray,
+                    seg_len: np.ndarray, m_degree: np.ndarray,
+                    sd: float) -> tuple[np.ndarray, ...]:
+    """Closest master segment of every slave point xs (q, 2) and the pair geometry there.
+
+    m_edges (k, 2) oriented master edges, seg_len (k,) their lengths, m_degree (n_nodes,)
+    master edges per node. Returns keep (q,) bool (a segment within sd, not beyond a free
+    master end by more than XI_EPS, g0 <= sd), sg (q,) segment (0 if none), xi (q,) in
+    [0, 1], tangent t (q, 2), normal (q, 2) and gap g0 (q,) (module sign conventions).
+    """
+    xa, xb = pts[m_edges[:, 0]], pts[m_edges[:, 1]]
     seg, xr, dist = closest_segments(xs, xa, xb, sd)
     found = seg >= 0
     sg = np.where(found, seg, 0)
@@ -309,24 +371,7 @@ def contact_pairs(mesh: Mesh, slave: str, master: str, search_distance: float, *
     xp = (1 - xi)[:, None] * xa[sg] + xi[:, None] * xb[sg]
     g0 = np.einsum("ij,ij->i", nrm, xs - xp)
     keep = found & ~beyond & (dist <= sd) & (g0 <= sd)
-    if not keep.any():
-        raise InputError(f"interface '{label}': no slave node of '{slave}' lies within "
-                         f"search_distance={sd:g} of '{master}' (raise search_distance or "
-                         f"check the curves)")
-    if not interference:
-        _refuse_penetration(label, xs, g0, keep & (g0 < -tol), tol)
-    k = np.flatnonzero(keep)
-    return ContactPairs(
-        interface=np.full(k.size, int(interface), dtype=np.int64),
-        slave=nodes[k].astype(np.int64),
-        master=m_edges[sg[k]].copy(),
-        xi=xi[k],
-        normal=nrm[k],
-        tangent=t[k],
-        g0=g0[k],
-        position=xs[k].copy(),
-        length=trib[k],
-    )
+    return keep, sg, xi, t, nrm, g0
 
 
 def constraint_matrix(pairs: ContactPairs, n_nodes: int) -> sp.csr_matrix:

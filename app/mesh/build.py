@@ -354,22 +354,8 @@ def build_mesh(scene: Scene, scale: float = 1.0, cache_dir: str | Path | None = 
     With mesh.file set, that gmsh .msh is read instead (scale and cache_dir are unused).
     """
     if scene.file is not None:
-        from app.mesh.read import read_mesh
-
-        path = Path(scene.file)
-        if base_dir is not None and not path.is_absolute():
-            path = Path(base_dir) / path
-        mesh = read_mesh(path, [b.name for b in scene.bodies])
-        span = float(np.ptp(mesh.points, axis=0).max()) if mesh.n_nodes else 1.0
-        sizes = [b.size if math.isfinite(b.size) else span for b in scene.bodies]
-        attach_named_points(mesh, scene.points, sizes)
-        return mesh
-
-    if isinstance(scale, bool) or not isinstance(scale, int | float | np.floating):
-        raise InputError(f"mesh size scale must be a number > 0 (got {scale!r})")
-    scale = float(scale)
-    if not (math.isfinite(scale) and scale > 0):
-        raise InputError(f"mesh size scale must be a number > 0 (got {scale!r})")
+        return _read_scene_file(scene, base_dir)
+    scale = _checked_scale(scale)
     import gmsh
 
     cache_file = None
@@ -385,22 +371,52 @@ def build_mesh(scene: Scene, scale: float = 1.0, cache_dir: str | Path | None = 
     with _gmsh_session() as g:
         for spec in scene.bodies:
             parts.append(_mesh_body(g, spec, scene, scale))
+    mesh = _join_bodies(parts, [b.name for b in scene.bodies])
+    attach_named_points(mesh, scene.points, [b.size for b in scene.bodies])
+    if cache_file is not None:
+        save_mesh(cache_file, mesh)
+    return mesh
 
+
+def _read_scene_file(scene: Scene, base_dir: str | Path | None) -> Mesh:
+    """The gmsh .msh of mesh.file (relative to base_dir if given) with the named points
+    attached; a body without a size uses the mesh's extent as its point tolerance scale."""
+    from app.mesh.read import read_mesh
+
+    path = Path(scene.file)
+    if base_dir is not None and not path.is_absolute():
+        path = Path(base_dir) / path
+    mesh = read_mesh(path, [b.name for b in scene.bodies])
+    span = float(np.ptp(mesh.points, axis=0).max()) if mesh.n_nodes else 1.0
+    sizes = [b.size if math.isfinite(b.size) else span for b in scene.bodies]
+    attach_named_points(mesh, scene.points, sizes)
+    return mesh
+
+
+def _checked_scale(scale: Any) -> float:
+    """The mesh size scale as a float; InputError unless a finite number > 0."""
+    if isinstance(scale, bool) or not isinstance(scale, int | float | np.floating):
+        raise InputError(f"mesh size scale must be a number > 0 (got {scale!r})")
+    scale = float(scale)
+    if not (math.isfinite(scale) and scale > 0):
+        raise InputError(f"mesh size scale must be a number > 0 (got {scale!r})")
+    return scale
+
+
+def _join_bodies(parts: list[tuple], names: list[str]) -> Mesh:
+    """One Mesh of the per-body (points, quads, curves) of `_mesh_body`, in body order:
+    node numbers (in quads and curves) offset by the nodes of the bodies before."""
     offsets = np.cumsum([0] + [len(p[0]) for p in parts])
     curves: dict[str, np.ndarray] = {}
     for (_, _, cv), off in zip(parts, offsets, strict=False):
         for name, edges in cv.items():
             curves[name] = edges + off
-    mesh = Mesh(
+    return Mesh(
         points=np.concatenate([p[0] for p in parts]),
         quads=np.concatenate([p[1] + off for p, off in zip(parts, offsets, strict=False)]),
         body=np.concatenate(
             [np.full(len(p[1]), i, dtype=np.int64) for i, p in enumerate(parts)]
         ),
-        body_names=[b.name for b in scene.bodies],
+        body_names=names,
         curves=curves,
     )
-    attach_named_points(mesh, scene.points, [b.size for b in scene.bodies])
-    if cache_file is not None:
-        save_mesh(cache_file, mesh)
-    return mesh

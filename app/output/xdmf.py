@@ -146,52 +146,76 @@ class ResultWriter:
         cell_data = {**cell_data, **more_cells}
         if contact is not None:
             contact = {**contact, **more_contact}
-        data = {**point_data, **cell_data}
-        if load_factors:
-            data["load_factor"] = np.array(list(load_factors.values()), dtype=np.float64)
-        if contact is not None:
-            data |= {f"contact/{k}": v for k, v in contact.items()}
-            if "position" in contact:
-                data["contact/vertices"] = np.arange(len(contact["position"]), dtype=np.int64)
-        attrs = {"step": step, "time": time}
-        if load_factors:
-            attrs["load_factor_names"] = list(load_factors)
-        write_h5(self.out / fname, data, attrs)
+        write_h5(self.out / fname, *_step_datasets(step, time, point_data, cell_data, contact,
+                                                   load_factors))
+        self.bulk_grids.append(self._bulk_grid(fname, step, time, point_data, cell_data,
+                                               load_factors))
+        _extend(self.bulk_doc, self.bulk_grids)
+        if contact is not None and "position" in contact:
+            self.contact_grids.append(_contact_grid(fname, step, time, contact, renames,
+                                                    load_factors))
+            _extend(self.contact_doc, self.contact_grids)
+        return self.out / fname
 
+    def _bulk_grid(self, fname: str, step: int, time: float, point_data: dict[str, np.ndarray],
+                   cell_data: dict[str, np.ndarray],
+                   load_factors: dict[str, float] | None) -> str:
+        """The results.xdmf Grid of one step: the mesh of mesh.h5 and the node and cell
+        arrays of the step file `fname`."""
         attrs = [_attribute(k, "Node", fname, f"/{k}", np.asarray(v))
                  for k, v in point_data.items()]
         attrs += [_attribute(k, "Cell", fname, f"/{k}", np.asarray(v))
                   for k, v in cell_data.items()]
         geo = _item("mesh.h5", "/points", self.points.shape, self.points.dtype)
         topo = _item("mesh.h5", "/quads", self.quads.shape, self.quads.dtype)
-        self.bulk_grids.append(
+        return (
             f'<Grid Name="step_{step}" GridType="Uniform">'
             f'<Time Value="{time:.17g}"/>{_information(load_factors)}'
             f'<Topology TopologyType="Quadrilateral" NumberOfElements="{self.quads.shape[0]}">'
             f"{topo}</Topology>"
             f'<Geometry GeometryType="XY">{geo}</Geometry>' + "".join(attrs) + "</Grid>"
         )
-        _extend(self.bulk_doc, self.bulk_grids)
 
-        if contact is not None and "position" in contact:
-            pos = np.asarray(contact["position"], dtype=np.float64)
-            m = pos.shape[0]
-            hidden = {"position", *renames.values()}
-            cattrs = [_attribute(renames.get(k, k), "Node", fname, f"/contact/{k}",
-                                 np.asarray(v))
-                      for k, v in contact.items() if k not in hidden]
-            verts = _item(fname, "/contact/vertices", (m,), np.dtype("int64"))
-            self.contact_grids.append(
-                f'<Grid Name="contact_{step}" GridType="Uniform">'
-                f'<Time Value="{time:.17g}"/>{_information(load_factors)}'
-                f'<Topology TopologyType="Polyvertex" NumberOfElements="{m}" '
-                f'NodesPerElement="1">{verts}</Topology>'
-                f'<Geometry GeometryType="XY">'
-                f"{_item(fname, '/contact/position', pos.shape, pos.dtype)}</Geometry>"
-                + "".join(cattrs) + "</Grid>"
-            )
-            _extend(self.contact_doc, self.contact_grids)
-        return self.out / fname
+
+def _step_datasets(step: int, time: float, point_data: dict[str, np.ndarray],
+                   cell_data: dict[str, np.ndarray], contact: dict[str, np.ndarray] | None,
+                   load_factors: dict[str, float] | None) -> tuple[dict, dict]:
+    """(datasets, attributes) of a step's HDF5 file: the node and cell arrays, the load
+    factors (/load_factor, names in the attribute "load_factor_names"), and the contact
+    arrays under /contact with /contact/vertices 0..m-1 for the Polyvertex topology."""
+    data = {**point_data, **cell_data}
+    if load_factors:
+        data["load_factor"] = np.array(list(load_factors.values()), dtype=np.float64)
+    if contact is not None:
+        data |= {f"contact/{k}": v for k, v in contact.items()}
+        if "position" in contact:
+            data["contact/vertices"] = np.arange(len(contact["position"]), dtype=np.int64)
+    attrs = {"step": step, "time": time}
+    if load_factors:
+        attrs["load_factor_names"] = list(load_factors)
+    return data, attrs
+
+
+def _contact_grid(fname: str, step: int, time: float, contact: dict[str, np.ndarray],
+                  renames: dict[str, str], load_factors: dict[str, float] | None) -> str:
+    """The contact.xdmf Grid of one step: the pairs of the step file `fname` as points
+    (contact["position"] (m, 2)), the other contact arrays as node attributes; a key of
+    `renames` (e.g. "normal_3d") shows under its value ("normal"), which it replaces."""
+    pos = np.asarray(contact["position"], dtype=np.float64)
+    m = pos.shape[0]
+    hidden = {"position", *renames.values()}
+    cattrs = [_attribute(renames.get(k, k), "Node", fname, f"/contact/{k}", np.asarray(v))
+              for k, v in contact.items() if k not in hidden]
+    verts = _item(fname, "/contact/vertices", (m,), np.dtype("int64"))
+    return (
+        f'<Grid Name="contact_{step}" GridType="Uniform">'
+        f'<Time Value="{time:.17g}"/>{_information(load_factors)}'
+        f'<Topology TopologyType="Polyvertex" NumberOfElements="{m}" '
+        f'NodesPerElement="1">{verts}</Topology>'
+        f'<Geometry GeometryType="XY">'
+        f"{_item(fname, '/contact/position', pos.shape, pos.dtype)}</Geometry>"
+        + "".join(cattrs) + "</Grid>"
+    )
 
 
 def restore_steps(writer: ResultWriter, n_steps: int) -> None:
