@@ -141,56 +141,74 @@ def parse_expression(text: str, where: str, parameters: dict[str, float]) -> Exp
 
 def _check_tree(expr: Expression) -> None:
     """Every node on the whitelist; depth bounded (iterative, so no recursion limit)."""
-    allowed = ", ".join(sorted(FUNCTIONS))
-    names = sorted(set(COORDINATES) | set(CONSTANTS) | set(expr.parameters))
     stack: list[tuple[ast.AST, int]] = [(expr.tree.body, 1)]
     while stack:
         node, depth = stack.pop()
         if depth > MAX_DEPTH:
             raise expr.fail(f"is nested more than {MAX_DEPTH} levels deep")
         seg = ast.get_source_segment(expr.text, node) or ast.unparse(node)
-        if isinstance(node, ast.Constant):
-            v = node.value
-            if isinstance(v, bool) or not isinstance(v, int | float):
-                kind = "a string" if isinstance(v, str | bytes) else repr(v)
-                raise expr.fail(f"contains {kind}: only real numbers are allowed")
-            try:
-                if not math.isfinite(float(v)):
-                    raise OverflowError
-            except OverflowError:
-                raise expr.fail(f"contains the number {_show(seg, 20)}, too large for a "
-                                "float") from None
-        elif isinstance(node, ast.Name):
-            if node.id in FUNCTIONS:
-                raise expr.fail(f"uses the function {node.id} without calling it")
-            if node.id not in names:
-                raise expr.fail(f"uses the unknown name '{node.id}' (names: "
-                                f"{', '.join(names)}; functions: {allowed})")
-        elif isinstance(node, ast.BinOp):
-            if type(node.op) not in _BINARY:
-                raise expr.fail(f"uses the operator {_SYMBOL.get(type(node.op), '?')}: "
-                                "only + - * / ** are allowed")
-            stack += [(node.left, depth + 1), (node.right, depth + 1)]
-        elif isinstance(node, ast.UnaryOp):
-            if type(node.op) not in _UNARY:
-                raise expr.fail(f"uses the operator {_SYMBOL.get(type(node.op), '?')}: "
-                                "only + - * / ** are allowed")
-            stack.append((node.operand, depth + 1))
-        elif isinstance(node, ast.Call):
-            f = node.func.id if isinstance(node.func, ast.Name) else None
-            if f not in FUNCTIONS:
-                raise expr.fail(f"calls {_show(seg, 30)}: only the "
-                                f"functions {allowed} may be called")
-            n = FUNCTIONS[f][1]
-            if node.keywords or len(node.args) != n or any(
-                    isinstance(a, ast.Starred) for a in node.args):
-                raise expr.fail(f"calls {f} with {len(node.args)} argument(s) "
-                                f"{'and keywords ' if node.keywords else ''}(it takes {n})")
-            stack += [(a, depth + 1) for a in node.args]
-        else:
+        check = _NODE_CHECKS.get(type(node))
+        if check is None:
             raise expr.fail(f"contains {_describe(node)} ({_show(seg, 30)}): only numbers, "
                             "+ - * / **, parentheses, x, y, parameters, pi, e and the "
-                            "functions " + allowed + " are allowed")
+                            "functions " + ", ".join(sorted(FUNCTIONS)) + " are allowed")
+        stack += [(child, depth + 1) for child in check(expr, node, seg)]
+
+
+def _check_constant(expr: Expression, node: ast.Constant, seg: str) -> list[ast.AST]:
+    """A real, finite number (no bool, string, bytes, complex or None)."""
+    v = node.value
+    if isinstance(v, bool) or not isinstance(v, int | float):
+        kind = "a string" if isinstance(v, str | bytes) else repr(v)
+        raise expr.fail(f"contains {kind}: only real numbers are allowed")
+    try:
+        if not math.isfinite(float(v)):
+            raise OverflowError
+    except OverflowError:
+        raise expr.fail(f"contains the number {_show(seg, 20)}, too large for a "
+                        "float") from None
+    return []
+
+
+def _check_name(expr: Expression, node: ast.Name, seg: str) -> list[ast.AST]:
+    """A coordinate, constant or parameter; a function name only when called."""
+    names = sorted(set(COORDINATES) | set(CONSTANTS) | set(expr.parameters))
+    if node.id in FUNCTIONS:
+        raise expr.fail(f"uses the function {node.id} without calling it")
+    if node.id not in names:
+        raise expr.fail(f"uses the unknown name '{node.id}' (names: {', '.join(names)}; "
+                        f"functions: {', '.join(sorted(FUNCTIONS))})")
+    return []
+
+
+def _check_operator(expr: Expression, node: ast.BinOp | ast.UnaryOp,
+                    seg: str) -> list[ast.AST]:
+    """+ - * / ** (binary) or + - (unary); returns the operands."""
+    allowed = _BINARY if isinstance(node, ast.BinOp) else _UNARY
+    if type(node.op) not in allowed:
+        raise expr.fail(f"uses the operator {_SYMBOL.get(type(node.op), '?')}: "
+                        "only + - * / ** are allowed")
+    return [node.left, node.right] if isinstance(node, ast.BinOp) else [node.operand]
+
+
+def _check_call(expr: Expression, node: ast.Call, seg: str) -> list[ast.AST]:
+    """A whitelisted function by name with its number of positional arguments."""
+    f = node.func.id if isinstance(node.func, ast.Name) else None
+    if f not in FUNCTIONS:
+        raise expr.fail(f"calls {_show(seg, 30)}: only the functions "
+                        f"{', '.join(sorted(FUNCTIONS))} may be called")
+    n = FUNCTIONS[f][1]
+    if node.keywords or len(node.args) != n or any(
+            isinstance(a, ast.Starred) for a in node.args):
+        raise expr.fail(f"calls {f} with {len(node.args)} argument(s) "
+                        f"{'and keywords ' if node.keywords else ''}(it takes {n})")
+    return list(node.args)
+
+
+_NODE_CHECKS = {ast.Constant: _check_constant, ast.Name: _check_name,
+                ast.BinOp: _check_operator, ast.UnaryOp: _check_operator,
+                ast.Call: _check_call}
+"""The allowed node types and their checks (each returns the children to visit)."""
 
 
 def _describe(node: ast.AST) -> str:

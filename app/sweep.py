@@ -175,7 +175,6 @@ def plot_sweep(rows: list[dict], keys: list[str], out: Path, at_step: int = 0) -
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from matplotlib.lines import Line2D
 
     ok = [r for r in rows if r.get("status") == "completed"]
     when = "the last step" if at_step == 0 else f"step {at_step}"
@@ -189,37 +188,49 @@ def plot_sweep(rows: list[dict], keys: list[str], out: Path, at_step: int = 0) -
             groups.setdefault((r["interface"], *(r[k] for k in others)), []).append(r)
         fig, axes = plt.subplots(2, 3, figsize=(12, 6.4))
         for ax, (title, cols) in zip(axes.ravel(), PANELS, strict=False):
-            for j, rr in enumerate(groups.values()):
-                rr = sorted(rr, key=lambda r: r[key])
-                x = [r[key] for r in rr]
-                for i, c in enumerate(cols):
-                    y = np.array([r.get(c, math.nan) for r in rr], dtype=float)
-                    if not np.all(np.isnan(y)):
-                        ax.plot(x, y, marker="o", ms=3, color=f"C{i}",
-                                ls=STYLES[j % len(STYLES)])
-            handles = [Line2D([], [], color=f"C{i}", label=c.replace("_length", "")
-                              .replace("_", " ")) for i, c in enumerate(cols)]
-            if ax.lines:
-                ax.legend(handles=handles, fontsize=7)
-            else:
-                ax.text(0.5, 0.5, "none in any run", ha="center", transform=ax.transAxes)
-            ax.set_xlabel(key)
-            ax.set_title(title + ("" if title in ("dissipation", "debonding step")
-                                  else f" (at {when}; peaks over all steps)"
-                                  if "peak" in " ".join(cols) else f" (at {when})"),
-                         fontsize=9)
-            ax.grid(True, alpha=0.3)
-        leg = axes.ravel()[-1]
-        leg.axis("off")
-        leg.legend(handles=[Line2D([], [], color="k", ls=STYLES[j % len(STYLES)],
-                                   label=", ".join([f"interface {g[0]}"] + [
-                                       f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}"
-                                       for k, v in zip(others, g[1:], strict=True)]))
-                            for j, g in enumerate(groups)], loc="center", fontsize=8,
-                   title="line style")
+            _sweep_panel(ax, title, cols, list(groups.values()), key, when)
+        _style_legend(axes.ravel()[-1], list(groups), others)
         fig.tight_layout()
         path = out / f"sweep_{key.replace('.', '_')}.png"
         fig.savefig(path, dpi=70)
         plt.close(fig)
         paths.append(path)
     return paths
+
+
+def _sweep_panel(ax, title: str, cols: list[str], groups: list[list[dict]], key: str,
+                 when: str) -> None:
+    """One panel: the columns `cols` (colours) of every group (line styles) against key."""
+    from matplotlib.lines import Line2D
+
+    for j, rr in enumerate(groups):
+        rr = sorted(rr, key=lambda r: r[key])
+        x = [r[key] for r in rr]
+        for i, c in enumerate(cols):
+            y = np.array([r.get(c, math.nan) for r in rr], dtype=float)
+            if not np.all(np.isnan(y)):
+                ax.plot(x, y, marker="o", ms=3, color=f"C{i}", ls=STYLES[j % len(STYLES)])
+    handles = [Line2D([], [], color=f"C{i}", label=c.replace("_length", "")
+                      .replace("_", " ")) for i, c in enumerate(cols)]
+    if ax.lines:
+        ax.legend(handles=handles, fontsize=7)
+    else:
+        ax.text(0.5, 0.5, "none in any run", ha="center", transform=ax.transAxes)
+    ax.set_xlabel(key)
+    ax.set_title(title + ("" if title in ("dissipation", "debonding step")
+                          else f" (at {when}; peaks over all steps)"
+                          if "peak" in " ".join(cols) else f" (at {when})"), fontsize=9)
+    ax.grid(True, alpha=0.3)
+
+
+def _style_legend(ax, groups: list[tuple], others: list[str]) -> None:
+    """The last panel: which line style is which interface and other keys' values."""
+    from matplotlib.lines import Line2D
+
+    ax.axis("off")
+    ax.legend(handles=[Line2D([], [], color="k", ls=STYLES[j % len(STYLES)],
+                              label=", ".join([f"interface {g[0]}"] + [
+                                  f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}"
+                                  for k, v in zip(others, g[1:], strict=True)]))
+                       for j, g in enumerate(groups)], loc="center", fontsize=8,
+              title="line style")
