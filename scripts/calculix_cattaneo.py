@@ -246,7 +246,7 @@ def plot(rows: list[dict], path: str, mu: float, R: float, E_star: float) -> Non
     fig.savefig(path, dpi=110)
 
 
-def main() -> None:
+def _arguments() -> argparse.Namespace:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--config", default="configs/cattaneo.toml")
     ap.add_argument("--mesh-size", type=float, default=None,
@@ -265,26 +265,32 @@ def main() -> None:
     ap.add_argument("--plot", help="PNG of the q(x) profiles")
     ap.add_argument("--keep", type=Path, help="keep the CalculiX job in this folder")
     ap.add_argument("--dat", type=Path, help="read this job.dat instead of running ccx")
-    a = ap.parse_args()
+    return ap.parse_args()
+
+
+def _ccx_output(a: argparse.Namespace, text: str) -> tuple[str, str | None, float | None]:
+    """(job.dat text, job.frd text or None, ccx wall seconds or None): from --dat, or a
+    ccx run in --keep or a temporary folder."""
+    if a.dat is not None:
+        frd_path = a.dat.with_suffix(".frd")
+        return a.dat.read_text(), frd_path.read_text() if frd_path.exists() else None, None
+    folder = a.keep or Path(tempfile.mkdtemp(prefix="calculix_"))
+    folder.mkdir(parents=True, exist_ok=True)
+    try:
+        dat, wall = run_ccx(text, folder)
+        frd = (folder / "job.frd").read_text() if (folder / "job.frd").exists() else None
+    finally:
+        if a.keep is None:
+            shutil.rmtree(folder, ignore_errors=True)
+    return dat, frd, wall
+
+
+def main() -> None:
+    a = _arguments()
     if a.dat is None and shutil.which("ccx") is None:
         fail("ccx (CalculiX) not found on PATH; install calculix-ccx")
     cfg, mesh, slave, deck, h_c = build(a)
-    text = write_deck(deck)
-    wall = None
-    frd = None
-    if a.dat is not None:
-        dat = a.dat.read_text()
-        if a.dat.with_suffix(".frd").exists():
-            frd = a.dat.with_suffix(".frd").read_text()
-    else:
-        folder = a.keep or Path(tempfile.mkdtemp(prefix="calculix_"))
-        folder.mkdir(parents=True, exist_ok=True)
-        try:
-            dat, wall = run_ccx(text, folder)
-            frd = (folder / "job.frd").read_text() if (folder / "job.frd").exists() else None
-        finally:
-            if a.keep is None:
-                shutil.rmtree(folder, ignore_errors=True)
+    dat, frd, wall = _ccx_output(a, write_deck(deck))
     rows = ccx_rows(a, cfg, mesh, slave, deck, dat, frd)
     if a.ours:
         rows += ours_rows(a.ours, cfg)

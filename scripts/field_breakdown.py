@@ -89,51 +89,67 @@ def exact_field(ref_summary: dict, field: str, mu: float):
             a, p0, x0, ca["stick_half_width_exact"])
 
 
-def main() -> None:
+def _arguments() -> argparse.Namespace:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("study", type=Path)
     ap.add_argument("--method", default="4SD")
     ap.add_argument("--reference", default="4SD")
     ap.add_argument("--field", choices=("q", "p"), default="q")
     ap.add_argument("--band", type=float, default=1.0, help="band half-width, pair spacings")
-    args = ap.parse_args()
+    return ap.parse_args()
+
+
+def _reference(args: argparse.Namespace) -> dict:
+    """The reference run (the reference method's finest level): its folder, pairs, the
+    exact field and its a, p0, x0, c, the contact window and its earlier contact edges."""
     refs = runs_of(args.study, args.reference)
-    ref_run = refs[max(refs)]
-    ref_s = json.loads((ref_run / "summary.json").read_text())
-    ref_last = len(ref_s["steps"])
-    ref = read_pairs(ref_run / f"step_{ref_last:04d}.h5", 0, ("x", "p", "q", "mu"))
-    mu = float(ref["mu"].max())
-    exact, a, p0, x0, c = exact_field(ref_s, args.field, mu)
-    win = contact_window(ref["x"], ref["p"])
-    ref_edges = earlier_edges(ref_run)
+    run = refs[max(refs)]
+    s = json.loads((run / "summary.json").read_text())
+    pairs = read_pairs(run / f"step_{len(s['steps']):04d}.h5", 0, ("x", "p", "q", "mu"))
+    mu = float(pairs["mu"].max())
+    exact, a, p0, x0, c = exact_field(s, args.field, mu)
+    return {"run": run, "pairs": pairs, "mu": mu, "exact": exact, "a": a, "p0": p0, "x0": x0,
+            "c": c, "window": contact_window(pairs["x"], pairs["p"]),
+            "edges": earlier_edges(run)}
+
+
+def _level_row(args: argparse.Namespace, ref: dict, level: int, run: Path,
+               study_value: float) -> dict:
+    """One level's breakdown of the method's error and of the floor (see the docstring)."""
+    exact, a, x0, c, win = ref["exact"], ref["a"], ref["x0"], ref["c"], ref["window"]
+    xr, fr = ref["pairs"]["x"], ref["pairs"][args.field]
+    s = json.loads((run / "summary.json").read_text())
+    d = read_pairs(run / f"step_{len(s['steps']):04d}.h5", 0, ("x", "p", "q"))
+    x = d["x"]
+    h = float(np.median(np.diff(x[np.abs(x - x0) < a])))
+    bands = {"edge": x0 + np.array([-a, a])}
+    if c is not None:
+        bands["stick"] = x0 + np.array([-c, c])
+        bands["lockin"] = np.r_[earlier_edges(run), ref["edges"]]
+    b = field_breakdown(x, d[args.field], xr, fr, win, bands, args.band * h)
+    fb = field_breakdown(x, exact(x), xr, exact(xr), win, bands, args.band * h)
+    lr, lm = lockin(run, a, ref["p0"], ref["mu"], x0) if c is not None else (np.nan, np.nan)
+    return {"level": level, "method": args.method, "pairs": int(x.size),
+            "h_over_a": round(h / a, 5), "study_csv": study_value, **b,
+            "nodal": nodal_l2(x, d[args.field], xr, fr, win),
+            "floor_ref": sampled_floor(x, xr, exact, win),
+            **{f"floor_{k}": v for k, v in fb.items() if k != "total"},
+            "floor_cf": interpolated_l2_rel_error(x - x0, exact(x), lambda t: exact(t + x0),
+                                                  INTERPOLATED_L2_RANGE * a),
+            "lockin_rms": lr, "lockin_max": lm}
+
+
+def main() -> None:
+    args = _arguments()
+    ref = _reference(args)
     study = {(r["level"], r["method"]): r for r in csv.DictReader(open(args.study / "study.csv"))}
     col = "ref_traction_l2" if args.field == "q" else "ref_pressure_l2"
     rows = []
     for level, run in sorted(runs_of(args.study, args.method).items()):
-        if run == ref_run:
+        if run == ref["run"]:
             continue
-        s = json.loads((run / "summary.json").read_text())
-        d = read_pairs(run / f"step_{len(s['steps']):04d}.h5", 0, ("x", "p", "q"))
-        x = d["x"]
-        h = float(np.median(np.diff(x[np.abs(x - x0) < a])))
-        bands = {"edge": x0 + np.array([-a, a])}
-        if c is not None:
-            bands["stick"] = x0 + np.array([-c, c])
-            bands["lockin"] = np.r_[earlier_edges(run), ref_edges]
-        b = field_breakdown(x, d[args.field], ref["x"], ref[args.field], win, bands,
-                            args.band * h)
-        fb = field_breakdown(x, exact(x), ref["x"], exact(ref["x"]), win, bands,
-                             args.band * h)
-        lr, lm = lockin(run, a, p0, mu, x0) if c is not None else (np.nan, np.nan)
-        row = {"level": level, "method": args.method, "pairs": int(x.size),
-               "h_over_a": round(h / a, 5), "study_csv": float(study[(str(level),
-               run.name.split("_", 1)[1])].get(col) or "nan"), **b,
-               "nodal": nodal_l2(x, d[args.field], ref["x"], ref[args.field], win),
-               "floor_ref": sampled_floor(x, ref["x"], exact, win),
-               **{f"floor_{k}": v for k, v in fb.items() if k != "total"},
-               "floor_cf": interpolated_l2_rel_error(x - x0, exact(x), lambda t: exact(t + x0),
-                                                     INTERPOLATED_L2_RANGE * a),
-               "lockin_rms": lr, "lockin_max": lm}
+        value = float(study[(str(level), run.name.split("_", 1)[1])].get(col) or "nan")
+        row = _level_row(args, ref, level, run, value)
         rows.append(row)
         print(json.dumps({k: round(v, 6) if isinstance(v, float) else v
                           for k, v in row.items()}), flush=True)
