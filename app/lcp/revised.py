@@ -307,76 +307,91 @@ def _core_revised(
     n = q.size
     S = _Revised(M, q, d, B0)
     z0var = 2 * n
-
-    def out(status: str, pivots: int) -> _CoreOut:
-        z, zset, z0 = S.z_values()
-        return _CoreOut(status, zset, z, z0, pivots, S.refactorizations)
-
     if B0.any() and not S.refactor():
         return _CoreOut("singular", B0.copy(), np.zeros(n), 0.0, 0, S.refactorizations)
-
     # first pivot: z0 enters, the most infeasible basic variable leaves
-    yR, yW, _ = S.ftran(z0var)
-    h = S.h
-    xb = np.concatenate([np.where(S.inW, S.xw, 0.0), S.xs[:h]])
-    yb = np.concatenate([np.where(S.inW, yW, 0.0), yR])
-    pos = np.concatenate([np.arange(n), S.slot_var[:h] - n])
-    r = _first_leaving(xb, yb, pos)
+    r, yR, yW = _first_pivot_row(S)
     if r is None:
-        return out("solved", 0)
+        return _revised_out(S, "solved", 0)
     if max_pivots < 1:
-        return out("pivot limit", 0)
+        return _revised_out(S, "pivot limit", 0)
     leaving = _pivot(S, z0var, r, yR, yW)
     pivots = 1
     refactor_gap = 1
     while True:
         e = leaving + n if leaving < n else leaving - n
         if pivots >= max_pivots:
-            return out("pivot limit", pivots)
+            return _revised_out(S, "pivot limit", pivots)
         if S.since_refactor and S.since_refactor % _REFINE_EVERY == 0:
             S.refine_values()
         yR, yW, res = S.ftran(e)
         if res > _RES_REFACTOR and S.since_refactor >= refactor_gap:
             if not S.refactor():
-                return out("singular", pivots)
+                return _revised_out(S, "singular", pivots)
             yR, yW, res = S.ftran(e)
             # still above the threshold on a fresh inverse: ill-conditioned basis, where
             # refactorising at every pivot would not help; wait a while before the next one
             refactor_gap = _ILL_GAP if res > _RES_REFACTOR else 1
-        h = S.h
-        inW = S.inW
-        active = S.slot_var[:h] >= 0
-        ymax = max(
-            float(np.abs(yW[inW]).max()) if inW.any() else 0.0,
-            float(np.abs(yR[active]).max()) if active.any() else 0.0,
-        )
-        ptol = piv._PIV_REL * ymax
-        cw = np.flatnonzero(inW & (yW > ptol))
-        cs = np.flatnonzero(active & (yR > ptol))
-        if cw.size + cs.size == 0:
-            return out("secondary ray", pivots)
-        xw, xs = S.xw, S.xs[:h]
-        rw = np.maximum(xw[cw], 0.0) / yW[cw]
-        rs = np.maximum(xs[cs], 0.0) / yR[cs]
-        theta = min(rw.min() if rw.size else np.inf, rs.min() if rs.size else np.inf)
-        xmax = max(1.0, float(np.abs(xw).max()) if n else 0.0, float(np.abs(xs).max(initial=0)))
-        ttol = piv._TIE_REL * xmax
-        tw = cw[(rw - theta) * yW[cw] <= ttol]
-        ts = cs[(rs - theta) * yR[cs] <= ttol]
-        c0 = S.var_slot[n]
-        if c0 >= 0 and c0 in ts:
-            r = n + int(c0)
-        elif tw.size + ts.size == 1:
-            r = int(tw[0]) if tw.size else n + int(ts[0])
-        else:
-            kinds = [("w", int(i)) for i in tw] + [("s", int(c)) for c in ts]
-            ys = np.concatenate([yW[tw], yR[ts]])
-            k = piv._lexmin(S.lex_rows(kinds) / ys[:, None])
-            r = int(tw[k]) if k < tw.size else n + int(ts[k - tw.size])
+        r = _leaving_row(S, yR, yW)
+        if r is None:
+            return _revised_out(S, "secondary ray", pivots)
         leaving = _pivot(S, e, r, yR, yW)
         pivots += 1
         if leaving == z0var:
-            return out("solved", pivots)
+            return _revised_out(S, "solved", pivots)
+
+
+def _revised_out(S: _Revised, status: str, pivots: int) -> _CoreOut:
+    """What the revised core returns on the current basis of S."""
+    z, zset, z0 = S.z_values()
+    return _CoreOut(status, zset, z, z0, pivots, S.refactorizations)
+
+
+def _first_pivot_row(S: _Revised) -> tuple[int | None, np.ndarray, np.ndarray]:
+    """The first pivot (z0 enters): the leaving position (as for `_pivot`: a row r < n of
+    W, else n + column slot; None when the start basis is feasible) and z0's column
+    (on the column slots, on the rows W)."""
+    n, h = S.n, S.h
+    yR, yW, _ = S.ftran(2 * n)
+    xb = np.concatenate([np.where(S.inW, S.xw, 0.0), S.xs[:h]])
+    yb = np.concatenate([np.where(S.inW, yW, 0.0), yR])
+    pos = np.concatenate([np.arange(n), S.slot_var[:h] - n])
+    return _first_leaving(xb, yb, pos), yR, yW
+
+
+def _leaving_row(S: _Revised, yR: np.ndarray, yW: np.ndarray) -> int | None:
+    """Ratio test for the entering column (yR on the column slots, yW on the rows W): the
+    leaving position as for `_pivot` (z0 when it ties, else the lexicographic minimum of
+    the tied rows of B^-1 B0 / y), None when no entry is positive (secondary ray)."""
+    n, h = S.n, S.h
+    inW = S.inW
+    active = S.slot_var[:h] >= 0
+    ymax = max(
+        float(np.abs(yW[inW]).max()) if inW.any() else 0.0,
+        float(np.abs(yR[active]).max()) if active.any() else 0.0,
+    )
+    ptol = piv._PIV_REL * ymax
+    cw = np.flatnonzero(inW & (yW > ptol))
+    cs = np.flatnonzero(active & (yR > ptol))
+    if cw.size + cs.size == 0:
+        return None
+    xw, xs = S.xw, S.xs[:h]
+    rw = np.maximum(xw[cw], 0.0) / yW[cw]
+    rs = np.maximum(xs[cs], 0.0) / yR[cs]
+    theta = min(rw.min() if rw.size else np.inf, rs.min() if rs.size else np.inf)
+    xmax = max(1.0, float(np.abs(xw).max()) if n else 0.0, float(np.abs(xs).max(initial=0)))
+    ttol = piv._TIE_REL * xmax
+    tw = cw[(rw - theta) * yW[cw] <= ttol]
+    ts = cs[(rs - theta) * yR[cs] <= ttol]
+    c0 = S.var_slot[n]
+    if c0 >= 0 and c0 in ts:
+        return n + int(c0)
+    if tw.size + ts.size == 1:
+        return int(tw[0]) if tw.size else n + int(ts[0])
+    kinds = [("w", int(i)) for i in tw] + [("s", int(c)) for c in ts]
+    ys = np.concatenate([yW[tw], yR[ts]])
+    k = piv._lexmin(S.lex_rows(kinds) / ys[:, None])
+    return int(tw[k]) if k < tw.size else n + int(ts[k - tw.size])
 
 
 def _pivot(S: _Revised, e: int, r: int, yR: np.ndarray, yW: np.ndarray) -> int:
