@@ -413,58 +413,85 @@ def _pivot(S: _Revised, e: int, r: int, yR: np.ndarray, yW: np.ndarray) -> int:
     S.xw -= theta * yW
     S.xs[:h] -= theta * yR
     if e >= n:  # a z_j or z0 enters
-        a = S.column(e)
-        if leave_w:  # bordering: new column slot and row slot
-            g = S.g_row(r)
-            cn, pn = S._new_slots()
-            h2 = S.h
-            u = np.zeros(h2)
-            u[:h] = yR
-            u[cn] = -1.0
-            v = np.zeros(h2)
-            v[:h] = g
-            v[pn] = -1.0
-            S.add_rank1(u, v / piv)
-            S.Xcols[cn] = a
-            S.slot_var[cn] = e
-            S.var_slot[e - n] = cn
-            S.row_slot[pn] = r
-            S.row_pos[r] = pn
-            S.inW[r] = False
-            S.xw[r] = 0.0
-            S.xs[cn] = theta
-        else:  # column replacement in slot c
-            rowc = S.inv_row(c)
-            u = yR.copy()
-            u[c] -= 1.0
-            S.add_rank1(-u, rowc / piv)
-            S.var_slot[leaving - n] = -1
-            S.Xcols[c] = a
-            S.slot_var[c] = e
-            S.var_slot[e - n] = c
-            S.xs[c] = theta
+        if leave_w:
+            _border(S, e, r, yR, piv, theta)
+        else:
+            _replace_column(S, e, c, leaving, yR, piv, theta)
     else:  # w_e enters (row e in R, row slot p)
         p = int(S.row_pos[e])
-        if leave_w:  # row replacement: row slot p now holds row r
-            g = S.g_row(r)
-            g[p] -= 1.0
-            S.add_rank1(yR, g / piv)
-            S.row_slot[p] = r
-            S.row_pos[r] = p
-            S.inW[r] = False
-            S.xw[r] = 0.0
-        else:  # deletion of column slot c and row slot p
-            rowc = S.inv_row(c)
-            S.add_rank1(-yR, rowc / piv)  # zeroes row c and column p (up to rounding)
-            S.Xcols[c] = 0.0
-            S.var_slot[leaving - n] = -1
-            S.slot_var[c] = -1
-            S.row_slot[p] = n
-            S.xs[c] = 0.0
-            S.free_c.append(c)
-            S.free_r.append(p)
+        if leave_w:
+            _replace_row(S, p, r, yR, piv)
+        else:
+            _delete_slots(S, c, p, leaving, yR, piv)
         S.row_pos[e] = -1
         S.inW[e] = True
         S.xw[e] = theta
     S.since_refactor += 1
     return leaving
+
+
+def _border(S: _Revised, e: int, r: int, yR: np.ndarray, piv: float, theta: float) -> None:
+    """z_e (or z0) enters, w_r leaves: bordering, with a new column slot and row slot."""
+    n, h = S.n, S.h
+    a = S.column(e)
+    g = S.g_row(r)
+    cn, pn = S._new_slots()
+    h2 = S.h
+    u = np.zeros(h2)
+    u[:h] = yR
+    u[cn] = -1.0
+    v = np.zeros(h2)
+    v[:h] = g
+    v[pn] = -1.0
+    S.add_rank1(u, v / piv)
+    S.Xcols[cn] = a
+    S.slot_var[cn] = e
+    S.var_slot[e - n] = cn
+    S.row_slot[pn] = r
+    S.row_pos[r] = pn
+    S.inW[r] = False
+    S.xw[r] = 0.0
+    S.xs[cn] = theta
+
+
+def _replace_column(S: _Revised, e: int, c: int, leaving: int, yR: np.ndarray, piv: float,
+                    theta: float) -> None:
+    """z_e (or z0) enters in column slot c, whose z (or z0) `leaving` leaves."""
+    n = S.n
+    a = S.column(e)
+    rowc = S.inv_row(c)
+    u = yR.copy()
+    u[c] -= 1.0
+    S.add_rank1(-u, rowc / piv)
+    S.var_slot[leaving - n] = -1
+    S.Xcols[c] = a
+    S.slot_var[c] = e
+    S.var_slot[e - n] = c
+    S.xs[c] = theta
+
+
+def _replace_row(S: _Revised, p: int, r: int, yR: np.ndarray, piv: float) -> None:
+    """A w enters from row slot p, w_r leaves: row slot p now holds row r."""
+    g = S.g_row(r)
+    g[p] -= 1.0
+    S.add_rank1(yR, g / piv)
+    S.row_slot[p] = r
+    S.row_pos[r] = p
+    S.inW[r] = False
+    S.xw[r] = 0.0
+
+
+def _delete_slots(S: _Revised, c: int, p: int, leaving: int, yR: np.ndarray,
+                  piv: float) -> None:
+    """A w enters from row slot p, the z (or z0) `leaving` of column slot c leaves: both
+    slots are freed."""
+    n = S.n
+    rowc = S.inv_row(c)
+    S.add_rank1(-yR, rowc / piv)  # zeroes row c and column p (up to rounding)
+    S.Xcols[c] = 0.0
+    S.var_slot[leaving - n] = -1
+    S.slot_var[c] = -1
+    S.row_slot[p] = n
+    S.xs[c] = 0.0
+    S.free_c.append(c)
+    S.free_r.append(p)
