@@ -423,47 +423,20 @@ def crash_basis(Ms: ScaledM, qs: np.ndarray, twin: np.ndarray | None = None,
     """
     n = qs.size
     twin = find_twins(Ms) if twin is None else twin
-    if start is None:
-        Z = (qs < DEEP_START * qs.min(initial=0.0)) & (twin < 0)
-        part = _first_stage(twin)
-        tpart = _twin_range(twin) if part is not None else None
-    else:
-        Z = _untwin(start.copy(), start, qs, twin)
-        part = tpart = None
-    extra = 0  # iterations of the twins' stage
-    solver = _BlockSolver(Ms, qs)
-    solver.symmetric = part is not None
+    Z, stages = _first_set(Ms, qs, twin, start, max_iterations)
     product = _TwinProduct(Ms, twin)
     best, best_bad = Z.copy(), n + 1
     prev_bad = None  # infeasible indices of the last round on the whole LCP
     for it in range(1, max_iterations + 1):
-        z = solver.solve(Z)
+        z = stages.solver.solve(Z)
         if z is None:
-            return best, it + extra, None
+            return best, it + stages.extra, None
         tol = _FEAS_REL * max(1.0, float(np.abs(z).max()))
-        if part is not None:  # first stage: rows and columns of `part` only
-            w = np.full(n, np.inf)
-            w[part] = Ms.matvec(z, part, rows=True) + qs[part]
-            bad_z = Z & (z < -tol)
-            if (bad_z.any() or (~Z & (w < -tol)).any()) and it < max_iterations // 2:
-                Z = (Z & ~bad_z) | (~Z & (w < -tol))
+        if stages.part is not None:  # first stage: rows and columns of `part` only
+            Z, w = stages.stage_round(z, Z, tol, it)
+            if w is None:
                 continue
-            if tpart is not None:  # the twins' LCP with these z fixed, then the whole
-                v = Ms.D[part] * z[part]  # its q': the rows of the twins only
-                w[tpart] = Ms.D[tpart] * (Ms.M[tpart, part] @ v) / Ms.mu + qs[tpart]
-                S, k, s_solver = _twin_stage(Ms, w, twin, tpart, max_iterations)
-                extra += k
-                tpart = None
-                if S is not None:
-                    Z = (Z & ~bad_z) | S
-                    if S.any():  # its factors and bordered keys serve the whole LCP
-                        solver = s_solver.retarget(qs)
-                    part = None
-                    continue
-            w = Ms.matvec(z, part) + qs  # second stage: every index may join
             checked = False
-            part = None
-            solver.symmetric = False
         else:  # checked: w~ from the final check's product (no correction after it)
             w, checked = _whole_product(z, qs, product, exact, prev_bad)
         bad_z = Z & (z < -tol)
@@ -472,15 +445,83 @@ def crash_basis(Ms: ScaledM, qs: np.ndarray, twin: np.ndarray | None = None,
         if nbad < best_bad:
             best, best_bad = Z.copy(), nbad
         if nbad == 0:
-            if not checked:
-                dz = solver.solve(Z, rhs=np.where(Z, -w, 0.0), refactor=False)
-                z = z + dz if dz is not None else z
-            # a huge z~ comes from a numerically singular block (the pivot test of _factor
-            # is weaker than a condition estimate): leave the solve to the caller's LU
-            grown = np.abs(z).max() > GROWTH_MAX * np.abs(qs).max()
-            return Z, it + extra, None if grown else z
+            return Z, it + stages.extra, _converged(stages.solver, Z, z, w, qs, checked)
         Z = _untwin((Z & ~bad_z) | bad_w, Z, w, twin)
-    return best, max_iterations + extra, None
+    return best, max_iterations + stages.extra, None
+
+
+def _first_set(Ms: ScaledM, qs: np.ndarray, twin: np.ndarray, start: np.ndarray | None,
+               max_iterations: int) -> tuple[np.ndarray, _Stages]:
+    """The first set of `crash_basis` (n,) bool and its stages: without start, the deep
+    q~ without a twin, with the first stages when the layout has them; else start
+    untwinned, on the whole LCP from the first round."""
+    if start is None:
+        Z = (qs < DEEP_START * qs.min(initial=0.0)) & (twin < 0)
+        part = _first_stage(twin)
+        tpart = _twin_range(twin) if part is not None else None
+    else:
+        Z = _untwin(start.copy(), start, qs, twin)
+        part = tpart = None
+    return Z, _Stages(Ms, qs, twin, part, tpart, max_iterations)
+
+
+def _converged(solver: _BlockSolver, Z: np.ndarray, z: np.ndarray, w: np.ndarray,
+               qs: np.ndarray, checked: bool) -> np.ndarray | None:
+    """z~ of a converged round: with one residual correction unless w~ came from the final
+    check's product (checked); None when it is huge (see `crash_basis`)."""
+    if not checked:
+        dz = solver.solve(Z, rhs=np.where(Z, -w, 0.0), refactor=False)
+        z = z + dz if dz is not None else z
+    # a huge z~ comes from a numerically singular block (the pivot test of _factor
+    # is weaker than a condition estimate): leave the solve to the caller's LU
+    grown = np.abs(z).max() > GROWTH_MAX * np.abs(qs).max()
+    return None if grown else z
+
+
+class _Stages:
+    """The rounds of `crash_basis` before the whole LCP: `part`, the index range of the
+    first stage (None when it is over or absent), `tpart`, the twins' range (None once
+    their stage ran or without it), the block solver of the rounds and `extra`, the
+    iterations of the twins' stage."""
+
+    def __init__(self, Ms: ScaledM, qs: np.ndarray, twin: np.ndarray, part: slice | None,
+                 tpart: slice | None, max_iterations: int):
+        self.Ms, self.qs, self.twin, self.max_iterations = Ms, qs, twin, max_iterations
+        self.part, self.tpart, self.extra = part, tpart, 0
+        self.solver = _BlockSolver(Ms, qs)
+        self.solver.symmetric = part is not None
+
+    def stage_round(self, z: np.ndarray, Z: np.ndarray, tol: float, it: int
+              ) -> tuple[np.ndarray, np.ndarray | None]:
+        """A first-stage round on z~ (solved on Z, iteration it): (the next set, None) when
+        the first stages go on, else (Z, w~ of the whole LCP) and they are over."""
+        Ms, qs, part = self.Ms, self.qs, self.part
+        w = np.full(qs.size, np.inf)
+        w[part] = Ms.matvec(z, part, rows=True) + qs[part]
+        bad_z = Z & (z < -tol)
+        if (bad_z.any() or (~Z & (w < -tol)).any()) and it < self.max_iterations // 2:
+            return (Z & ~bad_z) | (~Z & (w < -tol)), None
+        if self.tpart is not None:  # the twins' LCP with these z fixed, then the whole
+            S = self._twins(z, w)
+            if S is not None:
+                self.part = None
+                return (Z & ~bad_z) | S, None
+        self.part = None
+        self.solver.symmetric = False
+        return Z, Ms.matvec(z, part) + qs  # second stage: every index may join
+
+    def _twins(self, z: np.ndarray, w: np.ndarray) -> np.ndarray | None:
+        """The twins' stage (`_twin_stage`) with the first stage's z~ fixed; w: its w~ on
+        `part` (the twins' rows are set here). Its set, or None when it found none."""
+        Ms, part, tpart = self.Ms, self.part, self.tpart
+        v = Ms.D[part] * z[part]  # its q': the rows of the twins only
+        w[tpart] = Ms.D[tpart] * (Ms.M[tpart, part] @ v) / Ms.mu + self.qs[tpart]
+        S, k, s_solver = _twin_stage(Ms, w, self.twin, tpart, self.max_iterations)
+        self.extra += k
+        self.tpart = None
+        if S is not None and S.any():  # its factors and bordered keys serve the whole LCP
+            self.solver = s_solver.retarget(self.qs)
+        return S
 
 
 def _whole_product(z: np.ndarray, qs: np.ndarray, product: _TwinProduct,

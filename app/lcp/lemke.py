@@ -35,6 +35,7 @@ Conventions shared by both cores:
 from __future__ import annotations
 
 import contextlib
+from typing import NamedTuple
 
 import numpy as np
 import scipy.linalg as sla
@@ -243,6 +244,17 @@ def _try_basis(P: _Problem, B0: np.ndarray, zt: np.ndarray | None = None,
     return out if out is not None and out[2] else None
 
 
+class _Start(NamedTuple):
+    """A start basis for Lemke: B0 (n,) bool (z_i basic), z~ on it already computed (zt, z =
+    zfac * zt, checked with exact's product) or None, and the note that opens the message."""
+
+    B0: np.ndarray
+    zt: np.ndarray | None = None
+    zfac: np.ndarray | None = None
+    exact: CheckProduct | None = None
+    note: str = ""
+
+
 def _run(
     core,
     M,
@@ -253,6 +265,8 @@ def _run(
     cold_start: bool = True,
     crash: bool = True,
 ) -> LCPResult:
+    """One solve (see `lemke`): z = 0 when q >= 0, else Lemke from the warm-start basis or
+    the crash guess (`_from_start`), and from the textbook start when that fails."""
     M, q, probe, deferred = _validate(M, q, sample=basis is None and crash)
     n = q.size
     tol = DEFAULT_TOL if tol is None else float(tol)
@@ -265,67 +279,99 @@ def _run(
             zero, q.copy(), 0, "solved", 0.0, np.zeros(n, dtype=bool), "q >= 0: z = 0 solves it"
         )
     P = _Problem(M, q, tol)
-    pivots = 0
-    refacts = 0
-    warm = "none"
-    note = ""
     given = basis is not None
-    zt = zfac = exact = None
+    start = None
     if given:
-        B0 = np.asarray(basis, dtype=bool).reshape(-1)
-        if B0.shape != (n,):
-            raise ValueError(f"basis must have shape ({n},), got {B0.shape}")
-    elif crash:  # on the diagonal scaling: no pass over M beyond the probe
-        Mc, qc, zfac = diagonal_scaling(M, q)
-        exact = CheckProduct(M, q, Mc.D, zfac)  # the last round's product, the check's
-        twin = twins_from_probe(probe)
-        if deferred:
-            twin = verified_twins(M, twin)
-        quiet = np.errstate(all="ignore") if deferred else contextlib.nullcontext()
-        with quiet:  # a non-finite M is reported below, not by warnings of the guess
-            B0, iters, zt = crash_basis(Mc, qc, twin=twin, exact=exact)
-        if deferred and not exact.finite:
-            _validate(M, q)  # every entry of M, before an answer or a pivot
-        note = f"crash basis ({iters} block pivoting iterations); "
-    if (given or crash) and B0.any():
+        start = _Start(_given_basis(basis, n))
+    elif crash:
+        start = _crash_start(M, q, probe, deferred)
+    if start is None or not start.B0.any():
+        note = "" if start is None else start.note
+        return _cold(core, P, M, q, tol, max_pivots, 0, 0, note, "none")
+    out = _from_start(core, P, start, given, crash, cold_start, max_pivots)
+    if isinstance(out, LCPResult):
+        return out
+    pivots, refacts, note = out
+    return _cold(core, P, M, q, tol, max_pivots, pivots, refacts, note, "cold")
+
+
+def _given_basis(basis, n: int) -> np.ndarray:
+    """The warm-start basis as (n,) bool; ValueError on another shape."""
+    B0 = np.asarray(basis, dtype=bool).reshape(-1)
+    if B0.shape != (n,):
+        raise ValueError(f"basis must have shape ({n},), got {B0.shape}")
+    return B0
+
+
+def _crash_start(M: np.ndarray, q: np.ndarray, probe: np.ndarray, deferred: bool) -> _Start:
+    """The crash guess (`app.lcp.crash.crash_basis`) on the diagonal scaling: no pass over M
+    beyond the probe (and the final check's product, formed in its last round). deferred:
+    M is not yet known to be finite (see `_validate`); it is, before this returns."""
+    Mc, qc, zfac = diagonal_scaling(M, q)
+    exact = CheckProduct(M, q, Mc.D, zfac)  # the last round's product, the check's
+    twin = twins_from_probe(probe)
+    if deferred:
+        twin = verified_twins(M, twin)
+    quiet = np.errstate(all="ignore") if deferred else contextlib.nullcontext()
+    with quiet:  # a non-finite M is reported below, not by warnings of the guess
+        B0, iters, zt = crash_basis(Mc, qc, twin=twin, exact=exact)
+    if deferred and not exact.finite:
+        _validate(M, q)  # every entry of M, before an answer or a pivot
+    return _Start(B0, zt, zfac, exact, f"crash basis ({iters} block pivoting iterations); ")
+
+
+def _from_start(core, P: _Problem, start: _Start, given: bool, crash: bool, cold_start: bool,
+                max_pivots: int) -> LCPResult | tuple[int, int, str]:
+    """The checked answer from a start basis B0 (warm start if given, else the crash
+    guess): on B0 itself, else (given and crash) on the basis of a few block pivoting
+    iterations from it, else by Lemke from B0. When all fail: the result of a warm start
+    without cold_start, else (pivots, refactorizations, note so far) for the cold start."""
+    B0 = start.B0
+    sol = _try_basis(P, B0, start.zt, start.zfac, start.exact)
+    if sol is not None:
+        z, w, ok, comp, worst = sol
+        msg = ("the warm-start basis solves it" if given
+               else f"{start.note}the crash basis solves it")
         how = "accepted" if given else "crash"
-        sol = _try_basis(P, B0, zt, zfac, exact)
-        if sol is not None:
-            z, w, ok, comp, worst = sol
-            msg = ("the warm-start basis solves it" if given
-                   else f"{note}the crash basis solves it")
-            return LCPResult(z, w, 0, "solved", comp, B0.copy(), msg, how, 0, worst)
-        if given and crash:  # block pivoting from the warm-start basis, then its check
-            B1, iters, zt = crash_basis(P.Ms, P.qs, start=B0, max_iterations=_WARM_CRASH)
-            sol = _try_basis(P, B1, zt) if zt is not None else None
-            if sol is not None:
-                z, w, ok, comp, worst = sol
-                msg = (f"solved on the basis found by {iters} block pivoting iterations from "
-                       "the warm-start basis")
-                return LCPResult(z, w, 0, "solved", comp, B1.copy(), msg, "crash", 0, worst)
-        # covering vector B0 @ 1: Lemke on the LCP transformed by the pivot on B0
-        d = -P.Ms.matvec(B0.astype(float))
-        d[~B0] += 1.0
-        res = core(P.Ms, P.qs, d, B0, max_pivots)
-        pivots += res.pivots
-        refacts += res.refactorizations
-        if res.status == "solved":
-            z, w, ok, comp, worst = P.candidate(res)
-            if ok:
-                msg = (f"{note}solved from the {'warm-start' if given else 'crash'} basis "
-                       f"in {pivots} pivots")
-                return LCPResult(z, w, pivots, "solved", comp, res.zset.copy(), msg,
-                                 "lemke" if given else "crash+lemke", refacts, worst)
-        warm = "cold"
-        note += (f"{'warm start' if given else 'the run from the crash basis'} ended with "
-                 f"'{res.status}' after {res.pivots} pivots; ")
-        if given and not cold_start:
-            z = np.maximum(res.z * P.zfac, 0.0)
-            w, _, comp, worst = _check(M, q, z, tol)
-            return LCPResult(z, w, pivots, "warm start failed", comp, res.zset.copy(),
-                             note + "no cold start (cold_start=False)", "failed",
-                             refacts, worst)
-    return _cold(core, P, M, q, tol, max_pivots, pivots, refacts, note, warm)
+        return LCPResult(z, w, 0, "solved", comp, B0.copy(), msg, how, 0, worst)
+    if given and crash:  # block pivoting from the warm-start basis, then its check
+        res = _warm_crash(P, B0)
+        if res is not None:
+            return res
+    # covering vector B0 @ 1: Lemke on the LCP transformed by the pivot on B0
+    d = -P.Ms.matvec(B0.astype(float))
+    d[~B0] += 1.0
+    res = core(P.Ms, P.qs, d, B0, max_pivots)
+    pivots, refacts = res.pivots, res.refactorizations
+    note = start.note
+    if res.status == "solved":
+        z, w, ok, comp, worst = P.candidate(res)
+        if ok:
+            msg = (f"{note}solved from the {'warm-start' if given else 'crash'} basis "
+                   f"in {pivots} pivots")
+            return LCPResult(z, w, pivots, "solved", comp, res.zset.copy(), msg,
+                             "lemke" if given else "crash+lemke", refacts, worst)
+    note += (f"{'warm start' if given else 'the run from the crash basis'} ended with "
+             f"'{res.status}' after {res.pivots} pivots; ")
+    if given and not cold_start:
+        z = np.maximum(res.z * P.zfac, 0.0)
+        w, _, comp, worst = _check(P.M, P.q, z, P.tol)
+        return LCPResult(z, w, pivots, "warm start failed", comp, res.zset.copy(),
+                         note + "no cold start (cold_start=False)", "failed", refacts, worst)
+    return pivots, refacts, note
+
+
+def _warm_crash(P: _Problem, B0: np.ndarray) -> LCPResult | None:
+    """The answer on the basis that _WARM_CRASH block pivoting iterations from the
+    warm-start basis B0 reach, when it passes the check; else None."""
+    B1, iters, zt = crash_basis(P.Ms, P.qs, start=B0, max_iterations=_WARM_CRASH)
+    sol = _try_basis(P, B1, zt) if zt is not None else None
+    if sol is None:
+        return None
+    z, w, ok, comp, worst = sol
+    msg = (f"solved on the basis found by {iters} block pivoting iterations from "
+           "the warm-start basis")
+    return LCPResult(z, w, 0, "solved", comp, B1.copy(), msg, "crash", 0, worst)
 
 
 def _cold(core, P: _Problem, M, q, tol: float, max_pivots: int, pivots: int, refacts: int,

@@ -307,76 +307,91 @@ def _core_revised(
     n = q.size
     S = _Revised(M, q, d, B0)
     z0var = 2 * n
-
-    def out(status: str, pivots: int) -> _CoreOut:
-        z, zset, z0 = S.z_values()
-        return _CoreOut(status, zset, z, z0, pivots, S.refactorizations)
-
     if B0.any() and not S.refactor():
         return _CoreOut("singular", B0.copy(), np.zeros(n), 0.0, 0, S.refactorizations)
-
     # first pivot: z0 enters, the most infeasible basic variable leaves
-    yR, yW, _ = S.ftran(z0var)
-    h = S.h
-    xb = np.concatenate([np.where(S.inW, S.xw, 0.0), S.xs[:h]])
-    yb = np.concatenate([np.where(S.inW, yW, 0.0), yR])
-    pos = np.concatenate([np.arange(n), S.slot_var[:h] - n])
-    r = _first_leaving(xb, yb, pos)
+    r, yR, yW = _first_pivot_row(S)
     if r is None:
-        return out("solved", 0)
+        return _revised_out(S, "solved", 0)
     if max_pivots < 1:
-        return out("pivot limit", 0)
+        return _revised_out(S, "pivot limit", 0)
     leaving = _pivot(S, z0var, r, yR, yW)
     pivots = 1
     refactor_gap = 1
     while True:
         e = leaving + n if leaving < n else leaving - n
         if pivots >= max_pivots:
-            return out("pivot limit", pivots)
+            return _revised_out(S, "pivot limit", pivots)
         if S.since_refactor and S.since_refactor % _REFINE_EVERY == 0:
             S.refine_values()
         yR, yW, res = S.ftran(e)
         if res > _RES_REFACTOR and S.since_refactor >= refactor_gap:
             if not S.refactor():
-                return out("singular", pivots)
+                return _revised_out(S, "singular", pivots)
             yR, yW, res = S.ftran(e)
             # still above the threshold on a fresh inverse: ill-conditioned basis, where
             # refactorising at every pivot would not help; wait a while before the next one
             refactor_gap = _ILL_GAP if res > _RES_REFACTOR else 1
-        h = S.h
-        inW = S.inW
-        active = S.slot_var[:h] >= 0
-        ymax = max(
-            float(np.abs(yW[inW]).max()) if inW.any() else 0.0,
-            float(np.abs(yR[active]).max()) if active.any() else 0.0,
-        )
-        ptol = piv._PIV_REL * ymax
-        cw = np.flatnonzero(inW & (yW > ptol))
-        cs = np.flatnonzero(active & (yR > ptol))
-        if cw.size + cs.size == 0:
-            return out("secondary ray", pivots)
-        xw, xs = S.xw, S.xs[:h]
-        rw = np.maximum(xw[cw], 0.0) / yW[cw]
-        rs = np.maximum(xs[cs], 0.0) / yR[cs]
-        theta = min(rw.min() if rw.size else np.inf, rs.min() if rs.size else np.inf)
-        xmax = max(1.0, float(np.abs(xw).max()) if n else 0.0, float(np.abs(xs).max(initial=0)))
-        ttol = piv._TIE_REL * xmax
-        tw = cw[(rw - theta) * yW[cw] <= ttol]
-        ts = cs[(rs - theta) * yR[cs] <= ttol]
-        c0 = S.var_slot[n]
-        if c0 >= 0 and c0 in ts:
-            r = n + int(c0)
-        elif tw.size + ts.size == 1:
-            r = int(tw[0]) if tw.size else n + int(ts[0])
-        else:
-            kinds = [("w", int(i)) for i in tw] + [("s", int(c)) for c in ts]
-            ys = np.concatenate([yW[tw], yR[ts]])
-            k = piv._lexmin(S.lex_rows(kinds) / ys[:, None])
-            r = int(tw[k]) if k < tw.size else n + int(ts[k - tw.size])
+        r = _leaving_row(S, yR, yW)
+        if r is None:
+            return _revised_out(S, "secondary ray", pivots)
         leaving = _pivot(S, e, r, yR, yW)
         pivots += 1
         if leaving == z0var:
-            return out("solved", pivots)
+            return _revised_out(S, "solved", pivots)
+
+
+def _revised_out(S: _Revised, status: str, pivots: int) -> _CoreOut:
+    """What the revised core returns on the current basis of S."""
+    z, zset, z0 = S.z_values()
+    return _CoreOut(status, zset, z, z0, pivots, S.refactorizations)
+
+
+def _first_pivot_row(S: _Revised) -> tuple[int | None, np.ndarray, np.ndarray]:
+    """The first pivot (z0 enters): the leaving position (as for `_pivot`: a row r < n of
+    W, else n + column slot; None when the start basis is feasible) and z0's column
+    (on the column slots, on the rows W)."""
+    n, h = S.n, S.h
+    yR, yW, _ = S.ftran(2 * n)
+    xb = np.concatenate([np.where(S.inW, S.xw, 0.0), S.xs[:h]])
+    yb = np.concatenate([np.where(S.inW, yW, 0.0), yR])
+    pos = np.concatenate([np.arange(n), S.slot_var[:h] - n])
+    return _first_leaving(xb, yb, pos), yR, yW
+
+
+def _leaving_row(S: _Revised, yR: np.ndarray, yW: np.ndarray) -> int | None:
+    """Ratio test for the entering column (yR on the column slots, yW on the rows W): the
+    leaving position as for `_pivot` (z0 when it ties, else the lexicographic minimum of
+    the tied rows of B^-1 B0 / y), None when no entry is positive (secondary ray)."""
+    n, h = S.n, S.h
+    inW = S.inW
+    active = S.slot_var[:h] >= 0
+    ymax = max(
+        float(np.abs(yW[inW]).max()) if inW.any() else 0.0,
+        float(np.abs(yR[active]).max()) if active.any() else 0.0,
+    )
+    ptol = piv._PIV_REL * ymax
+    cw = np.flatnonzero(inW & (yW > ptol))
+    cs = np.flatnonzero(active & (yR > ptol))
+    if cw.size + cs.size == 0:
+        return None
+    xw, xs = S.xw, S.xs[:h]
+    rw = np.maximum(xw[cw], 0.0) / yW[cw]
+    rs = np.maximum(xs[cs], 0.0) / yR[cs]
+    theta = min(rw.min() if rw.size else np.inf, rs.min() if rs.size else np.inf)
+    xmax = max(1.0, float(np.abs(xw).max()) if n else 0.0, float(np.abs(xs).max(initial=0)))
+    ttol = piv._TIE_REL * xmax
+    tw = cw[(rw - theta) * yW[cw] <= ttol]
+    ts = cs[(rs - theta) * yR[cs] <= ttol]
+    c0 = S.var_slot[n]
+    if c0 >= 0 and c0 in ts:
+        return n + int(c0)
+    if tw.size + ts.size == 1:
+        return int(tw[0]) if tw.size else n + int(ts[0])
+    kinds = [("w", int(i)) for i in tw] + [("s", int(c)) for c in ts]
+    ys = np.concatenate([yW[tw], yR[ts]])
+    k = piv._lexmin(S.lex_rows(kinds) / ys[:, None])
+    return int(tw[k]) if k < tw.size else n + int(ts[k - tw.size])
 
 
 def _pivot(S: _Revised, e: int, r: int, yR: np.ndarray, yW: np.ndarray) -> int:
@@ -398,58 +413,85 @@ def _pivot(S: _Revised, e: int, r: int, yR: np.ndarray, yW: np.ndarray) -> int:
     S.xw -= theta * yW
     S.xs[:h] -= theta * yR
     if e >= n:  # a z_j or z0 enters
-        a = S.column(e)
-        if leave_w:  # bordering: new column slot and row slot
-            g = S.g_row(r)
-            cn, pn = S._new_slots()
-            h2 = S.h
-            u = np.zeros(h2)
-            u[:h] = yR
-            u[cn] = -1.0
-            v = np.zeros(h2)
-            v[:h] = g
-            v[pn] = -1.0
-            S.add_rank1(u, v / piv)
-            S.Xcols[cn] = a
-            S.slot_var[cn] = e
-            S.var_slot[e - n] = cn
-            S.row_slot[pn] = r
-            S.row_pos[r] = pn
-            S.inW[r] = False
-            S.xw[r] = 0.0
-            S.xs[cn] = theta
-        else:  # column replacement in slot c
-            rowc = S.inv_row(c)
-            u = yR.copy()
-            u[c] -= 1.0
-            S.add_rank1(-u, rowc / piv)
-            S.var_slot[leaving - n] = -1
-            S.Xcols[c] = a
-            S.slot_var[c] = e
-            S.var_slot[e - n] = c
-            S.xs[c] = theta
+        if leave_w:
+            _border(S, e, r, yR, piv, theta)
+        else:
+            _replace_column(S, e, c, leaving, yR, piv, theta)
     else:  # w_e enters (row e in R, row slot p)
         p = int(S.row_pos[e])
-        if leave_w:  # row replacement: row slot p now holds row r
-            g = S.g_row(r)
-            g[p] -= 1.0
-            S.add_rank1(yR, g / piv)
-            S.row_slot[p] = r
-            S.row_pos[r] = p
-            S.inW[r] = False
-            S.xw[r] = 0.0
-        else:  # deletion of column slot c and row slot p
-            rowc = S.inv_row(c)
-            S.add_rank1(-yR, rowc / piv)  # zeroes row c and column p (up to rounding)
-            S.Xcols[c] = 0.0
-            S.var_slot[leaving - n] = -1
-            S.slot_var[c] = -1
-            S.row_slot[p] = n
-            S.xs[c] = 0.0
-            S.free_c.append(c)
-            S.free_r.append(p)
+        if leave_w:
+            _replace_row(S, p, r, yR, piv)
+        else:
+            _delete_slots(S, c, p, leaving, yR, piv)
         S.row_pos[e] = -1
         S.inW[e] = True
         S.xw[e] = theta
     S.since_refactor += 1
     return leaving
+
+
+def _border(S: _Revised, e: int, r: int, yR: np.ndarray, piv: float, theta: float) -> None:
+    """z_e (or z0) enters, w_r leaves: bordering, with a new column slot and row slot."""
+    n, h = S.n, S.h
+    a = S.column(e)
+    g = S.g_row(r)
+    cn, pn = S._new_slots()
+    h2 = S.h
+    u = np.zeros(h2)
+    u[:h] = yR
+    u[cn] = -1.0
+    v = np.zeros(h2)
+    v[:h] = g
+    v[pn] = -1.0
+    S.add_rank1(u, v / piv)
+    S.Xcols[cn] = a
+    S.slot_var[cn] = e
+    S.var_slot[e - n] = cn
+    S.row_slot[pn] = r
+    S.row_pos[r] = pn
+    S.inW[r] = False
+    S.xw[r] = 0.0
+    S.xs[cn] = theta
+
+
+def _replace_column(S: _Revised, e: int, c: int, leaving: int, yR: np.ndarray, piv: float,
+                    theta: float) -> None:
+    """z_e (or z0) enters in column slot c, whose z (or z0) `leaving` leaves."""
+    n = S.n
+    a = S.column(e)
+    rowc = S.inv_row(c)
+    u = yR.copy()
+    u[c] -= 1.0
+    S.add_rank1(-u, rowc / piv)
+    S.var_slot[leaving - n] = -1
+    S.Xcols[c] = a
+    S.slot_var[c] = e
+    S.var_slot[e - n] = c
+    S.xs[c] = theta
+
+
+def _replace_row(S: _Revised, p: int, r: int, yR: np.ndarray, piv: float) -> None:
+    """A w enters from row slot p, w_r leaves: row slot p now holds row r."""
+    g = S.g_row(r)
+    g[p] -= 1.0
+    S.add_rank1(yR, g / piv)
+    S.row_slot[p] = r
+    S.row_pos[r] = p
+    S.inW[r] = False
+    S.xw[r] = 0.0
+
+
+def _delete_slots(S: _Revised, c: int, p: int, leaving: int, yR: np.ndarray,
+                  piv: float) -> None:
+    """A w enters from row slot p, the z (or z0) `leaving` of column slot c leaves: both
+    slots are freed."""
+    n = S.n
+    rowc = S.inv_row(c)
+    S.add_rank1(-yR, rowc / piv)  # zeroes row c and column p (up to rounding)
+    S.Xcols[c] = 0.0
+    S.var_slot[leaving - n] = -1
+    S.slot_var[c] = -1
+    S.row_slot[p] = n
+    S.xs[c] = 0.0
+    S.free_c.append(c)
+    S.free_r.append(p)
