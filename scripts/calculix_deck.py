@@ -64,6 +64,8 @@ class ContactDeck:
     steps: list[Step]
     print_sets: list[str] = field(default_factory=list)  # node sets whose U and RF are printed
     nlgeom: bool = False  # geometrically nonlinear steps (*STEP, NLGEOM)
+    pair_type: str = "SURFACE TO SURFACE"  # or "NODE TO SURFACE" (*CONTACT PAIR, TYPE=)
+    behavior_extra: tuple[float, ...] = ()  # *SURFACE BEHAVIOR values after K (sigma_inf, c0)
 
 
 def edge_faces(quads: np.ndarray, edges: np.ndarray) -> np.ndarray:
@@ -131,10 +133,10 @@ def write_deck(deck: ContactDeck) -> str:
         out += [f"*MATERIAL, NAME=MAT{b}", "*ELASTIC", f"{E:.10g}, {nu:.10g}",
                 f"*SOLID SECTION, ELSET=BODY{b}, MATERIAL=MAT{b}", f"{deck.thickness:.10g}"]
     out += ["*SURFACE INTERACTION, NAME=SI", "*SURFACE BEHAVIOR, PRESSURE-OVERCLOSURE=LINEAR",
-            f"{deck.penalty:.10g}"]
+            ", ".join(f"{v:.10g}" for v in (deck.penalty, *deck.behavior_extra))]
     if deck.mu > 0:
         out += ["*FRICTION", f"{deck.mu:.10g}, {deck.stick:.10g}"]
-    out += ["*CONTACT PAIR, INTERACTION=SI, TYPE=SURFACE TO SURFACE", "SLAVE, MASTER"]
+    out += [f"*CONTACT PAIR, INTERACTION=SI, TYPE={deck.pair_type}", "SLAVE, MASTER"]
     out.append("*BOUNDARY")
     for name, comps in deck.fixed.items():
         out += [f"{name.upper()}, {c}, {c}, 0." for c in comps]

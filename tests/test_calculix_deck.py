@@ -3,6 +3,7 @@ traction recovery on tiny meshes; one CalculiX run when `ccx` is installed."""
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
 import subprocess
@@ -192,3 +193,55 @@ def test_script_without_ccx_exits_2(tmp_path):
     assert res.returncode == 2
     assert res.stderr.strip().splitlines() == [
         "error: ccx (CalculiX) not found on PATH; install calculix-ccx"]
+
+
+def test_deck_pair_type_and_behavior_values():
+    deck = two_blocks()
+    deck.pair_type, deck.behavior_extra = "NODE TO SURFACE", (0.01, 0.5)
+    lines = write_deck(deck).splitlines()
+    assert "*CONTACT PAIR, INTERACTION=SI, TYPE=NODE TO SURFACE" in lines
+    assert lines[lines.index("*SURFACE BEHAVIOR, PRESSURE-OVERCLOSURE=LINEAR") + 1] == \
+        "1000000000, 0.01, 0.5"
+
+
+def test_c3d8_deck_extrudes_the_scene():
+    from calculix_c3d8 import write_deck_c3d8
+
+    deck = two_blocks()
+    with pytest.raises(ValueError, match="frictionless"):
+        write_deck_c3d8(deck)
+    deck.mu = 0.0
+    lines = write_deck_c3d8(deck).splitlines()
+    assert "16, 0, 2, 1" in lines  # node 7 (0-based) at z = 1 is node 8 + 8
+    assert "1, 5, 6, 7, 8, 13, 14, 15, 16" in lines  # C3D8 of the upper quad
+    # the upper quad's face 0 (corner 0 -> 1) is its C3D8's face S3; the lower's face 2 S5
+    assert lines[lines.index("*SURFACE, NAME=SLAVE, TYPE=ELEMENT") + 1] == "1, S3"
+    assert lines[lines.index("*SURFACE, NAME=MASTER, TYPE=ELEMENT") + 1] == "2, S5"
+    assert lines[lines.index("*NSET, NSET=ZFIX") + 1] == "1, 2, 7, 8, 9, 10, 15, 16"
+    assert "*CONTACT PAIR, INTERACTION=SI, TYPE=MORTAR" in lines and "ZFIX, 3, 3, 0." in lines
+    assert "TOP, 2, 2, -0.001" in lines and "*FRICTION" not in lines
+
+
+@pytest.mark.skipif(shutil.which("ccx") is None, reason="ccx (CalculiX) not installed")
+@pytest.mark.parametrize("contact", ["mortar", "face-to-face"])
+def test_calculix_indent_runs_and_balances(contact):
+    """scripts/calculix_indent.py on configs/indent.toml, both slave sides: CalculiX's slave
+    contact force equals its reaction, P within 1% of the app's, and both codes' p stripes
+    with the arc (fine) as slave and is smooth with the block (coarse) as slave."""
+    res = subprocess.run([sys.executable, str(ROOT / "scripts" / "calculix_indent.py"),
+                          "--contact", contact, "--slaves", "arc", "block"], cwd=ROOT,
+                         env=dict(os.environ, OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1"),
+                         capture_output=True, text=True, timeout=300)
+    assert res.returncode == 0, res.stderr
+    rows = [json.loads(line) for line in res.stdout.splitlines()]
+    assert [r["slave"] for r in rows] == ["arc", "block"]
+    for r in rows:
+        ours, ccx = r["ours"], r["calculix"]
+        for code in (ours, ccx):
+            assert {"P", "n_closed", "max_p", "fit_deviation", "fit_deviation_inside", "x",
+                    "p"} <= set(code)
+        assert ccx["balance"] < 1e-4
+        assert ccx["P"] == pytest.approx(ours["P"], rel=0.01)
+        stripes = r["slave"] == "arc"
+        for code in (ours, ccx):
+            assert (code["fit_deviation"] > 0.2) if stripes else (code["fit_deviation"] < 0.06)
