@@ -13,7 +13,7 @@ import tomllib
 
 import meshio
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 from support import CONFIGS, ROOT, mpi_env
 
@@ -79,6 +79,7 @@ def _mutate(raw: dict, path: tuple, value) -> dict:
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow,
                                                                   HealthCheck.function_scoped_fixture])
 @given(path=st.sampled_from(PATHS), value=VALUES)
+@example(path=("support", 0, "on"), value="\n")  # once printed a line break in the name
 def test_broken_configs_give_one_line_errors(tmp_path, path, value):
     raw = _mutate(BASE, path, value)
     try:

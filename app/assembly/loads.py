@@ -32,7 +32,7 @@ def group_nodes(mesh: Mesh, name: str, where: str) -> np.ndarray:
     if name in mesh.point_groups:
         return np.unique(mesh.point_groups[name])
     raise InputError(
-        f"{where}: unknown group '{name}' (curves: {sorted(mesh.curves)}, "
+        f"{where}: unknown group {name!r} (curves: {sorted(mesh.curves)}, "
         f"points: {sorted(mesh.point_groups)})"
     )
 
