@@ -47,11 +47,13 @@ from calculix_deck import (  # noqa: E402
     Step,
     edge_faces,
     internal_forces,
+    median_edge,
     nodal_table,
     parse_dat,
     parse_frd_contact,
     surface_tractions,
     times,
+    total_force,
     write_deck,
 )
 
@@ -80,9 +82,7 @@ def build(a: argparse.Namespace):
     itf = cfg.interfaces[0]
     slave = orient_boundary_edges(mesh, mesh.curves[itf.slave], "slave")
     master = orient_boundary_edges(mesh, mesh.curves[itf.master], "master")
-    mid = 0.5 * (mesh.points[slave[:, 0]] + mesh.points[slave[:, 1]])
-    ln = np.linalg.norm(mesh.points[slave[:, 1]] - mesh.points[slave[:, 0]], axis=1)
-    h_c = float(np.median(ln[np.abs(mid[:, 0]) < 0.15]))
+    h_c = median_edge(mesh.points, slave, 0.15)
     uy = [s.values[1] for s in cfg.supports if s.on == "cyl_top" and 1 in s.values][0]
     E = float(cfg.E[0])
     normal_mu = a.normal_mu if a.normal_mu is not None else None
@@ -166,10 +166,9 @@ def ccx_rows(a, cfg, mesh, slave, deck, dat: str, frd: str | None = None) -> lis
         keep = ~np.isin(tr["node"], deck.node_sets["cyl_top"])  # the arc's ends are supported
         o = np.flatnonzero(keep)[np.argsort(tr["x"][keep])]
         tr = {k: v[o] for k, v in tr.items()}
-        rf = [tb for tb in tables if tb["title"].startswith("total force")
-              and tb["set"] == "CYL_TOP" and abs(tb["time"] - t) < 1e-9]
+        rf = total_force(tables, "cyl_top", t)
         row = {"code": "calculix", "time": t, "n_elements": mesh.n_elements,
-               "rf_cyl_top": rf[-1]["rows"][0, :2].tolist() if rf else None}
+               "rf_cyl_top": rf[:2].tolist() if rf is not None else None}
         for name, (p, q) in frames(tr).items():
             e = profile_errors(tr["x"], p, q, tr["length"], mu=mu, R=R, E_star=E_star,
                                thickness=cfg.thickness)

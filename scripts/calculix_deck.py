@@ -205,6 +205,24 @@ def nodal_table(tables: list[dict], title: str, nset: str, n_nodes: int,
     return t["time"], out
 
 
+def total_force(tables: list[dict], nset: str | None = None,
+                time: float | None = None) -> np.ndarray | None:
+    """The (fx, fy, fz) row of the last "total force" table (of node set `nset`, at `time`
+    when given); None when there is none."""
+    hits = [t for t in tables if t["title"].startswith("total force")
+            and (nset is None or t["set"] == nset.upper())
+            and (time is None or abs(t["time"] - time) < 1e-9)]
+    return hits[-1]["rows"][0] if hits else None
+
+
+def median_edge(points: np.ndarray, edges: np.ndarray, x_max: float) -> float:
+    """Median length of the edges (k, 2) whose midpoint has |x| < x_max (the contact
+    element size h_c of a penalty)."""
+    mid = 0.5 * (points[edges[:, 0]] + points[edges[:, 1]])
+    ln = np.linalg.norm(points[edges[:, 1]] - points[edges[:, 0]], axis=1)
+    return float(np.median(ln[np.abs(mid[:, 0]) < x_max]))
+
+
 def times(tables: list[dict], title: str, nset: str) -> list[float]:
     """The output times of the tables `title` for `nset`, in order."""
     return [t["time"] for t in tables if t["title"].startswith(title)

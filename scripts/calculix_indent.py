@@ -45,10 +45,12 @@ from calculix_deck import (
     Step,
     edge_faces,
     internal_forces,
+    median_edge,
     nodal_table,
     parse_dat,
     parse_frd_contact,
     surface_tractions,
+    total_force,
     write_deck,
 )
 
@@ -57,6 +59,7 @@ sys.path.insert(0, str(ROOT))
 from app.config import load_config  # noqa: E402
 from app.contact.mortar import nodal_normals  # noqa: E402
 from app.contact.pairs import tributary_length  # noqa: E402
+from app.contact.resolution import interior_deviation  # noqa: E402
 from app.contact.smoothness import local_fit_deviation  # noqa: E402
 from app.mesh.model import orient_boundary_edges  # noqa: E402
 from app.output.read import last_step_file, read_pairs  # noqa: E402
@@ -70,12 +73,11 @@ CONTACT = {  # --contact: (CalculiX pair type, extra *SURFACE BEHAVIOR values)
 
 
 def smoothness(x: np.ndarray, p: np.ndarray) -> dict:
-    """Largest local-fit deviation of p (closed nodes, sorted by x) over all of them and
-    two nodes in from each end, as fractions of max p."""
-    dev = local_fit_deviation(x, p)
-    inner = dev[np.argsort(x)][2:-2] if x.size > 4 else np.zeros(0)
-    return {"fit_deviation": float(dev.max(initial=0.0)),
-            "fit_deviation_inside": float(inner.max(initial=0.0))}
+    """Largest local-fit deviation of p (closed nodes) over all of them and two nodes in
+    from each end (the stripe warning's figure), as fractions of max p."""
+    inside = interior_deviation(np.c_[x, np.zeros_like(x)], p) if x.size else 0.0
+    return {"fit_deviation": float(local_fit_deviation(x, p).max(initial=0.0)),
+            "fit_deviation_inside": inside}
 
 
 def profile(x: np.ndarray, p: np.ndarray) -> dict:
@@ -136,13 +138,6 @@ def build(cfg, a: argparse.Namespace):
     return mesh, slave, body, deck, h_c
 
 
-def median_edge(points: np.ndarray, edges: np.ndarray, x_max: float) -> float:
-    """Median length of the edges whose midpoint has |x| < x_max."""
-    mid = 0.5 * (points[edges[:, 0]] + points[edges[:, 1]])
-    ln = np.linalg.norm(points[edges[:, 1]] - points[edges[:, 0]], axis=1)
-    return float(np.median(ln[np.abs(mid[:, 0]) < x_max]))
-
-
 def ccx_result(cfg, mesh, slave, body, deck, dat: str, frd: str | None) -> dict:
     """P (reaction), balance, recovered and native p profiles of a CalculiX run."""
     tables = parse_dat(dat)
@@ -153,7 +148,7 @@ def ccx_result(cfg, mesh, slave, body, deck, dat: str, frd: str | None) -> dict:
                         float(cfg.nu[body]), cfg.thickness, cfg.plane)
     tr = surface_tractions(mesh.points, slave, f, u2)
     free = ~np.isin(tr["node"], np.concatenate(list(deck.node_sets.values())))
-    rf = [t for t in tables if t["title"].startswith("total force")][-1]["rows"][0]
+    rf = total_force(tables)
     P = -float(rf[1])  # the moved support pulls the cylinder down: RF_y < 0
     f_slave = f[tr["node"][free]].sum(axis=0)  # the contact force on the slave body
     x, p = tr["x"][free], tr["pn"][free]
@@ -173,7 +168,7 @@ def mortar_result(cfg, mesh, slave, deck, dat: str, frd: str) -> dict:
     run; balance: P against the sum of p x tributary length x |n_y| (dual multipliers: the
     nodal forces)."""
     tables = parse_dat(dat)
-    rf = [t for t in tables if t["title"].startswith("total force")][-1]["rows"][0]
+    rf = total_force(tables)
     P = -float(rf[1]) * cfg.thickness  # the deck is one unit thick
     nodes = np.setdiff1d(face_nodes(mesh.quads, deck.slave_faces),
                          np.concatenate(list(deck.node_sets.values())))

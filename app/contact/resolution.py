@@ -46,13 +46,13 @@ def master_slave_size_ratio(mesh: Mesh, pairs: ContactPairs, sel: np.ndarray) ->
 def interior_deviation(position: np.ndarray, p: np.ndarray) -> float:
     """Largest local-fit deviation (app/contact/smoothness.py, / max p) of the tractions p
     (k,) at positions (k, 2), ordered along their principal direction, leaving out
-    EDGE_PAIRS pairs at each end."""
+    EDGE_PAIRS pairs at each end (0 when nothing is left)."""
     centred = position - position.mean(axis=0)
     axis = np.linalg.svd(centred, full_matrices=False)[2][0]  # principal direction
     s = centred @ axis
     order = np.argsort(s)
     dev = local_fit_deviation(s[order], p[order])
-    return float(dev[EDGE_PAIRS:-EDGE_PAIRS].max())
+    return float(dev[EDGE_PAIRS:-EDGE_PAIRS].max(initial=0.0))
 
 
 def stripe_checks(mesh: Mesh, pairs: ContactPairs, normal_force: np.ndarray,
