@@ -15,6 +15,7 @@ import numpy as np
 from app.contact.constraints import ContactConstraints
 from app.contact.mortar import mortar_constraints
 from app.contact.mortar_bisector import mortar_bisector_constraints
+from app.contact.mortar_smooth import mortar_smooth_constraints
 from app.contact.pairs import ContactPairs, contact_pairs
 from app.errors import InputError
 from app.mesh.model import Mesh
@@ -57,6 +58,7 @@ DISCRETISATIONS: dict[str, Builder] = {
     "node-to-segment": node_to_segment,
     "mortar": mortar_constraints,
     "mortar-bisector": mortar_bisector_constraints,
+    "mortar-smooth": mortar_smooth_constraints,
 }
 """Contact discretisations by config name."""
 

@@ -126,12 +126,25 @@ def _candidates(xs1, xs2, xa, xb, reach: float) -> tuple[np.ndarray, np.ndarray]
     return e[near], f[near]
 
 
-def segment_integrals(xs1, xs2, ns1, ns2, xa, xb, e, f):
+MasterBasis = Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]
+"""The master-side interpolation: (f (p,) master segments, eta (p, g) parameters on them)
+-> (nodes (p, k) master node ids, -1 for none; weights (k, p, g), summing to 1)."""
+
+
+def linear_master(pts: np.ndarray, m_edges: np.ndarray, s_edges: np.ndarray) -> MasterBasis:
+    """The master's own piecewise-linear trace: N = (1 - eta, eta) on the segment's ends
+    (pts (n, 2) and the slave edges s_edges are not used; the signature is that of every
+    master-basis factory)."""
+    return lambda f, eta: (m_edges[f], np.stack([1 - eta, eta]))
+
+
+def segment_integrals(xs1, xs2, ns1, ns2, xa, xb, e, f, basis: MasterBasis):
     """Mortar integrals of candidate pairs (slave segment e, master segment f).
 
     xs1, xs2, ns1, ns2: (S, 2) slave segment ends and their contact normals; xa, xb:
-    (F, 2) master segment ends. Returns (pair (p,), j (p,) 0/1 slave end, l (p,) 0/1
-    master end, value (p,)) with value = int phi_j N_l ds over the overlap (length).
+    (F, 2) master segment ends; basis: the master interpolation (`linear_master` or a
+    smoothed one). Returns (pair (r,), j (r,) 0/1 slave end, node (r,) master node id
+    (-1: none), value (r,)) with value = int phi_j N_node ds over the overlap (length).
     """
     x1, x2, n1, n2 = xs1[e], xs2[e], ns1[e], ns2[e]
     pa, pb = xa[f], xb[f]
@@ -151,31 +164,36 @@ def segment_integrals(xs1, xs2, ns1, ns2, xa, xb, e, f):
     eta = np.clip(_cross(xg - pa[k, None], ng) / np.where(den == 0, np.nan, den), 0, 1)
     eta = np.nan_to_num(eta, nan=0.5)
     phi = np.stack([2 - 3 * s, 3 * s - 1])  # dual shape functions (2, p, g)
-    big_n = np.stack([1 - eta, eta])
-    val = np.einsum("jpg,lpg,pg->pjl", phi, big_n, w)  # (p, 2, 2)
-    pair = np.repeat(k, 4)
-    jj = np.tile([0, 0, 1, 1], k.size)
-    ll = np.tile([0, 1, 0, 1], k.size)
-    return pair, jj, ll, val.reshape(-1)
+    nodes, big_n = basis(f[k], eta)  # (p, q), (q, p, g)
+    val = np.einsum("jpg,lpg,pg->pjl", phi, big_n, w)  # (p, 2, q)
+    q = nodes.shape[1]
+    pair = np.repeat(k, 2 * q)
+    jj = np.tile(np.repeat([0, 1], q), k.size)
+    node = np.repeat(nodes[:, None, :], 2, axis=1).reshape(-1)
+    return pair, jj, node, val.reshape(-1)
 
 
-def _rows(nodes: np.ndarray, n_nodes: int, s_edges: np.ndarray, m_edges: np.ndarray,
-          pair, jj, ll, val, e, f) -> sp.csr_matrix:
+def _rows(nodes: np.ndarray, n_nodes: int, s_edges: np.ndarray, pair, jj, node, val,
+          e) -> sp.csr_matrix:
     """Covered mortar matrix M (len(nodes), n_nodes): row = slave node (position in
-    `nodes`), column = master node."""
+    `nodes`), column = master node (entries with node -1 or zero weight dropped, so a
+    row spans only the master nodes it depends on)."""
     where = np.full(n_nodes, -1, dtype=np.int64)
     where[nodes] = np.arange(nodes.size)
     r = where[s_edges[e[pair], jj]]
-    c = m_edges[f[pair], ll]
-    ok = r >= 0
-    return sp.csr_matrix((val[ok], (r[ok], c[ok])), shape=(nodes.size, n_nodes))
+    ok = (r >= 0) & (node >= 0) & (val != 0)
+    return sp.csr_matrix((val[ok], (r[ok], node[ok])), shape=(nodes.size, n_nodes))
 
 
-def mortar_constraints(mesh: Mesh, itf, index: int, normal_rule=None) -> ContactConstraints:
+def mortar_constraints(mesh: Mesh, itf, index: int, normal_rule=None,
+                       master_basis=None) -> ContactConstraints:
     """Dual mortar rows of one interface (see the module docstring).
 
     normal_rule: (nu_s, k_s, nu_m, k_m) -> (p, 2) unit contact normals (master -> slave);
     None: `contact_normal` (app/contact/mortar_bisector.py registers another).
+    master_basis: (pts, m_edges, s_edges) -> MasterBasis, the master interpolation in the mortar
+    integrals and so in the gaps and slips; None: `linear_master`
+    (app/contact/mortar_smooth.py registers a smoothed one).
 
     itf: an `[[interface]]` (name, slave, master, search_distance, penetration_tol,
     interference). Slave nodes farther than search_distance from the master, with less
@@ -191,7 +209,8 @@ def mortar_constraints(mesh: Mesh, itf, index: int, normal_rule=None) -> Contact
     nodes, d_len = tributary_length(pts, s_edges)
     rule = contact_normal if normal_rule is None else normal_rule
     found, sg, xi, normal = _slave_normals(pts, s_edges, m_edges, nodes, sd, rule)
-    w, cover = _covered_weights(pts, nodes, s_edges, m_edges, found, normal, itf, sd)
+    basis = (linear_master if master_basis is None else master_basis)(pts, m_edges, s_edges)
+    w, cover = _covered_weights(pts, nodes, s_edges, m_edges, found, normal, itf, sd, basis)
     nrm = normal[nodes]
     g0 = np.einsum("ij,ij->i", nrm, pts[nodes] - w @ pts)
     keep = found & (cover >= MIN_COVER * d_len) & (g0 <= sd)
@@ -260,7 +279,7 @@ def _slave_normals(pts: np.ndarray, s_edges: np.ndarray, m_edges: np.ndarray,
 
 def _covered_weights(pts: np.ndarray, nodes: np.ndarray, s_edges: np.ndarray,
                      m_edges: np.ndarray, found: np.ndarray, normal: np.ndarray, itf,
-                     sd: float) -> tuple[sp.csr_matrix, np.ndarray]:
+                     sd: float, basis: MasterBasis) -> tuple[sp.csr_matrix, np.ndarray]:
     """Mortar weights of the slave nodes `nodes` (q,) on the master nodes.
 
     Integrates the slave edges with a found node against the master segments within sd
@@ -275,9 +294,9 @@ def _covered_weights(pts: np.ndarray, nodes: np.ndarray, s_edges: np.ndarray,
         raise _no_slave_error(itf, sd)
     xs1, xs2 = pts[se[:, 0]], pts[se[:, 1]]
     e, f = _candidates(xs1, xs2, xa, xb, sd)
-    pair, jj, ll, val = segment_integrals(xs1, xs2, normal[se[:, 0]], normal[se[:, 1]],
-                                          xa, xb, e, f)
-    mm = _rows(nodes, pts.shape[0], se, m_edges, pair, jj, ll, val, e, f)
+    pair, jj, node, val = segment_integrals(xs1, xs2, normal[se[:, 0]], normal[se[:, 1]],
+                                            xa, xb, e, f, basis)
+    mm = _rows(nodes, pts.shape[0], se, pair, jj, node, val, e)
     cover = np.asarray(mm.sum(axis=1)).ravel()
     w = sp.diags(1.0 / np.where(cover > 0, cover, 1.0)) @ mm  # rows sum to 1
     return w, cover
