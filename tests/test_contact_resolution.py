@@ -71,3 +71,12 @@ def test_stripe_warning_names_interface_step_and_ratio():
     (check,) = stripe_checks(mesh, pairs, force, ["indent"], force_scale=1.0)
     text = stripe_warning(check, 3)
     assert text.startswith("interface 'indent', step 3:") and "4.0x" in text
+    assert "\n" not in text and 'discretisation = "mortar-smooth"' in text
+
+
+def test_stripe_warning_under_mortar_smooth_offers_the_other_remedies():
+    mesh, pairs, force = flat_interface(0.2, striped)
+    (check,) = stripe_checks(mesh, pairs, force, ["indent"], force_scale=1.0)
+    text = stripe_warning(check, 3, "mortar-smooth")
+    assert "mortar-smooth" not in text.split(":", 2)[2].split("(README")[0]
+    assert "coarser side the slave" in text and "refine the master" in text

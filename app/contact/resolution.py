@@ -73,11 +73,14 @@ def stripe_checks(mesh: Mesh, pairs: ContactPairs, normal_force: np.ndarray,
     return out
 
 
-def stripe_warning(check: dict, step: int) -> str:
-    """The one-line warning for a check with warn set, at 1-based `step`."""
+def stripe_warning(check: dict, step: int, discretisation: str | None = None) -> str:
+    """The one-line warning for a check with warn set, at 1-based `step`; the remedies
+    offered depend on the interface's `discretisation` (None: the default)."""
+    remedy = ("Make the coarser side the slave or refine the master" if discretisation ==
+              "mortar-smooth" else 'Set discretisation = "mortar-smooth" on it, make the '
+              "coarser side the slave, or refine the master")
     return (f"interface '{check['interface']}', step {step}: p deviates by "
             f"{100 * check['deviation']:.1f}% of max p from a smooth fit inside the closed "
             f"zone, and the master's elements are {check['size_ratio']:.1f}x the slave's: "
-            "the tractions follow the master's element period. Make the coarser side the "
-            f"slave or refine the master to within {SIZE_RATIO_WARN}x (README "
-            "\"Verification table\")")
+            f"the tractions follow the master's element period. {remedy} to within "
+            f"{SIZE_RATIO_WARN}x (README \"Smoothed master\")")

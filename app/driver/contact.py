@@ -104,10 +104,12 @@ def _stripe_warnings(ctx: RunContext, model: Model, result: StepSolution, step: 
     period (app/contact/resolution.py); every rank holds the broadcast result."""
     pairs = model.contact.pairs
     names = [itf.name for itf in ctx.cfg.interfaces]
+    disc = {itf.name: itf.discretisation for itf in ctx.cfg.interfaces}
     normal = result.lam[: pairs.n_pairs]
     for check in stripe_checks(model.mesh, pairs, normal, names, result.f_scale):
         if check["warn"]:
-            ctx.warn(stripe_warning(check, step + 1), ("stripes", check["interface"]))
+            ctx.warn(stripe_warning(check, step + 1, disc[check["interface"]]),
+                     ("stripes", check["interface"]))
 
 
 def _displacement(model: Model, system: LinearSystem, u_free: np.ndarray,
