@@ -40,7 +40,8 @@ def minimal(**interface) -> dict:
 # ---- registry and config ---------------------------------------------------------------
 
 def test_registry_and_config_key():
-    assert set(DISCRETISATIONS) == {"node-to-segment", "mortar", "mortar-bisector"}
+    assert set(DISCRETISATIONS) == {"node-to-segment", "mortar", "mortar-bisector",
+                                 "mortar-smooth"}
     unset = parse_config(minimal()).interfaces[0].discretisation
     assert contact_discretisation(unset, "x") is DISCRETISATIONS[DEFAULT]
     cfg = parse_config(minimal(discretisation="mortar"))

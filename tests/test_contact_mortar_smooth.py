@@ -14,9 +14,11 @@ from test_contact_scenes import assert_law_holds
 from app.contact.discretisation import DISCRETISATIONS
 from app.contact.mortar import mortar_constraints
 from app.contact.mortar_smooth import (
+    COARSE_RATIO,
+    bspline_master,
     bspline_weights,
-    coarse_master_segments,
     master_neighbours,
+    master_slave_ratio,
     mortar_smooth_constraints,
 )
 from app.contact.smoothness import local_fit_deviation
@@ -93,13 +95,20 @@ def test_master_neighbours_stop_at_ends_and_corners():
     np.testing.assert_array_equal(nxt, [-1, 2, -1, 3])
 
 
-def test_coarse_master_segments_follow_the_size_ratio():
-    for nx_low, nx_up, coarse in ((3, 12, True), (5, 7, False), (12, 3, False)):
+def test_the_master_is_smoothed_only_when_coarser_than_the_slave():
+    """master_slave_ratio over the slave nodes facing the master, and the switch at 1.5."""
+    eta = np.array([[0.25]])
+    # (slave tributary lengths: h at interior nodes, h / 2 at the two ends; medians)
+    for nx_low, nx_up, ratio in ((3, 12, 4.0), (5, 7, 1.4), (12, 3, 1 / 3)):
         mesh = stacked(nx_low, nx_up)
-        pts = mesh.points
+        rows = mortar_constraints(mesh, itf(), 0)
         m = orient_boundary_edges(mesh, mesh.curves["low_top"], "m")
-        s = orient_boundary_edges(mesh, mesh.curves["up_bottom"], "s")
-        assert (coarse_master_segments(pts, m, s) == coarse).all(), (nx_low, nx_up)
+        facing = np.zeros(rows.n_pairs, dtype=np.int64)  # uniform master: any segment
+        got = master_slave_ratio(mesh.points, m, facing, rows.pairs.length)
+        assert got == pytest.approx(ratio, rel=1e-12), (nx_low, nx_up)
+        nodes, w = bspline_master(mesh.points, m, facing, rows.pairs.length)(
+            np.array([0]), eta)
+        assert (nodes.shape[1] == 4) == (ratio > COARSE_RATIO)
 
 
 # ---- rows --------------------------------------------------------------------------------

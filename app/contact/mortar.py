@@ -45,6 +45,9 @@ from app.errors import InputError
 from app.mesh.model import Mesh, orient_boundary_edges
 
 _GAUSS_S, _GAUSS_W = np.polynomial.legendre.leggauss(4)
+NEAR_BAND = 0.1
+"""Slave nodes within this fraction of search_distance of the smallest nodal gap are the
+ones a master-basis factory judges the interface by (`nearest_slave_nodes`)."""
 MIN_COVER = 0.5
 """Slave nodes whose support is covered by less than this fraction of D_j are dropped."""
 
@@ -131,10 +134,14 @@ MasterBasis = Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]
 -> (nodes (p, k) master node ids, -1 for none; weights (k, p, g), summing to 1)."""
 
 
-def linear_master(pts: np.ndarray, m_edges: np.ndarray, s_edges: np.ndarray) -> MasterBasis:
-    """The master's own piecewise-linear trace: N = (1 - eta, eta) on the segment's ends
-    (pts (n, 2) and the slave edges s_edges are not used; the signature is that of every
-    master-basis factory)."""
+def linear_master(pts: np.ndarray, m_edges: np.ndarray, facing: np.ndarray,
+                  slave_length: np.ndarray) -> MasterBasis:
+    """The master's own piecewise-linear trace: N = (1 - eta, eta) on the segment's ends.
+
+    The signature of every master-basis factory: pts (n, 2), m_edges (F, 2) oriented
+    master segments, and per slave node nearest the master (`nearest_slave_nodes`) the
+    master segment it faces (facing (q,)) and its tributary length (slave_length (q,));
+    unused here."""
     return lambda f, eta: (m_edges[f], np.stack([1 - eta, eta]))
 
 
@@ -191,7 +198,8 @@ def mortar_constraints(mesh: Mesh, itf, index: int, normal_rule=None,
 
     normal_rule: (nu_s, k_s, nu_m, k_m) -> (p, 2) unit contact normals (master -> slave);
     None: `contact_normal` (app/contact/mortar_bisector.py registers another).
-    master_basis: (pts, m_edges, s_edges) -> MasterBasis, the master interpolation in the mortar
+    master_basis: (pts, m_edges, facing, slave_length) -> MasterBasis (see
+    `linear_master`), the master interpolation in the mortar
     integrals and so in the gaps and slips; None: `linear_master`
     (app/contact/mortar_smooth.py registers a smoothed one).
 
@@ -209,15 +217,17 @@ def mortar_constraints(mesh: Mesh, itf, index: int, normal_rule=None,
     nodes, d_len = tributary_length(pts, s_edges)
     rule = contact_normal if normal_rule is None else normal_rule
     found, sg, xi, normal = _slave_normals(pts, s_edges, m_edges, nodes, sd, rule)
-    basis = (linear_master if master_basis is None else master_basis)(pts, m_edges, s_edges)
+    xa, xb = pts[m_edges[:, 0]], pts[m_edges[:, 1]]
+    g_node = _nodal_gap(pts[nodes], xa[sg], xb[sg], xi)
+    near = nearest_slave_nodes(found, g_node, sd)
+    factory = linear_master if master_basis is None else master_basis
+    basis = factory(pts, m_edges, sg[near], d_len[near])
     w, cover = _covered_weights(pts, nodes, s_edges, m_edges, found, normal, itf, sd, basis)
     nrm = normal[nodes]
     g0 = np.einsum("ij,ij->i", nrm, pts[nodes] - w @ pts)
     keep = found & (cover >= MIN_COVER * d_len) & (g0 <= sd)
     if not keep.any():
         raise _no_slave_error(itf, sd)
-    xa, xb = pts[m_edges[:, 0]], pts[m_edges[:, 1]]
-    g_node = _nodal_gap(pts[nodes], xa[sg], xb[sg], xi)
     _check_penetration(itf, pts, xa, xb, nodes[keep], g_node[keep])
     k = np.flatnonzero(keep)
     tan = np.column_stack([-nrm[:, 1], nrm[:, 0]])
@@ -226,6 +236,14 @@ def mortar_constraints(mesh: Mesh, itf, index: int, normal_rule=None,
         master=m_edges[sg[k]].copy(), xi=xi[k], normal=nrm[k], tangent=tan[k], g0=g0[k],
         position=pts[nodes[k]].copy(), length=d_len[k])
     return ContactConstraints(pairs, *_padded_rows(w[k].tocsr(), pairs))
+
+
+def nearest_slave_nodes(found: np.ndarray, gap: np.ndarray, sd: float) -> np.ndarray:
+    """(q,) bool: the found slave nodes whose nodal gap (q,) is within NEAR_BAND x sd of
+    the smallest found gap (where contact starts; all of a flat, touching interface)."""
+    if not found.any():
+        return found
+    return found & (gap <= gap[found].min() + NEAR_BAND * sd)
 
 
 def _interface_edges(mesh: Mesh, itf, pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -1,7 +1,8 @@
 """Dual mortar against a smoothed master (`discretisation = "mortar-smooth"`).
 
-The same rows as `mortar` (app/contact/mortar.py) except the master's interpolation in
-the mortar integrals: a uniform quadratic B-spline whose control points are the master
+The same rows as `mortar` (app/contact/mortar.py) except, on an interface whose master
+segments are more than COARSE_RATIO x the slave's, the master's interpolation in the
+mortar integrals: a uniform quadratic B-spline whose control points are the master
 nodes, instead of the master's piecewise-linear trace. On master segment [a, b] at
 parameter eta the point (and the displacement) is
 
@@ -33,15 +34,16 @@ ends (and corners). Opt in per interface; `mortar` stays the default.
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from app.contact.constraints import ContactConstraints
-from app.contact.mortar import MasterBasis, mortar_constraints
+from app.contact.mortar import MasterBasis, linear_master, mortar_constraints
 from app.mesh.model import Mesh
 
 COARSE_RATIO = 1.5
-"""Master segments longer than this times the nearest slave segment are smoothed; the
-others keep the linear trace (the stripe check's threshold, app/contact/resolution.py)."""
+"""The whole master curve is smoothed when its segments facing the slave are longer
+than this times the slave's (medians; the stripe check's threshold,
+app/contact/resolution.py); else it keeps the linear trace. One choice per interface:
+switching segment by segment would shift nodal forces where the choice changes."""
 MAX_KINK_DEG = 30.0
 """Master nodes where the curve turns by more than this (degrees) are corners: the
 B-spline does not round them off (each side is smoothed on its own)."""
@@ -85,30 +87,31 @@ def bspline_weights(eta: np.ndarray, has_prev: np.ndarray,
     return np.stack([w_prev, w_a, w_b, w_next])
 
 
-def coarse_master_segments(pts: np.ndarray, m_edges: np.ndarray,
-                           s_edges: np.ndarray) -> np.ndarray:
-    """(F,) bool: master segments longer than COARSE_RATIO x the slave segment nearest to
-    their midpoint (pts (n, 2); m_edges (F, 2), s_edges (S, 2) node pairs)."""
-    m_len = np.linalg.norm(pts[m_edges[:, 1]] - pts[m_edges[:, 0]], axis=1)
-    s_len = np.linalg.norm(pts[s_edges[:, 1]] - pts[s_edges[:, 0]], axis=1)
-    s_mid = 0.5 * (pts[s_edges[:, 0]] + pts[s_edges[:, 1]])
-    m_mid = 0.5 * (pts[m_edges[:, 0]] + pts[m_edges[:, 1]])
-    nearest = cKDTree(s_mid).query(m_mid)[1]
-    return m_len > COARSE_RATIO * s_len[nearest]
+def master_slave_ratio(pts: np.ndarray, m_edges: np.ndarray, facing: np.ndarray,
+                       slave_length: np.ndarray) -> float:
+    """Median length of the master segments faced by slave nodes (facing (q,)) over the
+    median tributary length of those nodes (slave_length (q,)): the stripe check's ratio
+    (app/contact/resolution.py), here over the slave nodes nearest the master
+    (app.contact.mortar.nearest_slave_nodes); 0 with none."""
+    if facing.size == 0:
+        return 0.0
+    ends = pts[m_edges[facing]]  # (q, 2, 2)
+    master = np.median(np.linalg.norm(ends[:, 1] - ends[:, 0], axis=1))
+    return float(master / np.median(slave_length))
 
 
-def bspline_master(pts: np.ndarray, m_edges: np.ndarray, s_edges: np.ndarray) -> MasterBasis:
+def bspline_master(pts: np.ndarray, m_edges: np.ndarray, facing: np.ndarray,
+                   slave_length: np.ndarray) -> MasterBasis:
     """The master interpolation over (prev, a, b, next) of each segment: the quadratic
-    B-spline on `coarse_master_segments`, the linear trace (1 - eta, eta) elsewhere."""
+    B-spline on every segment when `master_slave_ratio` exceeds COARSE_RATIO, else the
+    linear trace (1 - eta, eta) (arguments as app.contact.mortar.linear_master)."""
+    if master_slave_ratio(pts, m_edges, facing, slave_length) <= COARSE_RATIO:
+        return linear_master(pts, m_edges, facing, slave_length)
     prev, nxt = master_neighbours(pts, m_edges)
     nodes = np.column_stack([prev, m_edges[:, 0], m_edges[:, 1], nxt])  # (F, 4)
-    coarse = coarse_master_segments(pts, m_edges, s_edges)
 
     def basis(f: np.ndarray, eta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        smooth = bspline_weights(eta, prev[f] >= 0, nxt[f] >= 0)
-        zero = np.zeros_like(eta)
-        linear = np.stack([zero, 1 - eta, eta, zero])
-        return nodes[f], np.where(coarse[f][None, :, None], smooth, linear)
+        return nodes[f], bspline_weights(eta, prev[f] >= 0, nxt[f] >= 0)
 
     return basis
 
