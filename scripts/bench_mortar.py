@@ -8,7 +8,7 @@ from each end; max p), frictionless Cattaneo (where it stops).
 
     .venv/bin/python scripts/bench_mortar.py [--only patch hertz cattaneo multibody mu0
         family] [--hertz-sizes 0.5 0.25 0.125 0.0625] [--discretisations mortar]
-        [--set KEY=VALUE ...]
+        [--set KEY=VALUE ...] [--block2-sizes 0.08 0.02] [--plot PNG]
 
 `--set` is passed to every run (for example a mesh option); the Hertz rows also carry the
 peak and half-width errors, the element count, the mesh quality and the meshing time.
@@ -117,6 +117,7 @@ def _arguments() -> argparse.Namespace:
                     help="config of the Hertz rows in configs/ (e.g. hertz_patch)")
     ap.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUE",
                     help="config override passed to every run (repeatable)")
+    ap.add_argument("--plot", help="PNG of the multibody rows' p(x), a panel per block2 size")
     return ap.parse_args()
 
 
@@ -135,6 +136,33 @@ def main() -> None:
                 if case in a.only:
                     for row in rows(disc, swapped, extra, a):
                         emit(base | row)
+    if a.plot and PROFILES:
+        plot_profiles(a.plot)
+
+
+PROFILES: dict[tuple[str, bool, float], tuple[np.ndarray, np.ndarray]] = {}
+"""(discretisation, swapped, block2 size) -> closed pairs' x and p of the multibody rows."""
+
+
+def plot_profiles(path: str) -> None:
+    """p(x) of the multibody `indent` rows: one panel per block2 size, a line per run."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    sizes = sorted({k[2] for k in PROFILES}, reverse=True)
+    fig, axes = plt.subplots(1, len(sizes), figsize=(4.2 * len(sizes), 3.6), sharey=True,
+                             squeeze=False)
+    for ax, size in zip(axes[0], sizes, strict=True):
+        for (disc, swapped, s), (x, p) in PROFILES.items():
+            if s == size:
+                ax.plot(x, p, ".-", label=disc + (" (block2 as slave)" if swapped else ""))
+        ax.set_title(f"block2 elements {size:g} (arc 0.018)")
+        ax.set_xlabel("x")
+        ax.grid(alpha=0.3)
+    axes[0, 0].set_ylabel("p, multibody indent, last step")
+    axes[0, 0].legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
 
 
 def _patch_rows(disc: str, swapped: bool, extra: list[str],
@@ -186,7 +214,9 @@ def _multibody_rows(disc: str, swapped: bool, extra: list[str],
         b2 = ["--set", f"body.block2.size={block2}"]
         s, c = run("multibody", disc, swapped, [*b2, *extra])
         on = c["p"] > 0
-        dev = local_fit_deviation(c["x"][on], c["p"][on])[np.argsort(c["x"][on])]
+        order = np.argsort(c["x"][on])
+        PROFILES[(disc, swapped, block2)] = (c["x"][on][order], c["p"][on][order])
+        dev = local_fit_deviation(c["x"][on], c["p"][on])[order]
         yield {"case": "multibody", "block2_size": block2, "error": s.get("error"),
                "n_in_contact": int(on.sum()), "max_fit_deviation": float(dev.max(initial=0.0)),
                "inner_fit_deviation": float(dev[2:-2].max(initial=0.0)),  # 2 pairs in
