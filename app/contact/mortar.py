@@ -7,6 +7,7 @@ of node j are
 
     g~_j = n_j . (D_j x_j - sum_l M_jl x_l),   M_jl = int_slave phi_j N_l(eta(s)) ds,
 
+(N_l: the master's linear trace, or the interpolation passed as `master_basis`),
 integrated over the segmentation of the slave segments by the master segments: master
 nodes are projected onto each slave segment along the interpolated contact normal
 n(s) = (1 - s) n_1 + s n_2, each slave Gauss point onto the master segment along the same
@@ -198,10 +199,9 @@ def mortar_constraints(mesh: Mesh, itf, index: int, normal_rule=None,
 
     normal_rule: (nu_s, k_s, nu_m, k_m) -> (p, 2) unit contact normals (master -> slave);
     None: `contact_normal` (app/contact/mortar_bisector.py registers another).
-    master_basis: (pts, m_edges, facing, slave_length) -> MasterBasis (see
-    `linear_master`), the master interpolation in the mortar
-    integrals and so in the gaps and slips; None: `linear_master`
-    (app/contact/mortar_smooth.py registers a smoothed one).
+    master_basis: (pts, m_edges, facing, slave_length) -> MasterBasis, the master
+    interpolation N_l in the mortar integrals and so in the gaps and slips; None:
+    `linear_master` (app/contact/mortar_smooth.py registers a smoothed one).
 
     itf: an `[[interface]]` (name, slave, master, search_distance, penetration_tol,
     interference). Slave nodes farther than search_distance from the master, with less

@@ -26,7 +26,7 @@ What it costs: the B-spline reproduces rigid motions and linear fields (the rows
 sum w = 1 and the gap of a uniform approach is exact), and its nodal force weights
 int B_l ds equal the master's own int N_l ds on uniform master segments away from the
 curve's ends and corners. At a master curve's end they differ: the end node takes
-13/24 of its segment instead of 1/2 and the next node 23/24 instead of 1, so the
+13/24 of a segment instead of 1/2 and the next node 23/24 instead of 1, so the
 non-matching patch test is passed only where the contact stays away from the master's
 ends (and corners). Opt in per interface; `mortar` stays the default.
 """
