@@ -122,6 +122,7 @@ def test_rows_are_mortar_rows_unless_the_master_is_coarser():
     a, b = mortar_constraints(mesh, itf(), 0), mortar_smooth_constraints(mesh, itf(), 0)
     np.testing.assert_array_equal(dense(a, mesh.n_nodes), dense(b, mesh.n_nodes))
     np.testing.assert_array_equal(a.pairs.g0, b.pairs.g0)
+    assert a.master_interpolation == b.master_interpolation == "linear"
     assert DISCRETISATIONS["mortar-smooth"] is mortar_smooth_constraints
 
 
@@ -133,6 +134,7 @@ def test_rows_on_a_coarse_master_hold_rigid_motions(deg):
     rows = mortar_smooth_constraints(mesh, itf(), 0)
     g = dense(rows, mesh.n_nodes)
     plain = dense(mortar_constraints(mesh, itf(), 0), mesh.n_nodes)
+    assert rows.master_interpolation == "quadratic B-spline"
     assert (np.count_nonzero(g, axis=1) > np.count_nonzero(plain, axis=1)).any()
     m = rows.n_pairs
     c = np.radians(deg)
@@ -191,6 +193,11 @@ def test_multibody_indent_and_bond_smooth_on_the_default_mesh(tmp_path):
         assert x.size >= 9 and local_fit_deviation(x, p).max() < 0.03, name
     assert not [w for w in s.get("warnings", []) if "element period" in w]
     assert_law_holds(out, s["n_steps"])
+    described = s["contact_interfaces"]
+    assert described["indent"] == {"discretisation": "mortar-smooth", "n_pairs": 21,
+                                   "master_interpolation": "quadratic B-spline"}
+    assert described["stack"]["master_interpolation"] == "linear"  # mortar (the default)
+    assert described["stack"]["discretisation"] == "mortar"
 
 
 def test_patch_test_on_a_coarser_master_is_mortars(tmp_path):

@@ -33,12 +33,16 @@ class ContactConstraints:
     cols: (m, k) int64 DOF columns (2 node + component) of each row; padding has weight 0.
     g_normal, g_tangent: (m, k) weights: opening_j = g0_j + sum_c g_normal[j, c] u[cols[j, c]]
         and slip_j = sum_c g_tangent[j, c] u[cols[j, c]].
+    master_interpolation: how the rows interpolate the master side ("linear": its own
+        piecewise-linear trace; app/contact/mortar_smooth.py: "quadratic B-spline"); a
+        concatenation of several interfaces says "mixed" when they differ.
     """
 
     pairs: ContactPairs
     cols: np.ndarray
     g_normal: np.ndarray
     g_tangent: np.ndarray
+    master_interpolation: str = "linear"
 
     @property
     def n_pairs(self) -> int:
@@ -60,10 +64,12 @@ class ContactConstraints:
         def pad(a: np.ndarray) -> np.ndarray:
             return np.pad(a, ((0, 0), (0, k - a.shape[1])))
 
+        kinds = {p.master_interpolation for p in parts}
         return cls(ContactPairs.concatenate([p.pairs for p in parts]),
                    np.concatenate([pad(p.cols) for p in parts]),
                    np.concatenate([pad(p.g_normal) for p in parts]),
-                   np.concatenate([pad(p.g_tangent) for p in parts]))
+                   np.concatenate([pad(p.g_tangent) for p in parts]),
+                   kinds.pop() if len(kinds) == 1 else "mixed")
 
     def matrix(self, n_nodes: int) -> sp.csr_matrix:
         """G, shape (2m, 2 n_nodes): rows 0..m-1 normal, m..2m-1 tangential."""

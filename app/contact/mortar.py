@@ -132,7 +132,8 @@ def _candidates(xs1, xs2, xa, xb, reach: float) -> tuple[np.ndarray, np.ndarray]
 
 MasterBasis = Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]
 """The master-side interpolation: (f (p,) master segments, eta (p, g) parameters on them)
--> (nodes (p, k) master node ids, -1 for none; weights (k, p, g), summing to 1)."""
+-> (nodes (p, k) master node ids, -1 for none; weights (k, p, g), summing to 1). An
+attribute `label` names it in the summary (none: "linear")."""
 
 
 def linear_master(pts: np.ndarray, m_edges: np.ndarray, facing: np.ndarray,
@@ -235,7 +236,8 @@ def mortar_constraints(mesh: Mesh, itf, index: int, normal_rule=None,
         interface=np.full(k.size, int(index), dtype=np.int64), slave=nodes[k].astype(np.int64),
         master=m_edges[sg[k]].copy(), xi=xi[k], normal=nrm[k], tangent=tan[k], g0=g0[k],
         position=pts[nodes[k]].copy(), length=d_len[k])
-    return ContactConstraints(pairs, *_padded_rows(w[k].tocsr(), pairs))
+    return ContactConstraints(pairs, *_padded_rows(w[k].tocsr(), pairs),
+                              master_interpolation=getattr(basis, "label", "linear"))
 
 
 def nearest_slave_nodes(found: np.ndarray, gap: np.ndarray, sd: float) -> np.ndarray:

@@ -113,6 +113,7 @@ def bspline_master(pts: np.ndarray, m_edges: np.ndarray, facing: np.ndarray,
     def basis(f: np.ndarray, eta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return nodes[f], bspline_weights(eta, prev[f] >= 0, nxt[f] >= 0)
 
+    basis.label = "quadratic B-spline"
     return basis
 
 

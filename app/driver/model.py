@@ -86,6 +86,7 @@ def build_model(ctx: RunContext) -> Model:
         with ctx.phase("pair_search"):
             contact = ContactSetup.build(mesh, cfg)
         ctx.summary["n_pairs"] = contact.pairs.n_pairs
+        ctx.summary["contact_interfaces"] = contact.described
     with ctx.phase("floating_modes"):  # with CS-FEM-1SD: the hourglass eigen-solve
         floating = floating_modes(mesh, cfg, fixed, contact, disc)
         pins = floating.pins if floating else np.zeros(0, dtype=np.int64)

@@ -9,7 +9,7 @@ import scipy.sparse as sp
 
 from app.config import Config
 from app.contact.constraints import ContactConstraints
-from app.contact.discretisation import contact_discretisation
+from app.contact.discretisation import DEFAULT, contact_discretisation
 from app.contact.pairs import ContactPairs
 from app.errors import InputError
 from app.interface.floating import FloatingModes
@@ -21,11 +21,13 @@ class ContactSetup:
     """Pairs of every interface, the constraint matrix G and per-pair law parameters."""
 
     def __init__(self, cfg: Config, pairs: ContactPairs, g: sp.csr_matrix,
-                 rows: ContactConstraints | None = None):
+                 rows: ContactConstraints | None = None, described: dict | None = None):
         self.cfg = cfg
         self.pairs = pairs
         self.g = g
         self.rows = rows
+        self.described = described or {}
+        """Per interface name: discretisation, master_interpolation, n_pairs."""
         it = pairs.interface
         t = cfg.thickness
         self.mu = np.array([cfg.interfaces[i].mu for i in it])
@@ -36,10 +38,13 @@ class ContactSetup:
 
     @classmethod
     def build(cls, mesh: Mesh, cfg: Config) -> ContactSetup:
-        found = []
+        found, described = [], {}
         for i, itf in enumerate(cfg.interfaces):  # the builders check the curves exist
             build = contact_discretisation(itf.discretisation, f"interface '{itf.name}'")
             found.append(build(mesh, itf, i))
+            described[itf.name] = {"discretisation": itf.discretisation or DEFAULT,
+                                   "master_interpolation": found[-1].master_interpolation,
+                                   "n_pairs": found[-1].n_pairs}
         rows = ContactConstraints.concatenate(found)
         pairs = rows.pairs
         dup, counts = np.unique(pairs.slave, return_counts=True)
@@ -48,7 +53,7 @@ class ContactSetup:
             raise InputError(f"slave node at x={mesh.points[n, 0]:.4g}, "
                              f"y={mesh.points[n, 1]:.4g} belongs to two interfaces: a slave "
                              "curve may be slave on one interface only")
-        return cls(cfg, pairs, rows.matrix(mesh.n_nodes), rows)
+        return cls(cfg, pairs, rows.matrix(mesh.n_nodes), rows, described)
 
     def bodies(self, mesh: Mesh) -> set[int]:
         nb = mesh.node_body()
