@@ -36,13 +36,14 @@ from scipy.spatial import cKDTree
 
 from app.contact.constraints import ContactConstraints
 from app.contact.pairs import (
-    PENETRATION_REL_TOL,
     ContactPairs,
     _curve_edges,
     closest_segments,
+    master_segments,
+    no_slave_error,
+    refuse_penetration,
     tributary_length,
 )
-from app.errors import InputError
 from app.mesh.model import Mesh, orient_boundary_edges
 
 _GAUSS_S, _GAUSS_W = np.polynomial.legendre.leggauss(4)
@@ -214,7 +215,7 @@ def mortar_constraints(mesh: Mesh, itf, index: int, normal_rule=None,
     """
     sd = float(itf.search_distance)
     pts = np.asarray(mesh.points, dtype=float)
-    s_edges, m_edges = _interface_edges(mesh, itf, pts)
+    s_edges, m_edges, tol = _interface_edges(mesh, itf, pts)
     nodes, d_len = tributary_length(pts, s_edges)
     rule = contact_normal if normal_rule is None else normal_rule
     found, sg, xi, normal = _slave_normals(pts, s_edges, m_edges, nodes, sd, rule)
@@ -228,8 +229,9 @@ def mortar_constraints(mesh: Mesh, itf, index: int, normal_rule=None,
     g0 = np.einsum("ij,ij->i", nrm, pts[nodes] - w @ pts)
     keep = found & (cover >= MIN_COVER * d_len) & (g0 <= sd)
     if not keep.any():
-        raise _no_slave_error(itf, sd)
-    _check_penetration(itf, pts, xa, xb, nodes[keep], g_node[keep])
+        raise no_slave_error(itf.name, itf.slave, itf.master, sd)
+    if not itf.interference:
+        refuse_penetration(itf.name, pts[nodes[keep]], g_node[keep], g_node[keep] < -tol, tol)
     k = np.flatnonzero(keep)
     tan = np.column_stack([-nrm[:, 1], nrm[:, 0]])
     pairs = ContactPairs(
@@ -248,26 +250,17 @@ def nearest_slave_nodes(found: np.ndarray, gap: np.ndarray, sd: float) -> np.nda
     return found & (gap <= gap[found].min() + NEAR_BAND * sd)
 
 
-def _interface_edges(mesh: Mesh, itf, pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _interface_edges(mesh: Mesh, itf, pts: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
     """Slave and master edges (k, 2) of the interface, each oriented with its body on the
-    left; InputError if a master edge has zero length. pts: (n_nodes, 2) coordinates."""
+    left, and the penetration tolerance (length), as for node-to-segment
+    (`app.contact.pairs.master_segments`: InputError for a zero-length master edge)."""
     label = itf.name
     s_edges = orient_boundary_edges(mesh, _curve_edges(mesh, itf.slave, "slave", label),
                                     f"interface '{label}': slave curve '{itf.slave}'")
-    m_edges = orient_boundary_edges(mesh, _curve_edges(mesh, itf.master, "master", label),
-                                    f"interface '{label}': master curve '{itf.master}'")
-    xa, xb = pts[m_edges[:, 0]], pts[m_edges[:, 1]]
-    if np.any(np.linalg.norm(xb - xa, axis=1) == 0):
-        raise InputError(f"interface '{label}': master curve '{itf.master}' has an edge of "
-                         "zero length (coincident nodes)")
-    return s_edges, m_edges
-
-
-def _no_slave_error(itf, sd: float) -> InputError:
-    """The InputError of an interface with no slave node facing its master."""
-    return InputError(f"interface '{itf.name}': no slave node of '{itf.slave}' lies within "
-                      f"search_distance={sd:g} of '{itf.master}' (raise search_distance "
-                      "or check the curves)")
+    m_edges, _, tol = master_segments(mesh, pts,
+                                      _curve_edges(mesh, itf.master, "master", label),
+                                      label, itf.master, itf.penetration_tol)
+    return s_edges, m_edges, tol
 
 
 def _slave_normals(pts: np.ndarray, s_edges: np.ndarray, m_edges: np.ndarray,
@@ -311,7 +304,7 @@ def _covered_weights(pts: np.ndarray, nodes: np.ndarray, s_edges: np.ndarray,
     active = found[np.searchsorted(nodes, s_edges)].any(axis=1)
     se = s_edges[active]
     if se.shape[0] == 0:
-        raise _no_slave_error(itf, sd)
+        raise no_slave_error(itf.name, itf.slave, itf.master, sd)
     xs1, xs2 = pts[se[:, 0]], pts[se[:, 1]]
     e, f = _candidates(xs1, xs2, xa, xb, sd)
     pair, jj, node, val = segment_integrals(xs1, xs2, normal[se[:, 0]], normal[se[:, 1]],
@@ -345,23 +338,3 @@ def _padded_rows(w: sp.csr_matrix, pairs: ContactPairs):
     g_n = (wt[:, :, None] * pairs.normal[:, None, :]).reshape(m, -1)
     g_t = (wt[:, :, None] * pairs.tangent[:, None, :]).reshape(m, -1)
     return cols, g_n, g_t
-
-
-def _check_penetration(itf, pts, xa, xb, nodes, g0) -> None:
-    """InputError for initial penetrations beyond the tolerance (unless interference)."""
-    if itf.interference:
-        return
-    tol = itf.penetration_tol
-    if tol is None:
-        scale = float(np.ptp(pts, axis=0).max())
-        tol = max(PENETRATION_REL_TOL * float(np.linalg.norm(xb - xa, axis=1).mean()),
-                  1e-12 * scale)
-    pen = g0 < -tol
-    if pen.any():
-        i = np.flatnonzero(pen)
-        locs = "; ".join(f"x={pts[nodes[j], 0]:.6g}, y={pts[nodes[j], 1]:.6g}" for j in i[:3])
-        raise InputError(f"interface '{itf.name}': {i.size} slave nodes penetrate the master "
-                         f"by more than {tol:.3g} (first at {locs}; deepest "
-                         f"g0={g0[i].min():.3g}): fix the geometry, raise penetration_tol, or "
-                         "set interference = true if the overlap is an intended interference "
-                         "fit")

@@ -37,9 +37,10 @@ import numpy as np
 
 from app.contact.constraints import ContactConstraints
 from app.contact.mortar import MasterBasis, linear_master, mortar_constraints
+from app.contact.resolution import SIZE_RATIO_WARN, median_size_ratio
 from app.mesh.model import Mesh
 
-COARSE_RATIO = 1.5
+COARSE_RATIO = SIZE_RATIO_WARN
 """The whole master curve is smoothed when its segments facing the slave are longer
 than this times the slave's (medians; the stripe check's threshold,
 app/contact/resolution.py); else it keeps the linear trace. One choice per interface:
@@ -95,9 +96,7 @@ def master_slave_ratio(pts: np.ndarray, m_edges: np.ndarray, facing: np.ndarray,
     (app.contact.mortar.nearest_slave_nodes); 0 with none."""
     if facing.size == 0:
         return 0.0
-    ends = pts[m_edges[facing]]  # (q, 2, 2)
-    master = np.median(np.linalg.norm(ends[:, 1] - ends[:, 0], axis=1))
-    return float(master / np.median(slave_length))
+    return median_size_ratio(pts[m_edges[facing]], slave_length)
 
 
 def bspline_master(pts: np.ndarray, m_edges: np.ndarray, facing: np.ndarray,

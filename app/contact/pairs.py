@@ -252,7 +252,7 @@ def _checked_search_distance(label: str, slave: str, master: str, search_distanc
     return sd
 
 
-def _penetration_tolerance(label: str, pts: np.ndarray, seg_len: np.ndarray,
+def penetration_tolerance(label: str, pts: np.ndarray, seg_len: np.ndarray,
                            penetration_tol: float | None) -> float:
     """The given tolerance (checked >= 0) or PENETRATION_REL_TOL x mean master segment."""
     if penetration_tol is None:
@@ -265,7 +265,7 @@ def _penetration_tolerance(label: str, pts: np.ndarray, seg_len: np.ndarray,
     return tol
 
 
-def _refuse_penetration(label: str, xs: np.ndarray, g0: np.ndarray, pen: np.ndarray,
+def refuse_penetration(label: str, xs: np.ndarray, g0: np.ndarray, pen: np.ndarray,
                         tol: float) -> None:
     """InputError naming the first penetrating slave nodes (pen: (m,) bool), if any."""
     if not pen.any():
@@ -307,7 +307,7 @@ def contact_pairs(mesh: Mesh, slave: str, master: str, search_distance: float, *
     s_edges = _curve_edges(mesh, slave, "slave", label)
     m_edges = _curve_edges(mesh, master, "master", label)
     pts = np.asarray(mesh.points, dtype=float)
-    m_edges, seg_len, tol = _master_segments(mesh, pts, m_edges, label, master,
+    m_edges, seg_len, tol = master_segments(mesh, pts, m_edges, label, master,
                                              penetration_tol)
 
     nodes, trib = tributary_length(pts, s_edges)
@@ -318,11 +318,9 @@ def contact_pairs(mesh: Mesh, slave: str, master: str, search_distance: float, *
 
     keep, sg, xi, t, nrm, g0 = _project_slaves(xs, pts, m_edges, seg_len, m_degree, sd)
     if not keep.any():
-        raise InputError(f"interface '{label}': no slave node of '{slave}' lies within "
-                         f"search_distance={sd:g} of '{master}' (raise search_distance or "
-                         f"check the curves)")
+        raise no_slave_error(label, slave, master, sd)
     if not interference:
-        _refuse_penetration(label, xs, g0, keep & (g0 < -tol), tol)
+        refuse_penetration(label, xs, g0, keep & (g0 < -tol), tol)
     k = np.flatnonzero(keep)
     return ContactPairs(interface=np.full(k.size, int(interface), dtype=np.int64),
                         slave=nodes[k].astype(np.int64), master=m_edges[sg[k]].copy(),
@@ -330,7 +328,14 @@ def contact_pairs(mesh: Mesh, slave: str, master: str, search_distance: float, *
                         position=xs[k].copy(), length=trib[k])
 
 
-def _master_segments(mesh: Mesh, pts: np.ndarray, m_edges: np.ndarray, label: str,
+def no_slave_error(label: str, slave: str, master: str, sd: float) -> InputError:
+    """The InputError of an interface with no slave node within sd of its master."""
+    return InputError(f"interface '{label}': no slave node of '{slave}' lies within "
+                      f"search_distance={sd:g} of '{master}' (raise search_distance or "
+                      "check the curves)")
+
+
+def master_segments(mesh: Mesh, pts: np.ndarray, m_edges: np.ndarray, label: str,
                      master: str,
                      penetration_tol: float | None) -> tuple[np.ndarray, np.ndarray, float]:
     """Master edges oriented with the master body on the left (k, 2), their lengths (k,)
@@ -339,7 +344,7 @@ def _master_segments(mesh: Mesh, pts: np.ndarray, m_edges: np.ndarray, label: st
                                     f"interface '{label}': master curve '{master}'")
     xa, xb = pts[m_edges[:, 0]], pts[m_edges[:, 1]]
     seg_len = np.linalg.norm(xb - xa, axis=1)
-    tol = _penetration_tolerance(label, pts, seg_len, penetration_tol)
+    tol = penetration_tolerance(label, pts, seg_len, penetration_tol)
     if np.any(seg_len == 0):
         raise InputError(f"interface '{label}': master curve '{master}' has an edge of zero "
                          f"length (coincident nodes)")

@@ -33,14 +33,18 @@ CLOSED_REL = 1e-6
 (round-off forces of a zone being pulled off are not a traction profile)."""
 
 
-def master_slave_size_ratio(mesh: Mesh, pairs: ContactPairs, sel: np.ndarray) -> float:
-    """Median length of the master segments the selected pairs project on over the median
-    slave tributary length (dimensionless); nan for an empty selection."""
-    if not np.any(sel):
+def median_size_ratio(master_ends: np.ndarray, slave_length: np.ndarray) -> float:
+    """Median length of the master segments master_ends (k, 2, 2) over the median slave
+    tributary length slave_length (k,) (dimensionless); nan for k = 0."""
+    if slave_length.size == 0:
         return float("nan")
-    ends = mesh.points[pairs.master[sel]]  # (k, 2, 2)
-    master = np.median(np.linalg.norm(ends[:, 1] - ends[:, 0], axis=1))
-    return float(master / np.median(pairs.length[sel]))
+    master = np.median(np.linalg.norm(master_ends[:, 1] - master_ends[:, 0], axis=1))
+    return float(master / np.median(slave_length))
+
+
+def master_slave_size_ratio(mesh: Mesh, pairs: ContactPairs, sel: np.ndarray) -> float:
+    """`median_size_ratio` over the selected pairs (the segments they project on)."""
+    return median_size_ratio(mesh.points[pairs.master[sel]], pairs.length[sel])
 
 
 def interior_deviation(position: np.ndarray, p: np.ndarray) -> float:
