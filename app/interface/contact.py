@@ -26,8 +26,7 @@ class ContactSetup:
         self.pairs = pairs
         self.g = g
         self.rows = rows
-        self.described = described or {}
-        """Per interface name: discretisation, master_interpolation, n_pairs."""
+        self.described = described or {}  # per interface: discretisation, master, n_pairs
         it = pairs.interface
         t = cfg.thickness
         self.mu = np.array([cfg.interfaces[i].mu for i in it])
