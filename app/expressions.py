@@ -172,10 +172,11 @@ def _check_constant(expr: Expression, node: ast.Constant, seg: str) -> list[ast.
 
 def _check_name(expr: Expression, node: ast.Name, seg: str) -> list[ast.AST]:
     """A coordinate, constant or parameter; a function name only when called."""
-    names = sorted(set(COORDINATES) | set(CONSTANTS) | set(expr.parameters))
     if node.id in FUNCTIONS:
         raise expr.fail(f"uses the function {node.id} without calling it")
-    if node.id not in names:
+    if node.id not in COORDINATES and node.id not in CONSTANTS \
+            and node.id not in expr.parameters:
+        names = sorted(set(COORDINATES) | set(CONSTANTS) | set(expr.parameters))
         raise expr.fail(f"uses the unknown name '{node.id}' (names: {', '.join(names)}; "
                         f"functions: {', '.join(sorted(FUNCTIONS))})")
     return []

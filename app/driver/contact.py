@@ -68,6 +68,8 @@ def solve_contact_step(ctx: RunContext, model: Model, system: LinearSystem,
         with ctx.phase("recovery"):
             u = _displacement(model, system, u_free, result)
             miss, rel, again = _consistency(ctx, model, u, result, refinements, previous)
+            if not again:  # the step's answer: its checks, in the same phase
+                _answer_checks(ctx, model, result, step, refinements, rel)
         if not again:
             break
         previous = rel
@@ -78,15 +80,22 @@ def solve_contact_step(ctx: RunContext, model: Model, system: LinearSystem,
                 retry = stepper.refine(step, model.cases, correction)
             retry = ctx.mpi.bcast(retry, root=0)
         if retry is None:
+            with ctx.phase("recovery"):
+                _answer_checks(ctx, model, result, step, refinements, rel)
             break
         result = retry
         refinements += 1
+    return ContactStep(u, result)
+
+
+def _answer_checks(ctx: RunContext, model: Model, result: StepSolution, step: int,
+                   refinements: int, rel: float) -> None:
+    """The step's final answer: its consistency figures in `result.info`, and the
+    once-per-run warnings about it."""
     result.info["consistency_refinements"] = refinements
     result.info["lcp_displacement_mismatch"] = rel
-    with ctx.phase("lcp"):  # checks of the step's contact answer
-        _held_mode_warnings(ctx, result, step)
-        _stripe_warnings(ctx, model, result, step)
-    return ContactStep(u, result)
+    _held_mode_warnings(ctx, result, step)
+    _stripe_warnings(ctx, model, result, step)
 
 
 def _held_mode_warnings(ctx: RunContext, result: StepSolution, step: int) -> None:
@@ -102,14 +111,13 @@ def _held_mode_warnings(ctx: RunContext, result: StepSolution, step: int) -> Non
 def _stripe_warnings(ctx: RunContext, model: Model, result: StepSolution, step: int) -> None:
     """A warning the first time an interface's tractions follow its master's element
     period (app/contact/resolution.py); every rank holds the broadcast result."""
-    pairs = model.contact.pairs
-    names = [itf.name for itf in ctx.cfg.interfaces]
-    disc = {itf.name: itf.discretisation for itf in ctx.cfg.interfaces}
+    pairs, described = model.contact.pairs, model.contact.described
     normal = result.lam[: pairs.n_pairs]
-    for check in stripe_checks(model.mesh, pairs, normal, names, result.f_scale):
+    for check in stripe_checks(model.mesh, pairs, normal, list(described), result.f_scale):
         if check["warn"]:
-            ctx.warn(stripe_warning(check, step + 1, disc[check["interface"]]),
-                     ("stripes", check["interface"]))
+            name = check["interface"]
+            ctx.warn(stripe_warning(check, step + 1, described[name]["discretisation"]),
+                     ("stripes", name))
 
 
 def _displacement(model: Model, system: LinearSystem, u_free: np.ndarray,

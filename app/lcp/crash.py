@@ -76,13 +76,16 @@ def _weights(n: int) -> np.ndarray:
     return _WEIGHTS[:n]
 
 
-def column_probe(M: np.ndarray, D: np.ndarray) -> np.ndarray:
+def column_probe(M: np.ndarray, D: np.ndarray, rows: slice | None = None) -> np.ndarray:
     """(1, n) sums of the columns of D M D with random row weights r: (r D) M D, one BLAS
-    pass over M. Negated columns have negated sums (`twins_from_probe`); a non-finite entry
-    of M makes its column's sum non-finite."""
-    r = _weights(D.size)
+    pass over M (over the rows `rows` of M only, when given). Negated columns have negated
+    sums (`twins_from_probe`); a non-finite entry of the rows read makes its column's sum
+    non-finite."""
+    Dr = D if rows is None else D[rows]
+    Mr = M if rows is None else M[rows]
+    r = _weights(Dr.size)
     with np.errstate(over="ignore", invalid="ignore"):
-        return (((r * D) @ M) * D)[None, :]
+        return (((r * Dr) @ Mr) * D)[None, :]
 
 
 PROBE_ROWS = 128
@@ -101,10 +104,7 @@ def sampled_probe(M: np.ndarray, D: np.ndarray) -> np.ndarray:
     find twins (`twins_from_probe`, then `verified_twins`) for a twelfth of a pass over M
     at n = 1500. It does not see every entry: the caller checks that M is finite
     otherwise (see `app.lcp.lemke._validate`)."""
-    rows = probe_rows(D.size)
-    r = _weights(PROBE_ROWS)
-    with np.errstate(over="ignore", invalid="ignore"):
-        return (((r * D[rows]) @ M[rows]) * D)[None, :]
+    return column_probe(M, D, probe_rows(D.size))
 
 
 def verified_twins(M: np.ndarray, twin: np.ndarray) -> np.ndarray:

@@ -89,7 +89,8 @@ def _validate(M, q, sample: bool = False
     the diagonal scaling, one BLAS pass, which also shows any non-finite entry) and False;
     raises ValueError on bad shapes or non-finite data.
 
-    sample (for a cold crash): when M is C-ordered and n > 2 PROBE_ROWS, the probe reads
+    sample (for a cold crash): when M is C-ordered, n > 2 PROBE_ROWS and some q_i < 0
+    (with q >= 0 the answer z = 0 follows at once, so M is read whole), the probe reads
     PROBE_ROWS rows only (`sampled_probe`, enough for the twins), and the last value is
     True: M is then checked to be finite later, by the final check's product
     (`CheckProduct.finite`: a non-finite entry makes M z + q non-finite whatever z, since
@@ -100,7 +101,9 @@ def _validate(M, q, sample: bool = False
     n = q.size
     if M.shape != (n, n):
         raise ValueError(f"M must be ({n}, {n}) to match q of length {n}, got {M.shape}")
-    deferred = sample and n > 2 * PROBE_ROWS and M.flags.c_contiguous
+    # (q >= 0: z = 0 answers at once, after a full check of M anyway: no sampling)
+    deferred = (sample and n > 2 * PROBE_ROWS and M.flags.c_contiguous
+                and not (q >= 0).all())
     if deferred:
         probe = sampled_probe(M, _diagonal_D(M))
     else:
@@ -272,9 +275,7 @@ def _run(
     tol = DEFAULT_TOL if tol is None else float(tol)
     max_pivots = default_max_pivots(n) if max_pivots is None else int(max_pivots)
     zero = np.zeros(n)
-    if (q >= 0).all():
-        if deferred:
-            _validate(M, q)  # every entry of M, before an answer
+    if (q >= 0).all():  # M was checked whole by _validate (no sampling when q >= 0)
         return LCPResult(
             zero, q.copy(), 0, "solved", 0.0, np.zeros(n, dtype=bool), "q >= 0: z = 0 solves it"
         )

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from app.lcp.scaling import ScaledM
+from app.lcp.scaling import ScaledM, gather
 
 SWEEPS = 10
 """Most projected Jacobi sweeps of `slip_guess`."""
@@ -29,10 +29,10 @@ STEADY = 2
 
 
 def _pair_block(Ms: ScaledM, a: np.ndarray) -> np.ndarray:
-    """M[a, a] (unscaled): a view of M when a is a range, else a gathered copy."""
+    """M[a, a] (unscaled): a view of M when a is a range, else a gathered copy (`gather`)."""
     if a.size and a[-1] - a[0] + 1 == a.size:
         return Ms.M[a[0]:a[-1] + 1, a[0]:a[-1] + 1]
-    return Ms.M[np.ix_(a, a)]
+    return gather(Ms.M, a, a)
 
 
 def slip_guess(Ms: ScaledM, qt: np.ndarray, twin: np.ndarray, tpart: slice,

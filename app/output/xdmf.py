@@ -244,10 +244,6 @@ _HEAD = ('<?xml version="1.0"?>\n<Xdmf Version="3.0" '
 _TAIL = "\n</Grid></Domain></Xdmf>\n"
 
 
-def _document(grids: list[str]) -> str:
-    return _HEAD + "\n".join(grids) + _TAIL
-
-
 def _extend(doc: AppendableDocument, grids: list[str]) -> None:
     """Bring the XDMF index up to `grids`, the newest one last: one in-place write when the
     file holds all the others, else a whole atomic rewrite."""
