@@ -37,8 +37,8 @@ from app.closed_form import (  # noqa: E402
     hertz_pressure,
     interpolated_l2_rel_error,
 )
-from app.field_breakdown import field_breakdown, nodal_l2, orders, sampled_floor  # noqa: E402
-from app.output.read import read_pairs  # noqa: E402
+from app.field_breakdown import field_breakdown, nodal_l2, orders  # noqa: E402
+from app.output.read import last_step_file, read_pairs  # noqa: E402
 from app.study_reference import contact_window  # noqa: E402
 
 
@@ -99,13 +99,13 @@ def _arguments() -> argparse.Namespace:
     return ap.parse_args()
 
 
-def _reference(args: argparse.Namespace) -> dict:
+def reference_run(args: argparse.Namespace) -> dict:
     """The reference run (the reference method's finest level): its folder, pairs, the
     exact field and its a, p0, x0, c, the contact window and its earlier contact edges."""
     refs = runs_of(args.study, args.reference)
     run = refs[max(refs)]
     s = json.loads((run / "summary.json").read_text())
-    pairs = read_pairs(run / f"step_{len(s['steps']):04d}.h5", 0, ("x", "p", "q", "mu"))
+    pairs = read_pairs(last_step_file(run), 0, ("x", "p", "q", "mu"))
     mu = float(pairs["mu"].max())
     exact, a, p0, x0, c = exact_field(s, args.field, mu)
     return {"run": run, "pairs": pairs, "mu": mu, "exact": exact, "a": a, "p0": p0, "x0": x0,
@@ -118,8 +118,7 @@ def _level_row(args: argparse.Namespace, ref: dict, level: int, run: Path,
     """One level's breakdown of the method's error and of the floor (see the docstring)."""
     exact, a, x0, c, win = ref["exact"], ref["a"], ref["x0"], ref["c"], ref["window"]
     xr, fr = ref["pairs"]["x"], ref["pairs"][args.field]
-    s = json.loads((run / "summary.json").read_text())
-    d = read_pairs(run / f"step_{len(s['steps']):04d}.h5", 0, ("x", "p", "q"))
+    d = read_pairs(last_step_file(run), 0, ("x", "p", "q"))
     x = d["x"]
     h = float(np.median(np.diff(x[np.abs(x - x0) < a])))
     bands = {"edge": x0 + np.array([-a, a])}
@@ -132,7 +131,7 @@ def _level_row(args: argparse.Namespace, ref: dict, level: int, run: Path,
     return {"level": level, "method": args.method, "pairs": int(x.size),
             "h_over_a": round(h / a, 5), "study_csv": study_value, **b,
             "nodal": nodal_l2(x, d[args.field], xr, fr, win),
-            "floor_ref": sampled_floor(x, xr, exact, win),
+            "floor_ref": fb["total"],  # = sampled_floor(x, xr, exact, win)
             **{f"floor_{k}": v for k, v in fb.items() if k != "total"},
             "floor_cf": interpolated_l2_rel_error(x - x0, exact(x), lambda t: exact(t + x0),
                                                   INTERPOLATED_L2_RANGE * a),
@@ -141,7 +140,7 @@ def _level_row(args: argparse.Namespace, ref: dict, level: int, run: Path,
 
 def main() -> None:
     args = _arguments()
-    ref = _reference(args)
+    ref = reference_run(args)
     study = {(r["level"], r["method"]): r for r in csv.DictReader(open(args.study / "study.csv"))}
     col = "ref_traction_l2" if args.field == "q" else "ref_pressure_l2"
     rows = []

@@ -21,11 +21,11 @@ import sys
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # this checkout's app
-from field_breakdown import exact_field, runs_of  # noqa: E402  (scripts/field_breakdown.py)
+from field_breakdown import reference_run, runs_of  # noqa: E402  (scripts/field_breakdown.py)
 
 from app.closed_form import INTERPOLATED_L2_RANGE  # noqa: E402
 from app.field_breakdown import bisect_pairs, edge_phase, floor_sequence, orders  # noqa: E402
-from app.output.read import read_pairs  # noqa: E402
+from app.output.read import last_step_file, read_pairs  # noqa: E402
 
 
 def main() -> None:
@@ -37,15 +37,9 @@ def main() -> None:
     ap.add_argument("--method", default="4SD")
     ap.add_argument("--reference", default="4SD")
     args = ap.parse_args()
-    refs = runs_of(args.study, args.reference)
-    ref_run = refs[max(refs)]
-    ref_s = json.loads((ref_run / "summary.json").read_text())
-    mu = float(read_pairs(ref_run / f"step_{len(ref_s['steps']):04d}.h5", 0, ("mu",))["mu"]
-               .max())
-    exact, a, _, x0, c = exact_field(ref_s, args.field, mu)
-    run0 = runs_of(args.study, args.method)[0]
-    s0 = json.loads((run0 / "summary.json").read_text())
-    x = read_pairs(run0 / f"step_{len(s0['steps']):04d}.h5", 0, ("x",))["x"] - x0
+    ref = reference_run(args)
+    exact, a, x0, c = ref["exact"], ref["a"], ref["x0"], ref["c"]
+    x = read_pairs(last_step_file(runs_of(args.study, args.method)[0]), 0, ("x",))["x"] - x0
     rows = floor_sequence(x, lambda t: exact(t + x0), INTERPOLATED_L2_RANGE * a, args.levels,
                           args.ref_levels)
     for r in rows:
