@@ -93,6 +93,22 @@ def _lines(ids: np.ndarray, per_line: int = 8) -> list[str]:
             for k in range(0, ids.size, per_line)]
 
 
+def _surface_lines(deck: ContactDeck, face_offset: int) -> list[str]:
+    """The SLAVE and MASTER `*SURFACE` cards; local face f is label S{f + face_offset}
+    (1 for CPE4, 3 for the C3D8 of `calculix_c3d8.py`)."""
+    out = []
+    for name, faces in (("SLAVE", deck.slave_faces), ("MASTER", deck.master_faces)):
+        out.append(f"*SURFACE, NAME={name}, TYPE=ELEMENT")
+        out += [f"{int(e) + 1}, S{int(f) + face_offset}" for e, f in faces]
+    return out
+
+
+def _fixed_lines(deck: ContactDeck) -> list[str]:
+    """The `*BOUNDARY` data lines of the components held at zero throughout."""
+    return [f"{name.upper()}, {c}, {c}, 0." for name, comps in deck.fixed.items()
+            for c in comps]
+
+
 def _step_lines(step: Step, deck: ContactDeck) -> list[str]:
     inc = 1.0 / step.increments
     # automatic incrementation capped at 1 / increments (ccx cuts back where contact
@@ -126,9 +142,7 @@ def write_deck(deck: ContactDeck) -> str:
     for name, nodes in deck.node_sets.items():
         out.append(f"*NSET, NSET={name.upper()}")
         out += _lines(np.unique(nodes) + 1)
-    for name, faces in (("SLAVE", deck.slave_faces), ("MASTER", deck.master_faces)):
-        out.append(f"*SURFACE, NAME={name}, TYPE=ELEMENT")
-        out += [f"{int(e) + 1}, S{int(f) + 1}" for e, f in faces]
+    out += _surface_lines(deck, 1)
     for b, (E, nu) in enumerate(zip(deck.E, deck.nu, strict=True)):
         out += [f"*MATERIAL, NAME=MAT{b}", "*ELASTIC", f"{E:.10g}, {nu:.10g}",
                 f"*SOLID SECTION, ELSET=BODY{b}, MATERIAL=MAT{b}", f"{deck.thickness:.10g}"]
@@ -137,9 +151,7 @@ def write_deck(deck: ContactDeck) -> str:
     if deck.mu > 0:
         out += ["*FRICTION", f"{deck.mu:.10g}, {deck.stick:.10g}"]
     out += [f"*CONTACT PAIR, INTERACTION=SI, TYPE={deck.pair_type}", "SLAVE, MASTER"]
-    out.append("*BOUNDARY")
-    for name, comps in deck.fixed.items():
-        out += [f"{name.upper()}, {c}, {c}, 0." for c in comps]
+    out += ["*BOUNDARY", *_fixed_lines(deck)]
     for step in deck.steps:
         out += _step_lines(step, deck)
     return "\n".join(out) + "\n"
