@@ -31,13 +31,12 @@ from __future__ import annotations
 import argparse
 import json
 import shutil
-import subprocess
 import sys
 import tempfile
 from pathlib import Path
 
 import numpy as np
-from app_runner import ENV
+from app_runner import run_app
 from calculix_c3d8 import face_nodes, write_deck_c3d8
 from calculix_cattaneo import fail, run_ccx
 from calculix_deck import (
@@ -59,7 +58,6 @@ from app.contact.mortar import nodal_normals  # noqa: E402
 from app.contact.pairs import tributary_length  # noqa: E402
 from app.contact.resolution import interior_deviation  # noqa: E402
 from app.contact.smoothness import local_fit_deviation  # noqa: E402
-from app.output.read import last_step_file, read_pairs  # noqa: E402
 
 CLOSED = 1e-3  # a CalculiX slave node is closed when its p > CLOSED x max p
 CONTACT = {  # --contact: (CalculiX pair type, extra *SURFACE BEHAVIOR values)
@@ -172,18 +170,10 @@ def mortar_result(cfg, mesh, slave, deck, dat: str, frd: str) -> dict:
 
 def ours_result(config: str, sets: list[str], moved: str) -> dict:
     """P (reaction on the moved support) and the closed pairs' p profile of an app run."""
-    out = Path(tempfile.mkdtemp(prefix="calculix_indent_"))
-    try:
-        args = [x for s in sets for x in ("--set", s)]
-        res = subprocess.run([sys.executable, "-m", "app", "run", config, "--out", str(out),
-                              "--quiet", *args], cwd=ROOT, env=ENV, capture_output=True,
-                             text=True)
-        if res.returncode:
-            return {"error": res.stderr.strip()[-300:]}
-        s = json.loads((out / "summary.json").read_text())
-        c = read_pairs(last_step_file(out), 0, ("x", "p"))
-    finally:
-        shutil.rmtree(out, ignore_errors=True)
+    s = run_app(config, [x for st in sets for x in ("--set", st)], pairs=("x", "p"))
+    if "error" in s:
+        return {"error": s["error"][-300:]}
+    c = s["last_step_pairs"]
     closed = c["p"] > 0
     P = -float(s["steps"][-1]["reactions"][f"support:{moved}"]["Fy"])
     return {"P": P} | profile(c["x"][closed], c["p"][closed])
