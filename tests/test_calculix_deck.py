@@ -169,6 +169,27 @@ def test_surface_tractions_on_a_straight_bottom_edge():
     assert np.allclose(tr["fy"], tr["pn_def"]) and np.allclose(tr["fx"], tr["qt_def"])
 
 
+def test_surface_tractions_deformed_frame_follows_a_rigid_rotation():
+    """u = R x - x: the deformed-frame figures are the force per length (6, 10) projected
+    on the rotated outward normal R (0, -1) and tangent R (1, 0); the undeformed ones
+    keep the axes."""
+    pts, _ = square_patch()
+    edges = np.array([[0, 1], [1, 2]])
+    force = np.zeros((6, 2))
+    force[[0, 1, 2]] = [[3.0, 5.0], [6.0, 10.0], [3.0, 5.0]]
+    theta = 0.4
+    c, s = np.cos(theta), np.sin(theta)
+    rot = np.array([[c, -s], [s, c]])
+    tr = surface_tractions(pts, edges, force, u=pts @ rot.T - pts)
+    normal, tangent = rot @ [0.0, -1.0], rot @ [1.0, 0.0]  # (s, -c), (c, s)
+    per_length = np.array([6.0, 10.0])
+    assert np.allclose(tr["pn_def"], -per_length @ normal)  # 10 c - 6 s
+    assert np.allclose(tr["qt_def"], per_length @ tangent)  # 6 c + 10 s
+    assert np.allclose(tr["pn_def"], 10 * c - 6 * s) and np.allclose(tr["qt_def"], 6 * c + 10 * s)
+    assert np.allclose(tr["pn"], 10.0) and np.allclose(tr["qt"], 6.0)
+    assert not np.allclose(tr["pn_def"], tr["pn"])
+
+
 @pytest.mark.skipif(shutil.which("ccx") is None, reason="ccx (CalculiX) not installed")
 def test_ccx_two_blocks_recovered_force_balances_the_support(tmp_path):
     deck = two_blocks()
