@@ -21,7 +21,8 @@ forces on the undeformed arc's nodal frame instead of the global x, y axes. The 
 are the app's (`app.closed_form.cattaneo_errors`: P, Q the sums of the recovered forces,
 |q| interpolated linearly between nodes over |x| <= 1.5 a), the stick zone the nodes with
 |q| < (1 - 1e-3) mu p. One JSON line per output time (end of the normal step, end), and
-with `--ours OUT` the same figures of an app run folder at its steps 5 and 15. Exit 2 with
+with `--ours OUT` the same figures of an app run folder at the end of its normal steps (the
+cyl_top uy ramp's end, 5) and at its last step (15). Exit 2 with
 a one-line message when `ccx` is missing or fails.
 """
 
