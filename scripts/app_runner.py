@@ -16,8 +16,14 @@ ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIR
            OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1")
 
 
-def run_app(config: str, args: list[str], ranks: int = 1) -> dict:
-    """Summary of one run, or {"error": last stderr line(s)} when it failed."""
+def run_app(config: str, args: list[str], ranks: int = 1,
+            pairs: tuple[str, ...] = ()) -> dict:
+    """Summary of one run, or {"error": last stderr line(s)} when it failed.
+
+    pairs: fields of interface 0's contact pairs (`app.output.read.read_pairs`, e.g.
+    ("x", "p")) to read from the run's last step file, returned under the extra key
+    `last_step_pairs` (name -> array).
+    """
     out = Path(tempfile.mkdtemp(prefix="bench_"))
     try:
         cmd = [sys.executable, "-m", "app", "run", config, "--out", str(out), "--quiet", *args]
@@ -26,6 +32,11 @@ def run_app(config: str, args: list[str], ranks: int = 1) -> dict:
         res = subprocess.run(cmd, cwd=ROOT, env=ENV, capture_output=True, text=True)
         if res.returncode != 0:
             return {"error": res.stderr.strip()[-500:]}
-        return json.loads((out / "summary.json").read_text())
+        summary = json.loads((out / "summary.json").read_text())
+        if pairs:
+            from app.output.read import last_step_file, read_pairs
+
+            summary["last_step_pairs"] = read_pairs(last_step_file(out), 0, pairs)
+        return summary
     finally:
         shutil.rmtree(out, ignore_errors=True)

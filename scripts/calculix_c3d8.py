@@ -14,7 +14,7 @@ functions; the contact pressure is read from the `.frd` (CPRESS at the slave nod
 from __future__ import annotations
 
 import numpy as np
-from calculix_deck import ContactDeck, _lines
+from calculix_deck import ContactDeck, _fixed_lines, _lines, _step_lines, _surface_lines
 
 
 def face_nodes(quads: np.ndarray, faces: np.ndarray) -> np.ndarray:
@@ -27,10 +27,10 @@ def face_nodes(quads: np.ndarray, faces: np.ndarray) -> np.ndarray:
 def write_deck_c3d8(deck: ContactDeck) -> str:
     """The `.inp` text of the scene as one layer of C3D8 with mortar contact.
 
-    Raises ValueError for friction (the notes: NaN with Coulomb friction) or more than one
-    step (CalculiX's mortar was reliable in one step only).
+    Raises ValueError for friction (the notes: NaN with Coulomb friction; a step's own mu
+    too) or more than one step (CalculiX's mortar was reliable in one step only).
     """
-    if deck.mu > 0 or len(deck.steps) != 1:
+    if deck.mu > 0 or len(deck.steps) != 1 or deck.steps[0].mu is not None:
         raise ValueError("CalculiX mortar on C3D8: frictionless and one step only")
     n = deck.points.shape[0]
     out = ["*HEADING", "csfem-contact scene exported by scripts/calculix_c3d8.py",
@@ -50,9 +50,7 @@ def write_deck_c3d8(deck: ContactDeck) -> str:
         nodes = np.unique(nodes)
         out.append(f"*NSET, NSET={name.upper()}")
         out += _lines(np.concatenate([nodes + 1, nodes + 1 + n]))
-    for name, faces in (("SLAVE", deck.slave_faces), ("MASTER", deck.master_faces)):
-        out.append(f"*SURFACE, NAME={name}, TYPE=ELEMENT")
-        out += [f"{int(e) + 1}, S{int(f) + 3}" for e, f in faces]
+    out += _surface_lines(deck, 3)
     for b, (E, nu) in enumerate(zip(deck.E, deck.nu, strict=True)):
         out += [f"*MATERIAL, NAME=MAT{b}", "*ELASTIC", f"{E:.10g}, {nu:.10g}",
                 f"*SOLID SECTION, ELSET=BODY{b}, MATERIAL=MAT{b}"]
@@ -60,16 +58,6 @@ def write_deck_c3d8(deck: ContactDeck) -> str:
     if deck.penalty > 0:
         out += ["*SURFACE BEHAVIOR, PRESSURE-OVERCLOSURE=LINEAR", f"{deck.penalty:.10g}"]
     out += ["*CONTACT PAIR, INTERACTION=SI, TYPE=MORTAR", "SLAVE, MASTER",
-            "*BOUNDARY", "ZFIX, 3, 3, 0."]
-    for name, comps in deck.fixed.items():
-        out += [f"{name.upper()}, {c}, {c}, 0." for c in comps]
-    step = deck.steps[0]
-    inc = 1.0 / step.increments
-    out += ["*STEP, INC=1000", "*STATIC", f"{inc:.10g}, 1., {inc * 1e-4:.10g}, {inc:.10g}",
-            "*BOUNDARY"]
-    for name, comps in step.boundary.items():
-        out += [f"{name.upper()}, {c}, {c}, {v:.10g}" for c, v in comps.items()]
-    for name in deck.print_sets:
-        out += [f"*NODE PRINT, NSET={name.upper()}, TOTALS=YES", "RF"]
-    out += ["*CONTACT FILE", "CDIS, CSTR", "*END STEP"]
+            "*BOUNDARY", "ZFIX, 3, 3, 0.", *_fixed_lines(deck)]
+    out += _step_lines(deck.steps[0], deck)
     return "\n".join(out) + "\n"

@@ -21,7 +21,8 @@ forces on the undeformed arc's nodal frame instead of the global x, y axes. The 
 are the app's (`app.closed_form.cattaneo_errors`: P, Q the sums of the recovered forces,
 |q| interpolated linearly between nodes over |x| <= 1.5 a), the stick zone the nodes with
 |q| < (1 - 1e-3) mu p. One JSON line per output time (end of the normal step, end), and
-with `--ours OUT` the same figures of an app run folder at its steps 5 and 15. Exit 2 with
+with `--ours OUT` the same figures of an app run folder at the end of its normal steps (the
+cyl_top uy ramp's end, 5) and at its last step (15). Exit 2 with
 a one-line message when `ccx` is missing or fails.
 """
 
@@ -45,13 +46,11 @@ sys.path.insert(0, str(ROOT / "scripts"))
 from calculix_deck import (  # noqa: E402
     ContactDeck,
     Step,
-    edge_faces,
-    internal_forces,
+    interface_curves,
     median_edge,
-    nodal_table,
     parse_dat,
     parse_frd_contact,
-    surface_tractions,
+    recovered_tractions,
     times,
     total_force,
     write_deck,
@@ -59,7 +58,6 @@ from calculix_deck import (  # noqa: E402
 
 from app.closed_form import cattaneo_errors, effective_moduli  # noqa: E402
 from app.config import load_config  # noqa: E402
-from app.mesh.model import orient_boundary_edges  # noqa: E402
 
 SCENE_SETS = ["load.0.total_force=[0.0,0.0]", "support.2.on=cyl_top", "support.2.ux=0.003",
               "support.2.ramp=[6,15]"]
@@ -71,6 +69,17 @@ def fail(msg: str) -> None:
     raise SystemExit(2)
 
 
+def normal_support(cfg):
+    """The config's support pressing the cylinder down (uy on cyl_top)."""
+    return [s for s in cfg.supports if s.on == "cyl_top" and 1 in s.values][0]
+
+
+def normal_end(cfg) -> int:
+    """The (1-based) step at which the normal support reaches its final value."""
+    h = normal_support(cfg).history
+    return int(np.argmax(h == h[-1])) + 1
+
+
 def build(a: argparse.Namespace):
     """(config, mesh, deck) of the scene."""
     from app.driver.context import RunOptions
@@ -80,16 +89,15 @@ def build(a: argparse.Namespace):
     mesh = build_scene_mesh(cfg, RunOptions(mesh_scale=(a.mesh_size / cfg.mesh_size
                                                         if a.mesh_size else 1.0)))
     itf = cfg.interfaces[0]
-    slave = orient_boundary_edges(mesh, mesh.curves[itf.slave], "slave")
-    master = orient_boundary_edges(mesh, mesh.curves[itf.master], "master")
+    slave, _, slave_faces, master_faces = interface_curves(mesh, itf.slave, itf.master)
     h_c = median_edge(mesh.points, slave, 0.15)
-    uy = [s.values[1] for s in cfg.supports if s.on == "cyl_top" and 1 in s.values][0]
+    uy = normal_support(cfg).values[1]
     E = float(cfg.E[0])
-    normal_mu = a.normal_mu if a.normal_mu is not None else None
+    normal_mu = a.normal_mu
     deck = ContactDeck(
         points=mesh.points, quads=mesh.quads, body=mesh.body,
         node_sets={"base": mesh.curve_nodes("base"), "cyl_top": mesh.curve_nodes("cyl_top")},
-        slave_faces=edge_faces(mesh.quads, slave), master_faces=edge_faces(mesh.quads, master),
+        slave_faces=slave_faces, master_faces=master_faces,
         E=[float(e) for e in cfg.E], nu=[float(v) for v in cfg.nu], thickness=cfg.thickness,
         penalty=a.penalty_factor * E / h_c, mu=itf.mu, stick=a.stick_factor * a.penalty_factor
         * E / h_c, fixed={"base": (1, 2)},
@@ -126,8 +134,9 @@ def profile_errors(x, p, q, length, *, mu, R, E_star, thickness, stick=None) -> 
         stick = (p > 1e-3 * p.max()) & (np.abs(q) < (1 - STICK_TOL) * mu * p)
     e = cattaneo_errors(x, p, q, length, stick, P=P, Q=Q, mu=mu, R=R, E_star=E_star,
                         thickness=thickness)
-    return {k: e[k] for k in ("P", "Q", "Q_over_muP", "stick_edges", "stick_half_width_exact",
-                              "traction_l2_interp_rel_error", "traction_l2_rel_error")}
+    return {k: e[k] for k in ("P", "Q", "Q_over_muP", "a_hertz", "stick_edges",
+                              "stick_half_width_exact", "traction_l2_interp_rel_error",
+                              "traction_l2_rel_error")}
 
 
 def locked(x, p, q, mu, a_h) -> dict:
@@ -148,23 +157,23 @@ def frames(tr: dict) -> dict[str, tuple[np.ndarray, np.ndarray]]:
             "arc_def": (tr["pn_def"], -tr["qt_def"])}
 
 
-def ccx_rows(a, cfg, mesh, slave, deck, dat: str, frd: str | None = None) -> list[dict]:
+def e_star(cfg) -> float:
+    """The plane-strain (or stress) E* of the two equal bodies (body 0's E, nu)."""
+    return effective_moduli(float(cfg.E[0]), float(cfg.nu[0]), cfg.plane)[0] / 2
+
+
+def ccx_rows(cfg, mesh, slave, deck, dat: str, frd: str | None = None, *,
+             E_star: float) -> list[dict]:
     """One row per output time: recovered P, Q, errors (end) or the locked-in q (normal);
     `native`: CalculiX's own nodal CPRESS and CSHEAR1 (sign: Q > 0 at the end) from `frd`."""
     tables = parse_dat(dat)
     native = {round(t, 9): v for t, v in parse_frd_contact(frd, mesh.n_nodes)} if frd else {}
-    cyl = mesh.body == 0
     mu, R = deck.mu, cfg.reference["radius"]
-    E_star = effective_moduli(float(cfg.E[0]), float(cfg.nu[0]), cfg.plane)[0] / 2
     rows = []
     for t in times(tables, "displacements", "NALL"):
-        _, u = nodal_table(tables, "displacements", "NALL", mesh.n_nodes, t)
-        u2 = np.nan_to_num(u[:, :2])
-        f = internal_forces(mesh.points, mesh.quads[cyl], u2, float(cfg.E[0]),
-                            float(cfg.nu[0]), cfg.thickness, cfg.plane, nonlinear=deck.nlgeom)
-        tr = surface_tractions(mesh.points, slave, f, u2)
-        keep = ~np.isin(tr["node"], deck.node_sets["cyl_top"])  # the arc's ends are supported
-        o = np.flatnonzero(keep)[np.argsort(tr["x"][keep])]
+        # the arc's ends are supported (cyl_top): recovered_tractions drops them
+        tr = recovered_tractions(tables, deck, slave, cfg.plane, t)
+        o = np.argsort(tr["x"])
         tr = {k: v[o] for k, v in tr.items()}
         rf = total_force(tables, "cyl_top", t)
         row = {"code": "calculix", "time": t, "n_elements": mesh.n_elements,
@@ -172,15 +181,14 @@ def ccx_rows(a, cfg, mesh, slave, deck, dat: str, frd: str | None = None) -> lis
         for name, (p, q) in frames(tr).items():
             e = profile_errors(tr["x"], p, q, tr["length"], mu=mu, R=R, E_star=E_star,
                                thickness=cfg.thickness)
-            row[name] = e | locked(tr["x"], p, q, mu, 1.0 * np.sqrt(4 * e["P"] * R
-                                                                    / (np.pi * E_star)))
+            row[name] = e | locked(tr["x"], p, q, mu, e["a_hertz"])
         if round(t, 9) in native:
             nat = native[round(t, 9)][tr["node"]]
             sign = -1.0 if np.sum(native[max(native)][tr["node"], 4] * tr["length"]) < 0 else 1.0
             e = profile_errors(tr["x"], nat[:, 3], sign * nat[:, 4], tr["length"], mu=mu, R=R,
                                E_star=E_star, thickness=cfg.thickness)
-            a_h = np.sqrt(4 * row["xy"]["P"] * R / (np.pi * E_star))
-            row["native"] = e | locked(tr["x"], nat[:, 3], sign * nat[:, 4], mu, a_h)
+            row["native"] = e | locked(tr["x"], nat[:, 3], sign * nat[:, 4], mu,
+                                       row["xy"]["a_hertz"])
             row["_native"] = (nat[:, 3], sign * nat[:, 4])
         row["_profile"] = {"x": tr["x"], "p": tr["fy"], "q": -tr["fx"], "p_arc": tr["pn"],
                            "q_arc": -tr["qt"], "q_def": -tr["qt_def"]}
@@ -188,28 +196,31 @@ def ccx_rows(a, cfg, mesh, slave, deck, dat: str, frd: str | None = None) -> lis
     return rows
 
 
-def ours_rows(out: Path, cfg) -> list[dict]:
-    """The same figures of an app run folder at the end of the normal steps and at the end."""
+def ours_rows(out: Path, cfg, E_star: float) -> list[dict]:
+    """The same figures of an app run folder at the end of the normal steps (`normal_end`
+    of cfg) and at its last step (`_end`: True)."""
     from app.output.read import read_pairs
 
-    E_star = effective_moduli(float(cfg.E[0]), float(cfg.nu[0]), cfg.plane)[0] / 2
+    last = len(json.loads((out / "summary.json").read_text())["steps"])
     rows = []
-    for step in (5, 15):
+    for step in (normal_end(cfg), last):
         c = read_pairs(out / f"step_{step:04d}.h5", 0, ("x", "p", "q", "length", "state"))
         stick = c["state"] == 1
         e = profile_errors(c["x"], c["p"], c["q"], c["length"], mu=cfg.interfaces[0].mu,
                            R=cfg.reference["radius"], E_star=E_star, thickness=cfg.thickness,
-                           stick=stick if step == 15 else None)
-        a_h = np.sqrt(4 * e["P"] * cfg.reference["radius"] / (np.pi * E_star))
+                           stick=stick if step == last else None)
         rows.append({"code": "ours", "out": str(out), "step": step,
-                     "xy": e | locked(c["x"], c["p"], c["q"], cfg.interfaces[0].mu, a_h),
-                     "_profile": {"x": c["x"], "p": c["p"], "q": c["q"]}})
+                     "xy": e | locked(c["x"], c["p"], c["q"], cfg.interfaces[0].mu,
+                                      e["a_hertz"]),
+                     "_profile": {"x": c["x"], "p": c["p"], "q": c["q"]}, "_end": step == last})
     return rows
 
 
-def plot(rows: list[dict], path: str, mu: float, R: float, E_star: float) -> None:
-    """q(x) after the normal step and at the end: CalculiX (global axes and its own
-    frame), the app run if given, and Cattaneo-Mindlin with the CalculiX end row's P, Q."""
+def plot(rows: list[dict], path: str, mu: float, R: float, E_star: float, thickness: float,
+         ux: float) -> None:
+    """q(x) after the normal step and at the end (shear motion ux): CalculiX (global axes
+    and its own frame), the app run if given, and Cattaneo-Mindlin with the CalculiX end
+    row's P, Q."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -219,7 +230,7 @@ def plot(rows: list[dict], path: str, mu: float, R: float, E_star: float) -> Non
 
     fig, axes = plt.subplots(1, 2, figsize=(13, 5))
     for r in rows:
-        end = r.get("time", 0.0) > 1.5 or r.get("step") == 15
+        end = r.get("_end", r.get("time", 0.0) > 1.5)
         ax, pr = axes[int(end)], r["_profile"]
         if r["code"] == "calculix":
             ax.plot(pr["x"], pr["q"], "b.-", label="CalculiX, recovered, x axis")
@@ -231,13 +242,13 @@ def plot(rows: list[dict], path: str, mu: float, R: float, E_star: float) -> Non
     end = [r for r in rows if r["code"] == "calculix" and r["time"] > 1.5]
     if end:
         e = end[-1]["xy"]
-        a_h, p0 = hertz_contact(e["P"], R, E_star)
+        a_h, p0 = e["a_hertz"], hertz_contact(e["P"] / thickness, R, E_star)[1]
         xs = np.linspace(-1.5 * a_h, 1.5 * a_h, 601)
         axes[1].plot(xs, cattaneo_traction(xs, a_h, p0, mu, e["Q_over_muP"]), "r-",
                      label="Cattaneo-Mindlin")
         for ax in axes:
             ax.set_xlim(-1.5 * a_h, 1.5 * a_h)
-    for ax, title in zip(axes, ("after the normal step", "end (ux = 3e-3)"), strict=True):
+    for ax, title in zip(axes, ("after the normal step", f"end (ux = {ux:g})"), strict=True):
         ax.set(xlabel="x", ylabel="q, traction on the cylinder against the shear", title=title)
         ax.grid(True)
         ax.legend(fontsize=7)
@@ -290,9 +301,10 @@ def main() -> None:
         fail("ccx (CalculiX) not found on PATH; install calculix-ccx")
     cfg, mesh, slave, deck, h_c = build(a)
     dat, frd, wall = _ccx_output(a, write_deck(deck))
-    rows = ccx_rows(a, cfg, mesh, slave, deck, dat, frd)
+    E_star = e_star(cfg)
+    rows = ccx_rows(cfg, mesh, slave, deck, dat, frd, E_star=E_star)
     if a.ours:
-        rows += ours_rows(a.ours, cfg)
+        rows += ours_rows(a.ours, cfg, E_star)
     head = {"mesh_size": a.mesh_size, "h_c": h_c, "penalty": deck.penalty,
             "normal_increments": a.normal_increments, "shear_increments": a.shear_increments,
             "normal_mu": a.normal_mu, "nlgeom": a.nlgeom, "ccx_seconds": wall}
@@ -302,9 +314,8 @@ def main() -> None:
         print(json.dumps(head | {k: v for k, v in r.items() if not k.startswith("_")}),
               flush=True)
     if a.plot:
-        E_star = effective_moduli(float(cfg.E[0]), float(cfg.nu[0]), cfg.plane)[0] / 2
         plot([r for r in rows if r.get("time", 1.0) in (1.0, 2.0)], a.plot, deck.mu,
-             cfg.reference["radius"], E_star)
+             cfg.reference["radius"], E_star, cfg.thickness, a.ux)
 
 
 if __name__ == "__main__":

@@ -21,6 +21,7 @@ from app.contact.mortar import nodal_normals
 from app.contact.pairs import tributary_length
 from app.discretisation.elements import elasticity_matrix
 from app.discretisation.fem_q4 import cell_gradients
+from app.mesh.model import orient_boundary_edges
 
 MIN_MU = 1e-6
 """The friction coefficient written for a step asked to be frictionless (ccx needs mu > 0)."""
@@ -87,10 +88,36 @@ def edge_faces(quads: np.ndarray, edges: np.ndarray) -> np.ndarray:
     return np.stack([flat // 4, flat % 4], axis=1)
 
 
+def interface_curves(mesh, slave: str, master: str
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(slave edges, master edges, slave faces, master faces) of a mesh's two contact
+    curves (names in mesh.curves): edges (k, 2) oriented with their body on the left
+    (`orient_boundary_edges`), faces (k, 2) their (element, local face) (`edge_faces`)."""
+    s = orient_boundary_edges(mesh, mesh.curves[slave], "slave")
+    m = orient_boundary_edges(mesh, mesh.curves[master], "master")
+    return s, m, edge_faces(mesh.quads, s), edge_faces(mesh.quads, m)
+
+
 def _lines(ids: np.ndarray, per_line: int = 8) -> list[str]:
     ids = np.asarray(ids, dtype=np.int64)
     return [", ".join(str(int(i)) for i in ids[k:k + per_line])
             for k in range(0, ids.size, per_line)]
+
+
+def _surface_lines(deck: ContactDeck, face_offset: int) -> list[str]:
+    """The SLAVE and MASTER `*SURFACE` cards; local face f is label S{f + face_offset}
+    (1 for CPE4, 3 for the C3D8 of `calculix_c3d8.py`)."""
+    out = []
+    for name, faces in (("SLAVE", deck.slave_faces), ("MASTER", deck.master_faces)):
+        out.append(f"*SURFACE, NAME={name}, TYPE=ELEMENT")
+        out += [f"{int(e) + 1}, S{int(f) + face_offset}" for e, f in faces]
+    return out
+
+
+def _fixed_lines(deck: ContactDeck) -> list[str]:
+    """The `*BOUNDARY` data lines of the components held at zero throughout."""
+    return [f"{name.upper()}, {c}, {c}, 0." for name, comps in deck.fixed.items()
+            for c in comps]
 
 
 def _step_lines(step: Step, deck: ContactDeck) -> list[str]:
@@ -126,9 +153,7 @@ def write_deck(deck: ContactDeck) -> str:
     for name, nodes in deck.node_sets.items():
         out.append(f"*NSET, NSET={name.upper()}")
         out += _lines(np.unique(nodes) + 1)
-    for name, faces in (("SLAVE", deck.slave_faces), ("MASTER", deck.master_faces)):
-        out.append(f"*SURFACE, NAME={name}, TYPE=ELEMENT")
-        out += [f"{int(e) + 1}, S{int(f) + 1}" for e, f in faces]
+    out += _surface_lines(deck, 1)
     for b, (E, nu) in enumerate(zip(deck.E, deck.nu, strict=True)):
         out += [f"*MATERIAL, NAME=MAT{b}", "*ELASTIC", f"{E:.10g}, {nu:.10g}",
                 f"*SOLID SECTION, ELSET=BODY{b}, MATERIAL=MAT{b}", f"{deck.thickness:.10g}"]
@@ -137,9 +162,7 @@ def write_deck(deck: ContactDeck) -> str:
     if deck.mu > 0:
         out += ["*FRICTION", f"{deck.mu:.10g}, {deck.stick:.10g}"]
     out += [f"*CONTACT PAIR, INTERACTION=SI, TYPE={deck.pair_type}", "SLAVE, MASTER"]
-    out.append("*BOUNDARY")
-    for name, comps in deck.fixed.items():
-        out += [f"{name.upper()}, {c}, {c}, 0." for c in comps]
+    out += ["*BOUNDARY", *_fixed_lines(deck)]
     for step in deck.steps:
         out += _step_lines(step, deck)
     return "\n".join(out) + "\n"
@@ -333,3 +356,29 @@ def surface_tractions(points: np.ndarray, edges: np.ndarray, force: np.ndarray,
         out["pn" + key] = -np.einsum("ij,ij->i", f, nn) / trib
         out["qt" + key] = np.einsum("ij,ij->i", f, tt) / trib
     return out
+
+
+def recovered_tractions(tables: list[dict], deck: ContactDeck, slave: np.ndarray,
+                        plane: str = "strain", time: float | None = None
+                        ) -> dict[str, np.ndarray]:
+    """Slave tractions recovered from a CalculiX run's displacements (the NALL table at
+    `time`, default the last; NaN read as 0): the internal forces of the slave body (the
+    body of the elements of deck.slave_faces; NLGEOM forces when deck.nlgeom) through
+    `surface_tractions` on the slave edges (k, 2), in chain order without the nodes of
+    any of deck.node_sets (the supported ones), plus `force` (m, 2) the nodal forces there.
+
+    Raises ValueError when the slave faces belong to more than one body.
+    """
+    n = deck.points.shape[0]
+    bodies = np.unique(deck.body[deck.slave_faces[:, 0]])
+    if bodies.size != 1:
+        raise ValueError(f"the slave faces lie on {bodies.size} bodies, not one")
+    b = int(bodies[0])
+    _, u = nodal_table(tables, "displacements", "NALL", n, time)
+    u2 = np.nan_to_num(u[:, :2])
+    f = internal_forces(deck.points, deck.quads[deck.body == b], u2, deck.E[b], deck.nu[b],
+                        deck.thickness, plane, nonlinear=deck.nlgeom)
+    tr = surface_tractions(deck.points, slave, f, u2)
+    tr["force"] = f[tr["node"]]
+    free = ~np.isin(tr["node"], np.concatenate(list(deck.node_sets.values())))
+    return {k: v[free] for k, v in tr.items()}

@@ -31,25 +31,22 @@ from __future__ import annotations
 import argparse
 import json
 import shutil
-import subprocess
 import sys
 import tempfile
 from pathlib import Path
 
 import numpy as np
-from app_runner import ENV
+from app_runner import run_app
 from calculix_c3d8 import face_nodes, write_deck_c3d8
 from calculix_cattaneo import fail, run_ccx
 from calculix_deck import (
     ContactDeck,
     Step,
-    edge_faces,
-    internal_forces,
+    interface_curves,
     median_edge,
-    nodal_table,
     parse_dat,
     parse_frd_contact,
-    surface_tractions,
+    recovered_tractions,
     total_force,
     write_deck,
 )
@@ -61,8 +58,6 @@ from app.contact.mortar import nodal_normals  # noqa: E402
 from app.contact.pairs import tributary_length  # noqa: E402
 from app.contact.resolution import interior_deviation  # noqa: E402
 from app.contact.smoothness import local_fit_deviation  # noqa: E402
-from app.mesh.model import orient_boundary_edges  # noqa: E402
-from app.output.read import last_step_file, read_pairs  # noqa: E402
 
 CLOSED = 1e-3  # a CalculiX slave node is closed when its p > CLOSED x max p
 CONTACT = {  # --contact: (CalculiX pair type, extra *SURFACE BEHAVIOR values)
@@ -113,7 +108,7 @@ def supports(cfg, mesh) -> tuple[dict, dict, dict]:
 
 
 def build(cfg, a: argparse.Namespace):
-    """(mesh, slave edges, slave body, deck, h_c) of the config's mesh and interface 0."""
+    """(mesh, slave edges, deck, h_c) of the config's mesh and interface 0."""
     from app.driver.context import RunOptions
     from app.driver.model import build_scene_mesh
 
@@ -121,43 +116,34 @@ def build(cfg, a: argparse.Namespace):
         fail("loads are not exported to CalculiX: prescribe the displacements instead")
     mesh = build_scene_mesh(cfg, RunOptions())
     itf = cfg.interfaces[0]
-    slave = orient_boundary_edges(mesh, mesh.curves[itf.slave], "slave")
-    master = orient_boundary_edges(mesh, mesh.curves[itf.master], "master")
+    slave, master, slave_faces, master_faces = interface_curves(mesh, itf.slave, itf.master)
     h_c = min(median_edge(mesh.points, e, a.contact_x) for e in (slave, master))
-    faces = edge_faces(mesh.quads, slave)
-    body = int(mesh.body[faces[0, 0]])
     K = a.penalty_factor * float(max(cfg.E)) / h_c
     sets, fixed, moved = supports(cfg, mesh)
     kind, extra = CONTACT[a.contact]
     deck = ContactDeck(
         points=mesh.points, quads=mesh.quads, body=mesh.body, node_sets=sets,
-        slave_faces=faces, master_faces=edge_faces(mesh.quads, master),
+        slave_faces=slave_faces, master_faces=master_faces,
         E=[float(e) for e in cfg.E], nu=[float(v) for v in cfg.nu], thickness=cfg.thickness,
         penalty=K, mu=itf.mu, stick=K, fixed=fixed, steps=[Step(moved, a.increments)],
         print_sets=list(moved), pair_type=kind, behavior_extra=extra)
-    return mesh, slave, body, deck, h_c
+    return mesh, slave, deck, h_c
 
 
-def ccx_result(cfg, mesh, slave, body, deck, dat: str, frd: str | None) -> dict:
+def ccx_result(cfg, mesh, slave, deck, dat: str, frd: str | None) -> dict:
     """P (reaction), balance, recovered and native p profiles of a CalculiX run."""
     tables = parse_dat(dat)
-    _, u = nodal_table(tables, "displacements", "NALL", mesh.n_nodes)
-    u2 = np.nan_to_num(u[:, :2])
-    on = mesh.body == body
-    f = internal_forces(mesh.points, mesh.quads[on], u2, float(cfg.E[body]),
-                        float(cfg.nu[body]), cfg.thickness, cfg.plane)
-    tr = surface_tractions(mesh.points, slave, f, u2)
-    free = ~np.isin(tr["node"], np.concatenate(list(deck.node_sets.values())))
+    tr = recovered_tractions(tables, deck, slave, cfg.plane)
     rf = total_force(tables)
     P = -float(rf[1])  # the moved support pulls the cylinder down: RF_y < 0
-    f_slave = f[tr["node"][free]].sum(axis=0)  # the contact force on the slave body
-    x, p = tr["x"][free], tr["pn"][free]
+    f_slave = tr["force"].sum(axis=0)  # the contact force on the slave body
+    x, p = tr["x"], tr["pn"]
     closed = p > CLOSED * p.max()
     out = {"P": P, "balance": float(abs(abs(f_slave[1]) - abs(P)) / abs(P)),
-           "P_from_p": float(np.sum((p * tr["length"][free])[closed]) * cfg.thickness)}
+           "P_from_p": float(np.sum((p * tr["length"])[closed]) * cfg.thickness)}
     out |= profile(x[closed], p[closed])
     if frd:
-        native = parse_frd_contact(frd, mesh.n_nodes)[-1][1][tr["node"][free], 3]
+        native = parse_frd_contact(frd, mesh.n_nodes)[-1][1][tr["node"], 3]
         shut = native > CLOSED * native.max()
         out["native"] = profile(x[shut], native[shut])
     return out
@@ -184,18 +170,10 @@ def mortar_result(cfg, mesh, slave, deck, dat: str, frd: str) -> dict:
 
 def ours_result(config: str, sets: list[str], moved: str) -> dict:
     """P (reaction on the moved support) and the closed pairs' p profile of an app run."""
-    out = Path(tempfile.mkdtemp(prefix="calculix_indent_"))
-    try:
-        args = [x for s in sets for x in ("--set", s)]
-        res = subprocess.run([sys.executable, "-m", "app", "run", config, "--out", str(out),
-                              "--quiet", *args], cwd=ROOT, env=ENV, capture_output=True,
-                             text=True)
-        if res.returncode:
-            return {"error": res.stderr.strip()[-300:]}
-        s = json.loads((out / "summary.json").read_text())
-        c = read_pairs(last_step_file(out), 0, ("x", "p"))
-    finally:
-        shutil.rmtree(out, ignore_errors=True)
+    s = run_app(config, [x for st in sets for x in ("--set", st)], pairs=("x", "p"))
+    if "error" in s:
+        return {"error": s["error"][-300:]}
+    c = s["last_step_pairs"]
     closed = c["p"] > 0
     P = -float(s["steps"][-1]["reactions"][f"support:{moved}"]["Fy"])
     return {"P": P} | profile(c["x"][closed], c["p"][closed])
@@ -208,14 +186,14 @@ def run_case(a: argparse.Namespace, size: float, side: str) -> dict:
     frictionless = [f"interface.{base.interfaces[0].name}.mu=0.0"] if mortar else []
     sets = [*a.sets, *frictionless, f"body.{a.block}.size={size}", *side_sets(base, side)]
     cfg = load_config(ROOT / a.config, sets)
-    mesh, slave, body, deck, h_c = build(cfg, a)
+    mesh, slave, deck, h_c = build(cfg, a)
     folder = Path(tempfile.mkdtemp(prefix="calculix_indent_"))
     wall, ccx = None, {"error": "ccx failed (message on stderr)"}
     try:
         dat, wall = run_ccx((write_deck_c3d8 if mortar else write_deck)(deck), folder)
         frd = (folder / "job.frd").read_text() if a.contact != "node-to-face" else None
         ccx = (mortar_result(cfg, mesh, slave, deck, dat, frd) if mortar
-               else ccx_result(cfg, mesh, slave, body, deck, dat, frd))
+               else ccx_result(cfg, mesh, slave, deck, dat, frd))
     except SystemExit:  # run_ccx printed why; the other cases still run
         pass
     finally:

@@ -24,6 +24,7 @@ from calculix_deck import (  # noqa: E402
     nodal_table,
     parse_dat,
     parse_frd_contact,
+    recovered_tractions,
     surface_tractions,
     write_deck,
 )
@@ -169,6 +170,49 @@ def test_surface_tractions_on_a_straight_bottom_edge():
     assert np.allclose(tr["fy"], tr["pn_def"]) and np.allclose(tr["fx"], tr["qt_def"])
 
 
+def test_surface_tractions_deformed_frame_follows_a_rigid_rotation():
+    """u = R x - x: the deformed-frame figures are the force per length (6, 10) projected
+    on the rotated outward normal R (0, -1) and tangent R (1, 0); the undeformed ones
+    keep the axes."""
+    pts, _ = square_patch()
+    edges = np.array([[0, 1], [1, 2]])
+    force = np.zeros((6, 2))
+    force[[0, 1, 2]] = [[3.0, 5.0], [6.0, 10.0], [3.0, 5.0]]
+    theta = 0.4
+    c, s = np.cos(theta), np.sin(theta)
+    rot = np.array([[c, -s], [s, c]])
+    tr = surface_tractions(pts, edges, force, u=pts @ rot.T - pts)
+    normal, tangent = rot @ [0.0, -1.0], rot @ [1.0, 0.0]  # (s, -c), (c, s)
+    per_length = np.array([6.0, 10.0])
+    assert np.allclose(tr["pn_def"], -per_length @ normal)  # 10 c - 6 s
+    assert np.allclose(tr["qt_def"], per_length @ tangent)  # 6 c + 10 s
+    assert np.allclose(tr["pn_def"], 10 * c - 6 * s) and np.allclose(tr["qt_def"], 6 * c + 10 * s)
+    assert np.allclose(tr["pn"], 10.0) and np.allclose(tr["qt"], 6.0)
+    assert not np.allclose(tr["pn_def"], tr["pn"])
+
+
+def test_recovered_tractions_of_the_slave_faces_body():
+    """The slave faces' body (here body 1, E = 2 E) gives the forces; NaN (unprinted)
+    displacements count as 0; nodes of the deck's node sets are dropped."""
+    deck = two_blocks()
+    deck.body, deck.E = np.array([1, 0]), [E, 2 * E]
+    deck.node_sets["corner"] = np.array([4])
+    u = np.column_stack([np.zeros(8), -1e-3 * np.clip(deck.points[:, 1] - 1.0, 0.0, None)])
+    rows = np.column_stack([np.arange(1, 8), u[:7], np.zeros(7)])  # node 8 not printed
+    tables = [{"title": "displacements (vx,vy,vz)", "set": "NALL", "time": 1.0, "rows": rows}]
+    tr = recovered_tractions(tables, deck, np.array([[4, 5]]))
+    u[7] = 0.0
+    f = internal_forces(deck.points, deck.quads[:1], u, 2 * E, NU, 1.0)
+    want = surface_tractions(deck.points, np.array([[4, 5]]), f, u)
+    assert tr["node"].tolist() == [5]
+    for key in ("x", "length", "fx", "fy", "pn", "qt", "pn_def", "qt_def"):
+        assert tr[key] == pytest.approx(want[key][1:], rel=1e-13), key
+    assert tr["force"] == pytest.approx(f[[5]], rel=1e-13)
+    deck.slave_faces = np.array([[0, 0], [1, 2]])  # faces of both bodies
+    with pytest.raises(ValueError, match="2 bodies"):
+        recovered_tractions(tables, deck, np.array([[4, 5]]))
+
+
 @pytest.mark.skipif(shutil.which("ccx") is None, reason="ccx (CalculiX) not installed")
 def test_ccx_two_blocks_recovered_force_balances_the_support(tmp_path):
     deck = two_blocks()
@@ -220,6 +264,13 @@ def test_c3d8_deck_extrudes_the_scene():
     assert lines[lines.index("*NSET, NSET=ZFIX") + 1] == "1, 2, 7, 8, 9, 10, 15, 16"
     assert "*CONTACT PAIR, INTERACTION=SI, TYPE=MORTAR" in lines and "ZFIX, 3, 3, 0." in lines
     assert "TOP, 2, 2, -0.001" in lines and "*FRICTION" not in lines
+    # the 2D deck's fixed components and step (increments, printed sets)
+    assert "BASE, 1, 1, 0." in lines and "BASE, 2, 2, 0." in lines
+    assert lines[lines.index("*STATIC") + 1] == "0.5, 1., 5e-05, 0.5"
+    assert "*NODE PRINT, NSET=TOP, TOTALS=YES" in lines and "*CONTACT FILE" in lines
+    deck.steps[0].mu = 0.0  # a step's friction would be written: refused
+    with pytest.raises(ValueError, match="frictionless"):
+        write_deck_c3d8(deck)
 
 
 @pytest.mark.skipif(shutil.which("ccx") is None, reason="ccx (CalculiX) not installed")

@@ -4,9 +4,10 @@ scene of Cattaneo (README, "Where the tangential-traction error comes from")."""
 from __future__ import annotations
 
 import json
+import sys
 
 import numpy as np
-from support import CONFIGS, run_cli
+from support import CONFIGS, ROOT, run_cli
 from test_contact_mortar import itf
 from test_contact_pairs import stacked
 
@@ -14,8 +15,10 @@ from app.contact.discretisation import DISCRETISATIONS
 from app.contact.mortar import mortar_constraints
 from app.contact.mortar_bisector import bisector_normal, mortar_bisector_constraints
 
-CALCULIX_SCENE = ["--set", "load.0.total_force=[0.0,0.0]", "--set", "support.2.on=cyl_top",
-                  "--set", "support.2.ux=0.003", "--set", "support.2.ramp=[6,15]"]
+sys.path.insert(0, str(ROOT / "scripts"))
+from calculix_cattaneo import SCENE_SETS  # noqa: E402
+
+CALCULIX_SCENE = [x for s in SCENE_SETS for x in ("--set", s)]
 
 
 def test_bisector_normal_is_the_mean_whatever_the_curvatures():
