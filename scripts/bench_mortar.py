@@ -1,5 +1,5 @@
-"""Verification table: node-to-segment against mortar (and, on request, mortar-smooth) on
-the same meshes, both ways round.
+"""Verification table: node-to-segment against mortar (and, on request, mortar-smooth or
+mortar-standard) on the same meshes, both ways round.
 
 One JSON line per run: patch test (max |p - 10| / 10), Hertz (interpolated L2 of p at
 a/10 ... a/80), Cattaneo (stick edges, L2 of q), multibody `indent` (largest deviation of
@@ -36,7 +36,7 @@ from app.contact.resolution import interior_deviation  # noqa: E402
 from app.contact.smoothness import local_fit_deviation  # noqa: E402
 from app.output.read import last_step_file, read_pairs  # noqa: E402
 
-DISCS = ("node-to-segment", "mortar", "mortar-smooth")
+DISCS = ("node-to-segment", "mortar", "mortar-smooth", "mortar-standard")
 SIDES = {  # config: (interface, default slave, default master)
     "patch": ("interface", "upper_bottom", "lower_top"),
     "hertz": ("contact", "cyl_arc", "block_top"),

@@ -16,6 +16,7 @@ from app.contact.constraints import ContactConstraints
 from app.contact.mortar import mortar_constraints
 from app.contact.mortar_bisector import mortar_bisector_constraints
 from app.contact.mortar_smooth import mortar_smooth_constraints
+from app.contact.mortar_standard import mortar_standard_constraints
 from app.contact.pairs import ContactPairs, contact_pairs
 from app.errors import InputError
 from app.mesh.model import Mesh
@@ -59,6 +60,7 @@ DISCRETISATIONS: dict[str, Builder] = {
     "mortar": mortar_constraints,
     "mortar-bisector": mortar_bisector_constraints,
     "mortar-smooth": mortar_smooth_constraints,
+    "mortar-standard": mortar_standard_constraints,
 }
 """Contact discretisations by config name."""
 

@@ -29,6 +29,7 @@ the formula is symmetric in the two sides. Tangent t_j = (-n_y, n_x) as in
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
@@ -148,13 +149,37 @@ def linear_master(pts: np.ndarray, m_edges: np.ndarray, facing: np.ndarray,
     return lambda f, eta: (m_edges[f], np.stack([1 - eta, eta]))
 
 
-def segment_integrals(xs1, xs2, ns1, ns2, xa, xb, e, f, basis: MasterBasis):
-    """Mortar integrals of candidate pairs (slave segment e, master segment f).
+def dual_multipliers(s: np.ndarray) -> np.ndarray:
+    """Dual shape functions (2, ...) of a linear slave segment at parameters s in [0, 1]:
+    phi_1 = 2 - 3s, phi_2 = 3s - 1, biorthogonal to N = (1 - s, s)."""
+    return np.stack([2 - 3 * s, 3 * s - 1])
+
+
+@dataclass(frozen=True)
+class Multipliers:
+    """The multiplier (test) functions of the mortar rows.
+
+    shape: s (p, g) -> (2, p, g) values on a slave segment at its ends 0 and 1.
+    slave_mass: False when shape is biorthogonal to the slave's N (dual: the slave part
+    of a row is the node itself, D diagonal); True to integrate the slave part
+    int shape_j N_k ds over the covered pieces as well (standard functions, banded D).
+    """
+
+    name: str
+    shape: Callable[[np.ndarray], np.ndarray]
+    slave_mass: bool
+
+
+DUAL = Multipliers("dual", dual_multipliers, slave_mass=False)
+
+
+def segment_overlaps(xs1, xs2, ns1, ns2, xa, xb, e, f):
+    """Gauss points of the overlaps of candidate pairs (slave segment e, master segment f).
 
     xs1, xs2, ns1, ns2: (S, 2) slave segment ends and their contact normals; xa, xb:
-    (F, 2) master segment ends; basis: the master interpolation (`linear_master` or a
-    smoothed one). Returns (pair (r,), j (r,) 0/1 slave end, node (r,) master node id
-    (-1: none), value (r,)) with value = int phi_j N_node ds over the overlap (length).
+    (F, 2) master segment ends. Returns (k (p,) indices of the pairs that overlap,
+    s (p, g) slave parameters, w (p, g) quadrature weights (length), eta (p, g) master
+    parameters where the interpolated normal through the slave point meets segment f).
     """
     x1, x2, n1, n2 = xs1[e], xs2[e], ns1[e], ns2[e]
     pa, pb = xa[f], xb[f]
@@ -172,15 +197,29 @@ def segment_integrals(xs1, xs2, ns1, ns2, xa, xb, e, f, basis: MasterBasis):
     dm = (pb[k] - pa[k])[:, None]
     den = _cross(dm, ng)
     eta = np.clip(_cross(xg - pa[k, None], ng) / np.where(den == 0, np.nan, den), 0, 1)
-    eta = np.nan_to_num(eta, nan=0.5)
-    phi = np.stack([2 - 3 * s, 3 * s - 1])  # dual shape functions (2, p, g)
+    return k, s, w, np.nan_to_num(eta, nan=0.5)
+
+
+def segment_integrals(xs1, xs2, ns1, ns2, xa, xb, e, f, basis: MasterBasis,
+                      multipliers: Multipliers = DUAL):
+    """Mortar integrals of candidate pairs (slave segment e, master segment f).
+
+    Arguments as `segment_overlaps`; basis: the master interpolation (`linear_master` or
+    a smoothed one). Returns (pair (r,), j (r,) 0/1 slave end, node (r,) master node id
+    (-1: none), value (r,)) with value = int phi_j N_node ds over the overlap (length),
+    phi = multipliers.shape, and the slave integrals (p, 2, 2) int phi_j N_k ds of the
+    overlapping pairs (k: slave end), in pair order of `pair`'s unique values.
+    """
+    k, s, w, eta = segment_overlaps(xs1, xs2, ns1, ns2, xa, xb, e, f)
+    phi = multipliers.shape(s)  # (2, p, g)
     nodes, big_n = basis(f[k], eta)  # (p, q), (q, p, g)
     val = np.einsum("jpg,lpg,pg->pjl", phi, big_n, w)  # (p, 2, q)
+    slave = np.einsum("jpg,lpg,pg->pjl", phi, np.stack([1 - s, s]), w)  # (p, 2, 2)
     q = nodes.shape[1]
     pair = np.repeat(k, 2 * q)
     jj = np.tile(np.repeat([0, 1], q), k.size)
     node = np.repeat(nodes[:, None, :], 2, axis=1).reshape(-1)
-    return pair, jj, node, val.reshape(-1)
+    return pair, jj, node, val.reshape(-1), (k, slave)
 
 
 def _rows(nodes: np.ndarray, n_nodes: int, s_edges: np.ndarray, pair, jj, node, val,
@@ -196,14 +235,17 @@ def _rows(nodes: np.ndarray, n_nodes: int, s_edges: np.ndarray, pair, jj, node, 
 
 
 def mortar_constraints(mesh: Mesh, itf, index: int, normal_rule=None,
-                       master_basis=None) -> ContactConstraints:
-    """Dual mortar rows of one interface (see the module docstring).
+                       master_basis=None, multipliers: Multipliers = DUAL
+                       ) -> ContactConstraints:
+    """Mortar rows of one interface (see the module docstring).
 
     normal_rule: (nu_s, k_s, nu_m, k_m) -> (p, 2) unit contact normals (master -> slave);
     None: `contact_normal` (app/contact/mortar_bisector.py registers another).
     master_basis: (pts, m_edges, facing, slave_length) -> MasterBasis, the master
     interpolation N_l in the mortar integrals and so in the gaps and slips; None:
     `linear_master` (app/contact/mortar_smooth.py registers a smoothed one).
+    multipliers: the test functions of the rows (`DUAL`; app/contact/mortar_standard.py
+    registers the standard ones).
 
     itf: an `[[interface]]` (name, slave, master, search_distance, penetration_tol,
     interference). Slave nodes farther than search_distance from the master, with less
@@ -224,7 +266,8 @@ def mortar_constraints(mesh: Mesh, itf, index: int, normal_rule=None,
     near = nearest_slave_nodes(found, g_node, sd)
     factory = linear_master if master_basis is None else master_basis
     basis = factory(pts, m_edges, sg[near], d_len[near])
-    w, cover = _covered_weights(pts, nodes, s_edges, m_edges, found, normal, itf, sd, basis)
+    w, cover = _covered_weights(pts, nodes, s_edges, m_edges, found, normal, itf, sd, basis,
+                                multipliers)
     nrm = normal[nodes]
     g0 = np.einsum("ij,ij->i", nrm, pts[nodes] - w @ pts)
     keep = found & (cover >= MIN_COVER * d_len) & (g0 <= sd)
@@ -292,13 +335,17 @@ def _slave_normals(pts: np.ndarray, s_edges: np.ndarray, m_edges: np.ndarray,
 
 def _covered_weights(pts: np.ndarray, nodes: np.ndarray, s_edges: np.ndarray,
                      m_edges: np.ndarray, found: np.ndarray, normal: np.ndarray, itf,
-                     sd: float, basis: MasterBasis) -> tuple[sp.csr_matrix, np.ndarray]:
+                     sd: float, basis: MasterBasis, multipliers: Multipliers = DUAL
+                     ) -> tuple[sp.csr_matrix, np.ndarray]:
     """Mortar weights of the slave nodes `nodes` (q,) on the master nodes.
 
     Integrates the slave edges with a found node against the master segments within sd
     (normal: (n_nodes, 2) contact normals). Returns w (q, n_nodes), the covered mortar
     matrix M with its rows divided by their sums (rows of uncovered nodes stay zero), and
     cover (q,) those row sums (length). InputError if no slave edge has a found node.
+    With multipliers.slave_mass, w also holds the slave part: a row reads
+    u_j - sum_l w_jl u_l = (sum_k S_jk u_k - sum_l M_jl u_l) / cover_j, S the slave
+    integrals over the same covered pieces (so the row sums stay 1).
     """
     xa, xb = pts[m_edges[:, 0]], pts[m_edges[:, 1]]
     active = found[np.searchsorted(nodes, s_edges)].any(axis=1)
@@ -307,10 +354,18 @@ def _covered_weights(pts: np.ndarray, nodes: np.ndarray, s_edges: np.ndarray,
         raise no_slave_error(itf.name, itf.slave, itf.master, sd)
     xs1, xs2 = pts[se[:, 0]], pts[se[:, 1]]
     e, f = _candidates(xs1, xs2, xa, xb, sd)
-    pair, jj, node, val = segment_integrals(xs1, xs2, normal[se[:, 0]], normal[se[:, 1]],
-                                            xa, xb, e, f, basis)
-    mm = _rows(nodes, pts.shape[0], se, pair, jj, node, val, e)
+    pair, jj, node, val, (k, slave) = segment_integrals(
+        xs1, xs2, normal[se[:, 0]], normal[se[:, 1]], xa, xb, e, f, basis, multipliers)
+    n = pts.shape[0]
+    mm = _rows(nodes, n, se, pair, jj, node, val, e)
     cover = np.asarray(mm.sum(axis=1)).ravel()
+    if multipliers.slave_mass:
+        ends = se[e[k]]  # (p, 2) slave nodes of the overlapping pieces
+        ss = _rows(nodes, n, se, np.repeat(k, 4), np.tile([0, 0, 1, 1], k.size),
+                   np.repeat(ends, 2, axis=0).reshape(-1), slave.reshape(-1), e)
+        own = sp.csr_matrix((np.ones(nodes.size), (np.arange(nodes.size), nodes)),
+                            shape=(nodes.size, n))
+        mm = mm - ss + sp.diags(cover) @ own
     w = sp.diags(1.0 / np.where(cover > 0, cover, 1.0)) @ mm  # rows sum to 1
     return w, cover
 
