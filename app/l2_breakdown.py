@@ -7,14 +7,17 @@ length: the exact pressure sampled at the pairs scores 0. A dual-mortar nodal pr
 a force over the tributary length, i.e. an average over the tributary; the exact Hertz
 average over each pair's tributary (`hertz_tributary_average`) scores `average_floor`,
 which near the edge (p ~ sqrt(a - |x|)) is O(h) and depends on where x = +-a falls
-between the pairs. Plain numpy.
+between the pairs. `interpolated_l2_best` bounds the interpolated definition from below.
+Plain numpy and scipy.
 """
 
 from __future__ import annotations
 
 import numpy as np
+import scipy.sparse as sp
+from scipy.optimize import least_squares, lsq_linear
 
-from app.closed_form import hertz_pressure
+from app.closed_form import hertz_pressure, interpolated_l2_rel_error
 
 
 def _sqrt_integral(s: np.ndarray) -> np.ndarray:
@@ -79,3 +82,49 @@ def pressure_breakdown(x: np.ndarray, p: np.ndarray, length: np.ndarray, a: floa
             "odd_even_over_p0": float(np.median(wiggle)) if mid.size else float("nan"),
             "loaded_outside": int(np.sum((p > 0) & ~zone)),
             "average_floor": l2(zone, hertz_tributary_average(x, a, p0))}
+
+
+def interpolated_l2_best(x: np.ndarray, exact, half_range: float, *,
+                         n_samples: int = 20001) -> tuple[float, np.ndarray]:
+    """The smallest interpolated L2 error (closed_form.interpolated_l2_rel_error, same
+    sampling) that any non-negative pair values can reach at the pair positions x (m,):
+    a bounded linear least-squares fit of the linear interpolant between pairs (constant
+    beyond the outermost ones) to `exact` over |x| <= half_range. Returns (error, the
+    best values (m,) in the order of x). A lower bound for every method that reports
+    one value per pair at these positions, unlike the floor (the exact values sampled at
+    the pairs), which a method can beat.
+    """
+    x = np.asarray(x, dtype=float)
+    o = np.argsort(x)
+    xo = x[o]
+    xs = np.linspace(-half_range, half_range, n_samples)
+    right = np.clip(np.searchsorted(xo, xs), 1, xo.size - 1)
+    t = np.clip((xs - xo[right - 1]) / (xo[right] - xo[right - 1]), 0.0, 1.0)
+    w = np.full(n_samples, xs[1] - xs[0])  # trapezoid weights
+    w[[0, -1]] *= 0.5
+    sw = np.sqrt(w)
+    rows = np.tile(np.arange(n_samples), 2)
+    interp = sp.csr_matrix((np.r_[(1 - t) * sw, t * sw], (rows, np.r_[right - 1, right])),
+                           shape=(n_samples, xo.size))
+    used = np.unique(interp.indices[interp.data > 0])
+    fit = lsq_linear(interp[:, used], np.asarray(exact(xs), dtype=float) * sw,
+                     bounds=(0.0, np.inf), tol=1e-12)
+    best = np.zeros(xo.size)
+    best[used] = fit.x
+    values = np.empty_like(best)
+    values[o] = best
+    return interpolated_l2_rel_error(x, values, exact, half_range,
+                                     n_samples=n_samples), values
+
+
+def hertz_form_fit(x: np.ndarray, p: np.ndarray, a: float, p0: float,
+                   inside: float = 0.97) -> tuple[float, float]:
+    """(p0' / p0 - 1, a' / a - 1): the Hertz-shaped profile p0' sqrt(1 - x^2 / a'^2)
+    closest (least squares) to the pair values p (m,) at x (m,, relative to the contact
+    centre) over |x| < inside x a, the pairs next to the edges left out. How much more
+    peaked and narrower than Hertz a converged profile is (the model error of a finite
+    scene)."""
+    k = np.abs(x) < inside * a
+    fit = least_squares(lambda c: c[0] * np.sqrt(np.clip(1 - (x[k] / c[1]) ** 2, 0, None))
+                        - p[k] / p0, [1.0, a])
+    return float(fit.x[0] - 1.0), float(fit.x[1] / a - 1.0)
