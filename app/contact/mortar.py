@@ -52,6 +52,10 @@ NEAR_BAND = 0.1
 ones a master-basis factory judges the interface by (`nearest_slave_nodes`)."""
 MIN_COVER = 0.5
 """Slave nodes whose support is covered by less than this fraction of D_j are dropped."""
+COVER_RTOL = 1e-9
+"""Relative round-off allowed in the MIN_COVER test: a slave node right above a master
+end has exactly half its support covered, and is kept whatever the rounding of its
+integrals (else a symmetric scene kept one end node and dropped its mirror image)."""
 
 
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -227,7 +231,7 @@ def mortar_constraints(mesh: Mesh, itf, index: int, normal_rule=None,
     w, cover = _covered_weights(pts, nodes, s_edges, m_edges, found, normal, itf, sd, basis)
     nrm = normal[nodes]
     g0 = np.einsum("ij,ij->i", nrm, pts[nodes] - w @ pts)
-    keep = found & (cover >= MIN_COVER * d_len) & (g0 <= sd)
+    keep = found & (cover >= MIN_COVER * (1 - COVER_RTOL) * d_len) & (g0 <= sd)
     if not keep.any():
         raise no_slave_error(itf.name, itf.slave, itf.master, sd)
     if not itf.interference:
