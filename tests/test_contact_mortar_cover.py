@@ -9,6 +9,7 @@ import pytest
 from test_contact_pairs import stacked
 
 from app.contact.discretisation import DISCRETISATIONS
+from app.errors import InputError
 
 
 def itf() -> SimpleNamespace:
@@ -28,3 +29,16 @@ def test_half_covered_end_nodes_kept_on_both_sides(name, n_low, n_up, x_up):
     x = np.sort(x)
     np.testing.assert_allclose(x, -x[::-1], atol=1e-12)  # the pair set is symmetric
     assert x[0] == pytest.approx(-0.2) and x[-1] == pytest.approx(0.2)
+
+
+@pytest.mark.parametrize("name", ["mortar", "mortar-smooth", "mortar-bisector"])
+def test_curves_meeting_end_to_end_say_so(name):
+    """Two blocks that touch at one corner: the slave node there is at distance 0 from
+    the master, but no part of its support faces it. The error names that, not a
+    search_distance to raise (which cannot help)."""
+    mesh = stacked(4, 4, x_low=(0.0, 1.0), x_up=(1.0, 2.0))
+    with pytest.raises(InputError, match="less than half of their support") as info:
+        DISCRETISATIONS[name](mesh, itf(), 0)
+    assert "raise search_distance" not in str(info.value)
+    with pytest.raises(InputError, match="no slave node .* lies within"):  # truly far
+        DISCRETISATIONS[name](stacked(4, 4, x_low=(0.0, 1.0), x_up=(1.5, 2.5)), itf(), 0)

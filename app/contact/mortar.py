@@ -44,6 +44,7 @@ from app.contact.pairs import (
     refuse_penetration,
     tributary_length,
 )
+from app.errors import InputError
 from app.mesh.model import Mesh, orient_boundary_edges
 
 _GAUSS_S, _GAUSS_W = np.polynomial.legendre.leggauss(4)
@@ -231,9 +232,10 @@ def mortar_constraints(mesh: Mesh, itf, index: int, normal_rule=None,
     w, cover = _covered_weights(pts, nodes, s_edges, m_edges, found, normal, itf, sd, basis)
     nrm = normal[nodes]
     g0 = np.einsum("ij,ij->i", nrm, pts[nodes] - w @ pts)
-    keep = found & (cover >= MIN_COVER * (1 - COVER_RTOL) * d_len) & (g0 <= sd)
+    covered = cover >= MIN_COVER * (1 - COVER_RTOL) * d_len
+    keep = found & covered & (g0 <= sd)
     if not keep.any():
-        raise no_slave_error(itf.name, itf.slave, itf.master, sd)
+        raise _none_kept_error(itf, sd, found, covered)
     if not itf.interference:
         refuse_penetration(itf.name, pts[nodes[keep]], g_node[keep], g_node[keep] < -tol, tol)
     k = np.flatnonzero(keep)
@@ -244,6 +246,21 @@ def mortar_constraints(mesh: Mesh, itf, index: int, normal_rule=None,
         position=pts[nodes[k]].copy(), length=d_len[k])
     return ContactConstraints(pairs, *_padded_rows(w[k].tocsr(), pairs),
                               master_interpolation=getattr(basis, "label", "linear"))
+
+
+def _none_kept_error(itf, sd: float, found: np.ndarray, covered: np.ndarray):
+    """The InputError of an interface that keeps no slave node: none within sd of the
+    master (`no_slave_error`), or those within sd face it over less than MIN_COVER of
+    their support (curves that meet end to end, or overlap by less than half a slave
+    segment), which a larger search_distance does not change."""
+    if not found.any() or (found & covered).any():
+        return no_slave_error(itf.name, itf.slave, itf.master, sd)
+    return InputError(
+        f"interface '{itf.name}': the slave nodes of '{itf.slave}' within "
+        f"search_distance={sd:g} of '{itf.master}' face it over less than half of their "
+        f"support (the curves meet end to end or overlap by less than half a slave "
+        f"element), so the mortar rows keep none; extend the overlap, refine the slave, "
+        f'or use discretisation = "node-to-segment"')
 
 
 def nearest_slave_nodes(found: np.ndarray, gap: np.ndarray, sd: float) -> np.ndarray:
