@@ -232,6 +232,10 @@ def mortar_constraints(mesh: Mesh, itf, index: int, normal_rule=None,
     w, cover = _covered_weights(pts, nodes, s_edges, m_edges, found, normal, itf, sd, basis)
     nrm = normal[nodes]
     g0 = np.einsum("ij,ij->i", nrm, pts[nodes] - w @ pts)
+    if getattr(basis, "label", "linear") != "linear" and not itf.interference:
+        w_lin, _ = _covered_weights(pts, nodes, s_edges, m_edges, found, normal, itf, sd,
+                                    linear_master(pts, m_edges, sg[near], d_len[near]))
+        g0 = no_made_overlap(g0, np.einsum("ij,ij->i", nrm, pts[nodes] - w_lin @ pts))
     covered = cover >= MIN_COVER * (1 - COVER_RTOL) * d_len
     keep = found & covered & (g0 <= sd)
     if not keep.any():
@@ -246,6 +250,16 @@ def mortar_constraints(mesh: Mesh, itf, index: int, normal_rule=None,
         position=pts[nodes[k]].copy(), length=d_len[k])
     return ContactConstraints(pairs, *_padded_rows(w[k].tocsr(), pairs),
                               master_interpolation=getattr(basis, "label", "linear"))
+
+
+def no_made_overlap(g0: np.ndarray, g0_linear: np.ndarray) -> np.ndarray:
+    """Initial weighted gaps (q,) of a smoothed master interpolation g0 with no overlap
+    that the master's own piecewise-linear surface (weighted gaps g0_linear (q,)) does not
+    have: max(g0, min(g0_linear, 0)). A smoothed master lies off its segments by
+    O(h^2 x curvature), into the slave at a concave kink; without `interference` that is
+    not an intended fit, and as a negative g0 it pressed two touching bodies apart with no
+    load at all (lengths)."""
+    return np.maximum(g0, np.minimum(g0_linear, 0.0))
 
 
 def _none_kept_error(itf, sd: float, found: np.ndarray, covered: np.ndarray):
