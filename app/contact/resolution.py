@@ -63,8 +63,11 @@ def stripe_checks(mesh: Mesh, pairs: ContactPairs, normal_force: np.ndarray,
                   names: Sequence[str], force_scale: float) -> list[dict]:
     """Per interface with at least MIN_CLOSED_PAIRS pairs in compression (normal_force (m,),
     the LCP's normal pair forces, above CLOSED_REL x force_scale):
-    {interface, closed, size_ratio, deviation, warn}."""
+    {interface, closed, size_ratio, deviation, warn}. Nothing is judged when nothing
+    loads the problem (force_scale 0): every pair force is then round-off."""
     out = []
+    if not force_scale > 0:
+        return out
     for i, name in enumerate(names):
         sel = (pairs.interface == i) & (normal_force > CLOSED_REL * force_scale)
         if np.count_nonzero(sel) < MIN_CLOSED_PAIRS:
