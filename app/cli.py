@@ -192,7 +192,7 @@ def _study_command(args, petsc_args: list[str], rank: int) -> int:
         return 0
     rows = run_study(cfg, out, args.levels, parse_methods(args.methods), scale,
                      args.quiet, args.first_level, args.remesh, args.reference_method,
-                     args.reference, args.reference_levels)
+                     args.reference, args.reference_levels, tuple(args.set))
     if not rows:
         raise InputError(f"every run of the study failed (see the lines above and "
                          f"{out}/*/summary.json)")
