@@ -1,4 +1,5 @@
-"""Mortar's MIN_COVER test at its knife edge: slave nodes right above a master end."""
+"""Knife edges of the mortar rows: half-covered slave nodes at a master end (MIN_COVER),
+curves meeting end to end, and master turns of exactly MAX_KINK_DEG (mortar-smooth)."""
 
 from __future__ import annotations
 
@@ -9,6 +10,7 @@ import pytest
 from test_contact_pairs import stacked
 
 from app.contact.discretisation import DISCRETISATIONS
+from app.contact.mortar_smooth import master_neighbours
 from app.errors import InputError
 
 
@@ -42,3 +44,21 @@ def test_curves_meeting_end_to_end_say_so(name):
     assert "raise search_distance" not in str(info.value)
     with pytest.raises(InputError, match="no slave node .* lies within"):  # truly far
         DISCRETISATIONS[name](stacked(4, 4, x_low=(0.0, 1.0), x_up=(1.5, 2.5)), itf(), 0)
+
+
+@pytest.mark.parametrize("rot", [0.0, 0.1, 0.37])
+def test_a_regular_12_gon_master_is_smooth_at_every_node(rot):
+    """Every node of a regular 12-gon turns by exactly MAX_KINK_DEG = 30 deg: not sharper,
+    so smooth everywhere (before: 4 or 5 of the 12 nodes were corners, by rounding, so a
+    symmetric master was smoothed asymmetrically). 31 deg is a corner, 29 deg is not."""
+    n = 12
+    t = rot + 2 * np.pi * np.arange(n) / n
+    pts = np.c_[np.cos(t), np.sin(t)]
+    edges = np.c_[np.arange(n), (np.arange(n) + 1) % n]
+    prev, nxt = master_neighbours(pts, edges)
+    assert np.all(prev >= 0) and np.all(nxt >= 0)
+    for deg, corner in ((31.0, True), (29.0, False)):
+        a = np.radians(deg)
+        chain = np.array([[-1.0, 0.0], [0.0, 0.0], [np.cos(a), np.sin(a)]])
+        prev, nxt = master_neighbours(chain, np.array([[0, 1], [1, 2]]))
+        assert bool(nxt[0] < 0) == corner and bool(prev[1] < 0) == corner
