@@ -222,9 +222,11 @@ def _run_command(args, petsc_args: list[str], rank: int) -> int:
         if opts.method and args.sd is not None and not BULK_METHODS[opts.method].sd_choices:
             raise InputError(f"--sd does not apply to --method {opts.method}")
     except InputError as exc:
-        from app.output.input_failure import record_input_failure
+        from app.input_failure import record_input_failure
 
-        record_input_failure(exc, args.out, default_out, args.config, list(args.set))
+        folder = None if args.out is None and not args.config.is_file() else \
+            (lambda: output_folder(args.out, default_out))
+        record_input_failure(exc, folder, args.config, list(args.set))
     try:
         summary = run(cfg, opts)
     except RunInterrupted as exc:  # the closing line, then the one-line error in main

@@ -9,6 +9,7 @@ folder, so an unattended run could not be checked afterwards (README "Exit statu
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 
 from petsc4py import PETSc
@@ -16,28 +17,28 @@ from petsc4py import PETSc
 from app.errors import InputError
 
 
-def record_input_failure(exc: InputError, out: str | None, default: Path, config: Path,
+def record_input_failure(exc: InputError, folder: Callable[[], Path] | None, config: Path,
                          overrides: list[str]) -> None:
     """Record `exc` in OUT/summary.json as a run that failed before step 1 (status
     `failed`, `error`, `failed_step` 1, no step), as a run does: the folder's lock taken,
-    the earlier run's files of this tool removed. OUT is `out`, else `default` when the
-    config file exists (a mistyped config path creates no folder). Nothing is written
-    when the folder is not usable or another run holds it; `exc` is raised either way."""
-    from app.cli import output_folder
+    the earlier run's files of this tool removed. folder() gives OUT, created and checked
+    (an InputError: not usable); None: no folder to write (a mistyped config path without
+    --out creates none). Nothing is written when the folder is not usable or another run
+    holds it; `exc` is raised either way."""
     from app.output.provenance import provenance
     from app.output.status import RunGuard
     from app.run import write_summary
 
-    if out is None and not Path(config).is_file():
+    if folder is None:
         raise exc
     try:
-        folder = output_folder(out, default)
+        out = folder()
     except InputError:
         raise exc from None
     summary = {"config": str(config), "n_steps": None, "steps": [], "status": "running",
                "provenance": provenance(None, overrides, PETSc.COMM_WORLD.getSize())}
     try:
-        with RunGuard(folder, summary, write_summary, 1):
+        with RunGuard(out, summary, write_summary, 1):
             raise exc
     except InputError as got:
         if got is not exc:  # the folder's lock: another run writes there
