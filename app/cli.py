@@ -192,7 +192,7 @@ def _study_command(args, petsc_args: list[str], rank: int) -> int:
         return 0
     rows = run_study(cfg, out, args.levels, parse_methods(args.methods), scale,
                      args.quiet, args.first_level, args.remesh, args.reference_method,
-                     args.reference, args.reference_levels)
+                     args.reference, args.reference_levels, tuple(args.set))
     if not rows:
         raise InputError(f"every run of the study failed (see the lines above and "
                          f"{out}/*/summary.json)")
@@ -209,16 +209,24 @@ def _run_command(args, petsc_args: list[str], rank: int) -> int:
     from app.output.status import RunInterrupted
     from app.run import RunOptions, run, write_summary
 
-    cfg = load_config(args.config, args.set)
-    if not 0 <= args.refine <= 8:
-        raise InputError(f"--refine must be 0..8 (got {args.refine})")
-    scale = check_run_input(cfg, args, args.refine)
-    opts = RunOptions(out=output_folder(args.out, Path("out") / args.config.stem),
-                      method=args.method, sd=args.sd, mesh_scale=scale, quiet=args.quiet,
-                      mesh_cache=args.mesh_cache, overrides=list(args.set),
-                      refine=args.refine)
-    if opts.method and args.sd is not None and not BULK_METHODS[opts.method].sd_choices:
-        raise InputError(f"--sd does not apply to --method {opts.method}")
+    default_out = Path("out") / args.config.stem
+    try:  # bad input found here is recorded in OUT/summary.json too
+        cfg = load_config(args.config, args.set)
+        if not 0 <= args.refine <= 8:
+            raise InputError(f"--refine must be 0..8 (got {args.refine})")
+        scale = check_run_input(cfg, args, args.refine)
+        opts = RunOptions(out=output_folder(args.out, default_out),
+                          method=args.method, sd=args.sd, mesh_scale=scale, quiet=args.quiet,
+                          mesh_cache=args.mesh_cache, overrides=list(args.set),
+                          refine=args.refine)
+        if opts.method and args.sd is not None and not BULK_METHODS[opts.method].sd_choices:
+            raise InputError(f"--sd does not apply to --method {opts.method}")
+    except InputError as exc:
+        from app.input_failure import record_input_failure
+
+        folder = None if args.out is None and not args.config.is_file() else \
+            (lambda: output_folder(args.out, default_out))
+        record_input_failure(exc, folder, args.config, list(args.set))
     try:
         summary = run(cfg, opts)
     except RunInterrupted as exc:  # the closing line, then the one-line error in main

@@ -128,6 +128,12 @@ def hertz_errors(x, p, length, *, P: float, R: float, E_star: float, x0: float =
     """
     o = np.argsort(x)
     x, p, length = np.asarray(x)[o] - x0, np.asarray(p)[o], np.asarray(length)[o]
+    if not P > 0.0:  # nothing pressed (unloaded, lifted off): no Hertz contact to compare
+        nan = float("nan")
+        return {"P": P, "a_hertz": nan, "p0_hertz": nan, "p_max": float(p.max(initial=0.0)),
+                "p_max_rel_error": nan, "half_width": nan, "half_width_rel_error": nan,
+                "contact_edges": [nan, nan], "pressure_l2_rel_error": nan,
+                "pressure_l2_interp_rel_error": nan, "pressure_l2_interp_floor": nan}
     a, p0 = hertz_contact(P / thickness, R, E_star)
     left, right = _edges_from_states(x, p > 1e-9 * max(p.max(), 1e-300))
     half = 0.5 * (right - left)

@@ -113,11 +113,12 @@ def run_sweep(config: Path, sets: list[str], sweeps: list[tuple[str, list[str]]]
     for i, combo in enumerate(combos):
         tag = f"run {i + 1}/{len(combos)} " + " ".join(
             f"{k}={v}" for k, v in zip(keys, combo, strict=True))
-        ro = RunOptions(out=out / f"run_{i:03d}", quiet=quiet, progress_prefix=tag, **opts)
+        overrides = [*sets, *(f"{k}={v}" for k, v in zip(keys, combo, strict=True))]
+        ro = RunOptions(out=out / f"run_{i:03d}", quiet=quiet, progress_prefix=tag,
+                        overrides=overrides, **opts)
         params = dict(zip(keys, map(_value, combo), strict=True))
         try:  # a combination the config checks reject (e.g. c < mu a) fails alone
-            cfg = load_config(config, [*sets, *(f"{k}={v}" for k, v in zip(keys, combo,
-                                                                              strict=True))])
+            cfg = load_config(config, overrides)
             s = run(cfg, ro)
         except (InputError, SolveError) as exc:
             failed.append(str(exc))

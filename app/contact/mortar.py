@@ -45,6 +45,7 @@ from app.contact.pairs import (
     refuse_penetration,
     tributary_length,
 )
+from app.errors import InputError
 from app.mesh.model import Mesh, orient_boundary_edges
 
 _GAUSS_S, _GAUSS_W = np.polynomial.legendre.leggauss(4)
@@ -53,6 +54,10 @@ NEAR_BAND = 0.1
 ones a master-basis factory judges the interface by (`nearest_slave_nodes`)."""
 MIN_COVER = 0.5
 """Slave nodes whose support is covered by less than this fraction of D_j are dropped."""
+COVER_RTOL = 1e-9
+"""Relative round-off allowed in the MIN_COVER test: a slave node right above a master
+end has exactly half its support covered, and is kept whatever the rounding of its
+integrals (else a symmetric scene kept one end node and dropped its mirror image)."""
 
 
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -270,9 +275,14 @@ def mortar_constraints(mesh: Mesh, itf, index: int, normal_rule=None,
                                 multipliers)
     nrm = normal[nodes]
     g0 = np.einsum("ij,ij->i", nrm, pts[nodes] - w @ pts)
-    keep = found & (cover >= MIN_COVER * d_len) & (g0 <= sd)
+    if getattr(basis, "label", "linear") != "linear" and not itf.interference:
+        w_lin, _ = _covered_weights(pts, nodes, s_edges, m_edges, found, normal, itf, sd,
+                                    linear_master(pts, m_edges, sg[near], d_len[near]))
+        g0 = no_made_overlap(g0, np.einsum("ij,ij->i", nrm, pts[nodes] - w_lin @ pts))
+    covered = cover >= MIN_COVER * (1 - COVER_RTOL) * d_len
+    keep = found & covered & (g0 <= sd)
     if not keep.any():
-        raise no_slave_error(itf.name, itf.slave, itf.master, sd)
+        raise _none_kept_error(itf, sd, found, covered)
     if not itf.interference:
         refuse_penetration(itf.name, pts[nodes[keep]], g_node[keep], g_node[keep] < -tol, tol)
     k = np.flatnonzero(keep)
@@ -283,6 +293,31 @@ def mortar_constraints(mesh: Mesh, itf, index: int, normal_rule=None,
         position=pts[nodes[k]].copy(), length=d_len[k])
     return ContactConstraints(pairs, *_padded_rows(w[k].tocsr(), pairs),
                               master_interpolation=getattr(basis, "label", "linear"))
+
+
+def no_made_overlap(g0: np.ndarray, g0_linear: np.ndarray) -> np.ndarray:
+    """Initial weighted gaps (q,) of a smoothed master interpolation g0 with no overlap
+    that the master's own piecewise-linear surface (weighted gaps g0_linear (q,)) does not
+    have: max(g0, min(g0_linear, 0)). A smoothed master lies off its segments by
+    O(h^2 x curvature), into the slave at a concave kink; without `interference` that is
+    not an intended fit, and as a negative g0 it pressed two touching bodies apart with no
+    load at all (lengths)."""
+    return np.maximum(g0, np.minimum(g0_linear, 0.0))
+
+
+def _none_kept_error(itf, sd: float, found: np.ndarray, covered: np.ndarray):
+    """The InputError of an interface that keeps no slave node: none within sd of the
+    master (`no_slave_error`), or those within sd face it over less than MIN_COVER of
+    their support (curves that meet end to end, or overlap by less than half a slave
+    segment), which a larger search_distance does not change."""
+    if not found.any() or (found & covered).any():
+        return no_slave_error(itf.name, itf.slave, itf.master, sd)
+    return InputError(
+        f"interface '{itf.name}': the slave nodes of '{itf.slave}' within "
+        f"search_distance={sd:g} of '{itf.master}' face it over less than half of their "
+        f"support (the curves meet end to end or overlap by less than half a slave "
+        f"element), so the mortar rows keep none; extend the overlap, refine the slave, "
+        f'or use discretisation = "node-to-segment"')
 
 
 def nearest_slave_nodes(found: np.ndarray, gap: np.ndarray, sd: float) -> np.ndarray:

@@ -48,6 +48,10 @@ switching segment by segment would shift nodal forces where the choice changes."
 MAX_KINK_DEG = 30.0
 """Master nodes where the curve turns by more than this (degrees) are corners: the
 B-spline does not round them off (each side is smoothed on its own)."""
+KINK_COS_TOL = 1e-9
+"""Round-off allowed in the MAX_KINK_DEG test (on the cosine): a turn of exactly 30 deg
+(a regular 12-gon, a 12-segment circle) is smooth at every node, not at the ones whose
+rounding happens to fall on the smooth side."""
 
 
 def master_neighbours(pts: np.ndarray, m_edges: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -62,7 +66,7 @@ def master_neighbours(pts: np.ndarray, m_edges: np.ndarray) -> tuple[np.ndarray,
     out = np.full(n, -1, dtype=np.int64)  # segment starting at the node
     seg = np.arange(m_edges.shape[0])
     into[b], out[a] = seg, seg
-    cos_max = np.cos(np.radians(MAX_KINK_DEG))
+    cos_max = np.cos(np.radians(MAX_KINK_DEG)) - KINK_COS_TOL
     before, after = into[a], out[b]
     smooth_before = (before >= 0) & (np.einsum("ij,ij->i", d[before], d) >= cos_max)
     smooth_after = (after >= 0) & (np.einsum("ij,ij->i", d[after], d) >= cos_max)

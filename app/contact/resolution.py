@@ -28,6 +28,11 @@ MIN_CLOSED_PAIRS = 9
 """Fewer closed pairs than this are not judged (the fit needs 5, the ends are left out)."""
 EDGE_PAIRS = 2
 """Closed pairs at each end of the zone left out of the deviation (contact edges)."""
+ZONE_GAP = 1.5
+"""Consecutive closed pairs (along the zone) farther apart than this times the larger of
+their spacings (tributary length, or the master segment they face if longer) lie in
+separate contact zones. A hole shorter than a master element is a stripe that lifted
+a slave node off (multibody `indent` at step 1), not a second zone."""
 CLOSED_REL = 1e-6
 """A pair is closed when its normal force exceeds this times the problem's force scale
 (round-off forces of a zone being pulled off are not a traction profile)."""
@@ -59,18 +64,46 @@ def interior_deviation(position: np.ndarray, p: np.ndarray) -> float:
     return float(dev[EDGE_PAIRS:-EDGE_PAIRS].max(initial=0.0))
 
 
+def closed_zones(position: np.ndarray, spacing: np.ndarray) -> list[np.ndarray]:
+    """The closed pairs at positions (k, 2) with spacings (k,) (length) split into
+    contact zones: index arrays, each ordered along the pairs' principal direction; a zone
+    ends where the next pair lies farther than ZONE_GAP x the larger spacing."""
+    if position.shape[0] < 2:
+        return [np.arange(position.shape[0])]
+    centred = position - position.mean(axis=0)
+    axis = np.linalg.svd(centred, full_matrices=False)[2][0]  # principal direction
+    order = np.argsort(centred @ axis)
+    step = np.linalg.norm(np.diff(position[order], axis=0), axis=1)
+    wide = np.maximum(spacing[order][:-1], spacing[order][1:])
+    cuts = np.flatnonzero(step > ZONE_GAP * wide) + 1
+    return np.split(order, cuts)
+
+
 def stripe_checks(mesh: Mesh, pairs: ContactPairs, normal_force: np.ndarray,
                   names: Sequence[str], force_scale: float) -> list[dict]:
     """Per interface with at least MIN_CLOSED_PAIRS pairs in compression (normal_force (m,),
-    the LCP's normal pair forces, above CLOSED_REL x force_scale):
-    {interface, closed, size_ratio, deviation, warn}."""
+    the LCP's normal pair forces, above CLOSED_REL x force_scale), judged zone by zone
+    (`closed_zones`, the zones of at least MIN_CLOSED_PAIRS pairs; the inner edges of two
+    zones are contact edges, not stripes):
+    {interface, closed, size_ratio, deviation, warn}. Nothing is judged when nothing
+    loads the problem (force_scale 0): every pair force is then round-off."""
     out = []
+    if not force_scale > 0:
+        return out
     for i, name in enumerate(names):
         sel = (pairs.interface == i) & (normal_force > CLOSED_REL * force_scale)
         if np.count_nonzero(sel) < MIN_CLOSED_PAIRS:
             continue
+        pos, p = pairs.position[sel], normal_force[sel] / pairs.length[sel]
+        ends = mesh.points[pairs.master[sel]]
+        spacing = np.maximum(pairs.length[sel], np.linalg.norm(ends[:, 1] - ends[:, 0], axis=1))
+        zones = [z for z in closed_zones(pos, spacing) if z.size >= MIN_CLOSED_PAIRS]
+        if not zones:  # several zones, none long enough to judge
+            continue
         ratio = master_slave_size_ratio(mesh, pairs, sel)
-        dev = interior_deviation(pairs.position[sel], normal_force[sel] / pairs.length[sel])
+        p_max = max(np.abs(p).max(), 1e-300)  # each zone's deviation relative to max p
+        dev = float(max(interior_deviation(pos[z], p[z]) * np.abs(p[z]).max() / p_max
+                        for z in zones))
         out.append({"interface": name, "closed": int(np.count_nonzero(sel)),
                     "size_ratio": ratio, "deviation": dev,
                     "warn": ratio > SIZE_RATIO_WARN and dev > STRIPE_DEVIATION_WARN})

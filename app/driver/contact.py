@@ -11,6 +11,7 @@ import numpy as np
 from app.condensation.compliance import compliance_from_factor, compliance_solve
 from app.condensation.recovery import contact_displacement, mismatch
 from app.contact.resolution import stripe_checks, stripe_warning
+from app.contact.unpaired import crossed_unpaired, crossing_warning
 from app.driver.context import RunContext, write_summary
 from app.driver.linear import LinearSystem, UnitSolutions
 from app.driver.model import Model
@@ -69,7 +70,7 @@ def solve_contact_step(ctx: RunContext, model: Model, system: LinearSystem,
             u = _displacement(model, system, u_free, result)
             miss, rel, again = _consistency(ctx, model, u, result, refinements, previous)
             if not again:  # the step's answer: its checks, in the same phase
-                _answer_checks(ctx, model, result, step, refinements, rel)
+                _answer_checks(ctx, model, result, step, refinements, rel, u)
         if not again:
             break
         previous = rel
@@ -81,21 +82,35 @@ def solve_contact_step(ctx: RunContext, model: Model, system: LinearSystem,
             retry = ctx.mpi.bcast(retry, root=0)
         if retry is None:
             with ctx.phase("recovery"):
-                _answer_checks(ctx, model, result, step, refinements, rel)
+                _answer_checks(ctx, model, result, step, refinements, rel, u)
             break
         result = retry
         refinements += 1
     return ContactStep(u, result)
 
 
+def _crossing_warnings(ctx: RunContext, model: Model, u: np.ndarray, step: int) -> None:
+    """A warning the first time slave nodes without a pair have moved through an
+    interface's master (app/contact/unpaired.py); every rank holds the same u."""
+    pairs = model.contact.pairs
+    for i, itf in enumerate(ctx.cfg.interfaces):
+        paired = pairs.slave[pairs.interface == i]
+        crossing = crossed_unpaired(model.mesh, itf.slave, itf.master, paired,
+                                    u.reshape(-1, 2), itf.name)
+        if crossing is not None:
+            ctx.warn(crossing_warning(itf.name, step + 1, crossing, itf.search_distance),
+                     ("crossing", itf.name))
+
+
 def _answer_checks(ctx: RunContext, model: Model, result: StepSolution, step: int,
-                   refinements: int, rel: float) -> None:
-    """The step's final answer: its consistency figures in `result.info`, and the
-    once-per-run warnings about it."""
+                   refinements: int, rel: float, u: np.ndarray) -> None:
+    """The step's final answer (u (2n,) its displacement): its consistency figures in
+    `result.info`, and the once-per-run warnings about it."""
     result.info["consistency_refinements"] = refinements
     result.info["lcp_displacement_mismatch"] = rel
     _held_mode_warnings(ctx, result, step)
     _stripe_warnings(ctx, model, result, step)
+    _crossing_warnings(ctx, model, u, step)
 
 
 def _held_mode_warnings(ctx: RunContext, result: StepSolution, step: int) -> None:

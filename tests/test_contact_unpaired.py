@@ -1,0 +1,57 @@
+"""Slave nodes without a pair that move through the master (app/contact/unpaired.py)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from support import CONFIGS, read_summary, run_cli
+from test_contact_pairs import stacked
+
+from app.contact.unpaired import crossed_unpaired, crossing_warning
+
+
+def _moved_up_block(mesh, dy: float) -> np.ndarray:
+    u = np.zeros((mesh.n_nodes, 2))
+    u[mesh.node_body() == 1, 1] = dy
+    return u
+
+
+def test_a_block_pushed_through_its_master_is_found():
+    mesh = stacked(4, 4, gap=0.2)  # no pair: every upper-bottom node starts 0.2 above
+    none = np.zeros(0, dtype=np.int64)
+    assert crossed_unpaired(mesh, "up_bottom", "low_top", none, _moved_up_block(mesh, -0.1),
+                            "t") is None
+    c = crossed_unpaired(mesh, "up_bottom", "low_top", none, _moved_up_block(mesh, -0.3), "t")
+    assert c.count == 5 and c.depth == pytest.approx(0.1)
+    assert c.position[1] == pytest.approx(0.2)
+    text = crossing_warning("t", 3, c, 0.05)
+    assert text.startswith("interface 't', step 3: 5 slave node(s)") and "\n" not in text
+    # the paired nodes are the pairs' business, not this check's
+    paired = np.unique(mesh.curves["up_bottom"])
+    assert crossed_unpaired(mesh, "up_bottom", "low_top", paired, _moved_up_block(mesh, -0.3),
+                            "t") is None
+
+
+def test_nodes_beyond_the_master_end_or_behind_it_at_the_start_are_not_judged():
+    beside = stacked(4, 4, gap=0.2, x_up=(1.5, 2.5))  # beyond the master's free end
+    none = np.zeros(0, dtype=np.int64)
+    assert crossed_unpaired(beside, "up_bottom", "low_top", none,
+                            _moved_up_block(beside, -0.3), "t") is None
+    # the upper block already overlapping (an interference fit): not a crossing
+    fit = stacked(4, 4, gap=-0.05)
+    assert crossed_unpaired(fit, "up_bottom", "low_top", none, _moved_up_block(fit, -0.01),
+                            "t") is None
+
+
+def test_hertz_pressed_far_beyond_its_search_distance_warns(tmp_path):
+    """58x the Hertz load: the contact half-width (0.76) outgrows the pairs within
+    search_distance = 0.05 of the block, and the arc beyond them sinks into the block."""
+    out = tmp_path / "o"
+    res = run_cli(["run", str(CONFIGS / "hertz.toml"), "--out", str(out), "--quiet",
+                   "--set", "load.0.total_force=[0.0, -50000.0]"])
+    assert res.returncode == 0, res.stderr
+    (w,) = [w for w in read_summary(out)["warnings"] if "moved through the master" in w]
+    assert w.startswith("interface 'contact', step 1:") and "search_distance=0.05" in w
+    ok = run_cli(["run", str(CONFIGS / "hertz.toml"), "--out", str(tmp_path / "p"),
+                  "--quiet"])
+    assert "moved through" not in ok.stderr
