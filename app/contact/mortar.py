@@ -277,7 +277,8 @@ def mortar_constraints(mesh: Mesh, itf, index: int, normal_rule=None,
     g0 = np.einsum("ij,ij->i", nrm, pts[nodes] - w @ pts)
     if getattr(basis, "label", "linear") != "linear" and not itf.interference:
         w_lin, _ = _covered_weights(pts, nodes, s_edges, m_edges, found, normal, itf, sd,
-                                    linear_master(pts, m_edges, sg[near], d_len[near]))
+                                    linear_master(pts, m_edges, sg[near], d_len[near]),
+                                    multipliers)
         g0 = no_made_overlap(g0, np.einsum("ij,ij->i", nrm, pts[nodes] - w_lin @ pts))
     covered = cover >= MIN_COVER * (1 - COVER_RTOL) * d_len
     keep = found & covered & (g0 <= sd)
