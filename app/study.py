@@ -56,7 +56,8 @@ def parse_methods(text: str) -> list[tuple[str, int]]:
     """'1,2,4,q4' -> [("cs-fem", 1), ("cs-fem", 2), ("cs-fem", 4), ("fem-q4", 4)].
 
     A bare number is a CS-FEM smoothing-domain count; other names come from the
-    bulk-method registry (`BulkMethod.study_names`).
+    bulk-method registry (`BulkMethod.study_names`). A method named twice (e.g. "4,4" or
+    "q4,fem-q4") runs once: each run writes the folder L<level>_<label>.
     """
     names = {n: (m.name, 4) for m in BULK_METHODS.values() for n in m.study_names}
     sds = BULK_METHODS["cs-fem"].sd_choices
@@ -70,7 +71,7 @@ def parse_methods(text: str) -> list[tuple[str, int]]:
         else:
             choices = ", ".join([*map(str, sds), *names])
             raise InputError(f"--methods: '{item}' is not one of {choices}")
-    return out
+    return list(dict.fromkeys(out))
 
 
 def label(method: str, sd: int) -> str:

@@ -56,6 +56,11 @@ def test_study_rejects_bad_methods_and_configs(tmp_path):
     assert parse_methods("1, 16,q4") == [("cs-fem", 1), ("cs-fem", 16), ("fem-q4", 4)]
 
 
+def test_study_methods_named_twice_run_once():
+    """'4,4' ran 4SD twice into the same folder L<l>_4SD: duplicate study.csv rows."""
+    assert parse_methods("4,4,q4,fem-q4,4") == [("cs-fem", 4), ("fem-q4", 4)]
+
+
 def test_study_remesh_and_contact_reference_columns(tmp_path):
     out = tmp_path / "hz"
     res = run_cli(["study", str(CONFIGS / "hertz.toml"), "--levels", "2", "--mesh-size", "1.0",
