@@ -47,7 +47,8 @@ def split_values(text: str) -> list[str]:
 
 
 def parse_sweeps(items: list[str]) -> list[tuple[str, list[str]]]:
-    """['interface.bond.c=1,2'] -> [('interface.bond.c', ['1', '2'])]; InputError if bad."""
+    """['interface.bond.c=1,2'] -> [('interface.bond.c', ['1', '2'])]; InputError if bad
+    or if a key is swept twice (its later values would silently replace the earlier)."""
     out = []
     for item in items:
         key, sep, vals = item.partition("=")
@@ -55,8 +56,21 @@ def parse_sweeps(items: list[str]) -> list[tuple[str, list[str]]]:
         if not sep or not key.strip() or not values:
             raise InputError(f"--sweep '{item}': use KEY=V1,V2,... (e.g. "
                              "interface.contact.mu=0.1,0.2,0.3)")
+        if key.strip() in dict(out):
+            raise InputError(f"--sweep '{item}': {key.strip()} is swept twice; give all its "
+                             "values in one --sweep")
         out.append((key.strip(), values))
     return out
+
+
+def report_step(at_step: int, n_steps: int) -> int:
+    """The 1-based step that --at-step names in a run of n_steps steps (at_step <= 0 counts
+    back from the last); InputError when the run has no such step."""
+    k = at_step if at_step > 0 else n_steps + at_step
+    if not 1 <= k <= n_steps:
+        raise InputError(f"--at-step {at_step}: the run has {n_steps} steps (use 1..{n_steps}, "
+                         f"or 0..{1 - n_steps} counting back from the last)")
+    return k
 
 
 def step_rows(summary: dict) -> list[dict]:
@@ -119,6 +133,7 @@ def run_sweep(config: Path, sets: list[str], sweeps: list[tuple[str, list[str]]]
         params = dict(zip(keys, map(_value, combo), strict=True))
         try:  # a combination the config checks reject (e.g. c < mu a) fails alone
             cfg = load_config(config, overrides)
+            report_step(at_step, cfg.n_steps)
             s = run(cfg, ro)
         except (InputError, SolveError) as exc:
             failed.append(str(exc))

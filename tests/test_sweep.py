@@ -7,7 +7,7 @@ import pytest
 from support import CONFIGS, read_csv, run_cli
 
 from app.errors import InputError
-from app.sweep import parse_sweeps, split_values
+from app.sweep import parse_sweeps, report_step, split_values
 
 
 def test_split_and_parse_sweeps():
@@ -17,6 +17,24 @@ def test_split_and_parse_sweeps():
     for bad in ("mu", "=1,2", "interface.contact.mu="):
         with pytest.raises(InputError, match="--sweep"):
             parse_sweeps([bad])
+    # a key swept twice ran only its last values, reported under one column
+    with pytest.raises(InputError, match="swept twice"):
+        parse_sweeps(["interface.bond.c=4", "interface.bond.a=1", "interface.bond.c=6"])
+
+
+def test_report_step_is_a_step_of_the_run():
+    assert [report_step(k, 20) for k in (0, 1, 20, -1, -19)] == [20, 1, 20, 19, 1]
+    for bad in (21, -20):  # were clamped to the last / first step, the plot saying "step 21"
+        with pytest.raises(InputError, match="--at-step"):
+            report_step(bad, 20)
+
+
+def test_sweep_at_step_beyond_the_steps_fails(tmp_path):
+    res = run_cli(["study", str(CONFIGS / "bonded.toml"), "--sweep", "interface.bond.c=4",
+                   "--at-step", "50", "--out", str(tmp_path), "--quiet"])
+    assert res.returncode == 2
+    assert res.stderr.strip().splitlines()[-1].startswith("error: every run of the sweep")
+    assert "--at-step 50: the run has 20 steps" in res.stderr
 
 
 def test_sweep_mu_on_cattaneo_balances_the_load_below_mu_p(tmp_path):
