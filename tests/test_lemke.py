@@ -190,6 +190,19 @@ def test_friction_block_matrix_matches_brute_force(seed):
         assert min(np.abs(res.z - s).max() for s in sols) <= 1e-7 * (1 + np.abs(res.z).max())
 
 
+@pytest.mark.parametrize("b", [1e14, 1e20])
+def test_a_variable_in_other_units_is_solved_not_passed_by_the_check_floor(b):
+    """z_2 in units 1/b of the well-scaled LCP ([[2, 1], [1, 2]], q = -1): the crash's
+    z = (0.5, 0) (w_2 = -0.5, a 50% error of z_1) passed the final check as "solved",
+    through the round-off floor 1e-4 x max_j |M_2j| x max z taken in unscaled units."""
+    M = np.array([[2.0, 1.0], [1.0, 2.0]]) @ np.diag([1.0, b])
+    q = np.array([-1.0, -1.0])
+    for crash in (True, False):
+        res = lemke(M, q, crash=crash)
+        assert res.ok, res.message
+        np.testing.assert_allclose(res.z * [1.0, b], [1 / 3, 1 / 3], rtol=1e-9)
+
+
 def test_degenerate_q_zeros_ties_and_duplicate_rows():
     rng = np.random.default_rng(11)
     for k in range(60):

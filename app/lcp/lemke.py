@@ -130,6 +130,12 @@ def _check(M: np.ndarray, q: np.ndarray, z: np.ndarray, tol: float,
     b_i = |q_i| + |w_i - q_i| <= s_i (less a margin for the rounding of M z) does not settle:
     a row with violation <= min(tol, _SETTLE_REL) b_i passes, and counts in `worst` with
     violation / b_i (a bound of its relative violation, at round-off level).
+
+    The floor of s_i for rows whose terms cancel at round-off level is taken in the units
+    of the diagonal scaling D (`_diagonal_D`), so that it does not grow with a column of M
+    in other units than its z: 1e-4 max_j |M_ij| D_j x the z scale of `_z_scale` in those
+    units (in unscaled units a 50% error of z passed where one column was 1e14 x the
+    other).
     """
     w = M @ z + q if w is None else w
     neg = np.maximum(-w, 0.0)
@@ -140,18 +146,21 @@ def _check(M: np.ndarray, q: np.ndarray, z: np.ndarray, tol: float,
     worst_settled = float((viol[settled] / bound[settled]).max(initial=0.0))
     rows = np.flatnonzero((viol > 0) & ~settled)
     s = np.abs(q[rows])
-    row_max = np.zeros(rows.size)
+    row_max = np.zeros(rows.size)  # max_j |M_ij| D_j
+    D = _diagonal_D(M) if rows.size else np.ones(0)
     buf = np.empty((min(_CHECK_ROWS, rows.size), q.size))  # one small buffer, reused
     for i0 in range(0, rows.size, _CHECK_ROWS):
         a = buf[: min(rows.size - i0, _CHECK_ROWS)]
         np.take(M, rows[i0:i0 + a.shape[0]], axis=0, out=a)
         np.abs(a, out=a)
-        row_max[i0:i0 + a.shape[0]] = a.max(axis=1) if a.size else 0.0
         if z.any():
             s[i0:i0 + a.shape[0]] += a @ z
+        a *= D
+        row_max[i0:i0 + a.shape[0]] = a.max(axis=1) if a.size else 0.0
     # Floor for rows whose terms all cancel at round-off level (e.g. q_i = -1e-17 where the
-    # rest of q is O(1)): 1e-4 x the row's largest coefficient x the problem's z scale.
-    z_scale = _z_scale(M, q, z, row_max) if rows.size else 0.0
+    # rest of q is O(1)): 1e-4 x the row's largest coefficient x the problem's z scale, in
+    # the units of the diagonal scaling (z = D z~).
+    z_scale = _z_scale(M, q, z, row_max * D[rows], D) if rows.size else 0.0
     s = np.maximum(s, 1e-4 * row_max * z_scale)
     with np.errstate(divide="ignore", invalid="ignore"):
         rel = np.where(viol[rows] > 0, viol[rows] / s, 0.0)
@@ -161,15 +170,18 @@ def _check(M: np.ndarray, q: np.ndarray, z: np.ndarray, tol: float,
     return w, ok, comp, worst
 
 
-def _z_scale(M: np.ndarray, q: np.ndarray, z: np.ndarray, row_max: np.ndarray) -> float:
-    """max(max z, max |q| / max |M|); max |M| is read from M (one pass) only when the
-    largest row maximum already known (row_max, the diagonal) does not settle it."""
-    z_max = float(z.max(initial=0.0))
-    q_max = float(np.abs(q).max(initial=0.0))
-    known = max(float(row_max.max(initial=0.0)), float(np.abs(np.diagonal(M)).max()))
+def _z_scale(M: np.ndarray, q: np.ndarray, z: np.ndarray, row_max: np.ndarray,
+             D: np.ndarray) -> float:
+    """max(max z~, max |q~| / max |M~|) in the diagonal scaling (M~ = D M D, q~ = D q,
+    z = D z~); max |M~| is read from M (one pass) only when the largest row maximum
+    already known (row_max, of M~; the diagonal) does not settle it."""
+    z_max = float((z / D).max(initial=0.0))
+    q_max = float(np.abs(D * q).max(initial=0.0))
+    known = max(float(row_max.max(initial=0.0)), float((np.abs(np.diagonal(M)) * D * D).max()))
     if known > 0 and q_max / known <= z_max:
-        return z_max  # max |M| >= known, so max |q| / max |M| <= z_max
-    m_max = max((float(_absmax(M[i0:i1])) for i0, i1 in _row_blocks(q.size)), default=0.0)
+        return z_max  # max |M~| >= known, so max |q~| / max |M~| <= z_max
+    m_max = max((float(_absmax(D[i0:i1, None] * M[i0:i1] * D)) for i0, i1 in
+                 _row_blocks(q.size)), default=0.0)
     return max(z_max, q_max / m_max if m_max > 0 else 0.0)
 
 
