@@ -136,6 +136,11 @@ def main() -> None:
     ap.add_argument("--siconos", action="store_true",
                     help="also run Siconos's Lemke on the same LCP (apt install python3-siconos)")
     args = ap.parse_args()
+    bad = [n for n in args.n or [] if n < 3 or n % 3]
+    if bad:  # (n = 31 ran n = 30 under "n": 30; n = 0 was a ZeroDivisionError traceback)
+        ap.error(f"--n {bad[0]}: sizes must be positive multiples of 3 (3 unknowns a pair)")
+    if args.repeat < 1:
+        ap.error(f"--repeat must be >= 1 (got {args.repeat})")
     sizes = args.n or ([300, 1500, 3000] + ([6000] if args.large else []))
     for n in sizes:
         print(json.dumps(run(n, args.reference, args.seed, args.siconos, args.textbook,
