@@ -90,7 +90,8 @@ def step_rows(summary: dict) -> list[dict]:
                 "bonded_length": sl.get("bonded", math.nan),
                 "debonded_pairs": it.get("debonded_pairs", 0), "n_pairs": it["n_pairs"],
                 "bond_strength_force": it.get("bond_strength_force", 0.0),
-                "dissipation": st.get("dissipation", 0.0),
+                # the interface's own (the step's total is every interface's sum)
+                "dissipation": it.get("dissipation", st.get("dissipation", 0.0)),
             })
     return rows
 

@@ -109,3 +109,22 @@ def test_sweep_combination_rejected_by_the_config_checks_fails_alone(tmp_path):
     rows = read_csv(tmp_path / "sweep.csv")
     assert [r["status"] for r in rows] == ["failed", "completed"]
     assert "c = 0.5 < mu * a" in rows[0]["error"]
+
+
+def test_sweep_dissipation_is_each_interfaces_own(tmp_path):
+    """squeezed.toml: the bottom face slips, the top one sticks. Each interface row carried
+    the step's total dissipation (the bottom's work was reported on the top too)."""
+    import json
+
+    res = run_cli(["study", str(CONFIGS / "hard" / "squeezed.toml"), "--sweep",
+                   "load.0.total_force=[2.0,0.0]", "--out", str(tmp_path), "--quiet"])
+    assert res.returncode == 0, res.stderr
+    steps = read_csv(tmp_path / "sweep_steps.csv")
+    total = [st["dissipation"] for st in
+             json.loads((tmp_path / "run_000" / "summary.json").read_text())["steps"]]
+    for k, d in enumerate(total, start=1):
+        mine = {r["interface"]: float(r["dissipation"]) for r in steps if int(r["step"]) == k}
+        assert mine["top"] == 0.0 and mine["bottom"] > 0
+        assert abs(mine["top"] + mine["bottom"] - d) <= 1e-12 * d
+    rows = {r["interface"]: float(r["dissipation"]) for r in read_csv(tmp_path / "sweep.csv")}
+    assert rows["top"] == 0.0 and abs(rows["bottom"] - sum(total)) <= 1e-12 * sum(total)

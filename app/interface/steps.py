@@ -284,6 +284,7 @@ class ContactStepper:
         pr = self.setup.pairs
         length_t = pr.length * self.setup.cfg.thickness
         per_if = {}
+        slip_inc = sol.slip_plus - sol.slip_minus
         for i, itf in enumerate(self.setup.cfg.interfaces):
             sel = pr.interface == i
             per_if[itf.name] = {
@@ -299,6 +300,8 @@ class ContactStepper:
                 "contact_length": float(pr.length[sel & (sol.p > 0)].sum()),
                 "debonded_pairs": int(np.sum(debonded[sel] > 0)),
                 "bond_strength_force": float(self.hist.c[sel].sum()),
+                # this interface's share of the step's frictional work (solve_step)
+                "dissipation": 0.0 - float(np.sum(sol.q[sel] * slip_inc[sel])),
             }
         return per_if
 
