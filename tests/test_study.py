@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from support import CONFIGS, read_csv, run_cli
 
-from app.study import fitted_rate, parse_methods
+from app.study import energy_title, fitted_rate, parse_methods
 
 
 def test_study_writes_csv_and_plots_and_reuses_meshes(tmp_path):
@@ -86,3 +86,16 @@ def test_study_remesh_and_contact_reference_columns(tmp_path):
     res = run_cli(["study", str(CONFIGS / "cantilever.toml"), "--methods", "4",
                    "--reference-method", "1SD", "--out", str(out2)])
     assert res.returncode == 2 and "--reference-method" in res.stderr
+
+
+def test_energy_plot_title_names_the_bound_the_runs_show():
+    """energy_vs_sd.png said "1SD upper, FEM-Q4 lower" also where the runs show the
+    reverse (displacements prescribed, e.g. cattaneo.toml: U(1SD) 4.6 < U(FEM-Q4) 10.3)."""
+    def rows(u1, uq):
+        return [{"level": k, "method": m, "strain_energy": u}
+                for k, (a, b) in enumerate(zip(u1, uq, strict=True))
+                for m, u in (("1SD", a), ("4SD", 0.5 * (a + b)), ("FEM-Q4", b))]
+    assert energy_title(rows([2.0, 1.9], [1.0, 1.5])) == "energy bounds: 1SD upper, FEM-Q4 lower"
+    assert energy_title(rows([4.6, 7.3], [10.3, 9.0])) == "energy bounds: FEM-Q4 upper, 1SD lower"
+    assert "bounds" not in energy_title(rows([2.0, 1.0], [1.0, 1.5]))
+    assert "bounds" not in energy_title([r for r in rows([2.0], [1.0]) if r["method"] != "1SD"])
