@@ -175,6 +175,9 @@ def _study_command(args, petsc_args: list[str], rank: int) -> int:
         raise InputError("--levels must be >= 1 and --first-level >= 0")
     if not 0 <= args.reference_levels <= 3:
         raise InputError(f"--reference-levels must be 0..3 (got {args.reference_levels})")
+    if not args.sweep and (args.at_step or args.refine):  # (they were silently ignored)
+        raise InputError("--at-step and --refine apply with --sweep only (a convergence "
+                         "study refines by --levels and --first-level)")
     finest = (args.refine if args.sweep
               else args.first_level + args.levels - 1 + args.reference_levels)
     scale = check_run_input(cfg, args, finest)

@@ -99,3 +99,15 @@ def test_energy_plot_title_names_the_bound_the_runs_show():
     assert energy_title(rows([4.6, 7.3], [10.3, 9.0])) == "energy bounds: FEM-Q4 upper, 1SD lower"
     assert "bounds" not in energy_title(rows([2.0, 1.0], [1.0, 1.5]))
     assert "bounds" not in energy_title([r for r in rows([2.0], [1.0]) if r["method"] != "1SD"])
+
+
+def test_sweep_only_options_without_sweep_are_an_error(tmp_path):
+    """--refine 2 (or --at-step) on a convergence study was silently ignored."""
+    for opt in (["--refine", "2"], ["--at-step", "3"]):
+        res = run_cli(["study", str(CONFIGS / "cantilever.toml"), *opt, "--levels", "1",
+                       "--methods", "4", "--out",
+                       str(tmp_path), "--quiet"])
+        assert res.returncode == 2
+        assert res.stderr.strip().splitlines() == [
+            "error: --at-step and --refine apply with --sweep only (a convergence study "
+            "refines by --levels and --first-level)"]
