@@ -203,6 +203,18 @@ def test_a_variable_in_other_units_is_solved_not_passed_by_the_check_floor(b):
         np.testing.assert_allclose(res.z * [1.0, b], [1 / 3, 1 / 3], rtol=1e-9)
 
 
+@pytest.mark.parametrize("M", [[[1e-310]], [[1e-320]], [[1.0, 0.0], [0.0, 1e-310]]])
+def test_an_answer_beyond_the_float_range_is_not_solved(M):
+    """z = 1e310 overflows: "solved" came back with z = inf and w = inf or nan (a nan row
+    passed the check; with diag(1, 1e-310) also z_1 = 0 for 1)."""
+    M = np.array(M)
+    q = -np.ones(M.shape[0])
+    for crash in (True, False):
+        with np.errstate(all="ignore"):
+            res = lemke(M, q, crash=crash)
+        assert not res.ok, (res.z, res.w)
+
+
 def test_degenerate_q_zeros_ties_and_duplicate_rows():
     rng = np.random.default_rng(11)
     for k in range(60):

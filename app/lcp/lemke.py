@@ -35,6 +35,7 @@ Conventions shared by both cores:
 from __future__ import annotations
 
 import contextlib
+import math
 from typing import NamedTuple
 
 import numpy as np
@@ -165,6 +166,8 @@ def _check(M: np.ndarray, q: np.ndarray, z: np.ndarray, tol: float,
     with np.errstate(divide="ignore", invalid="ignore"):
         rel = np.where(viol[rows] > 0, viol[rows] / s, 0.0)
     worst = max(float(rel.max()) if rel.size else 0.0, worst_settled)
+    if not (np.isfinite(z).all() and np.isfinite(w).all()):
+        worst = math.inf  # z overflowed (e.g. M = [[1e-310]], q = -1): nan rows pass above
     ok = bool((z >= 0).all() and worst <= tol)
     comp = float(np.abs(z * w).max()) if z.size else 0.0
     return w, ok, comp, worst
@@ -467,7 +470,11 @@ def lemke(
         s_i = |q_i| + sum_j |M_ij| z_j (the size of the terms that make w_i), a returned
         "solved" pair satisfies z >= 0 exactly, w_i >= -tol s_i, and |w_i| <= tol s_i
         wherever z_i > 0 (so |z_i w_i| <= tol z_i s_i). The check is per row, so it is
-        independent of the units of each row (e.g. gaps and forces in one LCP).
+        independent of the units of each row (e.g. gaps and forces in one LCP). Except:
+        s_i is at least 1e-4 x the row's largest coefficient x the z scale, both in the
+        diagonal scaling's units, so that a row whose terms cancel at round-off level
+        passes; a q_i that small against the rest of the scaled LCP (e.g. 1e-15 x the
+        others where M_ii differs by 1e30) may so be left violated. z and w are finite.
     basis: optional (n,) bool warm start, True where z_i is guessed basic (for example
         `LCPResult.basis` of a previous call with the same M and a nearby q). If the
         complementary basis it names is feasible (z_B = -M_BB^-1 q_B >= 0, w >= 0, checked)
