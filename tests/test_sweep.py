@@ -128,3 +128,23 @@ def test_sweep_dissipation_is_each_interfaces_own(tmp_path):
         assert abs(mine["top"] + mine["bottom"] - d) <= 1e-12 * d
     rows = {r["interface"]: float(r["dissipation"]) for r in read_csv(tmp_path / "sweep.csv")}
     assert rows["top"] == 0.0 and abs(rows["bottom"] - sum(total)) <= 1e-12 * sum(total)
+
+
+def test_contact_length_counts_no_round_off_forces_and_not_the_ranks(tmp_path):
+    """bonded.toml step 15: the block is off at zero load (normal force 7e-14) and the pair
+    forces are round-off (1e-15); contact_length counted those with p > 0: 1.31 of 2.0
+    on 1 rank and 1.53 on 2."""
+    lengths = []
+    for ranks in (1, 2):
+        out = tmp_path / f"np{ranks}"
+        res = run_cli(["study", str(CONFIGS / "bonded.toml"), "--sweep", "interface.bond.c=6",
+                       "--out", str(out), "--quiet"], ranks=ranks)
+        assert res.returncode == 0, res.stderr
+        steps = read_csv(out / "sweep_steps.csv")
+        peak = max(abs(float(r["normal_force"])) for r in steps)
+        for r in steps:
+            if abs(float(r["normal_force"])) < 1e-10 * peak:
+                assert float(r["contact_length"]) == 0.0, r
+        assert any(float(r["contact_length"]) == 2.0 for r in steps)  # pressed: all of it
+        lengths.append([float(r["contact_length"]) for r in steps])
+    assert lengths[0] == lengths[1]

@@ -77,6 +77,12 @@ class InterfaceHistory:
     warm: WarmStart = field(default_factory=WarmStart)
 
 
+CONTACT_REL = 1e-10
+"""A pair counts in an interface's contact_length when its normal force exceeds this x
+the problem's force scale (the round-off forces, 1e-15 of it, of a zone at zero load
+counted as contact, by chance of their sign and differently on 1 and 2 ranks)."""
+
+
 def classify(sol: ContactSolution, bonded: np.ndarray, tol_gap: float,
              tol_slip: float, frictionless: np.ndarray | None = None,
              tau_prev: np.ndarray | None = None) -> np.ndarray:
@@ -285,6 +291,7 @@ class ContactStepper:
         length_t = pr.length * self.setup.cfg.thickness
         per_if = {}
         slip_inc = sol.slip_plus - sol.slip_minus
+        p_min = CONTACT_REL * self.f_scale  # round-off forces are no contact
         for i, itf in enumerate(self.setup.cfg.interfaces):
             sel = pr.interface == i
             per_if[itf.name] = {
@@ -297,7 +304,7 @@ class ContactStepper:
                 # zone sizes (sum of pair lengths) and the intact bond (for studies)
                 "state_lengths": {name: float(pr.length[sel & (state == k)].sum())
                                   for k, name in enumerate(STATE_NAMES)},
-                "contact_length": float(pr.length[sel & (sol.p > 0)].sum()),
+                "contact_length": float(pr.length[sel & (sol.p > p_min)].sum()),
                 "debonded_pairs": int(np.sum(debonded[sel] > 0)),
                 "bond_strength_force": float(self.hist.c[sel].sum()),
                 # this interface's share of the step's frictional work (solve_step)
