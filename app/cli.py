@@ -157,6 +157,9 @@ def main(argv: list[str] | None = None) -> int:
         message, code = f"error: {exc}", 2
     except RunInterrupted as exc:
         message, code = f"error: {exc}", exc.exit_code
+    except KeyboardInterrupt:  # outside a run's guard (between a study's runs): no traceback
+        message, code = ("error: interrupted by SIGINT outside a load step; what completed "
+                         "before it is written"), 130
     except PETSc.Error as exc:
         message, code = f"error: PETSc: {petsc_error_line(exc)}", 2
     if rank == 0:

@@ -258,3 +258,32 @@ def test_sigterm_inside_a_long_gmsh_call_stops_within_seconds(tmp_path):
     _assert_one_line(stderr)
     s = read_summary(out)
     assert s["status"] == "interrupted" and "SIGTERM" in s["error"]
+
+
+BETWEEN_RUNS = """
+import sys
+import app.study
+
+def stop(*args, **kwargs):
+    raise KeyboardInterrupt
+
+app.study.{name} = stop
+from app.cli import main
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+@pytest.mark.parametrize("name", ["finish_study", "_record_row"])
+def test_sigint_between_a_studys_runs_is_one_line_exit_130(tmp_path, name):
+    """Ctrl-C outside a run's guard (between a study's runs, or while it writes the tables
+    and plots) printed a KeyboardInterrupt traceback."""
+    out = tmp_path / "s"
+    cmd = [sys.executable, "-c", BETWEEN_RUNS.format(name=name), "study",
+           str(CONFIGS / "cantilever.toml"), "--levels", "1", "--methods", "4", "--out",
+           str(out), "--quiet"]
+    res = subprocess.run(cmd, cwd=ROOT, env=mpi_env(), capture_output=True, text=True,
+                         timeout=300)
+    assert res.returncode == 130, res.stderr
+    _assert_one_line(res.stderr)
+    assert res.stderr.startswith("error: interrupted by SIGINT")
+    assert read_summary(out / "L0_4SD")["status"] == "completed"
