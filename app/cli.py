@@ -181,6 +181,16 @@ def _study_command(args, petsc_args: list[str], rank: int) -> int:
     if not args.sweep and (args.at_step or args.refine):  # (they were silently ignored)
         raise InputError("--at-step and --refine apply with --sweep only (a convergence "
                          "study refines by --levels and --first-level)")
+    convergence_only = {"--levels": args.levels != 4, "--first-level": args.first_level != 0,
+                        "--methods": args.methods != "1,2,3,4,8,16,q4",
+                        "--remesh": args.remesh,
+                        "--reference-method": args.reference_method is not None,
+                        "--reference": args.reference != "richardson",
+                        "--reference-levels": args.reference_levels != 0}
+    given = [k for k, v in convergence_only.items() if v]
+    if args.sweep and given:  # (a sweep ignored them silently)
+        raise InputError(f"{given[0]} does not apply with --sweep (a sweep runs the config's "
+                         "method at --refine; set analysis.method / analysis.sd with --set)")
     finest = (args.refine if args.sweep
               else args.first_level + args.levels - 1 + args.reference_levels)
     scale = check_run_input(cfg, args, finest)

@@ -111,3 +111,14 @@ def test_sweep_only_options_without_sweep_are_an_error(tmp_path):
         assert res.stderr.strip().splitlines() == [
             "error: --at-step and --refine apply with --sweep only (a convergence study "
             "refines by --levels and --first-level)"]
+
+
+def test_convergence_options_with_sweep_are_an_error(tmp_path):
+    """--methods 1 (or --levels 2) with --sweep was silently ignored: the sweep ran the
+    config's method on its mesh."""
+    for opt in (["--methods", "1"], ["--levels", "2"], ["--remesh"]):
+        res = run_cli(["study", str(CONFIGS / "bonded.toml"), "--sweep", "interface.bond.c=4",
+                       *opt, "--out", str(tmp_path), "--quiet"])
+        assert res.returncode == 2
+        lines = res.stderr.strip().splitlines()
+        assert len(lines) == 1 and lines[0].startswith(f"error: {opt[0]} does not apply")
