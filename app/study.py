@@ -121,7 +121,7 @@ def run_study(cfg: Config, out: Path, levels: int, methods: list[tuple[str, int]
         raise SolveError(f"every run of the study failed ({len(failures)} runs; first: "
                          f"{failures[0].splitlines()[0] if failures else 'none'})")
     if rank == 0:
-        finish_study(cfg, out, rows, profiles, ref_label, reference_mode, quiet)
+        finish_study(cfg, out, rows, profiles, ref_label, reference_mode, quiet, failures)
     return rows
 
 
@@ -193,9 +193,10 @@ def study_row(s: dict, level: int, method: str, columns) -> dict:
 
 
 def finish_study(cfg: Config, out: Path, rows: list[dict], profiles: dict, ref_label: str,
-                 reference_mode: str, quiet: bool) -> None:
+                 reference_mode: str, quiet: bool, failures: list[str] | None = None) -> None:
     """Rank 0, after every run: the ref_* errors (Richardson limits or the finest level),
-    the energy bracket, study.csv, the tables (printed unless quiet) and the plots."""
+    the energy bracket, study.csv, the tables (printed unless quiet; with the failed runs
+    and why, `failures`, which have no row) and the plots."""
     limits = method_limits(rows, profiles) if reference_mode == "richardson" else []
     scalars = reference_scalars(limits, ref_label)
     missing = bool(limits) and scalars is None
@@ -211,6 +212,10 @@ def finish_study(cfg: Config, out: Path, rows: list[dict], profiles: dict, ref_l
         add_limit_spread(limits, ref_label)
         write_csv(out / "richardson.csv", limits)
         table += tables(limits, order_summary(rows))
+    if failures:
+        table += "\nfailed runs (no row in study.csv; see their summary.json)\n\n" + "".join(
+            f"- {f.splitlines()[0]}\n" for f in failures)
+    if limits or failures:
         (out / "study_tables.md").write_text(table)
     if not quiet:
         print(table, flush=True)

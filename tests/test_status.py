@@ -287,3 +287,33 @@ def test_sigint_between_a_studys_runs_is_one_line_exit_130(tmp_path, name):
     _assert_one_line(res.stderr)
     assert res.stderr.startswith("error: interrupted by SIGINT")
     assert read_summary(out / "L0_4SD")["status"] == "completed"
+
+
+ONE_FAILS = """
+import sys
+import app.study
+from app.errors import SolveError
+real = app.study.run
+
+def run(cfg, opts):
+    if "FEM-Q4" in opts.progress_prefix:
+        raise SolveError("no static equilibrium at step 1: made up")
+    return real(cfg, opts)
+
+app.study.run = run
+from app.cli import main
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+def test_a_study_says_which_runs_failed_and_why(tmp_path):
+    """A run that failed left no trace in the study's output (with --quiet nothing at all
+    but its own summary.json)."""
+    out = tmp_path / "s"
+    cmd = [sys.executable, "-c", ONE_FAILS, "study", str(CONFIGS / "cantilever.toml"),
+           "--levels", "1", "--methods", "4,q4", "--out", str(out), "--quiet"]
+    res = subprocess.run(cmd, cwd=ROOT, env=mpi_env(), capture_output=True, text=True,
+                         timeout=300)
+    assert res.returncode == 0, res.stderr
+    tables = (out / "study_tables.md").read_text()
+    assert ("- level 0/0 FEM-Q4: no static equilibrium at step 1: made up" in tables), tables
