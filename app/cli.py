@@ -135,7 +135,10 @@ def main(argv: list[str] | None = None) -> int:
     """`python -m app run|study ...`; returns the exit status (0, 2, 130 or 143)."""
     argv = list(sys.argv[1:] if argv is None else argv)
     parser = _parser()
-    args, petsc_args = parser.parse_known_args(argv)
+    # PETSc options that begin with -h (-help) would be taken as argparse's -h with a value
+    petsc_h = [a for a in argv if a.startswith("-h") and a != "-h"]
+    args, petsc_args = parser.parse_known_args([a for a in argv if a not in petsc_h])
+    petsc_args = petsc_h + petsc_args
     bad = [a for a in petsc_args if a.startswith("--")]
     if bad:
         parser.error(f"unknown option {bad[0]} (PETSc options take a single dash)")
