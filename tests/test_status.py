@@ -294,7 +294,7 @@ def test_sigterm_to_mpiexec_inside_gmsh_records_interrupted(tmp_path):
 def test_signal_to_mpiexec_between_steps_records_interrupted(tmp_path, sig):
     """Between steps on 2 ranks: the summary says `interrupted` and agrees with the step
     files (a rank that stopped by itself left rank 0 blocked in a collective until
-    mpiexec's SIGKILL, status `running`, in about 4 runs of 10)."""
+    mpiexec's SIGKILL, status `running`, for 2 of 6 signals)."""
     out = tmp_path / "o"
     cmd = ["run", str(CONFIGS / "cattaneo.toml"), "--out", str(out), "--quiet", "--set",
            "analysis.steps=400", "--set", "support.1.ramp=[1,100]", "--set",
