@@ -306,3 +306,24 @@ def test_signal_to_mpiexec_between_steps_records_interrupted(tmp_path, sig):
         assert s["status"] == "interrupted", stderr
         assert _written_steps(out) == list(range(1, len(s["steps"]) + 1))
         assert not list(out.glob("*.tmp"))
+
+
+def test_full_disk_on_two_ranks_fails_instead_of_hanging(tmp_path):
+    """Only rank 0 writes: its OSError alone left the ranks in different collectives
+    (rank 0 in a barrier on its way out, rank 1 in the next step) and the run hung with
+    `status` at `running` (a 200 kB tmpfs; here a file size limit)."""
+    import shutil
+
+    out = tmp_path / "o"
+    cmd = [shutil.which("mpiexec"), "-n", "2", sys.executable, "-c",
+           SMALL_DISK.format(limit=60_000), "run", HERTZ, "--out", str(out), "--quiet",
+           "--set", "analysis.steps=3"]
+    res = subprocess.run(cmd, cwd=ROOT, env=mpi_env(), capture_output=True, text=True,
+                         timeout=90)
+    assert res.returncode == 2, res.stderr
+    assert "Traceback" not in res.stderr, res.stderr
+    assert len([ln for ln in res.stderr.splitlines() if ln.startswith("error:")]) == 1
+    s = read_summary(out)
+    assert s["status"] == "failed" and "cannot write" in s["error"]
+    assert _written_steps(out) == list(range(1, len(s["steps"]) + 1))
+    assert not list(out.glob("*.tmp"))
