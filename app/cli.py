@@ -61,7 +61,7 @@ def _run_parser(sub: argparse._SubParsersAction) -> None:
     r.add_argument("--mesh-size", type=float, default=None, metavar="H",
                    help="global element size; every local refinement size is scaled by "
                    "H / mesh.size")
-    r.add_argument("--mesh-cache", type=Path, default=None,
+    r.add_argument("--mesh-cache", default=None,  # str: Path("") would be "."
                    help="folder where built meshes are cached and reused")
     r.add_argument("--allow-large", action="store_true", help=ALLOW_LARGE_HELP)
     r.add_argument("--refine", type=int, default=0, metavar="N",
@@ -135,7 +135,10 @@ def main(argv: list[str] | None = None) -> int:
     """`python -m app run|study ...`; returns the exit status (0, 2, 130 or 143)."""
     argv = list(sys.argv[1:] if argv is None else argv)
     parser = _parser()
-    args, petsc_args = parser.parse_known_args(argv)
+    # PETSc options that begin with -h (-help) would be taken as argparse's -h with a value
+    petsc_h = [a for a in argv if a.startswith("-h") and a != "-h"]
+    args, petsc_args = parser.parse_known_args([a for a in argv if a not in petsc_h])
+    petsc_args = petsc_h + petsc_args
     bad = [a for a in petsc_args if a.startswith("--")]
     if bad:
         parser.error(f"unknown option {bad[0]} (PETSc options take a single dash)")
@@ -233,7 +236,8 @@ def _run_command(args, petsc_args: list[str], rank: int) -> int:
         scale = check_run_input(cfg, args, args.refine)
         opts = RunOptions(out=output_folder(args.out, default_out),
                           method=args.method, sd=args.sd, mesh_scale=scale, quiet=args.quiet,
-                          mesh_cache=args.mesh_cache, overrides=list(args.set),
+                          mesh_cache=args.mesh_cache and Path(args.mesh_cache),
+                          overrides=list(args.set),
                           refine=args.refine)
         if opts.method and args.sd is not None and not BULK_METHODS[opts.method].sd_choices:
             raise InputError(f"--sd does not apply to --method {opts.method}")
@@ -292,7 +296,7 @@ def check_run_input(cfg, args, finest_level: int = 0) -> float:
     if cache is not None:
         if file is not None:
             raise InputError("--mesh-cache does not apply to a mesh read from mesh.file")
-        output_folder(str(cache), cache, what="--mesh-cache")
+        output_folder(str(cache), Path(cache), what="--mesh-cache")
     scale = args.mesh_size / cfg.mesh_size if args.mesh_size else 1.0
     check_size(cfg.scene, scale * 2.0**-finest_level, allow_large=args.allow_large)
     return scale

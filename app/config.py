@@ -445,8 +445,8 @@ def apply_overrides(raw: dict[str, Any], overrides: list[str]) -> dict[str, Any]
         for i, part in enumerate(parts[:-1]):
             here = ".".join(parts[: i + 1])
             if isinstance(node, dict):
-                if part not in node:
-                    node[part] = {}
+                if part not in node:  # a new table, or a new array of tables ("x.0.key")
+                    node[part] = [] if parts[i + 1].isdigit() else {}
                 node = node[part]
             elif isinstance(node, list):
                 names = [t.get("name") for t in node if isinstance(t, dict)]

@@ -317,3 +317,72 @@ def test_a_study_says_which_runs_failed_and_why(tmp_path):
     assert res.returncode == 0, res.stderr
     tables = (out / "study_tables.md").read_text()
     assert ("- level 0/0 FEM-Q4: no static equilibrium at step 1: made up" in tables), tables
+
+
+def _mpiexec_signal(cmd: list[str], out, ready, sig=signal.SIGTERM) -> tuple[str, float]:
+    """Start `cmd` under `mpiexec -n 2`, send `sig` to mpiexec once `ready()` holds;
+    returns stderr and the seconds from the signal to mpiexec's exit."""
+    import shutil
+
+    mpi = [shutil.which("mpiexec"), "-n", "2", sys.executable, "-m", "app"]
+    proc = subprocess.Popen(mpi + cmd, cwd=ROOT, env=mpi_env(), stderr=subprocess.PIPE,
+                            text=True)
+    t0 = time.time()
+    while not ready() and time.time() - t0 < 120:
+        time.sleep(0.05)
+    t1 = time.time()
+    proc.send_signal(sig)
+    stderr = proc.communicate(timeout=120)[1]
+    return stderr, time.time() - t1
+
+
+def test_sigterm_to_mpiexec_inside_gmsh_records_interrupted(tmp_path):
+    """Open MPI's mpiexec forwards SIGTERM (also for Ctrl-C) and sends SIGKILL 1 s later:
+    rank 0 must have written the status by then (it stayed `running` with the 3 s grace)."""
+    out = tmp_path / "o"
+    cmd = ["run", HERTZ, "--out", str(out), "--mesh-size", "0.02", "--allow-large"]
+    stderr, waited = _mpiexec_signal(
+        cmd, out, lambda: (out / "summary.json").exists() and time.sleep(1.0) is None)
+    assert waited < 30, "did not stop promptly"
+    assert "Traceback" not in stderr, stderr
+    s = read_summary(out)
+    assert s["status"] == "interrupted" and "SIGTERM" in s["error"], s.get("error")
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+def test_signal_to_mpiexec_between_steps_records_interrupted(tmp_path, sig):
+    """Between steps on 2 ranks: the summary says `interrupted` and agrees with the step
+    files (a rank that stopped by itself left rank 0 blocked in a collective until
+    mpiexec's SIGKILL, status `running`, for 2 of 6 signals)."""
+    out = tmp_path / "o"
+    cmd = ["run", str(CONFIGS / "cattaneo.toml"), "--out", str(out), "--quiet", "--set",
+           "analysis.steps=400", "--set", "support.1.ramp=[1,100]", "--set",
+           "load.0.ramp=[101,400]"]
+    for _ in range(3):  # the failure was a race: three signals at different steps
+        stderr, _ = _mpiexec_signal(cmd, out, lambda: (out / "step_0010.h5").exists(), sig)
+        assert "Traceback" not in stderr, stderr
+        s = read_summary(out)
+        assert s["status"] == "interrupted", stderr
+        assert _written_steps(out) == list(range(1, len(s["steps"]) + 1))
+        assert not list(out.glob("*.tmp"))
+
+
+def test_full_disk_on_two_ranks_fails_instead_of_hanging(tmp_path):
+    """Only rank 0 writes: its OSError alone left the ranks in different collectives
+    (rank 0 in a barrier on its way out, rank 1 in the next step) and the run hung with
+    `status` at `running` (a 200 kB tmpfs; here a file size limit)."""
+    import shutil
+
+    out = tmp_path / "o"
+    cmd = [shutil.which("mpiexec"), "-n", "2", sys.executable, "-c",
+           SMALL_DISK.format(limit=60_000), "run", HERTZ, "--out", str(out), "--quiet",
+           "--set", "analysis.steps=3"]
+    res = subprocess.run(cmd, cwd=ROOT, env=mpi_env(), capture_output=True, text=True,
+                         timeout=90)
+    assert res.returncode == 2, res.stderr
+    assert "Traceback" not in res.stderr, res.stderr
+    assert len([ln for ln in res.stderr.splitlines() if ln.startswith("error:")]) == 1
+    s = read_summary(out)
+    assert s["status"] == "failed" and "cannot write" in s["error"]
+    assert _written_steps(out) == list(range(1, len(s["steps"]) + 1))
+    assert not list(out.glob("*.tmp"))

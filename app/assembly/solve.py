@@ -34,13 +34,27 @@ class SingularStiffnessError(SolveError):
     inaccurate): the driver names the bodies that keep zero-energy modes."""
 
 
+def _start_log_view(opts: PETSc.Options, value: str | None) -> None:
+    """`log_view` from the config's [petsc] table (`true`, `""` or a viewer such as
+    `":log.txt"`). PETSc reads -log_view only at start-up; given later it must start the
+    log itself, else PetscFinalize fails ("Must use -log_view ...") and the option is
+    reported unused. The command line wins."""
+    if value is None or opts.hasName("log_view") or value.strip().lower() == "false":
+        return
+    opts.setValue("log_view", "" if value.strip().lower() == "true" else value)
+    PETSc.Log.begin()
+    opts.getString("log_view", "")  # read now: PetscFinalize prints the log
+
+
 def set_default_options(extra: dict[str, str] | None = None) -> None:
     """Put defaults, then the config's [petsc] table, into the options database.
 
     Options already given on the command line win over both.
     """
     opts = PETSc.Options()
-    for table in (extra or {}, DEFAULT_OPTIONS):
+    extra = dict(extra or {})
+    _start_log_view(opts, extra.pop("log_view", None))
+    for table in (extra, DEFAULT_OPTIONS):
         for key, value in table.items():
             if not opts.hasName(key):
                 opts.setValue(key, value)

@@ -18,6 +18,7 @@ from app.driver.contact import ContactStep
 from app.driver.context import RunContext, write_summary
 from app.driver.linear import LinearSystem
 from app.driver.model import Model
+from app.driver.rank0_io import on_rank0
 from app.mesh.model import Mesh
 from app.output.contact import contact_arrays
 from app.output.progress import step_line
@@ -52,8 +53,7 @@ def open_output(ctx: RunContext, model: Model, system: LinearSystem) -> StepOutp
         own = node_ownership(mesh.n_nodes, ctx.size)
         first = mesh.quads[:, 0]
         my_elements = np.flatnonzero((first >= own[ctx.rank]) & (first < own[ctx.rank + 1]))
-        writer = ResultWriter(ctx.out, mesh.points, mesh.quads, mesh.body) \
-            if ctx.rank == 0 else None
+        writer = on_rank0(ResultWriter, ctx.out, mesh.points, mesh.quads, mesh.body)
         if writer is not None:  # files and summary.json agree after any failure
             on_failure(lambda: restore_steps(writer, len(ctx.summary["steps"])))
     with ctx.phase("setup"):
@@ -96,16 +96,21 @@ def write_step(ctx: RunContext, model: Model, output: StepOutput, step: int, u: 
         check_finite(step + 1, cfg.n_steps, u, energy)
         hold_signals()  # the step's files and summary.json are written together
         step_writing(True)
-        if ctx.rank == 0:
-            disp = np.zeros((mesh.n_nodes, 3))
-            disp[:, :2] = u.reshape(-1, 2)
-            output.writer.write_step(step + 1, float(step + 1), {"displacement": disp},
-                                     _cell_fields(mesh, gathered), contact_data,
-                                     load_factors=info["load_factor"])
+        on_rank0(_write_step, output.writer, step, mesh, u, gathered, contact_data, info)
         _record_step(ctx, info, energy, dict(zip(mesh.body_names, map(float, by_body),
                                                   strict=True)), started)
     step_writing(False)
     release_signals()
+
+
+def _write_step(writer: ResultWriter, step: int, mesh, u: np.ndarray, gathered,
+                contact_data, info: dict) -> None:
+    """Rank 0: the step's HDF5 file and XDMF entries."""
+    disp = np.zeros((mesh.n_nodes, 3))
+    disp[:, :2] = u.reshape(-1, 2)
+    writer.write_step(step + 1, float(step + 1), {"displacement": disp},
+                      _cell_fields(mesh, gathered), contact_data,
+                      load_factors=info["load_factor"])
 
 
 def _record_step(ctx: RunContext, info: dict, energy: float, by_body: dict,
@@ -120,8 +125,8 @@ def _record_step(ctx: RunContext, info: dict, energy: float, by_body: dict,
     summary["strain_energy"] = energy
     summary["strain_energy_by_body"] = by_body
     summary["timings"] = ctx.timer.reduced()
+    on_rank0(write_summary, ctx.out, summary)
     if ctx.rank == 0:
-        write_summary(ctx.out, summary)
         if not ctx.opts.quiet:
             print(step_line(info, ctx.cfg.n_steps, ctx.timer.prefix), file=sys.stderr,
                   flush=True)
@@ -144,8 +149,7 @@ def finish(ctx: RunContext, model: Model, output: StepOutput, u: np.ndarray) -> 
     summary["assembly_rate_elements_per_s"] = (model.mesh.n_elements
                                                / max(timings["assembly"], 1e-12))
     summary["peak_memory_mb"] = timer.memory()
-    if ctx.rank == 0:
-        write_summary(ctx.out, summary)
+    on_rank0(write_summary, ctx.out, summary)
     return summary
 
 

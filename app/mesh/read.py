@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from app.errors import InputError
+from app.mesh.coincident import check_coincident_nodes
 from app.mesh.model import Mesh, orient_ccw
 
 _KINDS = {"vertex": 0, "line": 1, "quad": 2}  # accepted cell types -> dimension
@@ -197,5 +198,6 @@ def read_mesh(path: str | Path, body_names: list[str]) -> Mesh:
     new[order] = np.arange(len(order))
     points = xy[order].copy()
     quads = orient_ccw(points, new[quads])
+    check_coincident_nodes(points, quads, body, list(body_names), fname)
     curves, point_groups = _lower_groups(m, groups, new, fname)
     return Mesh(points, quads, body, list(body_names), curves, point_groups)

@@ -71,12 +71,15 @@ class AppendableDocument:
             body = data.rstrip(b"\n")
             data = body + b" " * (self.end - self.offset - len(body) - 1) + b"\n"
         fd = os.open(self.path, os.O_WRONLY)
-        try:
-            written = os.pwrite(fd, data, self.offset)
+        try:  # a short write (a disk filling up) is retried: the retry raises its errno
+            written = 0
+            while written < len(data):
+                n = os.pwrite(fd, data[written:], self.offset + written)
+                if n <= 0:
+                    raise OSError(f"short write to {self.path}")
+                written += n
         finally:
             os.close(fd)
-        if written != len(data):
-            raise OSError(f"short write to {self.path}")
         self.offset += len(grown)
         self.end = max(self.end, self.offset - len(grown) + len(data))
         self.n_entries += len(parts)

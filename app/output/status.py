@@ -53,10 +53,23 @@ def _raise_sigterm(signum, frame):
     raise RunInterrupted("SIGTERM")
 
 
+def _stops_on_signal() -> bool:
+    """Whether the main thread stops the run on a signal (raises): only in a run on one
+    rank. On several ranks a rank that stopped by itself would leave the others blocked in
+    a collective (and rank 0 could not finish writing), so there every rank only notes
+    the signal and rank 0's watchdog stops the job at once between steps (StopWatchdog)."""
+    return PETSc.COMM_WORLD.getSize() == 1
+
+
 def arm_signals():
-    """SIGTERM raises RunInterrupted, SIGINT KeyboardInterrupt; returns the previous SIGTERM
-    handler. Call again after gmsh ran: gmsh.finalize() resets both to the defaults."""
+    """SIGTERM raises RunInterrupted, SIGINT KeyboardInterrupt (a run on several ranks
+    only notes them, see `_stops_on_signal`); returns the previous SIGTERM handler. Call
+    again after gmsh ran: gmsh.finalize() resets both to the defaults."""
     try:
+        if not _stops_on_signal():
+            old = signal.signal(signal.SIGTERM, _record_signal)
+            signal.signal(signal.SIGINT, _record_signal)
+            return old
         old = signal.signal(signal.SIGTERM, _raise_sigterm)
         if signal.getsignal(signal.SIGINT) is signal.default_int_handler:
             signal.signal(signal.SIGINT, signal.default_int_handler)
@@ -93,11 +106,12 @@ def hold_signals() -> None:
 def release_signals() -> None:
     """Put the run's handlers back; raise for a signal that came while they were held."""
     try:
-        signal.signal(signal.SIGINT, signal.default_int_handler)
+        if _stops_on_signal():
+            signal.signal(signal.SIGINT, signal.default_int_handler)
     except ValueError:
         return
     arm_signals()
-    if _PENDING:
+    if _PENDING and _stops_on_signal():
         if _WATCHDOG:
             _WATCHDOG[-1].handled.set()  # stopping here, in Python code
         name = _PENDING[0]
@@ -197,6 +211,14 @@ STOP_GRACE_SECONDS = 3.0
 before the watchdog writes summary.json and exits (a long gmsh, MUMPS or Lemke call)."""
 
 
+def stop_grace(rank: int, ranks: int) -> float:
+    """Seconds the watchdog of `rank` (of `ranks`) waits for the run to stop by itself.
+    On several ranks no main thread stops by itself: rank 0's watchdog stops the job at
+    once (after the step being written; Open MPI's mpiexec sends SIGKILL 1 s after the
+    SIGTERM it forwards, also on Ctrl-C), the others only if rank 0 did not end the job."""
+    return 0.0 if ranks > 1 and rank == 0 else STOP_GRACE_SECONDS
+
+
 class StopWatchdog:
     """A thread that sees SIGINT/SIGTERM at once (signal.set_wakeup_fd) even while the
     main thread is inside a long C call, where Python's handlers cannot run: if the run
@@ -284,7 +306,8 @@ class RunGuard:
             self.write(self.out, self.summary)
         self._old_term = arm_signals()
         try:
-            _WATCHDOG.append(StopWatchdog(self))
+            grace = stop_grace(self.rank, PETSc.COMM_WORLD.getSize())
+            _WATCHDOG.append(StopWatchdog(self, grace))
         except ValueError:  # not the main thread: no watchdog
             pass
         return self
@@ -295,8 +318,10 @@ class RunGuard:
 
         k = len(self.summary.get("steps", []))
         self.summary["status"] = "interrupted"
-        self.summary["error"] = (f"interrupted by {name} during step {k + 1}/{self.n_steps} "
-                                 f"(stopped inside a long computation); {self._done()}")
+        where = ("" if PETSc.COMM_WORLD.getSize() > 1 else
+                 " (stopped inside a long computation)")
+        self.summary["error"] = (f"interrupted by {name} during step {k + 1}/{self.n_steps}"
+                                 f"{where}; {self._done()}")
         if self.rank == 0:
             clear_files(self.out, TEMPORARY)
             for _ in range(5):  # the main thread may be changing the dict

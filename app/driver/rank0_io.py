@@ -1,0 +1,31 @@
+"""File writes that only rank 0 does, with their failure shared by every rank.
+
+Rank 0 writes the output files; the other ranks go straight on to the next collective.
+An OSError on rank 0 alone (a full disk) used to leave the ranks in different
+collectives: rank 0 in a barrier on its way out, the others in the next step's
+reductions, and the run hung with `status` at `running`. `on_rank0` broadcasts the
+outcome, so every rank raises the error at the same place.
+"""
+
+from __future__ import annotations
+
+from petsc4py import PETSc
+
+
+def on_rank0(fn, *args, **kwargs):
+    """fn(*args, **kwargs) on rank 0 (its result there, None elsewhere); an OSError it
+    raises is raised on every rank (the original on rank 0, errno and text elsewhere)."""
+    comm = PETSc.COMM_WORLD.tompi4py()
+    result, error = None, None
+    if comm.rank == 0:
+        try:
+            result = fn(*args, **kwargs)
+        except OSError as exc:
+            error = exc
+    if comm.size > 1:
+        shared = comm.bcast(None if error is None else (error.errno, str(error)), root=0)
+        if shared is not None and error is None:
+            error = OSError(shared[0], shared[1]) if shared[0] else OSError(shared[1])
+    if error is not None:
+        raise error
+    return result
