@@ -106,6 +106,9 @@ def test_bad_input_raises():
         lemke(np.eye(2), np.array([np.nan, -1.0]))
     with pytest.raises(ValueError):
         lemke(np.eye(2), np.array([-1.0, -1.0]), basis=np.array([True]))
+    for tol in (np.nan, -1e-9, 0.0, np.inf):  # it returned "inaccurate" for any z
+        with pytest.raises(ValueError, match="tol must be"):
+            lemke(np.eye(2), np.array([-1.0, -1.0]), tol=tol)
 
 
 @pytest.mark.parametrize(

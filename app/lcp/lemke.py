@@ -288,6 +288,8 @@ def _run(
     M, q, probe, deferred = _validate(M, q, sample=basis is None and crash)
     n = q.size
     tol = DEFAULT_TOL if tol is None else float(tol)
+    if not tol > 0 or not np.isfinite(tol):
+        raise ValueError(f"tol must be a positive finite number, got {tol!r}")
     max_pivots = default_max_pivots(n) if max_pivots is None else int(max_pivots)
     zero = np.zeros(n)
     if (q >= 0).all():  # M was checked whole by _validate (no sampling when q >= 0)
@@ -466,7 +468,8 @@ def lemke(
     M: (n, n) float array (need not be symmetric); q: (n,).
     max_pivots: pivot budget, default `default_max_pivots(n)` (50 n + 100 + 2^min(n, 20));
         when it is used up the status is "pivot limit" and z, w are the last iterate.
-    tol: relative tolerance of the final check, default 1e-9. With the row sizes
+    tol: relative tolerance of the final check, default 1e-9 (positive and finite, else
+        ValueError). With the row sizes
         s_i = |q_i| + sum_j |M_ij| z_j (the size of the terms that make w_i), a returned
         "solved" pair satisfies z >= 0 exactly, w_i >= -tol s_i, and |w_i| <= tol s_i
         wherever z_i > 0 (so |z_i w_i| <= tol z_i s_i). The check is per row, so it is
