@@ -83,6 +83,12 @@ the problem's force scale (the round-off forces, 1e-15 of it, of a zone at zero 
 counted as contact, by chance of their sign and differently on 1 and 2 ranks)."""
 
 
+def pair_dissipation(sol: ContactSolution) -> np.ndarray:
+    """(m,) frictional work of each pair in the step, -q x (slip increment) >= 0 (force
+    per thickness x thickness x length)."""
+    return -sol.q * (sol.slip_plus - sol.slip_minus)
+
+
 def classify(sol: ContactSolution, bonded: np.ndarray, tol_gap: float,
              tol_slip: float, frictionless: np.ndarray | None = None,
              tau_prev: np.ndarray | None = None) -> np.ndarray:
@@ -135,8 +141,7 @@ def solve_step(lcp: ContactLCP, hist: InterfaceHistory, step: int, gap_free: np.
         if hist.warm.enabled:
             basis = sol.basis
     state = classify(sol, bonded, tol_gap, tol_slip, frictionless, hist.tau_prev)
-    slip_inc = sol.slip_plus - sol.slip_minus
-    dissipation = float(-np.sum(sol.q * slip_inc))
+    dissipation = float(pair_dissipation(sol).sum())
     hist.a, hist.c, hist.bonded = a, c, bonded
     hist.debonded_step = debonded_step
     hist.tau_prev = sol.tau.copy()
@@ -290,7 +295,7 @@ class ContactStepper:
         pr = self.setup.pairs
         length_t = pr.length * self.setup.cfg.thickness
         per_if = {}
-        slip_inc = sol.slip_plus - sol.slip_minus
+        work = pair_dissipation(sol)
         p_min = CONTACT_REL * self.f_scale  # round-off forces are no contact
         for i, itf in enumerate(self.setup.cfg.interfaces):
             sel = pr.interface == i
@@ -308,7 +313,7 @@ class ContactStepper:
                 "debonded_pairs": int(np.sum(debonded[sel] > 0)),
                 "bond_strength_force": float(self.hist.c[sel].sum()),
                 # this interface's share of the step's frictional work (solve_step)
-                "dissipation": 0.0 - float(np.sum(sol.q[sel] * slip_inc[sel])),
+                "dissipation": float(work[sel].sum()),
             }
         return per_if
 
