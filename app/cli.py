@@ -76,6 +76,12 @@ def _run_parser(sub: argparse._SubParsersAction) -> None:
                    help=SET_HELP)
 
 
+CONVERGENCE_DEFAULTS = {"levels": 4, "first_level": 0, "methods": "1,2,3,4,8,16,q4",
+                        "remesh": False, "reference_method": None, "reference": "richardson",
+                        "reference_levels": 0}
+"""Defaults of the study options that only a convergence study reads (not a --sweep)."""
+
+
 def _study_parser(sub: argparse._SubParsersAction) -> None:
     """The `study` subcommand and its arguments (convergence study, or --sweep)."""
     s = sub.add_parser("study", help="convergence study: methods x refinement levels",
@@ -90,9 +96,11 @@ def _study_parser(sub: argparse._SubParsersAction) -> None:
                        "hertz or cattaneo). With --sweep: a parameter study instead. Unknown "
                        "options go to PETSc.")
     s.add_argument("config", type=Path)
-    s.add_argument("--levels", type=int, default=4, help="number of levels (default 4)")
-    s.add_argument("--first-level", type=int, default=0, help="first level (default 0)")
-    s.add_argument("--methods", default="1,2,3,4,8,16,q4",
+    s.add_argument("--levels", type=int, default=CONVERGENCE_DEFAULTS["levels"],
+                   help="number of levels (default 4)")
+    s.add_argument("--first-level", type=int, default=CONVERGENCE_DEFAULTS["first_level"],
+                   help="first level (default 0)")
+    s.add_argument("--methods", default=CONVERGENCE_DEFAULTS["methods"],
                    help="comma list of 1, 2, 3, 4, 8, 16 (CS-FEM SD) and q4 (FEM-Q4)")
     s.add_argument("--mesh-size", type=float, default=None, metavar="H",
                    help="global element size at level 0 (default: the config's mesh.size)")
@@ -100,15 +108,18 @@ def _study_parser(sub: argparse._SubParsersAction) -> None:
     s.add_argument("--remesh", action="store_true",
                    help="mesh every level with gmsh (sizes scaled by 2^-level) instead of "
                    "splitting the level-0 mesh uniformly (the default: nested, O(n))")
-    s.add_argument("--reference-method", default=None, metavar="LABEL",
+    s.add_argument("--reference-method", default=CONVERGENCE_DEFAULTS["reference_method"],
+                   metavar="LABEL",
                    help="method whose finest level is the model reference for the ref_* "
                    "errors, e.g. 4SD or FEM-Q4 (default 4SD if run, else the last method)")
-    s.add_argument("--reference", default="richardson", choices=("richardson", "finest"),
+    s.add_argument("--reference", default=CONVERGENCE_DEFAULTS["reference"],
+                   choices=("richardson", "finest"),
                    help="model reference of the ref_* errors: richardson (default: energy, "
                    "p_max and point displacements extrapolated over the reference method's "
                    "last three levels, fields against its finest level; richardson.csv) or "
                    "finest (its finest level for everything)")
-    s.add_argument("--reference-levels", type=int, default=0, metavar="K",
+    s.add_argument("--reference-levels", type=int,
+                   default=CONVERGENCE_DEFAULTS["reference_levels"], metavar="K",
                    help="the reference method alone also runs K levels finer than --levels "
                    "(default 0), so every other method's finest level has a finer reference")
     _sweep_arguments(s)
@@ -184,13 +195,8 @@ def _study_command(args, petsc_args: list[str], rank: int) -> int:
     if not args.sweep and (args.at_step or args.refine):  # (they were silently ignored)
         raise InputError("--at-step and --refine apply with --sweep only (a convergence "
                          "study refines by --levels and --first-level)")
-    convergence_only = {"--levels": args.levels != 4, "--first-level": args.first_level != 0,
-                        "--methods": args.methods != "1,2,3,4,8,16,q4",
-                        "--remesh": args.remesh,
-                        "--reference-method": args.reference_method is not None,
-                        "--reference": args.reference != "richardson",
-                        "--reference-levels": args.reference_levels != 0}
-    given = [k for k, v in convergence_only.items() if v]
+    given = ["--" + k.replace("_", "-") for k, v in CONVERGENCE_DEFAULTS.items()
+             if getattr(args, k) != v]
     if args.sweep and given:  # (a sweep ignored them silently)
         raise InputError(f"{given[0]} does not apply with --sweep (a sweep runs the config's "
                          "method at --refine; set analysis.method / analysis.sd with --set)")
