@@ -29,6 +29,10 @@ from petsc4py import PETSc
 from app.config import Config
 from app.discretisation.methods import BULK_METHODS
 from app.errors import InputError, SolveError
+from app.output.batch_guard import BatchGuard
+from app.output.status import step_writing
+from app.output.xdmf import atomic_write_bytes
+from app.plotting import pyplot
 from app.references import REFERENCES
 from app.run import RunOptions, run
 from app.study_reference import (
@@ -102,21 +106,41 @@ def run_study(cfg: Config, out: Path, levels: int, methods: list[tuple[str, int]
     failures: list[str] = []
     t0 = time.perf_counter()
     last = first_level + levels - 1 + reference_levels
-    for level in range(first_level, last + 1):
-        for method, sd in methods:
-            if level > last - reference_levels and label(method, sd) != ref_label:
-                continue  # finer levels: the reference method only
-            scale = base_scale * 2.0**-level if remesh else base_scale
-            opts = RunOptions(out=out / f"L{level}_{label(method, sd)}", method=method, sd=sd,
-                              mesh_scale=scale, quiet=quiet, mesh_cache=out / "mesh_cache",
-                              progress_prefix=f"level {level}/{last} {label(method, sd)}",
-                              refine=0 if remesh else level, overrides=list(overrides))
-            s = _try_run(cfg, opts, failures, t0)
-            if s is None:
-                continue
-            rows.append(study_row(s, level, label(method, sd), columns))
-            if rank == 0:
-                _record_row(out, rows, profiles, s, opts, t0)
+
+    def write_completed() -> str:  # on SIGINT / SIGTERM: the plots of what completed
+        done = [dict(r) for r in rows if (r["level"], r["method"]) in profiles]
+        if not done:  # (a row without its profile: stopped while it was recorded)
+            return f"study: no run completed in {out}"
+        plots = PETSc.COMM_WORLD.getSize() == 1  # several ranks: mpiexec kills in 1 s
+        finish_study(cfg, out, done, dict(profiles), ref_label, reference_mode, True,
+                     failures, plots=plots)
+        return (f"study: interrupted; the {len(done)} completed runs are in study.csv and "
+                f"study_tables.md" + (", and the plots" if plots else
+                                      " (no plots on several ranks)") + f", in {out}")
+
+    with BatchGuard(write_completed):
+        for level in range(first_level, last + 1):
+            for method, sd in methods:
+                if level > last - reference_levels and label(method, sd) != ref_label:
+                    continue  # finer levels: the reference method only
+                scale = base_scale * 2.0**-level if remesh else base_scale
+                opts = RunOptions(out=out / f"L{level}_{label(method, sd)}", method=method,
+                                  sd=sd, mesh_scale=scale, quiet=quiet,
+                                  mesh_cache=out / "mesh_cache",
+                                  progress_prefix=f"level {level}/{last} {label(method, sd)}",
+                                  refine=0 if remesh else level, overrides=list(overrides))
+                s = _try_run(cfg, opts, failures, t0)
+                if s is None:
+                    continue
+                step_writing(True)  # an interrupt waits for the row to be recorded
+                try:
+                    rows.append(study_row(s, level, label(method, sd), columns))
+                    if rank == 0:
+                        _record_row(out, rows, profiles, s, opts, t0)
+                        finish_study(cfg, out, [dict(r) for r in rows], profiles,
+                                     ref_label, reference_mode, True, failures, plots=False)
+                finally:
+                    step_writing(False)
     if not rows:
         raise SolveError(f"every run of the study failed ({len(failures)} runs; first: "
                          f"{failures[0].splitlines()[0] if failures else 'none'})")
@@ -193,10 +217,13 @@ def study_row(s: dict, level: int, method: str, columns) -> dict:
 
 
 def finish_study(cfg: Config, out: Path, rows: list[dict], profiles: dict, ref_label: str,
-                 reference_mode: str, quiet: bool, failures: list[str] | None = None) -> None:
+                 reference_mode: str, quiet: bool, failures: list[str] | None = None,
+                 plots: bool = True) -> None:
     """Rank 0, after every run: the ref_* errors (Richardson limits or the finest level),
     the energy bracket, study.csv, the tables (printed unless quiet; with the failed runs
-    and why, `failures`, which have no row) and the plots."""
+    and why, `failures`, which have no row) and, if `plots`, the plots. Also after each
+    completed run without plots (milliseconds), so that an interrupt at any moment leaves
+    the tables of the runs that completed."""
     limits = method_limits(rows, profiles) if reference_mode == "richardson" else []
     scalars = reference_scalars(limits, ref_label)
     missing = bool(limits) and scalars is None
@@ -216,9 +243,11 @@ def finish_study(cfg: Config, out: Path, rows: list[dict], profiles: dict, ref_l
         table += "\nfailed runs (no row in study.csv; see their summary.json)\n\n" + "".join(
             f"- {f.splitlines()[0]}\n" for f in failures)
     if limits or failures:
-        (out / "study_tables.md").write_text(table)
+        atomic_write_bytes(out / "study_tables.md", table.encode())
     if not quiet:
         print(table, flush=True)
+    if not plots:
+        return
     floors = {f"ref_{r['quantity']}": r["uncertainty_rel"] for r in limits
               if r["method"] == ref_label}
     plot_study(rows, out, title=f"{cfg.path.stem} ({cfg.reference['type']})", note=note,
@@ -242,10 +271,7 @@ def plot_study(rows: list[dict], out: Path, title: str = "", note: str = "",
     """error_vs_dofs.png, error_vs_time.png (closed-form errors err_* and errors against
     the model reference ref_*, one panel each) and energy_vs_sd.png in OUT; floors
     {column: relative uncertainty of the reference} are drawn as dotted lines."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     methods = list(dict.fromkeys(r["method"] for r in rows))
     errs = [k for k in dict.fromkeys(k for r in rows for k in r)
@@ -316,7 +342,7 @@ def energy_title(rows: list[dict]) -> str:
 def _plot_energy_vs_sd(rows: list[dict], methods: list[str], out: Path) -> Path:
     """OUT/energy_vs_sd.png: strain energy against the smoothing domains per element, one
     line per level, FEM-Q4 dashed; returns its path."""
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     fig, ax = plt.subplots(figsize=(5, 3.8))
     sds = [m for m in methods if m.endswith("SD")]

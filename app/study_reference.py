@@ -28,6 +28,8 @@ from pathlib import Path
 import numpy as np
 
 from app.output.read import read_pairs
+from app.output.xdmf import atomic_write_bytes
+from app.plotting import pyplot
 
 WINDOW = 1.5  # L2 window, in reference contact half-widths around the contact centre
 CORE = 0.8  # ref_pressure_l2_core: the window without the contact edges (same units)
@@ -182,17 +184,14 @@ def write_tables(rows: list[dict], bracket: list[dict], out: Path, note: str) ->
         lines += ["| " + " | ".join(_fmt(b.get(k, math.nan)) for k in keys) + " |"
                   for b in bracket]
     text = "\n".join(lines) + "\n"
-    (Path(out) / "study_tables.md").write_text(text)
+    atomic_write_bytes(Path(out) / "study_tables.md", text.encode())  # whole or old
     return text
 
 
 def plot_bracket(bracket: list[dict], out: Path) -> Path:
     """energy_bracket.png: the bracket width and each bound's energy error against the
     reference, against DOFs."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
 
     x = np.array([b["n_dofs"] for b in bracket], dtype=float)

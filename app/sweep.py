@@ -19,6 +19,9 @@ from petsc4py import PETSc
 
 from app.config import load_config
 from app.errors import InputError, SolveError
+from app.output.batch_guard import BatchGuard
+from app.output.status import step_writing
+from app.plotting import pyplot
 from app.run import RunOptions, run
 from app.study import write_csv
 
@@ -125,36 +128,42 @@ def run_sweep(config: Path, sets: list[str], sweeps: list[tuple[str, list[str]]]
     combos = list(itertools.product(*[v for _, v in sweeps]))
     rows, all_steps, failed = [], [], []
     t0 = time.perf_counter()
-    for i, combo in enumerate(combos):
-        tag = f"run {i + 1}/{len(combos)} " + " ".join(
-            f"{k}={v}" for k, v in zip(keys, combo, strict=True))
-        overrides = [*sets, *(f"{k}={v}" for k, v in zip(keys, combo, strict=True))]
-        ro = RunOptions(out=out / f"run_{i:03d}", quiet=quiet, progress_prefix=tag,
-                        overrides=overrides, **opts)
-        params = dict(zip(keys, map(_value, combo), strict=True))
-        try:  # a combination the config checks reject (e.g. c < mu a) fails alone
-            cfg = load_config(config, overrides)
-            report_step(at_step, cfg.n_steps)
-            s = run(cfg, ro)
-        except (InputError, SolveError) as exc:
-            failed.append(str(exc))
-            if rank == 0:
-                print(f"[{time.perf_counter() - t0:8.2f} s] {tag}: failed: {exc}",
-                      file=sys.stderr, flush=True)
-            rows.append({**params, "status": "failed", "error": str(exc).splitlines()[0]})
-            continue
-        steps = step_rows(s)
-        for r in steps:
-            all_steps.append({**params, **r})
-        for name in dict.fromkeys(r["interface"] for r in steps):
-            mine = [r for r in steps if r["interface"] == name]
-            rows.append({**params, "status": "completed", "interface": name,
-                         "n_dofs": s["n_dofs"], "t_total": s["timings"]["total"],
-                         **summarize(mine, at_step)})
-        if rank == 0:
-            write_csv(out / "sweep.csv", rows)
-            write_csv(out / "sweep_steps.csv", all_steps)
-            if not quiet:
+
+    def write_completed() -> str:  # on SIGINT / SIGTERM: the plots of what completed
+        if not rows:
+            return f"sweep: no run completed in {out}"
+        plots = PETSc.COMM_WORLD.getSize() == 1  # several ranks: mpiexec kills in 1 s
+        if plots:
+            plot_sweep([dict(r) for r in rows], keys, out, at_step)
+        return (f"sweep: interrupted; its {len(rows)} rows are in sweep.csv" +
+                (" and the plots" if plots else " (no plots on several ranks)") +
+                f", in {out}")
+
+    with BatchGuard(write_completed):
+        for i, combo in enumerate(combos):
+            tag = f"run {i + 1}/{len(combos)} " + " ".join(
+                f"{k}={v}" for k, v in zip(keys, combo, strict=True))
+            overrides = [*sets, *(f"{k}={v}" for k, v in zip(keys, combo, strict=True))]
+            ro = RunOptions(out=out / f"run_{i:03d}", quiet=quiet, progress_prefix=tag,
+                            overrides=overrides, **opts)
+            params = dict(zip(keys, map(_value, combo), strict=True))
+            try:  # a combination the config checks reject (e.g. c < mu a) fails alone
+                cfg = load_config(config, overrides)
+                report_step(at_step, cfg.n_steps)
+                s = run(cfg, ro)
+            except (InputError, SolveError) as exc:
+                failed.append(str(exc))
+                if rank == 0:
+                    print(f"[{time.perf_counter() - t0:8.2f} s] {tag}: failed: {exc}",
+                          file=sys.stderr, flush=True)
+                rows.append({**params, "status": "failed", "error": str(exc).splitlines()[0]})
+                continue
+            step_writing(True)  # an interrupt waits for the rows to be recorded
+            try:
+                _record_run(s, params, at_step, rows, all_steps, out if rank == 0 else None)
+            finally:
+                step_writing(False)
+            if rank == 0 and not quiet:
                 print(f"[{time.perf_counter() - t0:8.2f} s] {tag}: done", file=sys.stderr,
                       flush=True)
     if len(failed) == len(combos):
@@ -163,6 +172,22 @@ def run_sweep(config: Path, sets: list[str], sweeps: list[tuple[str, list[str]]]
         write_csv(out / "sweep.csv", rows)
         plot_sweep(rows, keys, out, at_step)
     return rows
+
+
+def _record_run(s: dict, params: dict, at_step: int, rows: list[dict],
+                all_steps: list[dict], out: Path | None) -> None:
+    """Append a completed run's rows (one per interface) and step rows; rewrite sweep.csv
+    and sweep_steps.csv into `out` (rank 0; None elsewhere)."""
+    steps = step_rows(s)
+    all_steps.extend({**params, **r} for r in steps)
+    for name in dict.fromkeys(r["interface"] for r in steps):
+        mine = [r for r in steps if r["interface"] == name]
+        rows.append({**params, "status": "completed", "interface": name,
+                     "n_dofs": s["n_dofs"], "t_total": s["timings"]["total"],
+                     **summarize(mine, at_step)})
+    if out is not None:
+        write_csv(out / "sweep.csv", rows)
+        write_csv(out / "sweep_steps.csv", all_steps)
 
 
 def _value(text: str):
@@ -188,10 +213,7 @@ STYLES = ("-", "--", ":", "-.")
 def plot_sweep(rows: list[dict], keys: list[str], out: Path, at_step: int = 0) -> list[Path]:
     """sweep_<key>.png per swept key: the contact's figures against the key's value; colour
     = quantity, line style = interface and combination of the other keys."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     ok = [r for r in rows if r.get("status") == "completed"]
     when = "the last step" if at_step == 0 else f"step {at_step}"

@@ -2,7 +2,8 @@
 # One-command set-up on a fresh Debian 12 machine (run as root, or with sudo available).
 # Installs the Debian PETSc/MPI/HDF5 stack, makes .venv from /usr/bin/python3 with
 # --system-site-packages, and installs the project with its PyPI dependencies (which also
-# compiles the C assembly kernel app/assembly/_kernel.c with gcc).
+# compiles the C assembly kernel app/assembly/_kernel.c and the signal handler
+# app/_hard_stop.c with gcc).
 # Running it twice is harmless.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -33,5 +34,7 @@ echo "$petsc_py" > "$site/debian_petsc4py.pth"
 .venv/bin/python -m pip install -q -e ".[dev]"
 .venv/bin/python -c "import petsc4py, mpi4py, h5py, gmsh, meshio
 from app.assembly.compiled import kernel
+from app import hard_stop
 print('set-up OK: petsc4py', petsc4py.__version__, 'gmsh', gmsh.__version__,
-      '; assembly kernel', 'built' if kernel() else 'NOT built (numpy fallback)')"
+      '; assembly kernel', 'built' if kernel() else 'NOT built (numpy fallback)',
+      '; signal handler', 'built' if hard_stop.available() else 'NOT built')"

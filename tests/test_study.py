@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+import subprocess
+import sys
+
 import numpy as np
-from support import CONFIGS, read_csv, run_cli
+from support import CONFIGS, ROOT, read_csv, run_cli
 
 from app.study import energy_title, fitted_rate, parse_methods
 
@@ -122,3 +125,12 @@ def test_convergence_options_with_sweep_are_an_error(tmp_path):
         assert res.returncode == 2
         lines = res.stderr.strip().splitlines()
         assert len(lines) == 1 and lines[0].startswith(f"error: {opt[0]} does not apply")
+
+
+def test_plots_import_matplotlib_without_a_warning():
+    """With Debian's matplotlib on the path too (the venv sees the system's packages, e.g.
+    ParaView's), every study and sweep printed "UserWarning: Unable to import Axes3D"."""
+    res = subprocess.run([sys.executable, "-W", "error::UserWarning", "-c",
+                          "from app.plotting import pyplot; pyplot()"], cwd=ROOT,
+                         capture_output=True, text=True, timeout=120)
+    assert res.returncode == 0, res.stderr

@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 from petsc4py import PETSc
 
+from app import hard_stop
 from app.errors import SolveError
 
 DEFAULT_OPTIONS = {
@@ -87,7 +88,8 @@ class LinearSolver:
 
     def factor(self) -> None:
         """Symbolic + numeric factorization (or preconditioner set-up)."""
-        self.ksp.setUp()
+        with hard_stop.armed():  # one C call that holds the GIL
+            self.ksp.setUp()
         if self.is_mumps:
             f = self.ksp.getPC().getFactorMatrix()
             null = f.getMumpsInfog(28)
@@ -106,12 +108,13 @@ class LinearSolver:
         says so and names the options to change.
         """
         x = x or self.k.createVecLeft()
-        if self.block is not None:
-            self.block.solve(b, x)
-            reason = 0
-        else:
-            self.ksp.solve(b, x)
-            reason = self.ksp.getConvergedReason()
+        with hard_stop.armed():  # one C call that holds the GIL
+            if self.block is not None:
+                self.block.solve(b, x)
+                reason = 0
+            else:
+                self.ksp.solve(b, x)
+                reason = self.ksp.getConvergedReason()
         if reason < 0 and self.iterative:
             raise SolveError(
                 f"iterative linear solve did not converge (KSP reason {reason}, "

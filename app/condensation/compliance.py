@@ -22,6 +22,7 @@ import numpy as np
 import scipy.sparse as sp
 from petsc4py import PETSc
 
+from app import hard_stop
 from app.condensation.schur_solver import petsc_call, read_dense_symmetric, schur_lib
 from app.errors import InputError, SolveError
 
@@ -49,7 +50,8 @@ def schur_complement(k: PETSc.Mat, dofs: np.ndarray) -> np.ndarray | None:
     iset = PETSc.IS().createGeneral(idx, comm=comm)
     petsc_call(lib, "MatFactorSetSchurIS", ctypes.c_void_p(f.handle),
                ctypes.c_void_p(iset.handle))
-    ksp.setUp()
+    with hard_stop.armed():  # the factorization with the Schur complement: one C call
+        ksp.setUp()
     s_handle = ctypes.c_void_p()
     status = ctypes.c_int()
     petsc_call(lib, "MatFactorCreateSchurComplement", ctypes.c_void_p(f.handle),
@@ -141,14 +143,15 @@ def compliance_solve(solver, k: PETSc.Mat, g: sp.csr_matrix, fixed: np.ndarray,
     c = np.zeros((ncols, ncols)) if rank == 0 else None
     b = k.createVecLeft()
     gt = gc.T.tocsc()
-    for j in range(ncols):
-        col = np.zeros(k.getSize()[0])
-        lo, hi = gt.indptr[j], gt.indptr[j + 1]
-        col[dofs[gt.indices[lo:hi]]] = gt.data[lo:hi]
-        b.setArray(col[r0:r1])
-        x = to_numpy_all(solver.solve(b))
-        if rank == 0:
-            c[:, j] = gc @ x[dofs]
+    with hard_stop.armed():  # once for all the solves (each one C call)
+        for j in range(ncols):
+            col = np.zeros(k.getSize()[0])
+            lo, hi = gt.indptr[j], gt.indptr[j + 1]
+            col[dofs[gt.indices[lo:hi]]] = gt.data[lo:hi]
+            b.setArray(col[r0:r1])
+            x = to_numpy_all(solver.solve(b))
+            if rank == 0:
+                c[:, j] = gc @ x[dofs]
     if rank == 0:
         c = 0.5 * (c + c.T)
     return c

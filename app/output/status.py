@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 from petsc4py import PETSc
 
+from app import hard_stop
 from app.errors import InputError, SolveError
 
 LOCK_NAME = ".lock"
@@ -86,6 +87,30 @@ def on_failure(fn) -> None:
     """Call fn() (rank 0) when the run fails or is interrupted, before summary.json is
     written (e.g. to put the XDMF indexes back to the completed steps)."""
     _ON_FAILURE.append(fn)
+
+
+_ON_STOP: list = []
+
+
+def on_stop(fn) -> None:
+    """Call fn() (every rank; it acts on rank 0) when a watchdog ends the job on a signal,
+    after the run's summary.json is written: a study or sweep writing what completed
+    (app/output/batch_guard.py)."""
+    _ON_STOP.append(fn)
+
+
+def remove_on_stop(fn) -> None:
+    """Undo `on_stop(fn)`."""
+    if fn in _ON_STOP:
+        _ON_STOP.remove(fn)
+
+
+def _run_stop_hooks() -> None:
+    for fn in list(_ON_STOP):
+        try:
+            fn()
+        except Exception as exc:  # the job ends anyway; say why the hook wrote nothing
+            print(f"warning: {exc}", file=sys.stderr, flush=True)
 
 
 def _record_signal(signum, frame):
@@ -226,6 +251,8 @@ class StopWatchdog:
     it records the status `interrupted`, prints the reason and exits with 130 / 143."""
 
     def __init__(self, guard: RunGuard, grace: float = STOP_GRACE_SECONDS):
+        # guard: whatever ends the job on the signal, through guard.stop_now(name): the
+        # run's RunGuard, or a study's BatchGuard between its runs
         import threading
 
         self.guard = guard
@@ -291,6 +318,7 @@ class RunGuard:
         self.rank = PETSc.COMM_WORLD.getRank()
         self._lock = None
         self._old_term = None
+        self._old_int = None
         self.removed: list[str] = []
 
     def __enter__(self) -> RunGuard:
@@ -304,24 +332,25 @@ class RunGuard:
         self.removed = collective(start) or []
         if self.rank == 0:
             self.write(self.out, self.summary)
+        self._old_int = signal.getsignal(signal.SIGINT)
         self._old_term = arm_signals()
         try:
             grace = stop_grace(self.rank, PETSc.COMM_WORLD.getSize())
             _WATCHDOG.append(StopWatchdog(self, grace))
         except ValueError:  # not the main thread: no watchdog
-            pass
+            grace = None
+        if grace == 0.0:  # where the watchdog stops at once, also inside long C calls
+            hard_stop.set_provider(self._hard_stop_text)
         return self
 
     def stop_now(self, name: str) -> None:
         """From the watchdog thread: record `interrupted`, print it and exit at once."""
         import json
 
-        k = len(self.summary.get("steps", []))
-        self.summary["status"] = "interrupted"
         where = ("" if PETSc.COMM_WORLD.getSize() > 1 else
                  " (stopped inside a long computation)")
-        self.summary["error"] = (f"interrupted by {name} during step {k + 1}/{self.n_steps}"
-                                 f"{where}; {self._done()}")
+        self.summary["status"] = "interrupted"
+        self.summary["error"] = self._interrupted_reason(name, where)
         if self.rank == 0:
             clear_files(self.out, TEMPORARY)
             for _ in range(5):  # the main thread may be changing the dict
@@ -340,9 +369,11 @@ class RunGuard:
                 except OSError:
                     pass
             print(f"error: {self.summary['error']}", file=sys.stderr, flush=True)
+        _run_stop_hooks()
         os._exit(EXIT_SIGNAL.get(name, 130))
 
     def __exit__(self, exc_type, exc, tb) -> bool:
+        hard_stop.set_provider(None)
         watchdog = _WATCHDOG.pop() if _WATCHDOG else None
         if watchdog is not None:
             watchdog.handled.set()  # the run reached Python code and stops here
@@ -356,9 +387,23 @@ class RunGuard:
             _ON_FAILURE.clear()
             if self._old_term is not None:
                 signal.signal(signal.SIGTERM, self._old_term)
-                signal.signal(signal.SIGINT, signal.default_int_handler)
+                signal.signal(signal.SIGINT, self._old_int or signal.default_int_handler)
             if self._lock is not None:
                 self._lock.close()
+
+    def _interrupted_reason(self, name: str, where: str = "") -> str:
+        k = len(self.summary.get("steps", []))
+        return (f"interrupted by {name} during step {k + 1}/{self.n_steps}{where}; "
+                f"{self._done()}")
+
+    def _hard_stop_text(self, name: str) -> tuple[Path, bytes, str]:
+        """What app/_hard_stop.c writes on `name` during a long C call (rank 0)."""
+        import json
+
+        reason = self._interrupted_reason(name)
+        text = json.dumps({**self.summary, "status": "interrupted", "error": reason},
+                          indent=2) + "\n"
+        return self.out / "summary.json", text.encode(), f"error: {reason}\n"
 
     def _done(self) -> str:
         k = len(self.summary.get("steps", []))

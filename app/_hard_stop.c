@@ -1,0 +1,108 @@
+/* A SIGINT/SIGTERM handler for the time Python cannot act: a long PETSc call (a MUMPS
+ * factorization, a solve) holds the GIL, so the run's watchdog thread cannot write the
+ * run's status before mpiexec kills the ranks (Open MPI: SIGKILL 1 s after the SIGTERM it
+ * forwards). While armed, the handler writes the prepared summary (through a temporary
+ * file and a rename), prints the prepared line on stderr and exits with 130 (SIGINT) or
+ * 143 (SIGTERM). Only async-signal-safe calls. Loaded through ctypes (app/hard_stop.py).
+ */
+#include <fcntl.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#define SLOTS 2 /* 0: SIGINT, 1: SIGTERM */
+
+static char *g_text[SLOTS], *g_line[SLOTS];
+static size_t g_text_len[SLOTS], g_line_len[SLOTS];
+static char *g_tmp, *g_path;
+static struct sigaction g_old[SLOTS];
+static volatile sig_atomic_t g_armed = 0;
+
+static void write_all(int fd, const char *p, size_t n) {
+    while (n > 0) {
+        ssize_t k = write(fd, p, n);
+        if (k <= 0) return;
+        p += k;
+        n -= (size_t)k;
+    }
+}
+
+static void on_signal(int sig) {
+    int slot = sig == SIGTERM ? 1 : 0;
+    int fd = open(g_tmp, O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    if (fd >= 0) {
+        write_all(fd, g_text[slot], g_text_len[slot]);
+        if (fsync(fd) == 0 && close(fd) == 0) rename(g_tmp, g_path);
+        else unlink(g_tmp);
+    }
+    write_all(2, g_line[slot], g_line_len[slot]);
+    _exit(sig == SIGTERM ? 143 : 130);
+}
+
+static char *copy(const char *s, size_t n) {
+    char *p = malloc(n + 1);
+    if (p) {
+        memcpy(p, s, n);
+        p[n] = '\0';
+    }
+    return p;
+}
+
+static void release(void) {
+    for (int i = 0; i < SLOTS; i++) {
+        free(g_text[i]);
+        free(g_line[i]);
+        g_text[i] = g_line[i] = NULL;
+    }
+    free(g_tmp);
+    free(g_path);
+    g_tmp = g_path = NULL;
+}
+
+/* Arm: texts[i]/lines[i] for SIGINT (0) and SIGTERM (1), the summary's path and its
+ * temporary path. Returns 0, or -1 (nothing armed) if memory or sigaction failed. */
+int hard_stop_arm(const char *tmp, const char *path, const char *text_int, size_t n_int,
+                  const char *text_term, size_t n_term, const char *line_int,
+                  const char *line_term) {
+    struct sigaction sa;
+    if (g_armed) return -1;
+    g_tmp = copy(tmp, strlen(tmp));
+    g_path = copy(path, strlen(path));
+    g_text[0] = copy(text_int, n_int);
+    g_text[1] = copy(text_term, n_term);
+    g_line[0] = copy(line_int, strlen(line_int));
+    g_line[1] = copy(line_term, strlen(line_term));
+    if (!g_tmp || !g_path || !g_text[0] || !g_text[1] || !g_line[0] || !g_line[1]) {
+        release();
+        return -1;
+    }
+    g_text_len[0] = n_int;
+    g_text_len[1] = n_term;
+    g_line_len[0] = strlen(line_int);
+    g_line_len[1] = strlen(line_term);
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_signal;
+    sigfillset(&sa.sa_mask);
+    if (sigaction(SIGINT, &sa, &g_old[0]) != 0) {
+        release();
+        return -1;
+    }
+    if (sigaction(SIGTERM, &sa, &g_old[1]) != 0) {
+        sigaction(SIGINT, &g_old[0], NULL);
+        release();
+        return -1;
+    }
+    g_armed = 1;
+    return 0;
+}
+
+/* Disarm: put back the handlers found at arm time (Python's), free the texts. */
+void hard_stop_disarm(void) {
+    if (!g_armed) return;
+    sigaction(SIGINT, &g_old[0], NULL);
+    sigaction(SIGTERM, &g_old[1], NULL);
+    g_armed = 0;
+    release();
+}

@@ -1,0 +1,89 @@
+"""The run's status on a signal that comes while a long PETSc call holds the GIL.
+
+A MUMPS factorization or a solve is one C call that does not release Python's GIL, so
+neither Python's signal handlers nor the run's watchdog thread (app/output/status.py)
+can act until it returns; on several ranks mpiexec kills the job first (Open MPI:
+SIGKILL 1 s after the SIGTERM it forwards), and summary.json said `running`. Around such
+calls `armed()` installs the C handler of app/_hard_stop.c, which writes the summary the
+watchdog would have written (status `interrupted`, the reason), prints its line and exits
+with 130 / 143.
+
+Only where the watchdog would stop the job at once (rank 0 of several) and only while a
+run has registered what to write (`set_provider`); elsewhere `armed()` does nothing. If
+the C library was not built (no compiler at install), the status is as before.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import importlib.util
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+Provider = Callable[[str], tuple[Path, bytes, str]]
+"""signal name -> (summary.json path, its bytes, the stderr line) of the interrupted run."""
+
+_PROVIDER: list[Provider] = []
+_DEPTH = [0]
+_LIB: list[ctypes.CDLL | None] = []
+
+
+def _library() -> ctypes.CDLL | None:
+    """app/_hard_stop.c as built by `pip install -e .`, or None."""
+    if not _LIB:
+        lib = None
+        spec = importlib.util.find_spec("app._hard_stop")
+        if spec is not None and spec.origin is not None:
+            try:
+                lib = ctypes.CDLL(spec.origin)
+                lib.hard_stop_arm.argtypes = [ctypes.c_char_p, ctypes.c_char_p,
+                                              ctypes.c_char_p, ctypes.c_size_t,
+                                              ctypes.c_char_p, ctypes.c_size_t,
+                                              ctypes.c_char_p, ctypes.c_char_p]
+                lib.hard_stop_arm.restype = ctypes.c_int
+                lib.hard_stop_disarm.argtypes = []
+                lib.hard_stop_disarm.restype = None
+            except (OSError, AttributeError):
+                lib = None
+        _LIB.append(lib)
+    return _LIB[0]
+
+
+def available() -> bool:
+    """Whether the C handler was built."""
+    return _library() is not None
+
+
+def set_provider(provider: Provider | None) -> None:
+    """Register (or with None remove) what an armed signal writes: the run's guard."""
+    _PROVIDER.clear()
+    if provider is not None:
+        _PROVIDER.append(provider)
+
+
+@contextmanager
+def armed() -> Iterator[None]:
+    """Around a long C call: a signal then writes the interrupted summary from C and
+    exits (see the module). Nested uses arm once."""
+    lib = _library()
+    if _DEPTH[0] or not _PROVIDER or lib is None:
+        _DEPTH[0] += 1
+        try:
+            yield
+        finally:
+            _DEPTH[0] -= 1
+        return
+    path, text_int, line_int = _PROVIDER[0]("SIGINT")
+    _, text_term, line_term = _PROVIDER[0]("SIGTERM")
+    tmp = path.with_name(path.name + ".tmp")
+    ok = lib.hard_stop_arm(str(tmp).encode(), str(path).encode(), text_int, len(text_int),
+                           text_term, len(text_term), line_int.encode(),
+                           line_term.encode()) == 0
+    _DEPTH[0] += 1
+    try:
+        yield
+    finally:
+        _DEPTH[0] -= 1
+        if ok:
+            lib.hard_stop_disarm()

@@ -1,0 +1,87 @@
+"""A study's or sweep's answer to SIGINT / SIGTERM: whatever the signal interrupts (a run,
+or the time between two runs) and on any number of ranks, rank 0 writes what the completed
+runs give (the CSV, the tables, the plots) before the job ends.
+
+On one rank the signal raises in the main thread (KeyboardInterrupt or RunInterrupted) and
+`BatchGuard.__exit__` writes. On several ranks no rank stops by itself (see
+app/output/status.py): inside a run, rank 0's run watchdog calls the hook registered here
+before it exits; between runs, this guard's own watchdog does.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import sys
+import threading
+from collections.abc import Callable
+
+from petsc4py import PETSc
+
+from app.output import status
+from app.output.status import EXIT_SIGNAL, RunInterrupted, StopWatchdog, stop_grace
+
+
+class BatchGuard:
+    """Context manager around a batch of runs. `write_completed()` (rank 0) writes the
+    completed runs' results and returns a one-line account of them; it is called at most
+    once, and only on an interrupt."""
+
+    def __init__(self, write_completed: Callable[[], str]):
+        self.write_completed = write_completed
+        self.rank = PETSc.COMM_WORLD.getRank()
+        self._lock = threading.Lock()
+        self._written = False
+        self._old: tuple = ()
+        self._watchdog: StopWatchdog | None = None
+
+    def __enter__(self) -> BatchGuard:
+        self._old = (signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM))
+        status.arm_signals()
+        status.on_stop(self.finish)
+        try:
+            self._watchdog = StopWatchdog(self, stop_grace(self.rank,
+                                                           PETSc.COMM_WORLD.getSize()))
+            status._WATCHDOG.append(self._watchdog)
+        except ValueError:  # not the main thread: no watchdog
+            self._watchdog = None
+        return self
+
+    def finish(self) -> None:
+        """Rank 0: write the completed runs (once) and print its account on stderr."""
+        with self._lock:
+            if self._written or self.rank != 0:
+                return
+            self._written = True
+            try:
+                line = self.write_completed()
+            except Exception as exc:  # the interrupt's own line still follows
+                line = f"the completed runs could not be summarised ({exc})"
+            print(line, file=sys.stderr, flush=True)
+
+    def stop_now(self, name: str) -> None:
+        """From the watchdog thread (between runs, several ranks): write, report, exit."""
+        self.finish()
+        if self.rank == 0:
+            print(f"error: interrupted by {name} between the runs; what completed before "
+                  "it is written", file=sys.stderr, flush=True)
+        os._exit(EXIT_SIGNAL.get(name, 130))
+
+    def __exit__(self, exc_type, exc, tb) -> bool:
+        watchdog = self._watchdog
+        if watchdog is not None:
+            watchdog.handled.set()  # the main thread stops here, in Python code
+            if watchdog in status._WATCHDOG:
+                status._WATCHDOG.remove(watchdog)
+            if watchdog.writing.locked():
+                watchdog.writing.release()
+            watchdog.close()
+        status.remove_on_stop(self.finish)
+        for sig, old in zip((signal.SIGINT, signal.SIGTERM), self._old, strict=True):
+            try:
+                signal.signal(sig, old if old is not None else signal.SIG_DFL)
+            except (ValueError, TypeError):
+                pass
+        if isinstance(exc, KeyboardInterrupt | RunInterrupted):
+            self.finish()
+        return False

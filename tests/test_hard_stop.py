@@ -1,0 +1,111 @@
+"""app/hard_stop.py and app/_hard_stop.c: the status on a signal during a long C call that
+holds the GIL (a MUMPS factorization), where neither Python's handlers nor the run's
+watchdog thread can act before mpiexec's SIGKILL."""
+
+from __future__ import annotations
+
+import json
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+from support import CONFIGS, ROOT, mpi_env, read_summary
+
+from app import hard_stop
+
+pytestmark = pytest.mark.skipif(not hard_stop.available(),
+                                reason="app/_hard_stop.c not built (no C compiler)")
+
+HOLDS_THE_GIL = """
+import ctypes, sys
+from pathlib import Path
+from app import hard_stop
+out = Path(sys.argv[1])
+hard_stop.set_provider(lambda name: (out / "summary.json",
+                                     ('{"status": "interrupted", "by": "%s"}' % name).encode(),
+                                     f"error: interrupted by {name}\\n"))
+with hard_stop.armed():
+    print("ready", flush=True)
+    ctypes.PyDLL(None).sleep(60)  # a C call that keeps the GIL, as PETSc's do
+print("not stopped", flush=True)
+"""
+
+
+def _signal_when_ready(cmd: list[str], sig: int, env=None) -> subprocess.CompletedProcess:
+    proc = subprocess.Popen(cmd, cwd=ROOT, env=env or mpi_env(), stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    assert proc.stdout.readline().strip() == "ready"
+    time.sleep(0.2)
+    t0 = time.time()
+    proc.send_signal(sig)
+    out, err = proc.communicate(timeout=30)
+    assert time.time() - t0 < 10, "did not stop at once"
+    return subprocess.CompletedProcess(cmd, proc.returncode, out, err)
+
+
+@pytest.mark.parametrize("sig,code", [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
+def test_a_signal_inside_a_gil_holding_call_writes_the_prepared_summary(tmp_path, sig, code):
+    res = _signal_when_ready([sys.executable, "-c", HOLDS_THE_GIL, str(tmp_path)], sig)
+    name = signal.Signals(sig).name
+    assert res.returncode == code, res.stderr
+    assert res.stderr == f"error: interrupted by {name}\n"
+    assert "not stopped" not in res.stdout
+    assert json.loads((tmp_path / "summary.json").read_text()) == {
+        "status": "interrupted", "by": name}
+    assert not list(tmp_path.glob("*.tmp"))
+
+
+def test_pythons_handlers_are_back_after_the_call(tmp_path):
+    script = HOLDS_THE_GIL.replace("ctypes.PyDLL(None).sleep(60)", "pass") + """
+import signal
+try:
+    signal.raise_signal(signal.SIGINT)
+except KeyboardInterrupt:
+    print("python handled it", flush=True)
+"""
+    res = subprocess.run([sys.executable, "-c", script, str(tmp_path)], cwd=ROOT,
+                         capture_output=True, text=True, timeout=60)
+    assert res.returncode == 0, res.stderr
+    assert "python handled it" in res.stdout
+    assert not (tmp_path / "summary.json").exists()
+
+
+def test_without_a_run_armed_does_nothing():
+    hard_stop.set_provider(None)
+    with pytest.raises(KeyboardInterrupt), hard_stop.armed():
+        signal.raise_signal(signal.SIGINT)  # Python's own handler: not the C one
+
+
+ANNOUNCE_FACTORIZATION = """
+import sys
+from app.assembly import solve
+real = solve.LinearSolver.factor
+
+def factor(self):
+    print("ready", flush=True)
+    real(self)
+
+solve.LinearSolver.factor = factor
+from app.cli import main
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+def test_sigterm_to_mpiexec_inside_the_factorization_records_interrupted(tmp_path):
+    """On 2 ranks a signal during the MUMPS factorization (seconds at 600k DOFs, one C
+    call that holds the GIL) left summary.json at `running`, with no line: the watchdog
+    thread waited for the GIL until mpiexec's SIGKILL."""
+    import shutil
+
+    out = tmp_path / "o"
+    cmd = [shutil.which("mpiexec"), "-n", "2", sys.executable, "-c", ANNOUNCE_FACTORIZATION,
+           "run", str(CONFIGS / "hertz.toml"), "--refine", "4", "--out", str(out),
+           "--quiet"]
+    res = _signal_when_ready(cmd, signal.SIGTERM)
+    assert "Traceback" not in res.stderr, res.stderr
+    s = read_summary(out)
+    assert s["status"] == "interrupted", res.stderr
+    assert s["error"] == "interrupted by SIGTERM during step 1/1; no step completed"
+    assert f"error: {s['error']}" in res.stderr
