@@ -107,3 +107,18 @@ def test_warm_start_keeps_the_last_two_bases_newest_first():
     w.record(b)
     assert [list(x) for x in w.candidates()] == [list(b), list(a)]
     assert WarmStart(enabled=False, basis=a).candidates() is None
+
+
+def test_adhesive_frictionless_bond_debonds_when_it_slides():
+    """mu = c = 0, a > 0: a bond with no shear strength (no tangential unknowns). A pair
+    that slides has slipped (F = 0): it debonds for good (METHOD 4) and no longer holds
+    tension; before, it slid every step as 'slip' yet stayed bonded with its adhesion."""
+    a = 4.0
+    lcp, hist = _lcp(1, 0.0, frictional=False), _history(1, a=a)
+    res = _step(lcp, hist, [0.0], [0.0], 0.0, step=1)
+    assert res.state[0] == BONDED and hist.bonded[0]
+    res = _step(lcp, hist, [0.0], [1e-3], 0.0, step=2)  # slid sideways
+    assert res.state[0] == SLIP_PLUS and res.debonded_step[0] == 2
+    assert not hist.bonded[0] and hist.a[0] == 0.0
+    res = _step(lcp, hist, [0.5 * a * CN], [1e-3], 0.0, step=3)  # a pull below a
+    assert res.state[0] == OPEN and res.solution.p[0] == pytest.approx(0.0, abs=1e-12)

@@ -131,6 +131,9 @@ def solve_step(lcp: ContactLCP, hist: InterfaceHistory, step: int, gap_free: np.
                                             hist.tau_prev), debonded_step,
                               it, pivots, time.perf_counter() - t0, 0.0, sol.status)
         slipped = (sol.slip_plus + sol.slip_minus) > tol_slip
+        # pairs without tangential unknowns (mu = c = 0: an adhesive bond with no shear
+        # strength) slip whenever they move tangentially
+        slipped |= frictionless & (np.abs(sol.tau - hist.tau_prev) > tol_slip)
         new = bonded & ((sol.gap > tol_gap) | slipped)
         if not new.any():
             break
