@@ -372,7 +372,10 @@ class ContactStepper:
             if self.undetermined:
                 out.message += "; the contact cannot resist " + ", ".join(self.undetermined)
             return out
-        self.slip += sol.slip_plus - sol.slip_minus
+        # pairs without tangential unknowns (frictionless) slip by their whole tangential
+        # motion; the others by the LCP's slip (the same, tau - tau_prev, to round-off)
+        fric = self.setup.frictional
+        self.slip += np.where(fric, sol.slip_plus - sol.slip_minus, sol.tau - tau_prev)
         out.info = self._step_info(step, res, out.alpha)
         out.state, out.debonded_step = res.state, res.debonded_step
         out.tau_prev, out.slip, out.f_scale = tau_prev, self.slip.copy(), self.f_scale
