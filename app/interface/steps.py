@@ -114,11 +114,17 @@ def classify(sol: ContactSolution, bonded: np.ndarray, tol_gap: float,
 
 def solve_step(lcp: ContactLCP, hist: InterfaceHistory, step: int, gap_free: np.ndarray,
                tau_free: np.ndarray, mu: np.ndarray, e0: np.ndarray, tol_gap: float,
-               tol_slip: float, max_iterations: int = 1000) -> StepResult:
-    """Solve one load step, with debonding iterations; updates `hist` on success."""
+               tol_slip: float, max_iterations: int | None = None) -> StepResult:
+    """Solve one load step, with debonding iterations; updates `hist` on success.
+
+    Each re-solve debonds at least one pair, so the bonded pairs + 1 solves (the default
+    max_iterations) always settle; a smaller cap that does not is status 'debonding did not
+    settle' (the history kept)."""
     t0 = time.perf_counter()
     pivots = 0
     a, c, bonded = hist.a.copy(), hist.c.copy(), hist.bonded.copy()
+    if max_iterations is None:
+        max_iterations = int(bonded.sum()) + 1
     debonded_step = hist.debonded_step.copy()
     basis = hist.warm.candidates()
     frictionless = np.ones(lcp.m, dtype=bool)
@@ -143,6 +149,12 @@ def solve_step(lcp: ContactLCP, hist: InterfaceHistory, step: int, gap_free: np.
         debonded_step[new] = step
         if hist.warm.enabled:
             basis = sol.basis
+    else:
+        sol.message = (f"{max_iterations} solves left pairs to debond (the last solve's "
+                       "newly debonded pairs still carried their bond)")
+        return StepResult(sol, classify(sol, bonded, tol_gap, tol_slip, frictionless,
+                                        hist.tau_prev), debonded_step, max_iterations, pivots,
+                          time.perf_counter() - t0, 0.0, "debonding did not settle")
     state = classify(sol, bonded, tol_gap, tol_slip, frictionless, hist.tau_prev)
     dissipation = float(pair_dissipation(sol).sum())
     hist.a, hist.c, hist.bonded = a, c, bonded
