@@ -174,7 +174,9 @@ class StepSolution:
     alpha (r,) floating-mode amplitudes; kinematics (2m,) the LCP's (gap - g0, tau);
     state, debonded_step (m,) int; tau_prev (m,) tau before the step; slip (m,)
     accumulated; a, c (m,) adhesion and strength forces in force at this step; f_scale
-    the problem's force scale; info the step's summary.json entries.
+    and u_scale the problem's force and displacement scales (the largest load, the
+    largest unit-load contact motion or initial gap); info the step's summary.json
+    entries.
     """
 
     status: str
@@ -189,6 +191,7 @@ class StepSolution:
     a: np.ndarray | None = None
     c: np.ndarray | None = None
     f_scale: float = 0.0
+    u_scale: float = 0.0
     info: dict = field(default_factory=dict)
 
     @property
@@ -253,6 +256,7 @@ class ContactStepper:
         scale = max(max((np.abs(x).max(initial=0.0) for x in self.gu), default=0.0),
                     np.abs(pr.g0).max(initial=0.0), 1e-300)
         self.tol = 1e-7 * scale
+        self.u_scale = scale if scale > 1e-300 else 0.0  # the KKT check's floor
         self.f_scale = max(max((np.abs(b).sum() for b in rhs), default=0.0),
                            np.abs(self.hist.a).max(initial=0.0),
                            np.abs(self.hist.c).max(initial=0.0))
@@ -391,5 +395,6 @@ class ContactStepper:
         out.info = self._step_info(step, res, out.alpha)
         out.state, out.debonded_step = res.state, res.debonded_step
         out.tau_prev, out.slip, out.f_scale = tau_prev, self.slip.copy(), self.f_scale
+        out.u_scale = self.u_scale
         out.a, out.c = self.hist.a.copy(), self.hist.c.copy()
         return out
