@@ -376,6 +376,9 @@ def _interface(raw: dict, it: dict, i: int, earlier: list[Interface]) -> Interfa
     bonded = it.get("bonded", a > 0.0 or c > 0.0)
     if not isinstance(bonded, bool):
         raise InputError(f"{where}: bonded must be true or false")
+    if not bonded and (a > 0.0 or c > 0.0):
+        raise InputError(f"{where}: a = {a}, c = {c} act only while a pair is bonded, and "
+                         "bonded = false ignores them: remove them or set bonded = true")
     if c < mu * a:
         raise InputError(f"{where}: c = {c} < mu * a = {mu * a}: need c >= mu a so the "
                          "friction bound mu p + c stays >= 0 under tension")

@@ -107,3 +107,46 @@ def test_warm_start_keeps_the_last_two_bases_newest_first():
     w.record(b)
     assert [list(x) for x in w.candidates()] == [list(b), list(a)]
     assert WarmStart(enabled=False, basis=a).candidates() is None
+
+
+def test_adhesive_frictionless_bond_debonds_when_it_slides():
+    """mu = c = 0, a > 0: a bond with no shear strength (no tangential unknowns). A pair
+    that slides has slipped (F = 0): it debonds for good (METHOD 4) and no longer holds
+    tension; before, it slid every step as 'slip' yet stayed bonded with its adhesion."""
+    a = 4.0
+    lcp, hist = _lcp(1, 0.0, frictional=False), _history(1, a=a)
+    res = _step(lcp, hist, [0.0], [0.0], 0.0, step=1)
+    assert res.state[0] == BONDED and hist.bonded[0]
+    res = _step(lcp, hist, [0.0], [1e-3], 0.0, step=2)  # slid sideways
+    assert res.state[0] == SLIP_PLUS and res.debonded_step[0] == 2
+    assert not hist.bonded[0] and hist.a[0] == 0.0
+    res = _step(lcp, hist, [0.5 * a * CN], [1e-3], 0.0, step=3)  # a pull below a
+    assert res.state[0] == OPEN and res.solution.p[0] == pytest.approx(0.0, abs=1e-12)
+
+
+def _zipper(m: int = 6) -> tuple[ContactLCP, InterfaceHistory, np.ndarray]:
+    """m adhesive pairs in a row, each pair's compliance coupled to its neighbours', pulled
+    by the same free gap: the end pairs (one neighbour's help) open first, then the next
+    ones, one pair from each end per debonding re-solve."""
+    cn = np.eye(m) + 0.2 * (np.eye(m, k=1) + np.eye(m, k=-1))
+    c = np.block([[cn, np.zeros((m, m))], [np.zeros((m, m)), np.eye(m)]])
+    lcp = ContactLCP(c, np.zeros(m), np.zeros(m, dtype=bool), None, None)
+    return lcp, _history(m, a=1.0), np.full(m, 1.3)
+
+
+def test_debonding_re_solves_until_no_pair_debonds():
+    lcp, hist, gap_free = _zipper()
+    res = solve_step(lcp, hist, 1, gap_free, np.zeros(6), np.zeros(6), np.zeros(0), TOL, TOL)
+    assert res.status == "solved" and res.iterations == 4
+    assert list(res.state) == [OPEN] * 6 and list(res.debonded_step) == [1] * 6
+    np.testing.assert_allclose(res.solution.p, 0.0, atol=1e-12)
+
+
+def test_debonding_that_does_not_settle_within_the_cap_is_no_answer():
+    """Before, the loop's end returned 'solved' with the last solve, whose newly debonded
+    pairs still pulled with their adhesion (p = -a on an open, debonded pair)."""
+    lcp, hist, gap_free = _zipper()
+    res = solve_step(lcp, hist, 1, gap_free, np.zeros(6), np.zeros(6), np.zeros(0), TOL,
+                     TOL, max_iterations=2)
+    assert res.status != "solved" and "debond" in res.status
+    assert hist.bonded.all()  # the history is not updated

@@ -15,6 +15,7 @@ from app.contact.unpaired import crossed_unpaired, crossing_warning
 from app.driver.context import RunContext, write_summary
 from app.driver.linear import LinearSystem, UnitSolutions
 from app.driver.model import Model
+from app.driver.rank0_solve import on_rank0_solve
 from app.errors import SolveError
 from app.interface.steps import ContactStepper, StepSolution
 from app.interface.weak_modes import slide_warning
@@ -46,10 +47,9 @@ def condense(ctx: RunContext, model: Model, system: LinearSystem,
             c_mat = compliance_solve(system.solver, system.k, contact.g, model.fixed_all,
                                      to_numpy_all)
     ctx.summary["compliance_route"] = system.route
-    with ctx.phase("lcp"):
-        if ctx.rank != 0:
-            return None
-        return contact.stepper(c_mat, model.cases, unit.u, unit.rhs, model.floating)
+    with ctx.phase("lcp"):  # rank 0's stepper (None elsewhere); its errors on every rank
+        return on_rank0_solve(contact.stepper, c_mat, model.cases, unit.u, unit.rhs,
+                              model.floating)
 
 
 def solve_contact_step(ctx: RunContext, model: Model, system: LinearSystem,
@@ -59,7 +59,7 @@ def solve_contact_step(ctx: RunContext, model: Model, system: LinearSystem,
     consistency re-solves while |G u - LCP kinematics| halves. SolveError (with the
     summary written) when the LCP has no solution."""
     with ctx.phase("lcp"):
-        result = stepper.step(step, model.cases) if ctx.rank == 0 else None
+        result = on_rank0_solve(lambda: stepper.step(step, model.cases))
         result = ctx.mpi.bcast(result, root=0)
     if not result.solved:
         _fail(ctx, model, step, result)
@@ -75,10 +75,9 @@ def solve_contact_step(ctx: RunContext, model: Model, system: LinearSystem,
             break
         previous = rel
         with ctx.phase("lcp"):
-            retry = None
             if ctx.rank == 0:
                 correction += miss
-                retry = stepper.refine(step, model.cases, correction)
+            retry = on_rank0_solve(lambda c=correction: stepper.refine(step, model.cases, c))
             retry = ctx.mpi.bcast(retry, root=0)
         if retry is None:
             with ctx.phase("recovery"):

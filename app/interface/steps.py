@@ -114,11 +114,17 @@ def classify(sol: ContactSolution, bonded: np.ndarray, tol_gap: float,
 
 def solve_step(lcp: ContactLCP, hist: InterfaceHistory, step: int, gap_free: np.ndarray,
                tau_free: np.ndarray, mu: np.ndarray, e0: np.ndarray, tol_gap: float,
-               tol_slip: float, max_iterations: int = 1000) -> StepResult:
-    """Solve one load step, with debonding iterations; updates `hist` on success."""
+               tol_slip: float, max_iterations: int | None = None) -> StepResult:
+    """Solve one load step, with debonding iterations; updates `hist` on success.
+
+    Each re-solve debonds at least one pair, so the bonded pairs + 1 solves (the default
+    max_iterations) always settle; a smaller cap that does not is status 'debonding did not
+    settle' (the history kept)."""
     t0 = time.perf_counter()
     pivots = 0
     a, c, bonded = hist.a.copy(), hist.c.copy(), hist.bonded.copy()
+    if max_iterations is None:
+        max_iterations = int(bonded.sum()) + 1
     debonded_step = hist.debonded_step.copy()
     basis = hist.warm.candidates()
     frictionless = np.ones(lcp.m, dtype=bool)
@@ -131,6 +137,9 @@ def solve_step(lcp: ContactLCP, hist: InterfaceHistory, step: int, gap_free: np.
                                             hist.tau_prev), debonded_step,
                               it, pivots, time.perf_counter() - t0, 0.0, sol.status)
         slipped = (sol.slip_plus + sol.slip_minus) > tol_slip
+        # pairs without tangential unknowns (mu = c = 0: an adhesive bond with no shear
+        # strength) slip whenever they move tangentially
+        slipped |= frictionless & (np.abs(sol.tau - hist.tau_prev) > tol_slip)
         new = bonded & ((sol.gap > tol_gap) | slipped)
         if not new.any():
             break
@@ -140,6 +149,12 @@ def solve_step(lcp: ContactLCP, hist: InterfaceHistory, step: int, gap_free: np.
         debonded_step[new] = step
         if hist.warm.enabled:
             basis = sol.basis
+    else:
+        sol.message = (f"{max_iterations} solves left pairs to debond (the last solve's "
+                       "newly debonded pairs still carried their bond)")
+        return StepResult(sol, classify(sol, bonded, tol_gap, tol_slip, frictionless,
+                                        hist.tau_prev), debonded_step, max_iterations, pivots,
+                          time.perf_counter() - t0, 0.0, "debonding did not settle")
     state = classify(sol, bonded, tol_gap, tol_slip, frictionless, hist.tau_prev)
     dissipation = float(pair_dissipation(sol).sum())
     hist.a, hist.c, hist.bonded = a, c, bonded
@@ -159,7 +174,9 @@ class StepSolution:
     alpha (r,) floating-mode amplitudes; kinematics (2m,) the LCP's (gap - g0, tau);
     state, debonded_step (m,) int; tau_prev (m,) tau before the step; slip (m,)
     accumulated; a, c (m,) adhesion and strength forces in force at this step; f_scale
-    the problem's force scale; info the step's summary.json entries.
+    and u_scale the problem's force and displacement scales (the largest load, the
+    largest unit-load contact motion or initial gap); info the step's summary.json
+    entries.
     """
 
     status: str
@@ -174,6 +191,7 @@ class StepSolution:
     a: np.ndarray | None = None
     c: np.ndarray | None = None
     f_scale: float = 0.0
+    u_scale: float = 0.0
     info: dict = field(default_factory=dict)
 
     @property
@@ -238,6 +256,7 @@ class ContactStepper:
         scale = max(max((np.abs(x).max(initial=0.0) for x in self.gu), default=0.0),
                     np.abs(pr.g0).max(initial=0.0), 1e-300)
         self.tol = 1e-7 * scale
+        self.u_scale = scale if scale > 1e-300 else 0.0  # the KKT check's floor
         self.f_scale = max(max((np.abs(b).sum() for b in rhs), default=0.0),
                            np.abs(self.hist.a).max(initial=0.0),
                            np.abs(self.hist.c).max(initial=0.0))
@@ -369,9 +388,13 @@ class ContactStepper:
             if self.undetermined:
                 out.message += "; the contact cannot resist " + ", ".join(self.undetermined)
             return out
-        self.slip += sol.slip_plus - sol.slip_minus
+        # pairs without tangential unknowns (frictionless) slip by their whole tangential
+        # motion; the others by the LCP's slip (the same, tau - tau_prev, to round-off)
+        fric = self.setup.frictional
+        self.slip += np.where(fric, sol.slip_plus - sol.slip_minus, sol.tau - tau_prev)
         out.info = self._step_info(step, res, out.alpha)
         out.state, out.debonded_step = res.state, res.debonded_step
         out.tau_prev, out.slip, out.f_scale = tau_prev, self.slip.copy(), self.f_scale
+        out.u_scale = self.u_scale
         out.a, out.c = self.hist.a.copy(), self.hist.c.copy()
         return out

@@ -53,7 +53,8 @@ def contact_arrays(setup, result: StepSolution, u: np.ndarray,
         data |= {"g_cols": setup.rows.cols, "g_normal": setup.rows.g_normal,
                  "g_tangent": setup.rows.g_tangent}
     kkt = kkt_check(gap_u, tau_u, result.tau_prev, p, q, setup.mu, result.a, result.c,
-                    setup.frictional, u_scale=float(np.abs(u).max(initial=0.0)),
+                    setup.frictional,
+                    u_scale=max(float(np.abs(u).max(initial=0.0)), result.u_scale),
                     f_scale=result.f_scale)
     return data, kkt
 
