@@ -1,9 +1,11 @@
 /* A SIGINT/SIGTERM handler for the time Python cannot act: a long PETSc call (a MUMPS
  * factorization, a solve) holds the GIL, so the run's watchdog thread cannot write the
  * run's status before mpiexec kills the ranks (Open MPI: SIGKILL 1 s after the SIGTERM it
- * forwards). While armed, the handler writes the prepared summary (through a temporary
- * file and a rename), prints the prepared line on stderr and exits with 130 (SIGINT) or
- * 143 (SIGTERM). Only async-signal-safe calls. Loaded through ctypes (app/hard_stop.py).
+ * forwards). While armed, the handler writes the prepared summary, prints the prepared
+ * line on stderr and exits with 130 (SIGINT) or 143 (SIGTERM). The summary is either the
+ * whole file (through a temporary file and a rename) or, for a summary that grows step by
+ * step (app/output/append.py), its new tail written in place at a byte offset. Only
+ * async-signal-safe calls. Loaded through ctypes (app/hard_stop.py).
  */
 #include <fcntl.h>
 #include <signal.h>
@@ -17,6 +19,7 @@
 static char *g_text[SLOTS], *g_line[SLOTS];
 static size_t g_text_len[SLOTS], g_line_len[SLOTS];
 static char *g_tmp, *g_path;
+static long long g_offset = -1; /* >= 0: write the text in place at this offset */
 static struct sigaction g_old[SLOTS];
 static volatile sig_atomic_t g_armed = 0;
 
@@ -29,14 +32,32 @@ static void write_all(int fd, const char *p, size_t n) {
     }
 }
 
+static void patch_in_place(int slot) {
+    int fd = open(g_path, O_WRONLY);
+    size_t done = 0;
+    if (fd < 0) return;
+    while (done < g_text_len[slot]) {
+        ssize_t k = pwrite(fd, g_text[slot] + done, g_text_len[slot] - done,
+                           (off_t)(g_offset + (long long)done));
+        if (k <= 0) break;
+        done += (size_t)k;
+    }
+    fsync(fd);
+    close(fd);
+}
+
+static void replace_whole(int slot) {
+    int fd = open(g_tmp, O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    if (fd < 0) return;
+    write_all(fd, g_text[slot], g_text_len[slot]);
+    if (fsync(fd) == 0 && close(fd) == 0) rename(g_tmp, g_path);
+    else unlink(g_tmp);
+}
+
 static void on_signal(int sig) {
     int slot = sig == SIGTERM ? 1 : 0;
-    int fd = open(g_tmp, O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    if (fd >= 0) {
-        write_all(fd, g_text[slot], g_text_len[slot]);
-        if (fsync(fd) == 0 && close(fd) == 0) rename(g_tmp, g_path);
-        else unlink(g_tmp);
-    }
+    if (g_offset >= 0) patch_in_place(slot);
+    else replace_whole(slot);
     write_all(2, g_line[slot], g_line_len[slot]);
     _exit(sig == SIGTERM ? 143 : 130);
 }
@@ -61,9 +82,11 @@ static void release(void) {
     g_tmp = g_path = NULL;
 }
 
-/* Arm: texts[i]/lines[i] for SIGINT (0) and SIGTERM (1), the summary's path and its
- * temporary path. Returns 0, or -1 (nothing armed) if memory or sigaction failed. */
-int hard_stop_arm(const char *tmp, const char *path, const char *text_int, size_t n_int,
+/* Arm: texts[i]/lines[i] for SIGINT (0) and SIGTERM (1), the summary's path, its
+ * temporary path and the offset of an in-place write (-1: the whole file). Returns 0, or
+ * -1 (nothing armed) if memory or sigaction failed. */
+int hard_stop_arm(const char *tmp, const char *path, long long offset,
+                  const char *text_int, size_t n_int,
                   const char *text_term, size_t n_term, const char *line_int,
                   const char *line_term) {
     struct sigaction sa;
@@ -78,6 +101,7 @@ int hard_stop_arm(const char *tmp, const char *path, const char *text_int, size_
         release();
         return -1;
     }
+    g_offset = offset;
     g_text_len[0] = n_int;
     g_text_len[1] = n_term;
     g_line_len[0] = strlen(line_int);

@@ -21,8 +21,10 @@ from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
-Provider = Callable[[str], tuple[Path, bytes, str]]
-"""signal name -> (summary.json path, its bytes, the stderr line) of the interrupted run."""
+Provider = Callable[[str], tuple[Path, int, bytes, str]]
+"""signal name -> what the interrupted run writes: summary.json's path, the byte offset of
+an in-place write of its new tail (-1: the whole file through a rename), the bytes, the
+stderr line."""
 
 _PROVIDER: list[Provider] = []
 _DEPTH = [0]
@@ -38,6 +40,7 @@ def _library() -> ctypes.CDLL | None:
             try:
                 lib = ctypes.CDLL(spec.origin)
                 lib.hard_stop_arm.argtypes = [ctypes.c_char_p, ctypes.c_char_p,
+                                              ctypes.c_longlong,
                                               ctypes.c_char_p, ctypes.c_size_t,
                                               ctypes.c_char_p, ctypes.c_size_t,
                                               ctypes.c_char_p, ctypes.c_char_p]
@@ -74,11 +77,13 @@ def armed() -> Iterator[None]:
         finally:
             _DEPTH[0] -= 1
         return
-    path, text_int, line_int = _PROVIDER[0]("SIGINT")
-    _, text_term, line_term = _PROVIDER[0]("SIGTERM")
+    path, offset, text_int, line_int = _PROVIDER[0]("SIGINT")
+    _, offset_term, text_term, line_term = _PROVIDER[0]("SIGTERM")
+    if offset_term != offset:  # the two must be alike; the whole file otherwise
+        raise ValueError("hard_stop provider: one offset for both signals")
     tmp = path.with_name(path.name + ".tmp")
-    ok = lib.hard_stop_arm(str(tmp).encode(), str(path).encode(), text_int, len(text_int),
-                           text_term, len(text_term), line_int.encode(),
+    ok = lib.hard_stop_arm(str(tmp).encode(), str(path).encode(), offset, text_int,
+                           len(text_int), text_term, len(text_term), line_int.encode(),
                            line_term.encode()) == 0
     _DEPTH[0] += 1
     try:

@@ -58,6 +58,22 @@ class AppendableDocument:
         self.offset, self.end, self.n_entries = len(body), len(data), len(entries)
         self._stamp = self._stat()
 
+    def _covering(self, data: bytes) -> bytes:
+        """`data` (written at `offset`) padded to cover the old tail: never leave bytes of
+        it behind."""
+        if self.end - (self.offset + len(data)) > 0:
+            body = data.rstrip(b"\n")
+            data = body + b" " * (self.end - self.offset - len(body) - 1) + b"\n"
+        return data
+
+    def tail_patch(self, tail: str) -> tuple[int, bytes] | None:
+        """(offset, bytes) that replace the tail in one in-place write, as `append` with
+        no entries does; None unless `current()`. For a writer that cannot run Python
+        (app/_hard_stop.c)."""
+        if not self.current():
+            return None
+        return self.offset, self._covering(tail.encode())
+
     def append(self, entries: list[str], tail: str) -> None:
         """Add entries and replace the tail with one in-place write (see the module text).
 
@@ -65,11 +81,7 @@ class AppendableDocument:
         parts = [e.encode() for e in entries]
         lead = self.sep if self.n_entries and parts else b""
         grown = lead + self.sep.join(parts)
-        data = grown + tail.encode()
-        short = self.end - (self.offset + len(data))
-        if short > 0:  # never leave bytes of the old tail behind
-            body = data.rstrip(b"\n")
-            data = body + b" " * (self.end - self.offset - len(body) - 1) + b"\n"
+        data = self._covering(grown + tail.encode())
         fd = os.open(self.path, os.O_WRONLY)
         try:  # a short write (a disk filling up) is retried: the retry raises its errno
             written = 0

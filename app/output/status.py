@@ -396,14 +396,22 @@ class RunGuard:
         return (f"interrupted by {name} during step {k + 1}/{self.n_steps}{where}; "
                 f"{self._done()}")
 
-    def _hard_stop_text(self, name: str) -> tuple[Path, bytes, str]:
-        """What app/_hard_stop.c writes on `name` during a long C call (rank 0)."""
+    def _hard_stop_text(self, name: str) -> tuple[Path, int, bytes, str]:
+        """What app/_hard_stop.c writes on `name` during a long C call (rank 0): the
+        summary's path, the offset of an in-place write of its new tail (-1: the whole
+        file), the bytes, the stderr line. The in-place tail keeps the cost per call flat
+        in the number of steps (the whole text is O(steps): 170 ms at 400 steps)."""
         import json
 
+        from app.output.summary import tail_patch
+
         reason = self._interrupted_reason(name)
-        text = json.dumps({**self.summary, "status": "interrupted", "error": reason},
-                          indent=2) + "\n"
-        return self.out / "summary.json", text.encode(), f"error: {reason}\n"
+        summary = {**self.summary, "status": "interrupted", "error": reason}
+        path = self.out / "summary.json"
+        patch = tail_patch(path, summary, ("error",))
+        if patch is not None:
+            return path, patch[0], patch[1], f"error: {reason}\n"
+        return path, -1, (json.dumps(summary, indent=2) + "\n").encode(), f"error: {reason}\n"
 
     def _done(self) -> str:
         k = len(self.summary.get("steps", []))

@@ -33,16 +33,35 @@ class SummaryWriter:
         self._head: str | None = None
         self._steps: list | None = None
 
-    def write(self, summary: dict) -> None:
-        steps = summary.get("steps", [])
-        head = {k: v for k, v in summary.items() if k != "steps" and k not in TRAILING}
-        head_text = json.dumps(head, indent=2)[:-2] + (",\n" if head else "\n")
-        head_text += '  "steps": [\n'
+    @staticmethod
+    def _head_text(summary: dict, skip: tuple[str, ...] = ()) -> str:
+        head = {k: v for k, v in summary.items()
+                if k != "steps" and k not in TRAILING and k not in skip}
+        return json.dumps(head, indent=2)[:-2] + (",\n" if head else "\n") + \
+            '  "steps": [\n'
+
+    @staticmethod
+    def _tail_text(summary: dict, keys: tuple[str, ...] = TRAILING) -> str:
         tail = "\n  ]"
-        for key in TRAILING:
+        for key in keys:
             if key in summary:
                 tail += f',\n  "{key}": ' + _indent(json.dumps(summary[key], indent=2), "  ")
-        tail += "\n}\n"
+        return tail + "\n}\n"
+
+    def tail_patch(self, summary: dict, extra: tuple[str, ...]) -> tuple[int, bytes] | None:
+        """(offset, bytes) of one in-place write that turns the file into `summary`, whose
+        head and steps are those last written and whose keys `extra` (e.g. "error") go
+        after the trailing keys; None when the file is not that (then write it whole)."""
+        steps = summary.get("steps", [])
+        if (steps is not self._steps or len(steps) != self.doc.n_entries
+                or self._head_text(summary, extra) != self._head):
+            return None
+        return self.doc.tail_patch(self._tail_text(summary, TRAILING + extra))
+
+    def write(self, summary: dict) -> None:
+        steps = summary.get("steps", [])
+        head_text = self._head_text(summary)
+        tail = self._tail_text(summary)
         same_run = steps is self._steps and head_text == self._head
         if same_run and self.doc.current() and len(steps) >= self.doc.n_entries:
             new = steps[self.doc.n_entries:]
@@ -57,6 +76,12 @@ def _step_text(step: dict) -> str:
 
 
 _WRITERS: dict[Path, SummaryWriter] = {}
+
+
+def tail_patch(path: Path, summary: dict, extra: tuple[str, ...]) -> tuple[int, bytes] | None:
+    """SummaryWriter.tail_patch of the writer of `path` (None if there is none)."""
+    writer = _WRITERS.get(Path(path).resolve())
+    return None if writer is None else writer.tail_patch(summary, extra)
 
 
 def write_summary(path: Path, summary: dict) -> None:
