@@ -363,3 +363,25 @@ def test_refinement_curve_split_over_sides() -> None:
     for end in (-1.0, 1.0):
         assert length[np.abs(mid[:, 0] - end) < 0.1].max() < 0.25
     assert length[np.abs(mid[:, 0]) < 0.3].min() > 0.3
+
+
+@pytest.mark.parametrize("points, sides", [
+    ([[0, 0], [3, 0], [0, 1], [3, 1.5], [2, 2]], "side1 and side4"),  # bow tie, area > 0
+    ([[0, 0], [2, 1], [2, 0], [0, 1], [-1, 0.5]], "side0 and side2"),
+    ([[0, 0], [2, 0], [1, 0], [2, 0], [2, 1], [0, 1]], "side0 and side1"),  # folds back
+    ([[0, 0], [2, 0], [2, 1], [1, 0], [0, 1]], "side0 and side2"),  # touches a side
+])
+def test_polygon_self_intersecting_error(points, sides: str) -> None:
+    """A crossing, touching or back-tracking outline is a one-line error (before: gmsh
+    meshed it into no quads and the builder failed with a ValueError traceback)."""
+    cfg = {"mesh": {"size": 0.2}, "body": [
+        {"name": "p", "shape": {"type": "polygon", "points": points}}]}
+    with pytest.raises(InputError, match=f"body 'p': shape.points: {sides} cross or overlap"):
+        build_mesh(parse_scene(cfg))
+
+
+def test_polygon_simple_nonconvex_meshes() -> None:
+    cfg = {"mesh": {"size": 0.2}, "body": [{"name": "p", "shape": {
+        "type": "polygon", "points": [[0, 0], [2, 0], [2, 2], [1, 0.5], [0, 2]]}}]}
+    m = build_mesh(parse_scene(cfg))
+    assert m.n_elements > 0
