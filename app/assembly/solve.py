@@ -84,6 +84,9 @@ class LinearSolver:
         pc = self.ksp.getPC()
         if pc.getType() in ("lu", "cholesky"):
             self.is_mumps = pc.getFactorSolverType() == "mumps"
+        # MUMPS's Schur complement of a Cholesky (symmetric) factor is not the full S
+        # (C came out wrong), so the Schur route needs its LU.
+        self.is_mumps_lu = self.is_mumps and pc.getType() == "lu"
 
     def factor(self) -> None:
         """Symbolic + numeric factorization (or preconditioner set-up)."""
