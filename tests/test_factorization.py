@@ -126,3 +126,20 @@ def test_an_inaccurate_iterative_solve_is_not_called_singular(tmp_path, options,
     line = r.stderr.strip().splitlines()[-1]
     assert line.startswith("error: ") and words in line
     assert "singular" not in line and "held by supports" not in line
+
+
+@pytest.mark.parametrize("options", [["-ksp_type", "cg", "-pc_type", "icc"],
+                                     ["-ksp_type", "bcgs", "-pc_type", "ilu"]])
+def test_incomplete_factorizations_do_not_get_the_mumps_default(tmp_path, options):
+    """-pc_type icc / ilu: the default -pc_factor_mat_solver_type mumps is for LU and
+    Cholesky only (before: `PETSc: MatSolverType mumps does not support factorization
+    type ICC ...`, exit 2, for an option the user never gave)."""
+    it, direct = tmp_path / "it", tmp_path / "lu"
+    r = run_cli(["run", str(CONFIGS / "cantilever.toml"), "--out", str(it), "--quiet",
+                 "--mesh-size", "0.25", *options, "-ksp_max_it", "20000"])
+    assert r.returncode == 0, r.stderr
+    r = run_cli(["run", str(CONFIGS / "cantilever.toml"), "--out", str(direct), "--quiet",
+                 "--mesh-size", "0.25"])
+    assert r.returncode == 0, r.stderr
+    e1, e2 = read_summary(it)["strain_energy"], read_summary(direct)["strain_energy"]
+    assert abs(e1 - e2) <= 1e-8 * abs(e2)

@@ -20,6 +20,9 @@ DEFAULT_OPTIONS = {
     "mat_mumps_icntl_24": "1",
 }
 
+FACTOR_DEFAULTS = ("pc_factor_mat_solver_type", "mat_mumps_icntl_24")
+"""The defaults that apply only to a full factorization (-pc_type lu or cholesky)."""
+
 ITERATIVE_RTOL = "1e-12"
 """Default -ksp_rtol of an iterative KSP (one other than preonly) unless the user gave one.
 PETSc's own 1e-5 leaves displacement errors far above what the contact compliance and the
@@ -56,6 +59,9 @@ def set_default_options(extra: dict[str, str] | None = None) -> None:
     _start_log_view(opts, extra.pop("log_view", None))
     for table in (extra, DEFAULT_OPTIONS):
         for key, value in table.items():
+            if table is DEFAULT_OPTIONS and key in FACTOR_DEFAULTS and opts.getString(
+                    "pc_type", "lu") not in ("lu", "cholesky"):
+                continue  # MUMPS is no solver type of ILU, ICC, ...: PETSc would refuse it
             if not opts.hasName(key):
                 opts.setValue(key, value)
     ksp_type = opts.getString("ksp_type", "preonly")
