@@ -108,7 +108,8 @@ def test_two_interfaces_with_the_same_name_are_an_error():
 
 
 @pytest.mark.parametrize("name", ["cantilever", "hertz", "patch", "multibody", "cattaneo",
-                                  "hard/hertz_incompressible", "hard/aspect_ratio"])
+                                  "hard/hertz_incompressible", "hard/aspect_ratio",
+                                  "hertz_patch"])
 def test_size_estimate_is_within_a_factor_two(name):
     from app.mesh.build import build_mesh
 
@@ -139,6 +140,15 @@ def test_too_large_a_mesh_is_refused_quickly_and_allow_large_overrides():
 def test_underflowing_sizes_are_refused_not_a_traceback(raw, scale):
     with pytest.raises(InputError, match="unbounded|more than this machine"):
         check_size(parse_scene(raw), scale)
+
+
+def test_mesh_patch_counts_in_the_estimate():
+    """A [[mesh.patch]] of size 1e-6 (3.8e10 quads): before, not counted, and gmsh meshed
+    on until the memory ran out."""
+    raw = tomllib.loads((CONFIGS / "hertz_patch.toml").read_text())
+    raw["mesh"]["patch"][0]["size"] = 1e-6
+    with pytest.raises(InputError, match="about 3.8e\\+10 elements"):
+        check_size(parse_scene(raw), 1.0)
 
 
 def test_structured_divisions_count_in_the_estimate():

@@ -6,7 +6,10 @@ of area A and element size h has about A / h^2 quadrilaterals; a `[[mesh.refine]
 (size s, constant within `flat` f, growing linearly to h over `distance` D) adds about
 L (f / s^2 + D / (s h)) near curves of total length L and pi f^2 / s^2 +
 2 pi D^2 / (h - s)^2 (ln(h / s) + s / h - 1) near each point (the integral of 1 / size^2
-over the zone), capped at A / s^2. A structured rectangle has exactly nx ny elements.
+over the zone), capped at A / s^2; a `[[mesh.patch]]` of size s adds the box's overlap
+with the body's bounding box times 1 / s^2 - 1 / f^2, f the finest of h and the refine
+sizes (a patch mostly replaces refined elements). A structured rectangle has
+exactly nx ny elements.
 Nodes are about the elements, and DOFs twice that. The memory figure is the measured
 peak of MUMPS LU runs here (about 4 kB per DOF, see README).
 """
@@ -20,6 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from app.errors import InputError
+from app.mesh.patch import patches_meeting
 from app.scene import BodySpec, Refine, Scene
 
 BYTES_PER_DOF = 4000.0
@@ -126,10 +130,25 @@ def _body_elements(spec: BodySpec, scene, scale: np.float64) -> float:
             ny = max(1.0, spec.shape["height"] / h)
         return nx * ny
     area = body_area(spec)
-    if any(not r.size * scale > 0 for r in scene.refine):
+    if any(not r.size * scale > 0 for r in scene.refine + scene.patches):
         return math.inf
     return area / h**2 + sum(_refined(spec, r, scene.bodies, h, scale, area)
-                             for r in scene.refine)
+                             for r in scene.refine) + _patched(spec, scene, h, scale)
+
+
+def _patched(spec: BodySpec, scene, h: float, scale: float) -> float:
+    """Extra elements of the `[[mesh.patch]]` boxes in one unstructured body: the box's
+    overlap with the body's bounding box at the patch size instead of the finest size of
+    the body and the refinements (a patch mostly replaces refined elements)."""
+    lo, hi = _bbox(spec)
+    finest = min([h] + [r.size * scale for r in scene.refine])
+    n = 0.0
+    for _, p in patches_meeting(spec, scene.patches):
+        s = p.size * scale
+        w = min(p.box[2], hi[0]) - max(p.box[0], lo[0])
+        d = min(p.box[3], hi[1]) - max(p.box[1], lo[1])
+        n += max(w, 0.0) * max(d, 0.0) * max(1.0 / s**2 - 1.0 / finest**2, 0.0)
+    return n
 
 
 def check_size(scene: Scene, scale: float = 1.0, *, allow_large: bool = False,
