@@ -15,6 +15,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from app.errors import InputError
+from app.mesh.folds import check_no_folds
 from app.mesh.model import Mesh
 from app.scene.geometry import MAX_COORDINATE
 
@@ -130,7 +131,8 @@ def _inside(pts: np.ndarray, xe: np.ndarray, tree: cKDTree, radius: np.ndarray,
 
 
 def check_scene(mesh: Mesh, interfaces) -> None:
-    """All checks of this module (quads, interface bodies, overlaps)."""
+    """All checks of this module (quads, folds, interface bodies, overlaps)."""
     check_quads(mesh)
+    check_no_folds(mesh)
     check_interface_bodies(mesh, interfaces)
     check_overlaps(mesh, interfaces)
