@@ -204,8 +204,10 @@ def test_cache_hit_skips_meshing(tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 
 
 def write_msh(path: Path, *, triangles: bool = False, shared: bool = False,
-              names: tuple[str, str] = ("left", "right"), version: float = 4.1) -> None:
-    """Two unit squares side by side [0,1]x[0,1] and [1,2]x[0,1], 2x2 quads each."""
+              names: tuple[str, str] = ("left", "right"), version: float = 4.1,
+              repeat: bool = False) -> None:
+    """Two unit squares side by side [0,1]x[0,1] and [1,2]x[0,1], 2x2 quads each
+    (`repeat`: the group 'floor' lists its first curve twice)."""
     gmsh.initialize([], readConfigFiles=False, interruptible=False)
     try:
         gmsh.option.setNumber("General.Terminal", 0)
@@ -233,7 +235,8 @@ def write_msh(path: Path, *, triangles: bool = False, shared: bool = False,
         geo.synchronize()
         for name, s in zip(names, surfs, strict=True):
             gmsh.model.addPhysicalGroup(2, [s], name=name)
-        gmsh.model.addPhysicalGroup(1, [lines[0][0], lines[1][0]], name="floor")
+        gmsh.model.addPhysicalGroup(1, [lines[0][0], lines[1][0]] + [lines[0][0]] * repeat,
+                                    name="floor")
         gmsh.model.addPhysicalGroup(1, [lines[0][0]], name="left_floor")
         gmsh.model.addPhysicalGroup(0, [1], name="origin")
         gmsh.model.mesh.generate(2)
@@ -255,6 +258,18 @@ def test_read_round_trip(tmp_path: Path, version: float) -> None:
     assert len(m.curves["floor"]) == 4 and len(m.curves["left_floor"]) == 2
     assert np.allclose(m.points[m.curve_nodes("floor"), 1], 0.0)
     assert np.allclose(m.points[m.point_groups["origin"]], [[0.0, 0.0]])
+
+
+@pytest.mark.parametrize("version", [4.1, 2.2])
+def test_a_curve_listed_twice_in_a_group_has_each_edge_once(tmp_path: Path,
+                                                             version: float) -> None:
+    """MSH 2.2 writes its elements twice: before, 6 edges, and a load on 'floor' counted
+    the repeated ones twice (a traction on such a curve gave 4x the strain energy)."""
+    path = tmp_path / "two.msh"
+    write_msh(path, version=version, repeat=True)
+    floor = read_mesh(path, ["right", "left"]).curves["floor"]
+    assert len(floor) == 4
+    assert len(np.unique(np.sort(floor, axis=1), axis=0)) == 4
 
 
 def test_build_mesh_reads_file(tmp_path: Path) -> None:

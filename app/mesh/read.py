@@ -162,7 +162,7 @@ def _lower_groups(m, groups: dict, new: np.ndarray, fname: str):
                 "quadrilateral of a body"
             )
         if dim == 1:
-            curves[name] = ids.reshape(-1, 2)
+            curves[name] = _distinct_edges(ids.reshape(-1, 2))
         else:
             point_groups[name] = np.unique(ids.ravel())
     for name in point_groups:
@@ -171,6 +171,15 @@ def _lower_groups(m, groups: dict, new: np.ndarray, fname: str):
                 f"mesh file {fname}: '{name}' is both a physical curve and a physical point"
             )
     return curves, point_groups
+
+
+def _distinct_edges(edges: np.ndarray) -> np.ndarray:
+    """Each edge (k, 2) once, in its first direction, in the order given: MSH 2.2 repeats
+    an element once per listing of its curve in the physical group (gmsh's
+    addPhysicalGroup(1, [c, c])), and a load on the curve counted it twice."""
+    lo, hi = np.minimum(edges[:, 0], edges[:, 1]), np.maximum(edges[:, 0], edges[:, 1])
+    _, first = np.unique(lo * (int(edges.max(initial=0)) + 1) + hi, return_index=True)
+    return edges[np.sort(first)]
 
 
 def read_mesh(path: str | Path, body_names: list[str]) -> Mesh:
