@@ -207,7 +207,7 @@ def write_msh(path: Path, *, triangles: bool = False, shared: bool = False,
               names: tuple[str, str] = ("left", "right"), version: float = 4.1,
               repeat: bool = False) -> None:
     """Two unit squares side by side [0,1]x[0,1] and [1,2]x[0,1], 2x2 quads each
-    (`repeat`: the group 'floor' lists its first curve twice)."""
+    (`repeat`: the group 'floor' lists its first curve twice, the first body its surface)."""
     gmsh.initialize([], readConfigFiles=False, interruptible=False)
     try:
         gmsh.option.setNumber("General.Terminal", 0)
@@ -233,8 +233,8 @@ def write_msh(path: Path, *, triangles: bool = False, shared: bool = False,
             if not triangles:
                 geo.mesh.setRecombine(2, surfs[-1])
         geo.synchronize()
-        for name, s in zip(names, surfs, strict=True):
-            gmsh.model.addPhysicalGroup(2, [s], name=name)
+        for k, (name, s) in enumerate(zip(names, surfs, strict=True)):
+            gmsh.model.addPhysicalGroup(2, [s] * (1 + (repeat and k == 0)), name=name)
         gmsh.model.addPhysicalGroup(1, [lines[0][0], lines[1][0]] + [lines[0][0]] * repeat,
                                     name="floor")
         gmsh.model.addPhysicalGroup(1, [lines[0][0]], name="left_floor")
@@ -261,15 +261,19 @@ def test_read_round_trip(tmp_path: Path, version: float) -> None:
 
 
 @pytest.mark.parametrize("version", [4.1, 2.2])
-def test_a_curve_listed_twice_in_a_group_has_each_edge_once(tmp_path: Path,
-                                                             version: float) -> None:
-    """MSH 2.2 writes its elements twice: before, 6 edges, and a load on 'floor' counted
-    the repeated ones twice (a traction on such a curve gave 4x the strain energy)."""
+def test_a_group_listing_an_entity_twice_has_each_element_once(tmp_path: Path,
+                                                               version: float) -> None:
+    """MSH 2.2 writes the elements of an entity listed twice in a physical group twice:
+    before, 'floor' had 6 edges, and a load on it counted the repeated ones twice (a
+    traction on such a curve gave 4x the strain energy); the body 'left' had 8 quads, 4
+    of them twice, and twice their stiffness."""
     path = tmp_path / "two.msh"
     write_msh(path, version=version, repeat=True)
-    floor = read_mesh(path, ["right", "left"]).curves["floor"]
-    assert len(floor) == 4
-    assert len(np.unique(np.sort(floor, axis=1), axis=0)) == 4
+    m = read_mesh(path, ["right", "left"])
+    assert len(m.curves["floor"]) == 4
+    assert len(np.unique(np.sort(m.curves["floor"], axis=1), axis=0)) == 4
+    assert m.n_elements == 8 and np.count_nonzero(m.body == 1) == 4
+    check_valid(m, min_angle=89.0)
 
 
 def test_build_mesh_reads_file(tmp_path: Path) -> None:
