@@ -28,6 +28,9 @@ ITERATIVE_RTOL = "1e-12"
 PETSc's own 1e-5 leaves displacement errors far above what the contact compliance and the
 LCP's gap checks resolve (the compliance is a difference of displacements)."""
 
+DIRECT_PCS = ("lu", "cholesky", "redundant", "svd")
+"""Preconditioners that solve K x = b on their own (with -ksp_type preonly)."""
+
 ACCEPTED_RESIDUAL = 1e-6
 """Largest relative residual |b - K x| / |b| a solve may return."""
 
@@ -93,6 +96,7 @@ class LinearSolver:
         # MUMPS's Schur complement of a Cholesky (symmetric) factor is not the full S
         # (C came out wrong), so the Schur route needs its LU.
         self.is_mumps_lu = self.is_mumps and pc.getType() == "lu"
+        self.pc_type = pc.getType()
 
     def factor(self) -> None:
         """Symbolic + numeric factorization (or preconditioner set-up)."""
@@ -144,6 +148,12 @@ class LinearSolver:
                     f"{rn / bn:.2e} > {ACCEPTED_RESIDUAL:g}, -ksp_rtol "
                     f"{self.ksp.getTolerances()[0]:g}): lower -ksp_rtol or use the default "
                     "MUMPS LU")
+            if self.pc_type not in DIRECT_PCS:
+                raise SolveError(
+                    f"linear solve is inaccurate (relative residual {rn / bn:.2e}): "
+                    f"-ksp_type preonly applies -pc_type {self.pc_type} once, which solves "
+                    "only if it is a full factorization: use -pc_type lu (or cholesky), or "
+                    "an iterative -ksp_type such as cg")
             raise SingularStiffnessError(
                 f"linear solve is inaccurate (relative residual {rn / bn:.2e}): the "
                 "stiffness is probably singular"
