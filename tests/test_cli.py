@@ -244,6 +244,10 @@ def _one_line_cases(tmp_path: Path) -> list[tuple[list[str], str]]:
         (["run", str(tmp_path / "plate.toml"), "--out", out, "--mesh-size", "0.1"],
          "--mesh-size does not apply"),
         (["run", str(tmp_path / "plate.toml"), "--out", out], "repeats a node"),
+        (["run", patch, "--out", out, "--method", "fem-q4", "--sd", "8"],
+         "--sd does not apply to --method fem-q4"),
+        (["run", patch, "--out", out, "--set", 'analysis.method="fem-q4"', "--sd", "8"],
+         "--sd does not apply to analysis.method = fem-q4"),  # (before: ignored, exit 0)
     ]
 
 
