@@ -276,6 +276,19 @@ def test_a_group_listing_an_entity_twice_has_each_element_once(tmp_path: Path,
     check_valid(m, min_angle=89.0)
 
 
+@pytest.mark.parametrize("key, value", [
+    ("refine", [{"points": [[0.0, 0.0]], "size": 0.01, "distance": 0.1}]),
+    ("patch", [{"box": [0.0, 0.0, 0.5, 0.5], "size": 0.1}]),
+    ("algorithm", "frontal-quad"),
+])
+def test_gmsh_keys_with_a_mesh_file_are_an_error(key: str, value) -> None:
+    """Before: ignored without a word (punch.toml ran the same mesh)."""
+    cfg = {"mesh": {"file": "two.msh", key: value}, "body": [{"name": "left"}]}
+    with pytest.raises(InputError, match=f"mesh.{key} does not apply to a mesh read from "
+                                         "mesh.file \\(two.msh\\)"):
+        parse_scene(cfg)
+
+
 def test_build_mesh_reads_file(tmp_path: Path) -> None:
     write_msh(tmp_path / "two.msh")
     cfg = {"mesh": {"file": "two.msh"}, "points": {"corner": [2.0, 1.0]},
