@@ -307,7 +307,8 @@ def check_run_input(cfg, args, finest_level: int = 0) -> float:
             raise InputError("--mesh-cache does not apply to a mesh read from mesh.file")
         output_folder(str(cache), Path(cache), what="--mesh-cache")
     scale = args.mesh_size / cfg.mesh_size if args.mesh_size else 1.0
-    check_size(cfg.scene, scale * 2.0**-finest_level, allow_large=args.allow_large)
+    check_size(cfg.scene, scale * 2.0**-finest_level, allow_large=args.allow_large,
+               base_dir=cfg.path.parent, refine=finest_level)
     return scale
 
 

@@ -151,6 +151,17 @@ def test_mesh_patch_counts_in_the_estimate():
         check_size(parse_scene(raw), 1.0)
 
 
+def test_splits_of_a_mesh_file_count_in_the_estimate():
+    """`run meshes/punch.toml --refine 8`: before, no estimate for a mesh.file, and the run
+    went on to split 1348 quads into 8.8e7."""
+    punch = CONFIGS.parent / "meshes" / "punch.toml"
+    scene = parse_scene(tomllib.loads(punch.read_text()))
+    assert check_size(scene, base_dir=punch.parent) is None  # unsplit: not read here
+    assert check_size(scene, base_dir=punch.parent, refine=1).elements == 4 * 1348
+    with pytest.raises(InputError, match="about 8.8e\\+07 elements.*use fewer splits"):
+        check_size(scene, base_dir=punch.parent, refine=8)
+
+
 def test_structured_divisions_count_in_the_estimate():
     raw = _with(PATCH, ("body", 0, "shape", "divisions"), [100000, 100000])
     with pytest.raises(InputError, match="about 1e\\+10 elements"):

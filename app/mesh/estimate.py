@@ -19,6 +19,7 @@ from __future__ import annotations
 import math
 import os
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -151,13 +152,31 @@ def _patched(spec: BodySpec, scene, h: float, scale: float) -> float:
     return n
 
 
+def file_estimate(path, times: int) -> SizeEstimate:
+    """Size of the mesh of a .msh file after `times` uniform splits (4^times its quads)."""
+    from app.mesh.read import _load_msh
+
+    m = _load_msh(Path(path))
+    elements = float(sum(len(b.data) for b in m.cells if b.type == "quad")) * 4.0**times
+    return SizeEstimate(elements, 2.0 * elements, BYTES_PER_DOF * 2.0 * elements)
+
+
 def check_size(scene: Scene, scale: float = 1.0, *, allow_large: bool = False,
-               option: str = "--allow-large") -> SizeEstimate | None:
-    """Refuse (InputError, one line) a run whose estimated memory exceeds this machine's."""
+               option: str = "--allow-large", base_dir=None,
+               refine: int = 0) -> SizeEstimate | None:
+    """Refuse (InputError, one line) a run whose estimated memory exceeds this machine's.
+
+    A mesh.file (relative to base_dir) is counted only when it is split (`refine` > 0):
+    before, `--refine 8` on a read mesh went on to 65536 times its elements."""
     est = estimate(scene, scale)
+    if scene.file is not None and refine > 0:
+        path = Path(scene.file)
+        est = file_estimate(path if base_dir is None or path.is_absolute()
+                            else Path(base_dir) / path, refine)
     available = machine_memory()
     if est is not None and not allow_large and est.memory > available:
+        fix = "fewer splits" if scene.file is not None else "a larger --mesh-size or mesh.size"
         raise InputError(f"the run would need {est.text()}, more than this machine's "
-                         f"{available / 1e9:.3g} GB of memory: use a larger --mesh-size or "
-                         f"mesh.size, or {option} to run anyway")
+                         f"{available / 1e9:.3g} GB of memory: use {fix}, or {option} to run "
+                         "anyway")
     return est
