@@ -417,3 +417,22 @@ def test_polygon_simple_nonconvex_meshes() -> None:
         "type": "polygon", "points": [[0, 0], [2, 0], [2, 2], [1, 0.5], [0, 2]]}}]}
     m = build_mesh(parse_scene(cfg))
     assert m.n_elements > 0
+
+
+@pytest.mark.parametrize("height", [0.15, 0.05, 1e-3])
+def test_a_layer_thinner_than_the_element_size_meshes(height: float) -> None:
+    """A 2 x height polygon at size 0.2: before, `gmsh could not mesh it: 1D mesh cannot
+    be divided by 2` (the full-quad recipe meshes at twice the size)."""
+    cfg = {"mesh": {"size": 0.2}, "body": [{"name": "p", "shape": {
+        "type": "polygon", "points": [[0, 0], [2, 0], [2, height], [0, height]]},
+        "curves": {"side0": "base"}}]}
+    m = build_mesh(parse_scene(cfg))
+    check_valid(m, min_angle=45.0)
+    assert m.n_elements == 20 and len(m.curves["base"]) == 10
+    assert quad_areas(m).sum() == pytest.approx(2 * height, rel=1e-12)
+
+
+def test_hertz_at_an_element_size_above_the_bodies_meshes() -> None:
+    m = build_mesh(parse_scene(load("hertz")), scale=20.0)  # size 10 > the 8 x 4 block
+    check_valid(m)
+    assert set(m.body) == {0, 1}

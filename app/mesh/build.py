@@ -37,6 +37,7 @@ from app.mesh.model import Mesh, orient_ccw
 from app.mesh.patch import apply as patch_apply
 from app.mesh.patch import cut as patch_cut
 from app.mesh.patch import patches_meeting
+from app.mesh.short_curves import generate_quads
 from app.scene import BodySpec, Refine, Scene
 from app.scene.geometry import Piece
 from app.scene.mesh_algorithms import gmsh_options
@@ -186,7 +187,7 @@ def _generate(gmsh: Any, spec: BodySpec, scene: Scene, h: float) -> None:
     for key, value in gmsh_options(scene.algorithm).items():  # after: a recipe may
         opt(key, value)  # override the options above
     try:
-        gmsh.model.mesh.generate(2)
+        generate_quads(gmsh)  # with a retry for curves shorter than the element size
     except Exception as e:  # gmsh raises a bare Exception with its last error
         raise InputError(f"body '{spec.name}': gmsh could not mesh it: {e}") from None
 
