@@ -436,3 +436,19 @@ def test_hertz_at_an_element_size_above_the_bodies_meshes() -> None:
     m = build_mesh(parse_scene(load("hertz")), scale=20.0)  # size 10 > the 8 x 4 block
     check_valid(m)
     assert set(m.body) == {0, 1}
+
+
+@pytest.mark.parametrize("y", [0.05, 0.03, 0.01, 1e-5])
+def test_a_named_point_near_a_side_meshes_without_folds(y: float) -> None:
+    """A point y above the base of a 2 x 1 polygon at size 0.2: before, gmsh's quads
+    folded over each other (6 edges run twice, total area 2.03-2.06), which ran silently
+    (app/mesh/folds.py now refuses it)."""
+    from app.mesh.checks import check_scene
+    from app.scene.geometry import polygon_areas
+
+    cfg = {"mesh": {"size": 0.2}, "points": {"m": [0.55, y]}, "body": [{"name": "p", "shape": {
+        "type": "polygon", "points": [[0, 0], [2, 0], [2, 1], [0, 1]]}}]}
+    m = build_mesh(parse_scene(cfg))
+    check_scene(m, [])
+    assert polygon_areas(m.points[m.quads]).sum() == pytest.approx(2.0, rel=1e-12)
+    np.testing.assert_allclose(m.points[m.point_groups["m"]], [[0.55, y]])

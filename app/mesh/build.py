@@ -34,6 +34,7 @@ import numpy as np
 from app.errors import InputError
 from app.mesh.cache import cache_key, cache_path, load_mesh, save_mesh
 from app.mesh.model import Mesh, orient_ccw
+from app.mesh.near_points import near_point_fields
 from app.mesh.patch import apply as patch_apply
 from app.mesh.patch import cut as patch_cut
 from app.mesh.patch import patches_meeting
@@ -218,6 +219,7 @@ def _mesh_body(gmsh: Any, spec: BodySpec, scene: Scene, scale: float) -> tuple:
         else:
             embed = [geo.addPoint(p[0], p[1], 0.0) for p in spec.interior_points]
             fields = _add_refinement(geo, spec, scene, side_tags, scale)
+            fields += [(r, [embed[k]], [], 0) for k, r in near_point_fields(spec, h, scale)]
             geo.synchronize()
             patch_apply(gmsh, plans)
             for tag, xy in zip(embed, spec.interior_points, strict=True):
