@@ -4,8 +4,9 @@ A named point inside an unstructured body is embedded in its surface, where gmsh
 at the body size h: a point closer to a side than about h / 4 left gmsh's quads folded
 over each other (a 2 x 1 polygon at size 0.2 with a point 0.03 above its base: 6 edges
 run twice, total area 2.03 instead of 2) or triangles. Such a point gets the element
-size of its distance to the boundary, growing to h over h, so that the mesh grades
-down to it.
+size of half its distance to the boundary, growing to h over 2 h, so that the mesh
+grades down to it: 180 random places 1e-5 h to 1.2 h inside rectangles meshed, against
+42 of 60 with the size of the distance over h.
 """
 
 from __future__ import annotations
@@ -36,12 +37,12 @@ def piece_distance(p: Piece, xy: np.ndarray) -> float:
 
 def near_point_fields(spec: BodySpec, h: float, scale: float) -> list[tuple[int, Refine]]:
     """(k, refinement) for every interior named point k of `spec` (spec.interior_points)
-    nearer a side than NEAR * h: size its distance (config units, before `scale`, as a
-    [[mesh.refine]] size), growing to h over h; h is the scaled body size."""
+    nearer a side than NEAR * h: size half its distance (config units, before `scale`, as
+    a [[mesh.refine]] size), growing to h over 2 h; h is the scaled body size."""
     out = []
     for k, xy in enumerate(spec.interior_points):
         d = min(piece_distance(p, xy) for s in spec.sides for p in s.pieces)
         if d < NEAR * h:
             out.append((k, Refine(curves=[], points=np.asarray(xy, float).reshape(1, 2),
-                                  size=d / scale, distance=h, flat=0.0)))
+                                  size=0.5 * d / scale, distance=2.0 * h, flat=0.0)))
     return out
