@@ -5,7 +5,7 @@ at the body size h: a point closer to a side than about h / 4 left gmsh's quads 
 over each other (a 2 x 1 polygon at size 0.2 with a point 0.03 above its base: 6 edges
 run twice, total area 2.03 instead of 2) or triangles. Such a point gets the element
 size of half its distance to the boundary, growing to h over 2 h, so that the mesh
-grades down to it: 180 random places 1e-5 h to 1.2 h inside rectangles meshed, against
+grades down to it: 180 random places 1e-5 h to 0.5 h inside rectangles meshed, against
 42 of 60 with the size of the distance over h.
 """
 
