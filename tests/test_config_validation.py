@@ -230,6 +230,22 @@ def test_overlapping_bodies_need_an_interface():
     check_overlaps(_two_blocks(1.5), [])
 
 
+@pytest.mark.parametrize("top", [0.95, 0.998])
+def test_a_thin_overlap_is_refused_after_meshing(top):
+    """The upper block of patch.toml 0.05 or 0.002 into the lower (elements 0.2, 0.25):
+    before, no element centre lay in the other body and the run went on with the bodies
+    passing through each other. Side by side (touching) they pass."""
+    from app.run import RunOptions, build_scene_mesh
+
+    raw = _with(PATCH, ("body", 1, "shape", "origin"), [0.0, top])
+    del raw["interface"]
+    with pytest.raises(InputError, match="overlap .* no \\[\\[interface\\]\\] joins them"):
+        build_scene_mesh(parse_config(raw, CONFIGS / "patch.toml"), RunOptions())
+    raw = _with(PATCH, ("body", 1, "shape", "origin"), [0.0, 1.0])
+    del raw["interface"]
+    build_scene_mesh(parse_config(raw, CONFIGS / "patch.toml"), RunOptions())
+
+
 def test_interface_on_one_body_is_an_error_for_read_meshes():
     with pytest.raises(InputError, match="both on body 'lower'"):
         check_interface_bodies(_two_blocks(1.0), [_It("lower_base", "lower_top")])
