@@ -452,3 +452,23 @@ def test_a_named_point_near_a_side_meshes_without_folds(y: float) -> None:
     check_scene(m, [])
     assert polygon_areas(m.points[m.quads]).sum() == pytest.approx(2.0, rel=1e-12)
     np.testing.assert_allclose(m.points[m.point_groups["m"]], [[0.55, y]])
+
+
+def test_cache_keys_change_only_for_scenes_with_interior_named_points(tmp_path: Path) -> None:
+    """The near-point size fields (app/mesh/near_points.py) change only meshes with named
+    points inside a body: their keys change, every other cached mesh stays valid."""
+    from app.mesh.cache import cache_key
+
+    def plain_key(scene) -> str:
+        return cache_key(scene.source | {"scale": 1.0, "gmsh": gmsh.__version__,
+                                         "algorithm": scene.algorithm})
+
+    scene = parse_scene(load("patch"))
+    build_mesh(scene, cache_dir=tmp_path / "a")
+    assert (tmp_path / "a" / f"mesh-{plain_key(scene)}.npz").exists()
+    cfg = {"mesh": {"size": 0.2}, "points": {"m": [0.55, 0.01]}, "body": [{"name": "p",
+           "shape": {"type": "polygon", "points": [[0, 0], [2, 0], [2, 1], [0, 1]]}}]}
+    scene = parse_scene(cfg)
+    build_mesh(scene, cache_dir=tmp_path / "b")
+    files = list((tmp_path / "b").glob("mesh-*.npz"))
+    assert len(files) == 1 and files[0].name != f"mesh-{plain_key(scene)}.npz"

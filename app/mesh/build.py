@@ -365,6 +365,8 @@ def build_mesh(scene: Scene, scale: float = 1.0, cache_dir: str | Path | None = 
     if cache_dir is not None:
         payload = scene.source | {"scale": scale, "gmsh": gmsh.__version__,
                                   "algorithm": scene.algorithm}
+        if any(spec.interior_points for spec in scene.bodies):  # (meshed otherwise before
+            payload["near_points"] = 1  # app/mesh/near_points.py; other keys unchanged)
         cache_file = cache_path(cache_dir, cache_key(payload))
         cached = load_mesh(cache_file)
         if cached is not None:

@@ -14,7 +14,7 @@ import numpy as np
 from app.mesh.model import Mesh
 
 # Bump when the meshing code changes in a way that changes the meshes it builds.
-CACHE_FORMAT = 2  # 2: size fields at named points near a side (app/mesh/near_points.py)
+CACHE_FORMAT = 1
 
 
 def cache_key(payload: dict[str, Any]) -> str:
