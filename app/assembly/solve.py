@@ -28,7 +28,7 @@ ITERATIVE_RTOL = "1e-12"
 PETSc's own 1e-5 leaves displacement errors far above what the contact compliance and the
 LCP's gap checks resolve (the compliance is a difference of displacements)."""
 
-DIRECT_PCS = ("lu", "cholesky", "redundant", "svd")
+DIRECT_PCS = ("lu", "cholesky", "qr", "redundant", "svd")
 """Preconditioners that solve K x = b on their own (with -ksp_type preonly)."""
 
 ACCEPTED_RESIDUAL = 1e-6
