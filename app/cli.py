@@ -245,8 +245,11 @@ def _run_command(args, petsc_args: list[str], rank: int) -> int:
                           mesh_cache=args.mesh_cache and Path(args.mesh_cache),
                           overrides=list(args.set),
                           refine=args.refine)
-        if opts.method and args.sd is not None and not BULK_METHODS[opts.method].sd_choices:
-            raise InputError(f"--sd does not apply to --method {opts.method}")
+        method = opts.method or cfg.method  # (--sd with a config's fem-q4 was ignored)
+        if args.sd is not None and method in BULK_METHODS \
+                and not BULK_METHODS[method].sd_choices:
+            where = "--method" if opts.method else "analysis.method ="
+            raise InputError(f"--sd does not apply to {where} {method}")
     except InputError as exc:
         from app.input_failure import record_input_failure
 
@@ -304,7 +307,8 @@ def check_run_input(cfg, args, finest_level: int = 0) -> float:
             raise InputError("--mesh-cache does not apply to a mesh read from mesh.file")
         output_folder(str(cache), Path(cache), what="--mesh-cache")
     scale = args.mesh_size / cfg.mesh_size if args.mesh_size else 1.0
-    check_size(cfg.scene, scale * 2.0**-finest_level, allow_large=args.allow_large)
+    check_size(cfg.scene, scale * 2.0**-finest_level, allow_large=args.allow_large,
+               base_dir=cfg.path.parent, refine=finest_level)
     return scale
 
 

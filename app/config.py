@@ -398,11 +398,12 @@ def _interface(raw: dict, it: dict, i: int, earlier: list[Interface]) -> Interfa
 
 
 def _petsc(raw: dict) -> dict[str, str]:
-    """[petsc] options as strings (without the dash); booleans as true/false."""
+    """[petsc] options as strings (without the dash). true is the bare flag (`-ksp_monitor`,
+    `-ksp_view`: the value "true" is read as a viewer name and fails), false "false"."""
     out = {}
     for k, v in _table(raw, "petsc", "").items():
         if isinstance(v, bool):
-            v = "true" if v else "false"
+            v = "" if v else "false"
         out[str(k).lstrip("-")] = str(v)
     return out
 

@@ -73,6 +73,17 @@ def test_petsc_options_pass_through(tmp_path):
         read_summary(ref)["strain_energy"], rel=1e-8)
 
 
+def test_petsc_table_true_is_the_bare_flag(tmp_path):
+    """`ksp_monitor = true` in [petsc]: before, `-ksp_monitor true`, read as a viewer
+    named 'true' (`error: PETSc: Unsupported viewer true`, exit 2)."""
+    out = tmp_path / "o"
+    res = run_cli(["run", str(CANTILEVER), "--out", str(out), "--quiet", "--mesh-size", "0.5",
+                   "--set", "petsc.ksp_monitor=true", "--set", "petsc.ksp_view=true"])
+    assert res.returncode == 0, res.stderr
+    assert "KSP Residual norm" in res.stdout and "type: preonly" in res.stdout
+    assert "petsc_options_unused" not in read_summary(out)
+
+
 def test_help_explains_the_command():
     res = run_cli(["--help"])
     assert res.returncode == 0 and "PETSc" in res.stdout
@@ -233,6 +244,10 @@ def _one_line_cases(tmp_path: Path) -> list[tuple[list[str], str]]:
         (["run", str(tmp_path / "plate.toml"), "--out", out, "--mesh-size", "0.1"],
          "--mesh-size does not apply"),
         (["run", str(tmp_path / "plate.toml"), "--out", out], "repeats a node"),
+        (["run", patch, "--out", out, "--method", "fem-q4", "--sd", "8"],
+         "--sd does not apply to --method fem-q4"),
+        (["run", patch, "--out", out, "--set", 'analysis.method="fem-q4"', "--sd", "8"],
+         "--sd does not apply to analysis.method = fem-q4"),  # (before: ignored, exit 0)
     ]
 
 

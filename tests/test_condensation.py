@@ -67,3 +67,22 @@ def test_contact_dofs_drop_prescribed_columns(problem):
     u = np.random.default_rng(1).standard_normal(g.shape[1])
     u[fixed] = 0.0
     np.testing.assert_allclose(gc @ u[dofs], g @ u, atol=1e-14)
+
+
+def test_mumps_cholesky_takes_the_solve_route(tmp_path):
+    """-pc_type cholesky (MUMPS): its Schur complement is not the full S, so the run must
+    take the solve route and agree with LU (before: the Schur route, a wrong compliance
+    and `linear solve is inaccurate ... probably singular`, exit 2)."""
+    from tests.support import read_summary, run_cli
+
+    lu, ch = tmp_path / "lu", tmp_path / "ch"
+    assert run_cli(["run", "configs/patch.toml", "--quiet", "--out", str(lu)]).returncode == 0
+    r = run_cli(["run", "configs/patch.toml", "--quiet", "--out", str(ch), "-pc_type",
+                 "cholesky"])
+    assert r.returncode == 0, r.stderr
+    a, b = read_summary(lu), read_summary(ch)
+    assert (a["compliance_route"], b["compliance_route"]) == ("schur", "solve")
+    assert b["strain_energy"] == pytest.approx(a["strain_energy"], rel=1e-10)
+    r = run_cli(["run", "configs/patch.toml", "--quiet", "--out", str(ch), "-pc_type",
+                 "cholesky", "-contact_compliance", "schur"])
+    assert r.returncode == 2 and "schur compliance route needs MUMPS LU" in r.stderr

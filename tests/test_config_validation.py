@@ -108,7 +108,8 @@ def test_two_interfaces_with_the_same_name_are_an_error():
 
 
 @pytest.mark.parametrize("name", ["cantilever", "hertz", "patch", "multibody", "cattaneo",
-                                  "hard/hertz_incompressible", "hard/aspect_ratio"])
+                                  "hard/hertz_incompressible", "hard/aspect_ratio",
+                                  "hertz_patch"])
 def test_size_estimate_is_within_a_factor_two(name):
     from app.mesh.build import build_mesh
 
@@ -139,6 +140,26 @@ def test_too_large_a_mesh_is_refused_quickly_and_allow_large_overrides():
 def test_underflowing_sizes_are_refused_not_a_traceback(raw, scale):
     with pytest.raises(InputError, match="unbounded|more than this machine"):
         check_size(parse_scene(raw), scale)
+
+
+def test_mesh_patch_counts_in_the_estimate():
+    """A [[mesh.patch]] of size 1e-6 (3.8e10 quads): before, not counted, and gmsh meshed
+    on until the memory ran out."""
+    raw = tomllib.loads((CONFIGS / "hertz_patch.toml").read_text())
+    raw["mesh"]["patch"][0]["size"] = 1e-6
+    with pytest.raises(InputError, match="about 3.8e\\+10 elements"):
+        check_size(parse_scene(raw), 1.0)
+
+
+def test_splits_of_a_mesh_file_count_in_the_estimate():
+    """`run meshes/punch.toml --refine 8`: before, no estimate for a mesh.file, and the run
+    went on to split 1348 quads into 8.8e7."""
+    punch = CONFIGS.parent / "meshes" / "punch.toml"
+    scene = parse_scene(tomllib.loads(punch.read_text()))
+    assert check_size(scene, base_dir=punch.parent) is None  # unsplit: not read here
+    assert check_size(scene, base_dir=punch.parent, refine=1).elements == 4 * 1348
+    with pytest.raises(InputError, match="about 8.8e\\+07 elements.*use fewer splits"):
+        check_size(scene, base_dir=punch.parent, refine=8)
 
 
 def test_structured_divisions_count_in_the_estimate():
@@ -207,6 +228,22 @@ def test_overlapping_bodies_need_an_interface():
     check_overlaps(_two_blocks(0.3), [_It("upper_bottom", "lower_top")])  # a fit
     check_overlaps(_two_blocks(1.0), [])  # touching only
     check_overlaps(_two_blocks(1.5), [])
+
+
+@pytest.mark.parametrize("top", [0.95, 0.998])
+def test_a_thin_overlap_is_refused_after_meshing(top):
+    """The upper block of patch.toml 0.05 or 0.002 into the lower (elements 0.2, 0.25):
+    before, no element centre lay in the other body and the run went on with the bodies
+    passing through each other. Side by side (touching) they pass."""
+    from app.run import RunOptions, build_scene_mesh
+
+    raw = _with(PATCH, ("body", 1, "shape", "origin"), [0.0, top])
+    del raw["interface"]
+    with pytest.raises(InputError, match="overlap .* no \\[\\[interface\\]\\] joins them"):
+        build_scene_mesh(parse_config(raw, CONFIGS / "patch.toml"), RunOptions())
+    raw = _with(PATCH, ("body", 1, "shape", "origin"), [0.0, 1.0])
+    del raw["interface"]
+    build_scene_mesh(parse_config(raw, CONFIGS / "patch.toml"), RunOptions())
 
 
 def test_interface_on_one_body_is_an_error_for_read_meshes():

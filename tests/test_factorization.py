@@ -126,3 +126,32 @@ def test_an_inaccurate_iterative_solve_is_not_called_singular(tmp_path, options,
     line = r.stderr.strip().splitlines()[-1]
     assert line.startswith("error: ") and words in line
     assert "singular" not in line and "held by supports" not in line
+
+
+@pytest.mark.parametrize("pc", ["gamg", "jacobi", "none"])
+def test_preonly_with_a_preconditioner_that_does_not_factorize_says_so(tmp_path, pc):
+    """-pc_type gamg without an iterative -ksp_type: before, `the stiffness is probably
+    singular: check that every body is held by supports` on the (held) cantilever."""
+    r = run_cli(["run", str(CONFIGS / "cantilever.toml"), "--out", str(tmp_path), "--quiet",
+                 "--mesh-size", "0.5", "-pc_type", pc])
+    assert r.returncode == 2
+    line = r.stderr.strip().splitlines()[-1]
+    assert f"-ksp_type preonly applies -pc_type {pc} once" in line
+    assert "singular" not in line and "held by supports" not in line
+
+
+@pytest.mark.parametrize("options", [["-ksp_type", "cg", "-pc_type", "icc"],
+                                     ["-ksp_type", "bcgs", "-pc_type", "ilu"]])
+def test_incomplete_factorizations_do_not_get_the_mumps_default(tmp_path, options):
+    """-pc_type icc / ilu: the default -pc_factor_mat_solver_type mumps is for LU and
+    Cholesky only (before: `PETSc: MatSolverType mumps does not support factorization
+    type ICC ...`, exit 2, for an option the user never gave)."""
+    it, direct = tmp_path / "it", tmp_path / "lu"
+    r = run_cli(["run", str(CONFIGS / "cantilever.toml"), "--out", str(it), "--quiet",
+                 "--mesh-size", "0.25", *options, "-ksp_max_it", "20000"])
+    assert r.returncode == 0, r.stderr
+    r = run_cli(["run", str(CONFIGS / "cantilever.toml"), "--out", str(direct), "--quiet",
+                 "--mesh-size", "0.25"])
+    assert r.returncode == 0, r.stderr
+    e1, e2 = read_summary(it)["strain_energy"], read_summary(direct)["strain_energy"]
+    assert abs(e1 - e2) <= 1e-8 * abs(e2)

@@ -204,8 +204,10 @@ def test_cache_hit_skips_meshing(tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 
 
 def write_msh(path: Path, *, triangles: bool = False, shared: bool = False,
-              names: tuple[str, str] = ("left", "right"), version: float = 4.1) -> None:
-    """Two unit squares side by side [0,1]x[0,1] and [1,2]x[0,1], 2x2 quads each."""
+              names: tuple[str, str] = ("left", "right"), version: float = 4.1,
+              repeat: bool = False) -> None:
+    """Two unit squares side by side [0,1]x[0,1] and [1,2]x[0,1], 2x2 quads each
+    (`repeat`: the group 'floor' lists its first curve twice, the first body its surface)."""
     gmsh.initialize([], readConfigFiles=False, interruptible=False)
     try:
         gmsh.option.setNumber("General.Terminal", 0)
@@ -231,9 +233,10 @@ def write_msh(path: Path, *, triangles: bool = False, shared: bool = False,
             if not triangles:
                 geo.mesh.setRecombine(2, surfs[-1])
         geo.synchronize()
-        for name, s in zip(names, surfs, strict=True):
-            gmsh.model.addPhysicalGroup(2, [s], name=name)
-        gmsh.model.addPhysicalGroup(1, [lines[0][0], lines[1][0]], name="floor")
+        for k, (name, s) in enumerate(zip(names, surfs, strict=True)):
+            gmsh.model.addPhysicalGroup(2, [s] * (1 + (repeat and k == 0)), name=name)
+        gmsh.model.addPhysicalGroup(1, [lines[0][0], lines[1][0]] + [lines[0][0]] * repeat,
+                                    name="floor")
         gmsh.model.addPhysicalGroup(1, [lines[0][0]], name="left_floor")
         gmsh.model.addPhysicalGroup(0, [1], name="origin")
         gmsh.model.mesh.generate(2)
@@ -255,6 +258,35 @@ def test_read_round_trip(tmp_path: Path, version: float) -> None:
     assert len(m.curves["floor"]) == 4 and len(m.curves["left_floor"]) == 2
     assert np.allclose(m.points[m.curve_nodes("floor"), 1], 0.0)
     assert np.allclose(m.points[m.point_groups["origin"]], [[0.0, 0.0]])
+
+
+@pytest.mark.parametrize("version", [4.1, 2.2])
+def test_a_group_listing_an_entity_twice_has_each_element_once(tmp_path: Path,
+                                                               version: float) -> None:
+    """MSH 2.2 writes the elements of an entity listed twice in a physical group twice:
+    before, 'floor' had 6 edges, and a load on it counted the repeated ones twice (a
+    traction on such a curve gave 4x the strain energy); the body 'left' had 8 quads, 4
+    of them twice, and twice their stiffness."""
+    path = tmp_path / "two.msh"
+    write_msh(path, version=version, repeat=True)
+    m = read_mesh(path, ["right", "left"])
+    assert len(m.curves["floor"]) == 4
+    assert len(np.unique(np.sort(m.curves["floor"], axis=1), axis=0)) == 4
+    assert m.n_elements == 8 and np.count_nonzero(m.body == 1) == 4
+    check_valid(m, min_angle=89.0)
+
+
+@pytest.mark.parametrize("key, value", [
+    ("refine", [{"points": [[0.0, 0.0]], "size": 0.01, "distance": 0.1}]),
+    ("patch", [{"box": [0.0, 0.0, 0.5, 0.5], "size": 0.1}]),
+    ("algorithm", "frontal-quad"),
+])
+def test_gmsh_keys_with_a_mesh_file_are_an_error(key: str, value) -> None:
+    """Before: ignored without a word (punch.toml ran the same mesh)."""
+    cfg = {"mesh": {"file": "two.msh", key: value}, "body": [{"name": "left"}]}
+    with pytest.raises(InputError, match=f"mesh.{key} does not apply to a mesh read from "
+                                         "mesh.file \\(two.msh\\)"):
+        parse_scene(cfg)
 
 
 def test_build_mesh_reads_file(tmp_path: Path) -> None:
@@ -363,3 +395,80 @@ def test_refinement_curve_split_over_sides() -> None:
     for end in (-1.0, 1.0):
         assert length[np.abs(mid[:, 0] - end) < 0.1].max() < 0.25
     assert length[np.abs(mid[:, 0]) < 0.3].min() > 0.3
+
+
+@pytest.mark.parametrize("points, sides", [
+    ([[0, 0], [3, 0], [0, 1], [3, 1.5], [2, 2]], "side1 and side4"),  # bow tie, area > 0
+    ([[0, 0], [2, 1], [2, 0], [0, 1], [-1, 0.5]], "side0 and side2"),
+    ([[0, 0], [2, 0], [1, 0], [2, 0], [2, 1], [0, 1]], "side0 and side1"),  # folds back
+    ([[0, 0], [2, 0], [2, 1], [1, 0], [0, 1]], "side0 and side2"),  # touches a side
+])
+def test_polygon_self_intersecting_error(points, sides: str) -> None:
+    """A crossing, touching or back-tracking outline is a one-line error (before: gmsh
+    meshed it into no quads and the builder failed with a ValueError traceback)."""
+    cfg = {"mesh": {"size": 0.2}, "body": [
+        {"name": "p", "shape": {"type": "polygon", "points": points}}]}
+    with pytest.raises(InputError, match=f"body 'p': shape.points: {sides} cross or overlap"):
+        build_mesh(parse_scene(cfg))
+
+
+def test_polygon_simple_nonconvex_meshes() -> None:
+    cfg = {"mesh": {"size": 0.2}, "body": [{"name": "p", "shape": {
+        "type": "polygon", "points": [[0, 0], [2, 0], [2, 2], [1, 0.5], [0, 2]]}}]}
+    m = build_mesh(parse_scene(cfg))
+    assert m.n_elements > 0
+
+
+@pytest.mark.parametrize("height", [0.15, 0.05, 1e-3])
+def test_a_layer_thinner_than_the_element_size_meshes(height: float) -> None:
+    """A 2 x height polygon at size 0.2: before, `gmsh could not mesh it: 1D mesh cannot
+    be divided by 2` (the full-quad recipe meshes at twice the size)."""
+    cfg = {"mesh": {"size": 0.2}, "body": [{"name": "p", "shape": {
+        "type": "polygon", "points": [[0, 0], [2, 0], [2, height], [0, height]]},
+        "curves": {"side0": "base"}}]}
+    m = build_mesh(parse_scene(cfg))
+    check_valid(m, min_angle=45.0)
+    assert m.n_elements == 20 and len(m.curves["base"]) == 10
+    assert quad_areas(m).sum() == pytest.approx(2 * height, rel=1e-12)
+
+
+def test_hertz_at_an_element_size_above_the_bodies_meshes() -> None:
+    m = build_mesh(parse_scene(load("hertz")), scale=20.0)  # size 10 > the 8 x 4 block
+    check_valid(m)
+    assert set(m.body) == {0, 1}
+
+
+@pytest.mark.parametrize("y", [0.05, 0.03, 0.01, 1e-5])
+def test_a_named_point_near_a_side_meshes_without_folds(y: float) -> None:
+    """A point y above the base of a 2 x 1 polygon at size 0.2: before, gmsh's quads
+    folded over each other (6 edges run twice, total area 2.03-2.06), which ran silently
+    (app/mesh/folds.py now refuses it)."""
+    from app.mesh.checks import check_scene
+    from app.scene.geometry import polygon_areas
+
+    cfg = {"mesh": {"size": 0.2}, "points": {"m": [0.55, y]}, "body": [{"name": "p", "shape": {
+        "type": "polygon", "points": [[0, 0], [2, 0], [2, 1], [0, 1]]}}]}
+    m = build_mesh(parse_scene(cfg))
+    check_scene(m, [])
+    assert polygon_areas(m.points[m.quads]).sum() == pytest.approx(2.0, rel=1e-12)
+    np.testing.assert_allclose(m.points[m.point_groups["m"]], [[0.55, y]])
+
+
+def test_cache_keys_change_only_for_scenes_with_interior_named_points(tmp_path: Path) -> None:
+    """The near-point size fields (app/mesh/near_points.py) change only meshes with named
+    points inside a body: their keys change, every other cached mesh stays valid."""
+    from app.mesh.cache import cache_key
+
+    def plain_key(scene) -> str:
+        return cache_key(scene.source | {"scale": 1.0, "gmsh": gmsh.__version__,
+                                         "algorithm": scene.algorithm})
+
+    scene = parse_scene(load("patch"))
+    build_mesh(scene, cache_dir=tmp_path / "a")
+    assert (tmp_path / "a" / f"mesh-{plain_key(scene)}.npz").exists()
+    cfg = {"mesh": {"size": 0.2}, "points": {"m": [0.55, 0.01]}, "body": [{"name": "p",
+           "shape": {"type": "polygon", "points": [[0, 0], [2, 0], [2, 1], [0, 1]]}}]}
+    scene = parse_scene(cfg)
+    build_mesh(scene, cache_dir=tmp_path / "b")
+    files = list((tmp_path / "b").glob("mesh-*.npz"))
+    assert len(files) == 1 and files[0].name != f"mesh-{plain_key(scene)}.npz"

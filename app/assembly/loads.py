@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from app.assembly.shared_supports import first_support_values
 from app.config import Config, Load, Support, evaluate
 from app.discretisation.elements import gauss_gradients, gauss_points, shape_functions
 from app.errors import InputError
@@ -145,9 +146,13 @@ def load_cases(mesh: Mesh, cfg: Config) -> list[LoadCase]:
     bf = body_force_vector(mesh, cfg)
     if np.any(bf):
         cases.append(LoadCase("body_force", np.ones(cfg.n_steps), bf, np.zeros(n2)))
-    for s in cfg.supports:
-        dofs, vals = support_dofs(mesh, s, cfg.parameters)
-        if np.any(vals):
+    held = [support_dofs(mesh, s, cfg.parameters) for s in cfg.supports]
+    kept = first_support_values([d for d, _ in held], [v for _, v in held],
+                                [s.history for s in cfg.supports],
+                                [f"support #{i + 1} ({s.on})"
+                                 for i, s in enumerate(cfg.supports)], mesh.points)
+    for s, (dofs, _), vals in zip(cfg.supports, held, kept, strict=True):
+        if np.any(vals):  # a DOF of two supports counts in the first one's case only
             ud = np.zeros(n2)
             ud[dofs] = vals
             cases.append(LoadCase(names[id(s)], s.history, np.zeros(n2), ud))

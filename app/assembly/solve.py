@@ -21,10 +21,16 @@ DEFAULT_OPTIONS = {
     "mat_mumps_icntl_24": "1",
 }
 
+FACTOR_DEFAULTS = ("pc_factor_mat_solver_type", "mat_mumps_icntl_24")
+"""The defaults that apply only to a full factorization (-pc_type lu or cholesky)."""
+
 ITERATIVE_RTOL = "1e-12"
 """Default -ksp_rtol of an iterative KSP (one other than preonly) unless the user gave one.
 PETSc's own 1e-5 leaves displacement errors far above what the contact compliance and the
 LCP's gap checks resolve (the compliance is a difference of displacements)."""
+
+DIRECT_PCS = ("lu", "cholesky", "qr", "redundant", "svd")
+"""Preconditioners that solve K x = b on their own (with -ksp_type preonly)."""
 
 ACCEPTED_RESIDUAL = 1e-6
 """Largest relative residual |b - K x| / |b| a solve may return."""
@@ -57,6 +63,9 @@ def set_default_options(extra: dict[str, str] | None = None) -> None:
     _start_log_view(opts, extra.pop("log_view", None))
     for table in (extra, DEFAULT_OPTIONS):
         for key, value in table.items():
+            if table is DEFAULT_OPTIONS and key in FACTOR_DEFAULTS and opts.getString(
+                    "pc_type", "lu") not in ("lu", "cholesky"):
+                continue  # MUMPS is no solver type of ILU, ICC, ...: PETSc would refuse it
             if not opts.hasName(key):
                 opts.setValue(key, value)
     ksp_type = opts.getString("ksp_type", "preonly")
@@ -85,6 +94,10 @@ class LinearSolver:
         pc = self.ksp.getPC()
         if pc.getType() in ("lu", "cholesky"):
             self.is_mumps = pc.getFactorSolverType() == "mumps"
+        # MUMPS's Schur complement of a Cholesky (symmetric) factor is not the full S
+        # (C came out wrong), so the Schur route needs its LU.
+        self.is_mumps_lu = self.is_mumps and pc.getType() == "lu"
+        self.pc_type = pc.getType()
 
     def factor(self) -> None:
         """Symbolic + numeric factorization (or preconditioner set-up)."""
@@ -138,6 +151,12 @@ class LinearSolver:
                     f"{rn / bn:.2e} > {ACCEPTED_RESIDUAL:g}, -ksp_rtol "
                     f"{self.ksp.getTolerances()[0]:g}): lower -ksp_rtol or use the default "
                     "MUMPS LU")
+            if self.pc_type not in DIRECT_PCS:
+                raise SolveError(
+                    f"linear solve is inaccurate (relative residual {rn / bn:.2e}): "
+                    f"-ksp_type preonly applies -pc_type {self.pc_type} once, which solves "
+                    "only if it is a full factorization: use -pc_type lu (or cholesky), or "
+                    "an iterative -ksp_type such as cg")
             raise SingularStiffnessError(
                 f"linear solve is inaccurate (relative residual {rn / bn:.2e}): the "
                 "stiffness is probably singular"

@@ -167,8 +167,8 @@ def compliance_route(configured: str, solver) -> str:
     if route not in COMPLIANCE_ROUTES:
         raise InputError(f"compliance route '{route}': use auto, schur or solve")
     if route == "auto":
-        route = "schur" if solver.is_mumps else "solve"
-    if route == "schur" and not solver.is_mumps:
+        route = "schur" if solver.is_mumps_lu else "solve"
+    if route == "schur" and not solver.is_mumps_lu:
         raise InputError("the schur compliance route needs MUMPS LU: use "
                          "-contact_compliance solve with other solvers")
     return route

@@ -112,4 +112,24 @@ def singular_message(disc: Discretisation, mesh: Mesh, detail: str,
         return (f"{detail}: {disc.label} has hourglass (zero-energy) modes{where} that the "
                 "supports do not suppress; use --sd 2 or more (hourglass-free smoothing) or "
                 "--method fem-q4")
-    return f"{detail}: check that every body is held by supports{where}"
+    return f"{detail}: check that every body is held by supports{where}" + \
+        _incompressible_hint(disc, mesh)
+
+
+INCOMPRESSIBLE_RATIO = 1e5
+"""lambda / mu from which a body is named as a likely cause of an inaccurate solve (nu
+= 0.49999999 in plane strain, 5e7, failed on cantilever.toml; 0.4999999, 5e6, solved)."""
+
+
+def _incompressible_hint(disc: Discretisation, mesh: Mesh) -> str:
+    """'; or ...' naming the nearly incompressible plane-strain bodies, else ''."""
+    if disc.plane != "strain":
+        return ""
+    nu = np.asarray(disc.nu, dtype=float)
+    ratio = 2.0 * nu / np.maximum(1.0 - 2.0 * nu, 1e-300)  # lambda / mu
+    worst = int(np.argmax(ratio))
+    if ratio[worst] < INCOMPRESSIBLE_RATIO:
+        return ""
+    return (f"; or nu = {nu[worst]:.10g} in body '{mesh.body_names[worst]}' is nearly "
+            f"incompressible (plane strain, lambda/mu = {ratio[worst]:.2g}) and the stiffness "
+            "too ill-conditioned to solve: use a smaller nu")

@@ -126,8 +126,10 @@ def _prescribed_load_warnings(cases: list[LoadCase], fixed: np.ndarray) -> list[
     out = []
     for case in cases:
         on_fixed = case.rhs[fixed]
-        if np.any(on_fixed):
-            out.append(f"{case.name}: {np.count_nonzero(on_fixed)} of its nodal forces act on "
+        roundoff = 1e-8 * np.abs(case.rhs).max(initial=0.0)  # a pressure normal to the DOF
+        if np.any(np.abs(on_fixed) > roundoff):
+            out.append(f"{case.name}: {np.count_nonzero(np.abs(on_fixed) > roundoff)} of its "
+                       "nodal forces act on "
                        f"prescribed DOFs (sum {np.abs(on_fixed).sum():.4g}) and are taken by "
                        "the supports, not by the bodies; see steps[k].reactions")
     return out

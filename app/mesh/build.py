@@ -34,9 +34,11 @@ import numpy as np
 from app.errors import InputError
 from app.mesh.cache import cache_key, cache_path, load_mesh, save_mesh
 from app.mesh.model import Mesh, orient_ccw
+from app.mesh.near_points import near_point_fields
 from app.mesh.patch import apply as patch_apply
 from app.mesh.patch import cut as patch_cut
 from app.mesh.patch import patches_meeting
+from app.mesh.short_curves import generate_quads
 from app.scene import BodySpec, Refine, Scene
 from app.scene.geometry import Piece
 from app.scene.mesh_algorithms import gmsh_options
@@ -186,7 +188,7 @@ def _generate(gmsh: Any, spec: BodySpec, scene: Scene, h: float) -> None:
     for key, value in gmsh_options(scene.algorithm).items():  # after: a recipe may
         opt(key, value)  # override the options above
     try:
-        gmsh.model.mesh.generate(2)
+        generate_quads(gmsh)  # with a retry for curves shorter than the element size
     except Exception as e:  # gmsh raises a bare Exception with its last error
         raise InputError(f"body '{spec.name}': gmsh could not mesh it: {e}") from None
 
@@ -217,6 +219,7 @@ def _mesh_body(gmsh: Any, spec: BodySpec, scene: Scene, scale: float) -> tuple:
         else:
             embed = [geo.addPoint(p[0], p[1], 0.0) for p in spec.interior_points]
             fields = _add_refinement(geo, spec, scene, side_tags, scale)
+            fields += [(r, [embed[k]], [], 0) for k, r in near_point_fields(spec, h, scale)]
             geo.synchronize()
             patch_apply(gmsh, plans)
             for tag, xy in zip(embed, spec.interior_points, strict=True):
@@ -362,6 +365,8 @@ def build_mesh(scene: Scene, scale: float = 1.0, cache_dir: str | Path | None = 
     if cache_dir is not None:
         payload = scene.source | {"scale": scale, "gmsh": gmsh.__version__,
                                   "algorithm": scene.algorithm}
+        if any(spec.interior_points for spec in scene.bodies):  # (meshed otherwise before
+            payload["near_points"] = 1  # app/mesh/near_points.py; other keys unchanged)
         cache_file = cache_path(cache_dir, cache_key(payload))
         cached = load_mesh(cache_file)
         if cached is not None:

@@ -5,8 +5,9 @@
   catches repeated nodes, zero-length edges, 180-degree corners, non-convex and
   self-intersecting ("bow-tie") quads that a positive total area lets through.
 - `check_interface_bodies`: the slave and master curves of an interface on two bodies.
-- `check_overlaps`: bodies that overlap (an element centre of one inside an element of
-  the other) must be joined by an interface; otherwise they would pass through each other.
+- `check_overlaps`: bodies that overlap (an element centre of one, or an element corner
+  pulled slightly towards its centre, inside an element of the other) must be joined by
+  an interface; otherwise they would pass through each other.
 """
 
 from __future__ import annotations
@@ -15,8 +16,13 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from app.errors import InputError
+from app.mesh.folds import check_no_folds
 from app.mesh.model import Mesh
 from app.scene.geometry import MAX_COORDINATE
+
+CORNER_PULL = 1e-3
+"""Element corners are tested for overlap moved this fraction of the way to the element
+centre: inside their own body, so that bodies that only touch do not overlap."""
 
 CORNER_TOL = 1e-10
 """Smallest accepted corner cross product relative to the product of its edge lengths
@@ -97,9 +103,14 @@ def check_overlaps(mesh: Mesh, interfaces) -> None:
                 continue
             if np.any(lo[a] >= hi[b]) or np.any(lo[b] >= hi[a]):
                 continue  # bounding boxes apart
-            inside = _centres_inside(centre[mesh.body == a], xe[mesh.body == b])
+            # element centres, and corners pulled CORNER_PULL towards their centre (a thin
+            # overlap: before, bodies overlapping by less than half an element passed)
+            ca, xa = centre[mesh.body == a], xe[mesh.body == a]
+            pulled = (1.0 - CORNER_PULL) * xa + CORNER_PULL * ca[:, None, :]
+            pts = np.concatenate([ca, pulled.reshape(-1, 2)])
+            inside = _centres_inside(pts, xe[mesh.body == b])
             if inside.any():
-                c = centre[mesh.body == a][int(np.argmax(inside))]
+                c = pts[int(np.argmax(inside))]
                 raise InputError(
                     f"bodies '{mesh.body_names[a]}' and '{mesh.body_names[b]}' overlap (near "
                     f"x={c[0]:.4g}, y={c[1]:.4g}) and no [[interface]] joins them: move them "
@@ -130,7 +141,8 @@ def _inside(pts: np.ndarray, xe: np.ndarray, tree: cKDTree, radius: np.ndarray,
 
 
 def check_scene(mesh: Mesh, interfaces) -> None:
-    """All checks of this module (quads, interface bodies, overlaps)."""
+    """All checks of this module (quads, folds, interface bodies, overlaps)."""
     check_quads(mesh)
+    check_no_folds(mesh)
     check_interface_bodies(mesh, interfaces)
     check_overlaps(mesh, interfaces)

@@ -6,7 +6,10 @@ of area A and element size h has about A / h^2 quadrilaterals; a `[[mesh.refine]
 (size s, constant within `flat` f, growing linearly to h over `distance` D) adds about
 L (f / s^2 + D / (s h)) near curves of total length L and pi f^2 / s^2 +
 2 pi D^2 / (h - s)^2 (ln(h / s) + s / h - 1) near each point (the integral of 1 / size^2
-over the zone), capped at A / s^2. A structured rectangle has exactly nx ny elements.
+over the zone), capped at A / s^2; a `[[mesh.patch]]` of size s adds the box's overlap
+with the body's bounding box times 1 / s^2 - 1 / f^2, f the finest of h and the refine
+sizes (a patch mostly replaces refined elements). A structured rectangle has
+exactly nx ny elements.
 Nodes are about the elements, and DOFs twice that. The memory figure is the measured
 peak of MUMPS LU runs here (about 4 kB per DOF, see README).
 """
@@ -16,10 +19,12 @@ from __future__ import annotations
 import math
 import os
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
 from app.errors import InputError
+from app.mesh.patch import patches_meeting
 from app.scene import BodySpec, Refine, Scene
 
 BYTES_PER_DOF = 4000.0
@@ -126,19 +131,52 @@ def _body_elements(spec: BodySpec, scene, scale: np.float64) -> float:
             ny = max(1.0, spec.shape["height"] / h)
         return nx * ny
     area = body_area(spec)
-    if any(not r.size * scale > 0 for r in scene.refine):
+    if any(not r.size * scale > 0 for r in scene.refine + scene.patches):
         return math.inf
     return area / h**2 + sum(_refined(spec, r, scene.bodies, h, scale, area)
-                             for r in scene.refine)
+                             for r in scene.refine) + _patched(spec, scene, h, scale)
+
+
+def _patched(spec: BodySpec, scene, h: float, scale: float) -> float:
+    """Extra elements of the `[[mesh.patch]]` boxes in one unstructured body: the box's
+    overlap with the body's bounding box at the patch size instead of the finest size of
+    the body and the refinements (a patch mostly replaces refined elements)."""
+    lo, hi = _bbox(spec)
+    finest = min([h] + [r.size * scale for r in scene.refine])
+    n = 0.0
+    for _, p in patches_meeting(spec, scene.patches):
+        s = p.size * scale
+        w = min(p.box[2], hi[0]) - max(p.box[0], lo[0])
+        d = min(p.box[3], hi[1]) - max(p.box[1], lo[1])
+        n += max(w, 0.0) * max(d, 0.0) * max(1.0 / s**2 - 1.0 / finest**2, 0.0)
+    return n
+
+
+def file_estimate(path, times: int) -> SizeEstimate:
+    """Size of the mesh of a .msh file after `times` uniform splits (4^times its quads)."""
+    from app.mesh.read import _load_msh
+
+    m = _load_msh(Path(path))
+    elements = float(sum(len(b.data) for b in m.cells if b.type == "quad")) * 4.0**times
+    return SizeEstimate(elements, 2.0 * elements, BYTES_PER_DOF * 2.0 * elements)
 
 
 def check_size(scene: Scene, scale: float = 1.0, *, allow_large: bool = False,
-               option: str = "--allow-large") -> SizeEstimate | None:
-    """Refuse (InputError, one line) a run whose estimated memory exceeds this machine's."""
+               option: str = "--allow-large", base_dir=None,
+               refine: int = 0) -> SizeEstimate | None:
+    """Refuse (InputError, one line) a run whose estimated memory exceeds this machine's.
+
+    A mesh.file (relative to base_dir) is counted only when it is split (`refine` > 0):
+    before, `--refine 8` on a read mesh went on to 65536 times its elements."""
     est = estimate(scene, scale)
+    if scene.file is not None and refine > 0:
+        path = Path(scene.file)
+        est = file_estimate(path if base_dir is None or path.is_absolute()
+                            else Path(base_dir) / path, refine)
     available = machine_memory()
     if est is not None and not allow_large and est.memory > available:
+        fix = "fewer splits" if scene.file is not None else "a larger --mesh-size or mesh.size"
         raise InputError(f"the run would need {est.text()}, more than this machine's "
-                         f"{available / 1e9:.3g} GB of memory: use a larger --mesh-size or "
-                         f"mesh.size, or {option} to run anyway")
+                         f"{available / 1e9:.3g} GB of memory: use {fix}, or {option} to run "
+                         "anyway")
     return est

@@ -128,7 +128,20 @@ def _body_quads(m, surfaces: dict, body_names: list[str], fname: str) -> list[np
             f"mesh file {fname}: {abs(n_quads - sum(len(q) for q in parts))} quadrilaterals "
             "are in no or in several physical surfaces: put each in exactly one body surface"
         )
-    return parts
+    return [_distinct_quads(q) for q in parts]
+
+
+def _distinct_quads(q: np.ndarray) -> np.ndarray:
+    """Each quad (n, 4) once, in the order given: MSH 2.2 repeats the elements of a surface
+    listed twice in its physical group, and the body had twice its stiffness."""
+    s = np.sort(q, axis=1)
+    n = int(s.max(initial=0)) + 1
+    k1, k2 = s[:, 0] * n + s[:, 1], s[:, 2] * n + s[:, 3]
+    order = np.lexsort((k2, k1))  # stable: the first of equal quads comes first
+    dup = (k1[order][1:] == k1[order][:-1]) & (k2[order][1:] == k2[order][:-1])
+    keep = np.ones(len(q), dtype=bool)
+    keep[order[1:][dup]] = False
+    return q[keep]
 
 
 def _node_owner(n_points: int, parts: list[np.ndarray], body_names: list[str], fname: str):
@@ -162,7 +175,7 @@ def _lower_groups(m, groups: dict, new: np.ndarray, fname: str):
                 "quadrilateral of a body"
             )
         if dim == 1:
-            curves[name] = ids.reshape(-1, 2)
+            curves[name] = _distinct_edges(ids.reshape(-1, 2))
         else:
             point_groups[name] = np.unique(ids.ravel())
     for name in point_groups:
@@ -171,6 +184,15 @@ def _lower_groups(m, groups: dict, new: np.ndarray, fname: str):
                 f"mesh file {fname}: '{name}' is both a physical curve and a physical point"
             )
     return curves, point_groups
+
+
+def _distinct_edges(edges: np.ndarray) -> np.ndarray:
+    """Each edge (k, 2) once, in its first direction, in the order given: MSH 2.2 repeats
+    the elements of a curve listed twice in its physical group (gmsh's
+    addPhysicalGroup(1, [c, c])), and a load on the curve counted them twice."""
+    lo, hi = np.minimum(edges[:, 0], edges[:, 1]), np.maximum(edges[:, 0], edges[:, 1])
+    _, first = np.unique(lo * (int(edges.max(initial=0)) + 1) + hi, return_index=True)
+    return edges[np.sort(first)]
 
 
 def read_mesh(path: str | Path, body_names: list[str]) -> Mesh:

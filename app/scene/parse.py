@@ -21,6 +21,8 @@ from app.scene.shapes import SHAPES
 
 REFINE_KEYS = ("curves", "points", "size", "distance", "flat")
 PATCH_KEYS = ("box", "size")
+GMSH_ONLY_KEYS = ("refine", "patch", "algorithm")
+"""[mesh] keys of the gmsh builder: an error with mesh.file."""
 POINT_TOL = 1e-6  # named points must lie within POINT_TOL * body size of a mesh node
 
 
@@ -164,6 +166,11 @@ def parse_scene(cfg: dict, *, need_shapes: bool | None = None) -> Scene:
     file = mesh.get("file")
     if file is not None and (not isinstance(file, str) or not file):
         raise InputError(f"mesh.file must be a file name (got {file!r})")
+    for key in GMSH_ONLY_KEYS:  # (they were silently ignored)
+        if file is not None and key in mesh:
+            raise InputError(f"mesh.{key} does not apply to a mesh read from mesh.file "
+                             f"({file}): it acts on the meshes built with gmsh here (refine "
+                             "the file's mesh in gmsh, or split it with --refine)")
     size = math.nan if file is not None and "size" not in mesh else _number(mesh, "size",
                                                                             "mesh.")
     named = {name: _xy(v, f"points.{name}")

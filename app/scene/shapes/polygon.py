@@ -7,6 +7,7 @@ import numpy as np
 from app.errors import InputError
 from app.scene.geometry import Piece, polygon_areas, xy_point
 from app.scene.shapes.base import Shape
+from app.scene.shapes.polygon_simple import crossing_sides
 
 
 class Polygon(Shape):
@@ -22,6 +23,11 @@ class Polygon(Shape):
         seg = np.hypot(*(q - p).T)
         if np.any(seg <= 1e-12 * max(1.0, float(np.max(seg)))):
             raise InputError(f"{where}points has two equal consecutive points")
+        crossing = crossing_sides(p)
+        if crossing is not None:
+            i, j = crossing
+            raise InputError(f"{where}points: side{i} and side{j} cross or overlap: the "
+                             "polygon must not intersect itself")
         if polygon_areas(p) <= 0:
             raise InputError(f"{where}points must be counter-clockwise")
         return [(f"side{i}", [Piece.line(p[i], q[i])]) for i in range(len(p))]

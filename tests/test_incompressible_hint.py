@@ -1,0 +1,32 @@
+"""An inaccurate direct solve of a nearly incompressible plane-strain body names nu as a
+likely cause (app/driver/linear.py): before, only `check that every body is held by
+supports in body 'beam'` on the clamped cantilever with nu = 0.49999999."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from support import CONFIGS, run_cli
+
+from app.discretisation.bulk import Discretisation
+from app.driver.linear import singular_message
+from app.mesh.model import Mesh
+
+MESH = Mesh(np.array([[0, 0], [1, 0], [1, 1], [0, 1]], float), np.array([[0, 1, 2, 3]]),
+            np.zeros(1, np.int64), ["beam"])
+
+
+@pytest.mark.parametrize("plane, nu, hint", [("strain", 0.49999999, True),
+                                             ("strain", 0.4999, False),
+                                             ("stress", 0.49999999, False)])
+def test_the_hint_names_the_nearly_incompressible_body(plane, nu, hint):
+    disc = Discretisation("cs-fem", 4, plane, 1.0, np.array([1000.0]), np.array([nu]))
+    text = singular_message(disc, MESH, "linear solve is inaccurate")
+    assert ("nu = 0.49999999 in body 'beam' is nearly incompressible" in text) == hint
+
+
+def test_the_cantilever_at_nu_near_one_half(tmp_path):
+    r = run_cli(["run", str(CONFIGS / "cantilever.toml"), "--out", str(tmp_path), "--quiet",
+                 "--set", "body.beam.nu=0.4999999999"])  # residual 5e-4
+    assert r.returncode == 2
+    assert "lambda/mu = 5e+09" in r.stderr.strip().splitlines()[-1]
