@@ -18,6 +18,7 @@ import numpy as np
 from app.config_keys import ALLOWED_KEYS, check_keys, suggestion
 from app.errors import InputError
 from app.expressions import check_parameter_name, parse_expression
+from app.petsc_config_guard import check_config_file_petsc
 from app.references import REFERENCES, reference
 from app.scene import Scene, parse_scene
 from app.scene.geometry import is_number
@@ -487,6 +488,7 @@ def load_config(path: str | Path, overrides: list[str] | None = None) -> Config:
                          "as UTF-8") from None
     except OSError as exc:
         raise InputError(f"config file '{p}' cannot be read: {exc.strerror}") from None
+    check_config_file_petsc(raw.get("petsc"), p)  # the file's own table, before --set
     if overrides:
         apply_overrides(raw, overrides)
     return parse_config(raw, p)
