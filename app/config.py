@@ -425,6 +425,9 @@ def _override_value(text: str) -> Any:
         return tomllib.loads(f"v = {text}")["v"]
     except tomllib.TOMLDecodeError:
         return text
+    except RecursionError:
+        raise InputError(f"--set value {text[:40]!r}...: arrays or tables nested too "
+                         "deeply") from None
 
 
 def apply_overrides(raw: dict[str, Any], overrides: list[str]) -> dict[str, Any]:
@@ -483,6 +486,8 @@ def load_config(path: str | Path, overrides: list[str] | None = None) -> Config:
             raw = tomllib.load(fh)
     except tomllib.TOMLDecodeError as exc:
         raise InputError(f"config file '{p}' is not valid TOML: {exc}") from None
+    except RecursionError:  # tomllib recurses per nested array or inline table
+        raise InputError(f"config file '{p}' nests arrays or tables too deeply") from None
     except UnicodeDecodeError as exc:
         raise InputError(f"config file '{p}' is not UTF-8 text (byte {exc.start}): save it "
                          "as UTF-8") from None
