@@ -95,7 +95,7 @@ def _refined(spec: BodySpec, r: Refine, bodies: list[BodySpec], h: float, scale:
     k = (h - s) / max(r.distance, 1e-300)
     for x, y in r.points:
         if lo[0] <= x <= hi[0] and lo[1] <= y <= hi[1]:
-            n += math.pi * r.flat**2 / s**2
+            n += math.pi * np.float64(r.flat) ** 2 / s**2  # (a float's ** raises on overflow)
             n += 2 * math.pi / k**2 * (math.log(h / s) + s / h - 1) if r.distance else 0.0
     return min(n, area / s**2)
 
