@@ -128,8 +128,23 @@ def _body_elements(spec: BodySpec, scene, scale: np.float64) -> float:
     area = body_area(spec)
     if any(not r.size * scale > 0 for r in scene.refine):
         return math.inf
-    return area / h**2 + sum(_refined(spec, r, scene.bodies, h, scale, area)
-                             for r in scene.refine)
+    return (area / h**2 + sum(_refined(spec, r, scene.bodies, h, scale, area)
+                              for r in scene.refine)
+            + sum(_patched(spec, p, scale) for p in scene.patches))
+
+
+def _patched(spec: BodySpec, patch, scale: np.float64) -> float:
+    """Elements of one [[mesh.patch]] in one unstructured body: the overlap of its box
+    with the body's bounding box over size^2 (an upper bound; inf when the size
+    underflows). Before, patches were not counted: `size = 1e-5` passed the check and
+    gmsh meshed until the memory ran out."""
+    lo, hi = _bbox(spec)
+    w = min(hi[0], patch.box[2]) - max(lo[0], patch.box[0])
+    d = min(hi[1], patch.box[3]) - max(lo[1], patch.box[1])
+    if w <= 0 or d <= 0:
+        return 0.0
+    s = patch.size * scale
+    return w * d / s**2 if s > 0 else math.inf
 
 
 def check_size(scene: Scene, scale: float = 1.0, *, allow_large: bool = False,
