@@ -246,7 +246,8 @@ def _run_command(args, petsc_args: list[str], rank: int) -> int:
                           method=args.method, sd=args.sd, mesh_scale=scale, quiet=args.quiet,
                           mesh_cache=args.mesh_cache and Path(args.mesh_cache),
                           overrides=list(args.set),
-                          refine=args.refine, started=getattr(args, "started", None))
+                          refine=args.refine, started=getattr(args, "started", None),
+                          allow_large=args.allow_large)
         if opts.method and args.sd is not None and not BULK_METHODS[opts.method].sd_choices:
             raise InputError(f"--sd does not apply to --method {opts.method}")
     except InputError as exc:

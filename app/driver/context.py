@@ -27,6 +27,8 @@ class RunOptions:
     overrides: list[str] = field(default_factory=list)  # the --set strings (provenance)
     refine: int = 0  # uniform splits of the (scaled) config mesh, see app/mesh/refine.py
     started: float | None = None  # perf_counter at PETSc start-up (cli): the `startup` phase
+    allow_large: bool = False  # --allow-large: also run when the dense contact matrices
+    #                            would not fit (app/condensation/dense_size.py)
 
 
 @dataclass
