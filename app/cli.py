@@ -32,8 +32,9 @@ SET_HELP = ("override a config value (repeatable): a dotted key, entries of [[..
             "--set body.block.nu=0.499 --set analysis.steps=100")
 
 
-ALLOW_LARGE_HELP = ("run even when the mesh estimated from the geometry and element sizes "
-                    "needs more memory than this machine has (refused otherwise)")
+ALLOW_LARGE_HELP = ("run even when the mesh estimated from the geometry and element sizes, "
+                    "or the dense contact matrices once the pairs are known, need more memory "
+                    "than this machine has (refused otherwise)")
 
 
 def _parser() -> argparse.ArgumentParser:
