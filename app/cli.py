@@ -214,13 +214,15 @@ def _study_command(args, petsc_args: list[str], rank: int) -> int:
             raise InputError(f"--refine must be 0..8 (got {args.refine})")
         rows = run_sweep(args.config, args.set, parse_sweeps(args.sweep), out,
                          {"mesh_scale": scale, "mesh_cache": out / "mesh_cache",
-                          "refine": args.refine}, args.at_step, args.quiet)
+                          "refine": args.refine, "allow_large": args.allow_large},
+                         args.at_step, args.quiet)
         if rank == 0 and not args.quiet:
             print(f"{len(rows)} rows -> {out / 'sweep.csv'}", file=sys.stderr)
         return 0
     rows = run_study(cfg, out, args.levels, parse_methods(args.methods), scale,
                      args.quiet, args.first_level, args.remesh, args.reference_method,
-                     args.reference, args.reference_levels, tuple(args.set))
+                     args.reference, args.reference_levels, tuple(args.set),
+                     allow_large=args.allow_large)
     if not rows:
         raise InputError(f"every run of the study failed (see the lines above and "
                          f"{out}/*/summary.json)")
