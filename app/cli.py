@@ -294,9 +294,10 @@ def check_run_input(cfg, args, finest_level: int = 0) -> float:
     size scale (--mesh-size / mesh.size). Raises InputError (one line)."""
     from app.errors import InputError
     from app.mesh.estimate import check_size
-    from app.petsc_options import check_solver_options
+    from app.petsc_options import check_log_view_file, check_solver_options
 
     check_solver_options(cfg.petsc)
+    check_log_view_file(cfg.petsc)
     file = cfg.scene.file
     if args.mesh_size is not None:
         if not args.mesh_size > 0 or args.mesh_size == float("inf"):
