@@ -29,7 +29,7 @@ def energy_bracket(cfg: Config, opts: RunOptions, summary: dict) -> dict:
             energies[lab] = summary["strain_energy"]
             continue
         sub = replace(opts, out=Path(opts.out) / f"bracket_{lab}", method=method, sd=sd,
-                      progress_prefix=f"energy bracket {lab}")
+                      progress_prefix=f"energy bracket {lab}", started=None)
         try:
             energies[lab] = run(cfg, sub)["strain_energy"]
         except SolveError as exc:

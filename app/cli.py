@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import time
 from pathlib import Path
 
 from app.discretisation.methods import BULK_METHODS
@@ -31,8 +32,9 @@ SET_HELP = ("override a config value (repeatable): a dotted key, entries of [[..
             "--set body.block.nu=0.499 --set analysis.steps=100")
 
 
-ALLOW_LARGE_HELP = ("run even when the mesh estimated from the geometry and element sizes "
-                    "needs more memory than this machine has (refused otherwise)")
+ALLOW_LARGE_HELP = ("run even when the mesh estimated from the geometry and element sizes, "
+                    "or the dense contact matrices once the pairs are known, need more memory "
+                    "than this machine has (refused otherwise)")
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -157,6 +159,7 @@ def main(argv: list[str] | None = None) -> int:
     import petsc4py
 
     petsc4py.init([sys.argv[0]] + petsc_args)
+    args.started = time.perf_counter()  # a run's `startup` phase counts from here
     from petsc4py import PETSc
 
     from app.errors import InputError, SolveError
@@ -211,13 +214,15 @@ def _study_command(args, petsc_args: list[str], rank: int) -> int:
             raise InputError(f"--refine must be 0..8 (got {args.refine})")
         rows = run_sweep(args.config, args.set, parse_sweeps(args.sweep), out,
                          {"mesh_scale": scale, "mesh_cache": out / "mesh_cache",
-                          "refine": args.refine}, args.at_step, args.quiet)
+                          "refine": args.refine, "allow_large": args.allow_large},
+                         args.at_step, args.quiet)
         if rank == 0 and not args.quiet:
             print(f"{len(rows)} rows -> {out / 'sweep.csv'}", file=sys.stderr)
         return 0
     rows = run_study(cfg, out, args.levels, parse_methods(args.methods), scale,
                      args.quiet, args.first_level, args.remesh, args.reference_method,
-                     args.reference, args.reference_levels, tuple(args.set))
+                     args.reference, args.reference_levels, tuple(args.set),
+                     allow_large=args.allow_large)
     if not rows:
         raise InputError(f"every run of the study failed (see the lines above and "
                          f"{out}/*/summary.json)")
@@ -244,7 +249,8 @@ def _run_command(args, petsc_args: list[str], rank: int) -> int:
                           method=args.method, sd=args.sd, mesh_scale=scale, quiet=args.quiet,
                           mesh_cache=args.mesh_cache and Path(args.mesh_cache),
                           overrides=list(args.set),
-                          refine=args.refine)
+                          refine=args.refine, started=getattr(args, "started", None),
+                          allow_large=args.allow_large)
         method = opts.method or cfg.method  # (--sd with a config's fem-q4 was ignored)
         if args.sd is not None and method in BULK_METHODS \
                 and not BULK_METHODS[method].sd_choices:
@@ -291,9 +297,10 @@ def check_run_input(cfg, args, finest_level: int = 0) -> float:
     size scale (--mesh-size / mesh.size). Raises InputError (one line)."""
     from app.errors import InputError
     from app.mesh.estimate import check_size
-    from app.petsc_options import check_solver_options
+    from app.petsc_options import check_log_view_file, check_solver_options
 
     check_solver_options(cfg.petsc)
+    check_log_view_file(cfg.petsc)
     file = cfg.scene.file
     if args.mesh_size is not None:
         if not args.mesh_size > 0 or args.mesh_size == float("inf"):

@@ -18,6 +18,7 @@ import numpy as np
 from app.config_keys import ALLOWED_KEYS, check_keys, suggestion
 from app.errors import InputError
 from app.expressions import check_parameter_name, parse_expression
+from app.petsc_config_guard import check_config_file_petsc
 from app.references import REFERENCES, reference
 from app.scene import Scene, parse_scene
 from app.scene.geometry import is_number
@@ -428,6 +429,9 @@ def _override_value(text: str) -> Any:
         return tomllib.loads(f"v = {text}")["v"]
     except tomllib.TOMLDecodeError:
         return text
+    except RecursionError:
+        raise InputError(f"--set value {text[:40]!r}...: arrays or tables nested too "
+                         "deeply") from None
 
 
 def apply_overrides(raw: dict[str, Any], overrides: list[str]) -> dict[str, Any]:
@@ -486,11 +490,14 @@ def load_config(path: str | Path, overrides: list[str] | None = None) -> Config:
             raw = tomllib.load(fh)
     except tomllib.TOMLDecodeError as exc:
         raise InputError(f"config file '{p}' is not valid TOML: {exc}") from None
+    except RecursionError:  # tomllib recurses per nested array or inline table
+        raise InputError(f"config file '{p}' nests arrays or tables too deeply") from None
     except UnicodeDecodeError as exc:
         raise InputError(f"config file '{p}' is not UTF-8 text (byte {exc.start}): save it "
                          "as UTF-8") from None
     except OSError as exc:
         raise InputError(f"config file '{p}' cannot be read: {exc.strerror}") from None
+    check_config_file_petsc(raw.get("petsc"), p)  # the file's own table, before --set
     if overrides:
         apply_overrides(raw, overrides)
     return parse_config(raw, p)

@@ -48,6 +48,14 @@ class Timer:
                 print(f"[{el:8.2f} s] {self.prefix}{name:<14s} {dt:8.3f} s", file=sys.stderr,
                       flush=True)
 
+    def count_from(self, t0: float, name: str) -> None:
+        """Start the run's clock at t0 (perf_counter seconds) and book the time since
+        then as the phase `name` (what ran before the timer existed). No progress line:
+        an input error found before the first phase stays a one-line message."""
+        self.start = t0
+        self.seconds[name] = self.seconds.get(name, 0.0) + time.perf_counter() - t0
+        self.peak_mb[name] = peak_rss_mb()
+
     def reduced(self) -> dict[str, float]:
         comm = PETSc.COMM_WORLD.tompi4py()
         out = {}

@@ -53,6 +53,25 @@ def check_solver_options(config_petsc: dict[str, str]) -> None:
                                  f"{suggestion(value, known)}; known: {', '.join(known)}")
 
 
+def check_log_view_file(config_petsc: dict[str, str]) -> None:
+    """InputError (one line) when -log_view names a file that cannot be written: PETSc
+    opens it only at PetscFinalize, and a completed run then ended with a 30-line PETSc
+    error ("Cannot open PetscViewer file") and no log, exit 0."""
+    import os
+    from pathlib import Path
+
+    value = given_options(config_petsc).get("log_view")
+    parts = str(value or "").split(":")
+    name = parts[1].strip() if len(parts) > 1 else ""
+    if not name:
+        return
+    folder = Path(name).parent
+    if not folder.is_dir() or not os.access(folder, os.W_OK | os.X_OK) or Path(name).is_dir():
+        PETSc.Options().delValue("log_view")  # else PetscFinalize fails on it at exit
+        raise InputError(f"-log_view {value}: cannot write the file {name} (its folder does "
+                         "not exist or is not writable, or it is a folder)")
+
+
 def unused_options(user_names: set[str]) -> list[str]:
     """Names (with the dash) of the user's options that nothing used during the run."""
     lib = load_petsc()

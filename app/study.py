@@ -87,7 +87,7 @@ def run_study(cfg: Config, out: Path, levels: int, methods: list[tuple[str, int]
               base_scale: float = 1.0, quiet: bool = False, first_level: int = 0,
               remesh: bool = False, reference: str | None = None,
               reference_mode: str = "richardson", reference_levels: int = 0,
-              overrides: tuple[str, ...] = ()) -> list[dict]:
+              overrides: tuple[str, ...] = (), allow_large: bool = False) -> list[dict]:
     """Run every (level, method); returns the rows written to OUT/study.csv.
 
     reference: label of the reference method (default 4SD if run, else the last method).
@@ -95,7 +95,8 @@ def run_study(cfg: Config, out: Path, levels: int, methods: list[tuple[str, int]
     app/study_richardson.py) or "finest" (its finest level). reference_levels: the
     reference method alone also runs that many levels finer than the others, so that
     their finest levels are compared with a finer reference. overrides: the `--set`
-    strings already in cfg, recorded in each run's provenance. Raises SolveError if every
+    strings already in cfg, recorded in each run's provenance. allow_large: as run's
+    --allow-large (the dense contact check of each run). Raises SolveError if every
     run fails.
     """
     columns, ref_label = _study_reference(cfg, methods, reference, reference_mode)
@@ -128,7 +129,8 @@ def run_study(cfg: Config, out: Path, levels: int, methods: list[tuple[str, int]
                                   sd=sd, mesh_scale=scale, quiet=quiet,
                                   mesh_cache=out / "mesh_cache",
                                   progress_prefix=f"level {level}/{last} {label(method, sd)}",
-                                  refine=0 if remesh else level, overrides=list(overrides))
+                                  refine=0 if remesh else level, overrides=list(overrides),
+                                  allow_large=allow_large)
                 s = _try_run(cfg, opts, failures, t0)
                 if s is None:
                     continue

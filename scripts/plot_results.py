@@ -82,8 +82,8 @@ def contact_plots(out: Path, step: int, summary: dict, prefix: str) -> list[Path
             xx = np.linspace(coord.min(), coord.max(), 400)
             for ax, key in ((axes[0], "p"), (axes[1], "q")):
                 if key in curves:
-                    name, curve = curves[key]
-                    ax.plot(xx, curve(xx), "k--", lw=1, label=name)
+                    label_ref, curve = curves[key]
+                    ax.plot(xx, curve(xx), "k--", lw=1, label=label_ref)
         state = c["state"][sel][o]
         for code, col in ((2, "tab:red"), (3, "tab:red"), (4, "0.7")):
             m = state == code

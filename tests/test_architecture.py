@@ -16,7 +16,8 @@ import pytest
 APP = Path(__file__).resolve().parents[1] / "app"
 
 FOUNDATIONS = ("errors", "config", "config_keys", "scene", "closed_form", "references",
-               "petsc_lib", "parallel", "expressions", "petsc_options", "hard_stop")
+               "petsc_lib", "parallel", "expressions", "petsc_options", "hard_stop",
+               "petsc_config_guard")
 STAGES = ("mesh", "discretisation", "assembly", "contact", "condensation", "lcp",
           "interface", "output")
 NUMPY_ONLY = ("discretisation", "contact", "lcp")  # kernels testable without MPI or files

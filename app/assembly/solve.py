@@ -113,6 +113,28 @@ class LinearSolver:
                 error = SingularStiffnessError if info == -10 else SolveError
                 raise error(f"MUMPS factorization failed (INFOG(1) = {info})")
 
+    def _check_overflow(self, b: PETSc.Vec) -> None:
+        """After a NaN solution: SolveError if the same solve with b scaled to a unit
+        maximum is finite (the answer overflows float64; the stiffness is not singular)."""
+        scale = b.norm(PETSc.NormType.NORM_INFINITY)
+        if not scale > 0:
+            return
+        unit, y = b.copy(), self.k.createVecLeft()
+        unit.scale(1.0 / scale)
+        try:
+            if self.block is not None:
+                self.block.solve(unit, y)
+            else:
+                self.ksp.solve(unit, y)
+            finite = np.isfinite(y.norm(PETSc.NormType.NORM_INFINITY))
+        finally:
+            unit.destroy()
+            y.destroy()
+        if finite:
+            raise SolveError(f"the displacements overflow float64 (largest nodal load "
+                             f"{scale:.3g}): a load, body force or prescribed value is out "
+                             "of range; check their values and units")
+
     def solve(self, b: PETSc.Vec, x: PETSc.Vec | None = None) -> PETSc.Vec:
         """Solve K x = b; checks convergence and the residual.
 
@@ -121,6 +143,10 @@ class LinearSolver:
         says so and names the options to change.
         """
         x = x or self.k.createVecLeft()
+        if not np.isfinite(b.norm(PETSc.NormType.NORM_INFINITY)):  # (NaN x: "singular")
+            raise SolveError("the load vector of a linear solve is not finite (inf or NaN): "
+                             "a load, body force or prescribed value exceeds the range of "
+                             "float64; check their values and units")
         with hard_stop.armed():  # one C call that holds the GIL
             if self.block is not None:
                 self.block.solve(b, x)
@@ -142,6 +168,7 @@ class LinearSolver:
         bn, rn = b.norm(), r.norm()
         r.destroy()
         if np.isnan(x.norm()):
+            self._check_overflow(b)
             raise SingularStiffnessError("linear solve produced NaN: the stiffness is "
                                          "probably singular")
         if bn > 0 and rn > ACCEPTED_RESIDUAL * bn and not np.isnan(bn):

@@ -26,6 +26,9 @@ class RunOptions:
     progress_prefix: str = ""  # e.g. "level 2/5 CS-FEM-4SD" in a study
     overrides: list[str] = field(default_factory=list)  # the --set strings (provenance)
     refine: int = 0  # uniform splits of the (scaled) config mesh, see app/mesh/refine.py
+    started: float | None = None  # perf_counter at PETSc start-up (cli): the `startup` phase
+    allow_large: bool = False  # --allow-large: also run when the dense contact matrices
+    #                            would not fit (app/condensation/dense_size.py)
 
 
 @dataclass
@@ -43,6 +46,8 @@ class RunContext:
     def __post_init__(self) -> None:
         prefix = f"{self.opts.progress_prefix}: " if self.opts.progress_prefix else ""
         self.timer = Timer(quiet=self.opts.quiet, prefix=prefix)
+        if self.opts.started is not None:  # imports, config checks, provenance, --out lock
+            self.timer.count_from(self.opts.started, "startup")
 
     @property
     def mpi(self):

@@ -9,6 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from app.assembly.loads import LoadCase, constrained_dofs, load_cases
+from app.condensation.dense_size import check_dense_contact
 from app.config import Config
 from app.contact.discretisation import contact_discretisation
 from app.discretisation.bulk import Discretisation, check_elements
@@ -18,6 +19,7 @@ from app.errors import InputError
 from app.interface.contact import ContactSetup
 from app.interface.floating import FloatingModes, floating_modes
 from app.lcp.solvers import lcp_solver
+from app.mesh.estimate import BYTES_PER_DOF, machine_memory
 from app.mesh.model import Mesh
 from app.output.status import arm_signals
 from app.parallel import collective
@@ -85,6 +87,8 @@ def build_model(ctx: RunContext) -> Model:
     if cfg.interfaces:
         with ctx.phase("pair_search"):
             contact = ContactSetup.build(mesh, cfg)
+            check_dense_contact(contact.g, fixed, BYTES_PER_DOF * 2 * mesh.n_nodes,
+                                machine_memory(), opts.allow_large)  # before S is formed
         ctx.summary["n_pairs"] = contact.pairs.n_pairs
         ctx.summary["contact_interfaces"] = contact.described
     with ctx.phase("floating_modes"):  # with CS-FEM-1SD: the hourglass eigen-solve

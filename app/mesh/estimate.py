@@ -24,7 +24,6 @@ from pathlib import Path
 import numpy as np
 
 from app.errors import InputError
-from app.mesh.patch import patches_meeting
 from app.scene import BodySpec, Refine, Scene
 
 BYTES_PER_DOF = 4000.0
@@ -100,7 +99,7 @@ def _refined(spec: BodySpec, r: Refine, bodies: list[BodySpec], h: float, scale:
     k = (h - s) / max(r.distance, 1e-300)
     for x, y in r.points:
         if lo[0] <= x <= hi[0] and lo[1] <= y <= hi[1]:
-            n += math.pi * r.flat**2 / s**2
+            n += math.pi * np.float64(r.flat) ** 2 / s**2  # (a float's ** raises on overflow)
             n += 2 * math.pi / k**2 * (math.log(h / s) + s / h - 1) if r.distance else 0.0
     return min(n, area / s**2)
 
@@ -133,23 +132,23 @@ def _body_elements(spec: BodySpec, scene, scale: np.float64) -> float:
     area = body_area(spec)
     if any(not r.size * scale > 0 for r in scene.refine + scene.patches):
         return math.inf
-    return area / h**2 + sum(_refined(spec, r, scene.bodies, h, scale, area)
-                             for r in scene.refine) + _patched(spec, scene, h, scale)
+    return (area / h**2 + sum(_refined(spec, r, scene.bodies, h, scale, area)
+                              for r in scene.refine)
+            + sum(_patched(spec, p, scale) for p in scene.patches))
 
 
-def _patched(spec: BodySpec, scene, h: float, scale: float) -> float:
-    """Extra elements of the `[[mesh.patch]]` boxes in one unstructured body: the box's
-    overlap with the body's bounding box at the patch size instead of the finest size of
-    the body and the refinements (a patch mostly replaces refined elements)."""
+def _patched(spec: BodySpec, patch, scale: np.float64) -> float:
+    """Elements of one [[mesh.patch]] in one unstructured body: the overlap of its box
+    with the body's bounding box over size^2 (an upper bound; inf when the size
+    underflows). Before, patches were not counted: `size = 1e-5` passed the check and
+    gmsh meshed until the memory ran out."""
     lo, hi = _bbox(spec)
-    finest = min([h] + [r.size * scale for r in scene.refine])
-    n = 0.0
-    for _, p in patches_meeting(spec, scene.patches):
-        s = p.size * scale
-        w = min(p.box[2], hi[0]) - max(p.box[0], lo[0])
-        d = min(p.box[3], hi[1]) - max(p.box[1], lo[1])
-        n += max(w, 0.0) * max(d, 0.0) * max(1.0 / s**2 - 1.0 / finest**2, 0.0)
-    return n
+    w = min(hi[0], patch.box[2]) - max(lo[0], patch.box[0])
+    d = min(hi[1], patch.box[3]) - max(lo[1], patch.box[1])
+    if w <= 0 or d <= 0:
+        return 0.0
+    s = patch.size * scale
+    return w * d / s**2 if s > 0 else math.inf
 
 
 def file_estimate(path, times: int) -> SizeEstimate:

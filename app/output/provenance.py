@@ -30,6 +30,24 @@ def git_version(root: Path = ROOT) -> dict | None:
     return {"commit": commit.stdout.strip(), "dirty": bool(status.stdout.strip())}
 
 
+def app_version(root: Path = ROOT) -> str | None:
+    """The project's version: from the pyproject.toml of the checkout holding the code,
+    else from the installed distribution's metadata; None if neither is found."""
+    import tomllib
+    from importlib import metadata
+
+    try:
+        project = tomllib.loads((root / "pyproject.toml").read_text())["project"]
+        if project.get("name") == "csfem-contact" and "version" in project:
+            return str(project["version"])
+    except (OSError, KeyError, TypeError, ValueError):
+        pass
+    try:
+        return metadata.version("csfem-contact")
+    except metadata.PackageNotFoundError:
+        return None
+
+
 def jsonable(value):
     """A copy that json can write (TOML dates and times become ISO strings)."""
     return json.loads(json.dumps(value, default=str))
@@ -45,7 +63,7 @@ def provenance(raw: dict, overrides: list[str], ranks: int) -> dict:
         "overrides": list(overrides),
         "config_resolved": jsonable(raw),
         "petsc_options": {k: str(v) for k, v in sorted(PETSc.Options().getAll().items())},
-        "version": {"app": getattr(sys.modules.get("app"), "__version__", None),
+        "version": {"app": app_version(),
                     "git": git_version(),
                     "python": platform.python_version(),
                     "petsc": ".".join(map(str, PETSc.Sys.getVersion()))},

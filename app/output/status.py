@@ -439,6 +439,11 @@ class RunGuard:
                           f"{self._done()}")
             self._record()
             raise InputError(s["error"]) from None
+        if isinstance(exc, MemoryError):  # was a numpy traceback, exit 1
+            s["error"] = (f"out of memory ({exc or 'MemoryError'}): use a larger --mesh-size or "
+                          f"mesh.size, or fewer contact pairs; {self._done()}")
+            self._record()
+            raise InputError(s["error"]) from None
         if isinstance(exc, PETSc.Error):
             s["error"] = f"{_petsc_reason(exc)}; {self._done()}"
             self._record()

@@ -55,7 +55,8 @@ class Reference:
     errors(params, figures) -> the summary's `reference` entries (relative errors);
     columns: (summary path, study column) pairs of the errors a study reports;
     overlay(summary_reference, mu) -> {"p": (label, f(x)), "q": (label, f(x))}, the
-    closed-form curves for the contact plots (an empty dict when there are none).
+    closed-form curves for the contact plots (an empty dict when there are none);
+    positive, nonzero: numeric keys that must be > 0 or != 0 (every number is finite).
     """
 
     name: str
@@ -65,6 +66,8 @@ class Reference:
     overlay: Callable[[dict, float], dict[str, tuple[str, Callable]]] = field(
         default=lambda ref, mu: {})
     needs_contact: bool = False
+    positive: tuple[str, ...] = ()
+    nonzero: tuple[str, ...] = ()
 
     def params(self, table: dict) -> dict:
         """The [reference] table checked: unknown keys and missing required ones are
@@ -82,6 +85,11 @@ class Reference:
                 if isinstance(value, bool) or not isinstance(value, int | float):
                     raise InputError(f"[reference] {key} must be a number (got {value!r})")
                 value = float(value)
+                if not np.isfinite(value) or (key in self.positive and not value > 0) or (
+                        key in self.nonzero and value == 0):
+                    need = ("> 0" if key in self.positive else "non-zero" if key in
+                            self.nonzero else "a finite number")
+                    raise InputError(f"[reference] {key} must be {need} (got {value!r})")
             out[key] = value
         return out
 

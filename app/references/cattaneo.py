@@ -41,6 +41,7 @@ def _overlay(ref: dict, mu: float) -> dict:
 REFERENCE = Reference(
     name="cattaneo",
     keys={"radius": None, "center_x": 0.0},
+    positive=("radius",),
     errors=_errors,
     columns=((("hertz", "p_max_rel_error"), "peak_pressure"),
              (("hertz", "pressure_l2_rel_error"), "pressure_l2"),

@@ -24,6 +24,7 @@ def pressure_overlay(ref: dict, mu: float) -> dict:
 REFERENCE = Reference(
     name="hertz",
     keys={"radius": None, "center_x": 0.0},
+    positive=("radius",),
     errors=pressure_errors,
     columns=((("hertz", "p_max_rel_error"), "peak_pressure"),
              (("hertz", "half_width_rel_error"), "half_width"),

@@ -26,6 +26,7 @@ def _errors(params: dict, run: RunFigures) -> dict:
 REFERENCE = Reference(
     name="timoshenko",
     keys={"P": None, "L": None, "D": None, "point": "tip"},
+    positive=("L", "D"), nonzero=("P",),
     errors=_errors,
     columns=((("tip_deflection_rel_error",), "tip_deflection"),
              (("strain_energy_rel_error",), "strain_energy")),
