@@ -47,7 +47,7 @@ def test_the_file_table_is_refused_but_set_is_not(tmp_path):
         load_config(_config(tmp_path, 'ksp_view = "ascii:/tmp/clobber.txt"'))
     cfg = load_config(CONFIGS / "patch.toml", ["petsc.log_view=':/tmp/log.txt'"])
     assert cfg.petsc["log_view"] == ":/tmp/log.txt"  # the user's own command line
-    assert load_config(_config(tmp_path, "log_view = true")).petsc["log_view"] == "true"
+    assert load_config(_config(tmp_path, "log_view = true")).petsc["log_view"] == ""  # bare flag
 
 
 def test_a_shared_config_leaves_files_alone_and_runs_no_code(tmp_path):
