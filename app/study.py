@@ -46,6 +46,7 @@ from app.study_reference import (
 from app.study_richardson import (
     REFERENCE_MODES,
     add_limit_spread,
+    constructed_orders,
     method_limits,
     order_summary,
     reference_scalars,
@@ -238,7 +239,8 @@ def finish_study(cfg: Config, out: Path, rows: list[dict], profiles: dict, ref_l
     if limits:
         add_limit_spread(limits, ref_label)
         write_csv(out / "richardson.csv", limits)
-        table += tables(limits, order_summary(rows))
+        table += tables(limits, order_summary(rows, constructed=constructed_orders(
+            limits, ref_label)))
     if failures:
         table += "\nfailed runs (no row in study.csv; see their summary.json)\n\n" + "".join(
             f"- {f.splitlines()[0]}\n" for f in failures)
