@@ -73,3 +73,18 @@ def test_other_methods_and_short_references_are_not_marked():
              "order_ref_x": 1.0 if lv else math.nan} for lv in range(4)]
     (s,) = order_summary(rows, constructed={})
     assert s["orders"] == "1.00 1.00 1.00" and s["spread"] == 0.0
+
+
+def test_the_plot_legend_gives_the_last_measured_order():
+    from app.plotting import pyplot
+    from app.study import _error_panel
+
+    h = [2.0**-lv for lv in range(5)]
+    rows, lims = _study([1.0 + x**2 + 3 * x**3 for x in h])
+    for r in rows:
+        r["n_dofs"] = 4.0**r["level"]
+    fig, ax = pyplot().subplots()
+    _error_panel(ax, rows, ["4SD"], "ref_energy", "n_dofs", "DOFs", None,
+                 constructed_orders(lims, "4SD"))
+    (label,) = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert label.endswith(f"last order {rows[2]['order_ref_energy']:.2f})")
