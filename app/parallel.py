@@ -63,6 +63,13 @@ class Timer:
             out[k] = comm.allreduce(self.seconds[k], op=_mpi_max())
         return out
 
+    def total(self) -> float:
+        """Seconds since the timer started, max over ranks: the ranks start their timers at
+        different moments, and a phase's seconds (max over ranks) include the early ranks'
+        wait for the late ones, so a rank-local total could be less than the phases' sum."""
+        comm = PETSc.COMM_WORLD.tompi4py()
+        return comm.allreduce(time.perf_counter() - self.start, op=_mpi_max())
+
     def memory(self) -> dict[str, float]:
         """Peak resident memory (MB) of the whole job, summed over ranks, at the end of
         each phase's first completion order (a running maximum)."""

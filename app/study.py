@@ -46,6 +46,7 @@ from app.study_reference import (
 from app.study_richardson import (
     REFERENCE_MODES,
     add_limit_spread,
+    constructed_orders,
     method_limits,
     order_summary,
     reference_scalars,
@@ -240,7 +241,8 @@ def finish_study(cfg: Config, out: Path, rows: list[dict], profiles: dict, ref_l
     if limits:
         add_limit_spread(limits, ref_label)
         write_csv(out / "richardson.csv", limits)
-        table += tables(limits, order_summary(rows))
+        table += tables(limits, order_summary(rows, constructed=constructed_orders(
+            limits, ref_label)))
     if failures:
         table += "\nfailed runs (no row in study.csv; see their summary.json)\n\n" + "".join(
             f"- {f.splitlines()[0]}\n" for f in failures)
@@ -253,7 +255,7 @@ def finish_study(cfg: Config, out: Path, rows: list[dict], profiles: dict, ref_l
     floors = {f"ref_{r['quantity']}": r["uncertainty_rel"] for r in limits
               if r["method"] == ref_label}
     plot_study(rows, out, title=f"{cfg.path.stem} ({cfg.reference['type']})", note=note,
-               floors=floors)
+               floors=floors, constructed=constructed_orders(limits, ref_label))
     if bracket:
         plot_bracket(bracket, out)
 
@@ -269,10 +271,12 @@ def write_csv(path: Path, rows: list[dict]) -> None:
 
 
 def plot_study(rows: list[dict], out: Path, title: str = "", note: str = "",
-               floors: dict[str, float] | None = None) -> list[Path]:
+               floors: dict[str, float] | None = None,
+               constructed: dict[tuple[str, str], set[int]] | None = None) -> list[Path]:
     """error_vs_dofs.png, error_vs_time.png (closed-form errors err_* and errors against
     the model reference ref_*, one panel each) and energy_vs_sd.png in OUT; floors
-    {column: relative uncertainty of the reference} are drawn as dotted lines."""
+    {column: relative uncertainty of the reference} are drawn as dotted lines;
+    constructed: the orders the legend's "last order" skips (`constructed_orders`)."""
     plt = pyplot()
 
     methods = list(dict.fromkeys(r["method"] for r in rows))
@@ -287,7 +291,7 @@ def plot_study(rows: list[dict], out: Path, title: str = "", note: str = "",
         for ax in axes.ravel()[len(errs):]:
             ax.axis("off")
         for ax, ek in zip(axes.ravel(), errs, strict=False):
-            _error_panel(ax, rows, methods, ek, xkey, xlabel, floors)
+            _error_panel(ax, rows, methods, ek, xkey, xlabel, floors, constructed)
         fig.suptitle(f"{title}; {note}" if note else title, fontsize=10)
         fig.tight_layout()
         fig.savefig(out / fname, dpi=100)
@@ -298,10 +302,12 @@ def plot_study(rows: list[dict], out: Path, title: str = "", note: str = "",
 
 
 def _error_panel(ax: Any, rows: list[dict], methods: list[str], ek: str, xkey: str, xlabel: str,
-                 floors: dict[str, float] | None) -> None:
+                 floors: dict[str, float] | None,
+                 constructed: dict[tuple[str, str], set[int]] | None = None) -> None:
     """One log-log panel of plot_study: column ek against xkey ("n_dofs": the legend
-    gives the fitted rate and the last observed order), one line per method, and the
-    reference's uncertainty floors[ek] dotted if > 0."""
+    gives the fitted rate and the last observed order, not one fixed by the reference's
+    own limit, `constructed`), one line per method, and the reference's uncertainty
+    floors[ek] dotted if > 0."""
     import matplotlib.ticker
 
     for m in methods:
@@ -310,7 +316,9 @@ def _error_panel(ax: Any, rows: list[dict], methods: list[str], ek: str, xkey: s
         y = np.array([r.get(ek, math.nan) for r in rr], dtype=float)
         lab = m
         if xkey == "n_dofs":
-            orders = [r.get(f"order_{ek}", math.nan) for r in rr]
+            fixed = (constructed or {}).get((m, ek), set())
+            orders = [r.get(f"order_{ek}", math.nan) if r["level"] not in fixed else math.nan
+                      for r in rr]
             last = next((o for o in reversed(orders) if math.isfinite(o)), math.nan)
             lab += f" (rate {fitted_rate(x, y):.2f}, last order {last:.2f})"
         ax.loglog(x, y, "o-", label=lab, ms=3)

@@ -77,19 +77,43 @@ def add_limit_spread(limits: list[dict], ref_label: str) -> None:
         r["rel_to_reference"] = abs(r["value"] - v) / abs(v) if v else math.nan
 
 
-def order_summary(rows: list[dict], last: int = 3) -> list[dict]:
+def constructed_orders(limits: list[dict], ref_label: str) -> dict[tuple[str, str], set[int]]:
+    """{(ref_label, ref_ column): levels} of the reference method's observed orders that its
+    own Richardson limit fixes (they are no measurement): with Q* from levels L-2..L at the
+    observed order p, the orders at levels L-1 and L both equal p; at the theoretical
+    order 2 (from levels L-1, L), the order at level L equals 2. Only limits that are the
+    reference (three or more levels, `reference_scalars`)."""
+    out = {}
+    for r in limits:
+        if r["method"] != ref_label or r["n_levels"] < 3:
+            continue
+        last = int(str(r["levels"]).split("-")[-1])
+        k = 2 if r["order_source"] == "observed" else 1
+        out[(ref_label, f"ref_{r['quantity']}")] = set(range(last - k + 1, last + 1))
+    return out
+
+
+def order_summary(rows: list[dict], last: int = 3,
+                  constructed: dict[tuple[str, str], set[int]] | None = None) -> list[dict]:
     """Per method and ref_ column: the observed orders (levels 1..finest), the
     min/max/spread of its `last` finest finite orders (last + 1 levels; the reference
     method's own finest level has no order), and the steadiest window: the `last`
-    successive orders with the smallest spread (`window`: its levels, `window_spread`)."""
+    successive orders with the smallest spread (`window`: its levels, `window_spread`).
+    constructed: {(method, column): levels} whose orders are fixed by the reference's own
+    Richardson limit (`constructed_orders`): shown with a `*` and left out of the spread
+    and the windows."""
     cols = [k for k in dict.fromkeys(k for r in rows for k in r) if k.startswith("ref_")]
     out = []
     for m in dict.fromkeys(r["method"] for r in rows):
         rr = sorted((r for r in rows if r["method"] == m), key=lambda r: r["level"])
         for c in cols:
+            fixed = (constructed or {}).get((m, c), set())
             orders = [r.get(f"order_{c}", math.nan) for r in rr[1:]]
-            row = {"method": m, "error": c, "orders": " ".join(
-                f"{o:.2f}" if math.isfinite(o) else "-" for o in orders)}
+            text = [(f"{o:.2f}" + ("*" if r["level"] in fixed else ""))
+                    if math.isfinite(o) else "-" for o, r in zip(orders, rr[1:], strict=True)]
+            orders = [math.nan if r["level"] in fixed else o
+                      for o, r in zip(orders, rr[1:], strict=True)]
+            row = {"method": m, "error": c, "orders": " ".join(text)}
             tail = [o for o in orders if math.isfinite(o)][-last:]
             if len(tail) == last:
                 row |= {"min": min(tail), "max": max(tail), "spread": max(tail) - min(tail)}
@@ -127,8 +151,9 @@ def tables(limits: list[dict], summary: list[dict]) -> str:
              "| " + " | ".join(keys) + " |", "|---" * len(keys) + "|"]
     lines += ["| " + " | ".join(_g(r.get(k, math.nan)) for k in keys) + " |" for r in limits]
     keys = ["method", "error", "orders", "min", "max", "spread", "window", "window_spread"]
-    lines += ["", "observed orders against the reference (levels 1..finest; min/max/spread "
-              "of the last three finite orders = four levels; window: the four successive "
+    lines += ["", "observed orders against the reference (levels 1..finest; *: fixed by the "
+              "reference's own Richardson limit, not measured, and left out of the rest; "
+              "min/max/spread of the last three finite orders; window: the four successive "
               "levels whose three orders have the smallest spread, window_spread)", "",
               "| " + " | ".join(keys) + " |", "|---" * len(keys) + "|"]
     lines += ["| " + " | ".join(_g(r.get(k, math.nan), ".2f") for k in keys) + " |"

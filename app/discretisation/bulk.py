@@ -80,20 +80,34 @@ def element_matrices(mesh: Mesh, disc: Discretisation, elements: np.ndarray) -> 
     return k
 
 
+def element_operators(mesh: Mesh, disc: Discretisation, elements: np.ndarray,
+                      chunk: int = 200_000) -> list[tuple[np.ndarray, np.ndarray]]:
+    """(B (n, n_cells, 3, 8), weights (n, n_cells)) per chunk of `element_fields`: they
+    depend on the mesh only, so a run of many steps forms them once (memory: 8 x 24
+    n_cells bytes per element, 768 for 4SD)."""
+    return [strain_matrices(mesh.points[mesh.quads[elements[s : s + chunk]]], disc.method,
+                            disc.sd) for s in range(0, elements.size, chunk)]
+
+
 def element_fields(mesh: Mesh, disc: Discretisation, u: np.ndarray, elements: np.ndarray,
-                   chunk: int = 200_000) -> dict[str, np.ndarray]:
+                   chunk: int = 200_000,
+                   operators: list[tuple[np.ndarray, np.ndarray]] | None = None
+                   ) -> dict[str, np.ndarray]:
     """Cell-averaged fields of the given elements from the global displacement u (2n,).
 
     Returns stress (n, 4) = (s_xx, s_yy, s_xy, s_zz) (area-weighted over the element's
     cells; s_zz = nu (s_xx + s_yy) in plane strain, 0 in plane stress), von_mises (n,),
     energy (n,) strain energy of the element (thickness included) and
-    energy_density (n,) = energy / (area * thickness).
+    energy_density (n,) = energy / (area * thickness). operators: `element_operators` of
+    the same elements and chunk, else formed here.
     """
     out = {k: [] for k in ("stress", "von_mises", "energy", "energy_density")}
-    for s in range(0, elements.size, chunk):
+    for k, s in enumerate(range(0, elements.size, chunk)):
         el = elements[s : s + chunk]
-        xe = mesh.points[mesh.quads[el]]
-        b, w = strain_matrices(xe, disc.method, disc.sd)
+        if operators is None:
+            b, w = strain_matrices(mesh.points[mesh.quads[el]], disc.method, disc.sd)
+        else:
+            b, w = operators[k]
         d = disc.d_matrices(mesh.body[el])
         ue = u.reshape(-1, 2)[mesh.quads[el]].reshape(-1, 8)
         eps = cell_strains(b, ue)  # (n, nc, 3)

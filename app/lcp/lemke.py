@@ -284,7 +284,13 @@ def _run(
     crash: bool = True,
 ) -> LCPResult:
     """One solve (see `lemke`): z = 0 when q >= 0, else Lemke from the warm-start basis or
-    the crash guess (`_from_start`), and from the textbook start when that fails."""
+    the crash guess (`_from_start`), and from the textbook start when that fails.
+
+    An empty warm-start basis (z = 0, e.g. the last load step had every pair open) names
+    the textbook start itself, so with crash it is treated as no basis: the crash guess."""
+    if basis is not None and crash and not np.asarray(basis, dtype=bool).any():
+        _given_basis(basis, np.asarray(q).size)  # (its shape is still checked)
+        basis = None
     M, q, probe, deferred = _validate(M, q, sample=basis is None and crash)
     n = q.size
     tol = DEFAULT_TOL if tol is None else float(tol)
