@@ -148,9 +148,9 @@ length of the multibody rows."""
 
 def plot_profiles(path: str) -> None:
     """p(x) of the multibody `indent` rows: one panel per block2 size, a line per run."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from app.plotting import pyplot
+
+    plt = pyplot()
     sizes = sorted({k[2] for k in PROFILES}, reverse=True)
     fig, axes = plt.subplots(1, len(sizes), figsize=(4.2 * len(sizes), 3.6), sharey=True,
                              squeeze=False)

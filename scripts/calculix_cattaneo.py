@@ -221,10 +221,9 @@ def plot(rows: list[dict], path: str, mu: float, R: float, E_star: float, thickn
     """q(x) after the normal step and at the end (shear motion ux): CalculiX (global axes
     and its own frame), the app run if given, and Cattaneo-Mindlin with the CalculiX end
     row's P, Q."""
-    import matplotlib
+    from app.plotting import pyplot
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     from app.closed_form import cattaneo_traction, hertz_contact
 

@@ -17,14 +17,13 @@ import sys
 from pathlib import Path
 
 import h5py
-import matplotlib
 import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-from matplotlib.collections import PolyCollection  # noqa: E402
+from app.plotting import pyplot
+from app.references import REFERENCES
 
-from app.references import REFERENCES  # noqa: E402
+plt = pyplot()  # Agg, without the warning of a second (Debian) matplotlib on the path
+from matplotlib.collections import PolyCollection  # noqa: E402
 
 
 def deformed_mesh(out: Path, step: int, zoom, scale: float | None, prefix: str) -> Path:

@@ -23,3 +23,17 @@ def test_run_reports_the_energy_bracket(tmp_path):
     assert res.returncode == 0, res.stderr
     b = read_summary(tmp_path / "q4")["energy_bracket"]
     assert b["extra_runs"] == ["CS-FEM-1SD"] and b["width"] == b["upper"] - b["lower"]
+
+
+def test_the_extra_runs_are_a_phase_of_the_run(tmp_path):
+    """The bound runs' seconds were in no phase and not in the run's total."""
+    out = tmp_path / "cant"
+    res = run_cli(["run", str(CONFIGS / "cantilever.toml"), "--energy-bracket", "--out",
+                   str(out), "--quiet"])
+    assert res.returncode == 0, res.stderr
+    t = read_summary(out)["timings"]
+    extra = sum(read_summary(out / f"bracket_{lab}")["timings"]["total"]
+                for lab in ("CS-FEM-1SD", "FEM-Q4"))
+    assert t["energy_bracket"] >= extra
+    phases = sum(v for k, v in t.items() if k != "total")
+    assert abs(phases - t["total"]) <= 0.05 * t["total"]
