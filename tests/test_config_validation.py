@@ -142,15 +142,6 @@ def test_underflowing_sizes_are_refused_not_a_traceback(raw, scale):
         check_size(parse_scene(raw), scale)
 
 
-def test_mesh_patch_counts_in_the_estimate():
-    """A [[mesh.patch]] of size 1e-6 (3.8e10 quads): before, not counted, and gmsh meshed
-    on until the memory ran out."""
-    raw = tomllib.loads((CONFIGS / "hertz_patch.toml").read_text())
-    raw["mesh"]["patch"][0]["size"] = 1e-6
-    with pytest.raises(InputError, match="about 3.8e\\+10 elements"):
-        check_size(parse_scene(raw), 1.0)
-
-
 def test_splits_of_a_mesh_file_count_in_the_estimate():
     """`run meshes/punch.toml --refine 8`: before, no estimate for a mesh.file, and the run
     went on to split 1348 quads into 8.8e7."""

@@ -7,9 +7,8 @@ of area A and element size h has about A / h^2 quadrilaterals; a `[[mesh.refine]
 L (f / s^2 + D / (s h)) near curves of total length L and pi f^2 / s^2 +
 2 pi D^2 / (h - s)^2 (ln(h / s) + s / h - 1) near each point (the integral of 1 / size^2
 over the zone), capped at A / s^2; a `[[mesh.patch]]` of size s adds the box's overlap
-with the body's bounding box times 1 / s^2 - 1 / f^2, f the finest of h and the refine
-sizes (a patch mostly replaces refined elements). A structured rectangle has
-exactly nx ny elements.
+with the body's bounding box times 1 / s^2 (an upper bound: the elements the patch
+replaces are not taken off). A structured rectangle has exactly nx ny elements.
 Nodes are about the elements, and DOFs twice that. The memory figure is the measured
 peak of MUMPS LU runs here (about 4 kB per DOF, see README).
 """
