@@ -96,8 +96,10 @@ def _mpi_max():
     return MPI.MAX
 
 
-def collective(fn, *args, **kwargs):
-    """Run fn on rank 0 and broadcast its result, or its InputError/SolveError, to all."""
+def on_rank0(fn, *args, share_result: bool = True, **kwargs):
+    """fn(*args, **kwargs) on rank 0; an InputError or SolveError it raises is raised on
+    every rank. Its result on every rank (share_result), else on rank 0 (None elsewhere:
+    an object that stays on rank 0, e.g. the contact stepper)."""
     comm = PETSc.COMM_WORLD.tompi4py()
     result, error = None, None
     if comm.rank == 0:
@@ -105,10 +107,19 @@ def collective(fn, *args, **kwargs):
             result = fn(*args, **kwargs)
         except (InputError, SolveError) as exc:
             error = exc
-    result, error = comm.bcast((result, error), root=0)
+    if share_result:
+        result, error = comm.bcast((result, error), root=0)
+    elif comm.size > 1:
+        shared = comm.bcast(error, root=0)
+        error = error if error is not None else shared
     if error is not None:
         raise error
     return result
+
+
+def collective(fn, *args, **kwargs):
+    """Run fn on rank 0 and broadcast its result, or its InputError/SolveError, to all."""
+    return on_rank0(fn, *args, **kwargs)
 
 
 def to_numpy_all(vec: PETSc.Vec) -> np.ndarray:

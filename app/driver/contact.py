@@ -19,7 +19,7 @@ from app.driver.rank0_solve import on_rank0_solve
 from app.errors import SolveError
 from app.interface.steps import ContactStepper, StepSolution
 from app.interface.weak_modes import slide_warning
-from app.parallel import to_numpy_all
+from app.parallel import collective, to_numpy_all
 
 CONSISTENCY_TOL = 1e-9
 """Largest |G u - LCP kinematics| / max |u| accepted without a refinement re-solve."""
@@ -59,8 +59,7 @@ def solve_contact_step(ctx: RunContext, model: Model, system: LinearSystem,
     consistency re-solves while |G u - LCP kinematics| halves. SolveError (with the
     summary written) when the LCP has no solution."""
     with ctx.phase("lcp"):
-        result = on_rank0_solve(lambda: stepper.step(step, model.cases))
-        result = ctx.mpi.bcast(result, root=0)
+        result = collective(lambda: stepper.step(step, model.cases))  # on every rank
     if not result.solved:
         _fail(ctx, model, step, result)
     correction = np.zeros(2 * model.contact.pairs.n_pairs) if ctx.rank == 0 else None
@@ -77,8 +76,7 @@ def solve_contact_step(ctx: RunContext, model: Model, system: LinearSystem,
         with ctx.phase("lcp"):
             if ctx.rank == 0:
                 correction += miss
-            retry = on_rank0_solve(lambda c=correction: stepper.refine(step, model.cases, c))
-            retry = ctx.mpi.bcast(retry, root=0)
+            retry = collective(lambda c=correction: stepper.refine(step, model.cases, c))
         if retry is None:
             with ctx.phase("recovery"):
                 _answer_checks(ctx, model, result, step, refinements, rel, u)

@@ -9,24 +9,10 @@ line. `on_rank0_solve` broadcasts the outcome, so every rank raises it at the sa
 
 from __future__ import annotations
 
-from petsc4py import PETSc
-
-from app.errors import InputError, SolveError
+from app.parallel import on_rank0
 
 
 def on_rank0_solve(fn, *args, **kwargs):
     """fn(*args, **kwargs) on rank 0 (its result there, None elsewhere); an InputError or
-    SolveError it raises is raised on every rank."""
-    comm = PETSc.COMM_WORLD.tompi4py()
-    result, error = None, None
-    if comm.rank == 0:
-        try:
-            result = fn(*args, **kwargs)
-        except (InputError, SolveError) as exc:
-            error = exc
-    if comm.size > 1:
-        shared = comm.bcast(error, root=0)
-        error = error if error is not None else shared
-    if error is not None:
-        raise error
-    return result
+    SolveError it raises is raised on every rank (`app.parallel.on_rank0`)."""
+    return on_rank0(fn, *args, share_result=False, **kwargs)
