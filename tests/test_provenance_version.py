@@ -15,5 +15,12 @@ def test_app_version_is_the_projects():
 
 
 def test_app_version_outside_a_checkout(tmp_path):
-    version = app_version(tmp_path)  # no pyproject.toml there: the installed metadata
-    assert version is None or isinstance(version, str)
+    from importlib import metadata
+
+    try:
+        installed = metadata.version("csfem-contact")
+    except metadata.PackageNotFoundError:
+        installed = None
+    assert app_version(tmp_path) == installed  # no pyproject.toml there: the metadata
+    (tmp_path / "pyproject.toml").write_text('[project]\nname = "other"\nversion = "9.9"\n')
+    assert app_version(tmp_path) == installed  # another project's pyproject is not ours
