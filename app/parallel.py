@@ -6,8 +6,10 @@ from __future__ import annotations
 import resource
 import sys
 import time
+from collections.abc import Callable
 from contextlib import contextmanager
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from petsc4py import PETSc
@@ -96,7 +98,8 @@ def _mpi_max():
     return MPI.MAX
 
 
-def on_rank0(fn, *args, share_result: bool = True, **kwargs):
+def on_rank0(fn: Callable[..., Any], *args: Any, share_result: bool = True,
+             **kwargs: Any) -> Any:
     """fn(*args, **kwargs) on rank 0; an InputError or SolveError it raises is raised on
     every rank. Its result on every rank (share_result), else on rank 0 (None elsewhere:
     an object that stays on rank 0, e.g. the contact stepper)."""
@@ -117,7 +120,7 @@ def on_rank0(fn, *args, share_result: bool = True, **kwargs):
     return result
 
 
-def collective(fn, *args, **kwargs):
+def collective(fn: Callable[..., Any], *args: Any, **kwargs: Any) -> Any:
     """Run fn on rank 0 and broadcast its result, or its InputError/SolveError, to all."""
     return on_rank0(fn, *args, **kwargs)
 

@@ -55,7 +55,7 @@ def refusal(key: str, value: str) -> str | None:
     return None
 
 
-def check_config_file_petsc(table, path: Path | str) -> None:
+def check_config_file_petsc(table: object, path: Path | str) -> None:
     """InputError (one line) for the first option of a config file's [petsc] table that
     would write a file or load code (see the module docstring); `table` is the table as
     read from the file (not a table: the config checks report it later)."""

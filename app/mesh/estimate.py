@@ -150,7 +150,7 @@ def _patched(spec: BodySpec, patch, scale: np.float64) -> float:
     return w * d / s**2 if s > 0 else math.inf
 
 
-def file_estimate(path, times: int) -> SizeEstimate:
+def file_estimate(path: str | Path, times: int) -> SizeEstimate:
     """Size of the mesh of a .msh file after `times` uniform splits (4^times its quads)."""
     from app.mesh.read import _load_msh
 
@@ -160,7 +160,7 @@ def file_estimate(path, times: int) -> SizeEstimate:
 
 
 def check_size(scene: Scene, scale: float = 1.0, *, allow_large: bool = False,
-               option: str = "--allow-large", base_dir=None,
+               option: str = "--allow-large", base_dir: str | Path | None = None,
                refine: int = 0) -> SizeEstimate | None:
     """Refuse (InputError, one line) a run whose estimated memory exceeds this machine's.
 

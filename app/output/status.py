@@ -15,6 +15,7 @@ import os
 import re
 import signal
 import sys
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -89,17 +90,17 @@ def on_failure(fn) -> None:
     _ON_FAILURE.append(fn)
 
 
-_ON_STOP: list = []
+_ON_STOP: list[Callable[[], None]] = []
 
 
-def on_stop(fn) -> None:
+def on_stop(fn: Callable[[], None]) -> None:
     """Call fn() (every rank; it acts on rank 0) when a watchdog ends the job on a signal,
     after the run's summary.json is written: a study or sweep writing what completed
     (app/output/batch_guard.py)."""
     _ON_STOP.append(fn)
 
 
-def remove_on_stop(fn) -> None:
+def remove_on_stop(fn: Callable[[], None]) -> None:
     """Undo `on_stop(fn)`."""
     if fn in _ON_STOP:
         _ON_STOP.remove(fn)
