@@ -98,7 +98,7 @@ def _mpi_max():
     return MPI.MAX
 
 
-def on_rank0(fn: Callable[..., Any], *args: Any, share_result: bool = True,
+def rank0_call(fn: Callable[..., Any], *args: Any, share_result: bool = True,
              **kwargs: Any) -> Any:
     """fn(*args, **kwargs) on rank 0; an InputError or SolveError it raises is raised on
     every rank. Its result on every rank (share_result), else on rank 0 (None elsewhere:
@@ -122,7 +122,7 @@ def on_rank0(fn: Callable[..., Any], *args: Any, share_result: bool = True,
 
 def collective(fn: Callable[..., Any], *args: Any, **kwargs: Any) -> Any:
     """Run fn on rank 0 and broadcast its result, or its InputError/SolveError, to all."""
-    return on_rank0(fn, *args, **kwargs)
+    return rank0_call(fn, *args, **kwargs)
 
 
 def to_numpy_all(vec: PETSc.Vec) -> np.ndarray:

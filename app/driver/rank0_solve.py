@@ -12,10 +12,10 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
-from app.parallel import on_rank0
+from app.parallel import rank0_call
 
 
 def on_rank0_solve(fn: Callable[..., Any], *args: Any, **kwargs: Any) -> Any:
     """fn(*args, **kwargs) on rank 0 (its result there, None elsewhere); an InputError or
-    SolveError it raises is raised on every rank (`app.parallel.on_rank0`)."""
-    return on_rank0(fn, *args, share_result=False, **kwargs)
+    SolveError it raises is raised on every rank (`app.parallel.rank0_call`)."""
+    return rank0_call(fn, *args, share_result=False, **kwargs)
