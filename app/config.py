@@ -8,6 +8,7 @@ Every problem raises InputError with a one-line message naming the key to fix.
 
 from __future__ import annotations
 
+import re
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -398,14 +399,24 @@ def _interface(raw: dict, it: dict, i: int, earlier: list[Interface]) -> Interfa
                      a if bonded else 0.0, bonded, sdist, ptol, interference, disc)
 
 
+VIEWER_OPTION = re.compile(r"(^|_)(view|monitor|converged_reason)(_|$)")
+"""PETSc options read as a viewer (`-ksp_view`, `-ksp_monitor_short`, `-mat_view_draw`,
+`-ksp_converged_reason`): their value is a viewer name, so "false" cannot turn them off."""
+
+
 def _petsc(raw: dict) -> dict[str, str]:
     """[petsc] options as strings (without the dash). true is the bare flag (`-ksp_monitor`,
-    `-ksp_view`: the value "true" is read as a viewer name and fails), false "false"."""
+    `-ksp_view`: the value "true" is read as a viewer name and fails); false is "false",
+    except for a viewer option (VIEWER_OPTION), which is then left out: off, PETSc's
+    default (`-ksp_view false` stopped with "PETSc: Unsupported viewer false")."""
     out = {}
     for k, v in _table(raw, "petsc", "").items():
+        key = str(k).lstrip("-")
+        if v is False and VIEWER_OPTION.search(key.lower()):
+            continue
         if isinstance(v, bool):
             v = "" if v else "false"
-        out[str(k).lstrip("-")] = str(v)
+        out[key] = str(v)
     return out
 
 

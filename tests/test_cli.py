@@ -84,6 +84,22 @@ def test_petsc_table_true_is_the_bare_flag(tmp_path):
     assert "petsc_options_unused" not in read_summary(out)
 
 
+def test_petsc_table_false_turns_a_viewer_off(tmp_path):
+    """`ksp_view = false` in [petsc]: before, `-ksp_view false`, read as a viewer named
+    'false' (`error: PETSc: Unsupported viewer false`, exit 2); a viewer set to false is
+    now left out (off). A non-viewer option keeps the value "false"."""
+    from app.config import load_config
+
+    out = tmp_path / "o"
+    res = run_cli(["run", str(CANTILEVER), "--out", str(out), "--quiet", "--mesh-size", "0.5",
+                   "--set", "petsc.ksp_monitor=false", "--set", "petsc.ksp_view=false"])
+    assert res.returncode == 0, res.stderr
+    assert "KSP Residual norm" not in res.stdout and "type: preonly" not in res.stdout
+    petsc = load_config(CANTILEVER, ["petsc.ksp_view=false",
+                                     "petsc.ksp_initial_guess_nonzero=false"]).petsc
+    assert "ksp_view" not in petsc and petsc["ksp_initial_guess_nonzero"] == "false"
+
+
 def test_help_explains_the_command():
     res = run_cli(["--help"])
     assert res.returncode == 0 and "PETSc" in res.stdout
