@@ -16,7 +16,6 @@ the C library was not built (no compiler at install), the status is as before.
 from __future__ import annotations
 
 import ctypes
-import importlib.util
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -34,11 +33,11 @@ _LIB: list[ctypes.CDLL | None] = []
 def _library() -> ctypes.CDLL | None:
     """app/_hard_stop.c as built by `pip install -e .`, or None."""
     if not _LIB:
-        lib = None
-        spec = importlib.util.find_spec("app._hard_stop")
-        if spec is not None and spec.origin is not None:
-            try:
-                lib = ctypes.CDLL(spec.origin)
+        from app.petsc_lib import built_library  # (imports PETSc: not before cli's init)
+
+        lib = built_library("app._hard_stop")
+        try:
+            if lib is not None:
                 lib.hard_stop_arm.argtypes = [ctypes.c_char_p, ctypes.c_char_p,
                                               ctypes.c_longlong,
                                               ctypes.c_char_p, ctypes.c_size_t,
@@ -47,8 +46,8 @@ def _library() -> ctypes.CDLL | None:
                 lib.hard_stop_arm.restype = ctypes.c_int
                 lib.hard_stop_disarm.argtypes = []
                 lib.hard_stop_disarm.restype = None
-            except (OSError, AttributeError):
-                lib = None
+        except AttributeError:  # an older build without these functions
+            lib = None
         _LIB.append(lib)
     return _LIB[0]
 

@@ -2,12 +2,14 @@
 
 petsc4py has already loaded the library, so opening it again by name returns the same
 copy. Used by the Schur-complement route (app/condensation/compliance.py) and the
-compiled assembly (app/assembly/compiled.py).
+compiled assembly (app/assembly/compiled.py). Also `built_library`: the project's own
+optional C parts built by setup.py (the assembly kernel, app/_hard_stop.c).
 """
 
 from __future__ import annotations
 
 import ctypes
+import importlib.util
 
 import numpy as np
 from petsc4py import PETSc
@@ -29,6 +31,18 @@ def load_petsc() -> ctypes.CDLL | None:
             except OSError:
                 continue
     return _LIB
+
+
+def built_library(module: str) -> ctypes.CDLL | None:
+    """The shared library setup.py built for `module` (e.g. "app._hard_stop"), opened
+    through ctypes; None when it was not built (no C compiler) or cannot be opened."""
+    spec = importlib.util.find_spec(module)
+    if spec is None or spec.origin is None:
+        return None
+    try:
+        return ctypes.CDLL(spec.origin)
+    except OSError:
+        return None
 
 
 def mpi_comm_handle(comm: PETSc.Comm) -> ctypes.c_void_p | ctypes.c_int:

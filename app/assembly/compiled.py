@@ -13,7 +13,6 @@ The rows come split the way PETSc's MatCreateMPIAIJWithSplitArrays takes them (s
 from __future__ import annotations
 
 import ctypes
-import importlib.util
 from dataclasses import dataclass
 
 import numpy as np
@@ -24,6 +23,7 @@ from app.discretisation.elements import elasticity_matrix
 from app.discretisation.methods import bulk_method
 from app.errors import InputError
 from app.mesh.model import Mesh
+from app.petsc_lib import built_library
 
 _I64 = ndpointer(np.int64, flags="C_CONTIGUOUS")
 _I32 = ndpointer(np.int32, flags="C_CONTIGUOUS")
@@ -38,12 +38,11 @@ def kernel() -> ctypes.CDLL | None:
     global _LIB, _TRIED
     if not _TRIED:
         _TRIED = True
-        spec = importlib.util.find_spec("app.assembly._kernel")
-        if spec is not None and spec.origin is not None:
-            try:
-                _LIB = _declare(ctypes.CDLL(spec.origin))
-            except (OSError, AttributeError):
-                _LIB = None
+        lib = built_library("app.assembly._kernel")
+        try:
+            _LIB = None if lib is None else _declare(lib)
+        except AttributeError:  # an older build without every function
+            _LIB = None
     return _LIB
 
 
