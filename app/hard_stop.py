@@ -69,21 +69,7 @@ def armed() -> Iterator[None]:
     """Around a long C call: a signal then writes the interrupted summary from C and
     exits (see the module). Nested uses arm once."""
     lib = _library()
-    if _DEPTH[0] or not _PROVIDER or lib is None:
-        _DEPTH[0] += 1
-        try:
-            yield
-        finally:
-            _DEPTH[0] -= 1
-        return
-    path, offset, text_int, line_int = _PROVIDER[0]("SIGINT")
-    _, offset_term, text_term, line_term = _PROVIDER[0]("SIGTERM")
-    if offset_term != offset:  # the two must be alike; the whole file otherwise
-        raise ValueError("hard_stop provider: one offset for both signals")
-    tmp = path.with_name(path.name + ".tmp")
-    ok = lib.hard_stop_arm(str(tmp).encode(), str(path).encode(), offset, text_int,
-                           len(text_int), text_term, len(text_term), line_int.encode(),
-                           line_term.encode()) == 0
+    ok = not _DEPTH[0] and bool(_PROVIDER) and lib is not None and _arm(lib)
     _DEPTH[0] += 1
     try:
         yield
@@ -91,3 +77,15 @@ def armed() -> Iterator[None]:
         _DEPTH[0] -= 1
         if ok:
             lib.hard_stop_disarm()
+
+
+def _arm(lib: ctypes.CDLL) -> bool:
+    """Install the C handler with the provider's texts; whether it is armed."""
+    path, offset, text_int, line_int = _PROVIDER[0]("SIGINT")
+    _, offset_term, text_term, line_term = _PROVIDER[0]("SIGTERM")
+    if offset_term != offset:  # the two must be alike; the whole file otherwise
+        raise ValueError("hard_stop provider: one offset for both signals")
+    tmp = path.with_name(path.name + ".tmp")
+    return lib.hard_stop_arm(str(tmp).encode(), str(path).encode(), offset, text_int,
+                             len(text_int), text_term, len(text_term), line_int.encode(),
+                             line_term.encode()) == 0
