@@ -234,7 +234,9 @@ def _petsc_reason(exc: Exception) -> str:
 
 STOP_GRACE_SECONDS = 3.0
 """After SIGINT/SIGTERM, how long the run may take to reach Python code and stop there
-before the watchdog writes summary.json and exits (a long gmsh, MUMPS or Lemke call)."""
+before the watchdog writes summary.json and exits (a long gmsh or Lemke call; a PETSc
+call such as the MUMPS factorization keeps the GIL, so the watchdog waits for its end:
+app/hard_stop.py acts there on several ranks)."""
 
 
 def stop_grace(rank: int, ranks: int) -> float:
