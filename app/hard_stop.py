@@ -16,6 +16,8 @@ the C library was not built (no compiler at install), the status is as before.
 from __future__ import annotations
 
 import ctypes
+import signal
+import threading
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -26,6 +28,7 @@ an in-place write of its new tail (-1: the whole file through a rename), the byt
 stderr line."""
 
 _PROVIDER: list[Provider] = []
+_PENDING: list[Callable[[], str | None]] = []
 _DEPTH = [0]
 _LIB: list[ctypes.CDLL | None] = []
 
@@ -57,11 +60,16 @@ def available() -> bool:
     return _library() is not None
 
 
-def set_provider(provider: Provider | None) -> None:
-    """Register (or with None remove) what an armed signal writes: the run's guard."""
+def set_provider(provider: Provider | None,
+                 pending: Callable[[], str | None] | None = None) -> None:
+    """Register (or with None remove) what an armed signal writes: the run's guard.
+    `pending()` names a signal Python recorded but nothing acted on yet (or None)."""
     _PROVIDER.clear()
+    _PENDING.clear()
     if provider is not None:
         _PROVIDER.append(provider)
+        if pending is not None:
+            _PENDING.append(pending)
 
 
 @contextmanager
@@ -70,6 +78,10 @@ def armed() -> Iterator[None]:
     exits (see the module). Nested uses arm once."""
     lib = _library()
     ok = not _DEPTH[0] and bool(_PROVIDER) and lib is not None and _arm(lib)
+    if ok and _PENDING and (name := _PENDING[0]()):
+        # it came just before the handler was armed: the watchdog thread would wait for
+        # the GIL through the call below, so hand the signal to the C handler now
+        signal.pthread_kill(threading.get_ident(), getattr(signal, name))
     _DEPTH[0] += 1
     try:
         yield

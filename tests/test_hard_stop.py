@@ -171,3 +171,16 @@ def test_the_tail_patch_turns_the_file_into_the_new_summary(tmp_path):
     assert json.loads(path.read_text()) == stopped
     summary["n_dofs"] = 10  # a head key the file does not have: write it whole
     assert tail_patch(path, {**summary, "error": "e"}, ("error",)) is None
+
+
+def test_a_signal_recorded_just_before_arming_is_handed_to_the_c_handler(tmp_path):
+    """A signal that Python recorded just before the call (its watchdog thread then waits
+    for the GIL through the call) stopped nothing until mpiexec's SIGKILL."""
+    script = HOLDS_THE_GIL.replace('n"))\n', 'n"), lambda: "SIGTERM")\n', 1).replace(
+        'print("ready", flush=True)', 'pass')
+    assert 'lambda: "SIGTERM"' in script
+    res = subprocess.run([sys.executable, "-c", script, str(tmp_path)], cwd=ROOT,
+                         capture_output=True, text=True, timeout=60)
+    assert res.returncode == 143, res.stderr
+    assert res.stderr == "error: interrupted by SIGTERM\n"
+    assert json.loads((tmp_path / "summary.json").read_text())["by"] == "SIGTERM"

@@ -343,7 +343,8 @@ class RunGuard:
         except ValueError:  # not the main thread: no watchdog
             grace = None
         if grace == 0.0:  # where the watchdog stops at once, also inside long C calls
-            hard_stop.set_provider(self._hard_stop_text)
+            hard_stop.set_provider(self._hard_stop_text,
+                                   lambda: _PENDING[0] if _PENDING else None)
         return self
 
     def stop_now(self, name: str) -> None:
