@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import csv
 import math
+import sys
 import time
 from pathlib import Path
 from typing import Any
@@ -140,8 +141,8 @@ def run_study(cfg: Config, out: Path, levels: int, methods: list[tuple[str, int]
                     rows.append(study_row(s, level, label(method, sd), columns))
                     if rank == 0:
                         _record_row(out, rows, profiles, s, opts, t0)
-                        finish_study(cfg, out, [dict(r) for r in rows], profiles,
-                                     ref_label, reference_mode, True, failures, plots=False)
+                        _refresh_tables(cfg, out, rows, profiles, ref_label,
+                                        reference_mode, failures)
                 finally:
                     step_writing(False)
     if not rows:
@@ -194,6 +195,21 @@ def _record_row(out: Path, rows: list[dict], profiles: dict, s: dict, opts: RunO
         errs = ", ".join(f"{k[4:]} {row[k]:.3e}" for k in row if k.startswith("err_"))
         print(f"[{time.perf_counter() - t0:8.2f} s] {opts.progress_prefix}: "
               f"{row['n_dofs']} DOFs, {row['t_total']:.2f} s, {errs}", flush=True)
+
+
+def _refresh_tables(cfg: Config, out: Path, rows: list[dict], profiles: dict, ref_label: str,
+                    reference_mode: str, failures: list[str]) -> None:
+    """Rank 0, after each completed run: the tables of the runs so far (no plots), so that
+    an interrupt leaves them. A failure here is a warning: the study goes on (an exception
+    on rank 0 alone would end a study on several ranks), and the final tables are written
+    at its end as always."""
+    try:
+        finish_study(cfg, out, [dict(r) for r in rows], profiles, ref_label, reference_mode,
+                     True, failures, plots=False)
+    except Exception as exc:  # a warning; the end of the study reports it
+        print(f"warning: the study's tables could not be refreshed after this run "
+              f"({type(exc).__name__}: {exc}); the study goes on", file=sys.stderr,
+              flush=True)
 
 
 def study_row(s: dict, level: int, method: str, columns) -> dict:

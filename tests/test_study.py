@@ -134,3 +134,33 @@ def test_plots_import_matplotlib_without_a_warning():
                           "from app.plotting import pyplot; pyplot()"], cwd=ROOT,
                          capture_output=True, text=True, timeout=120)
     assert res.returncode == 0, res.stderr
+
+
+REFRESH_FAILS = """
+import sys
+import app.study
+real = app.study.finish_study
+
+def finish(*args, plots=True, **kwargs):
+    if not plots:
+        raise ValueError("made up")
+    return real(*args, plots=plots, **kwargs)
+
+app.study.finish_study = finish
+from app.cli import main
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+def test_a_failing_table_refresh_between_runs_is_a_warning(tmp_path):
+    """The tables are refreshed after each run on rank 0 only: an exception there must not
+    end the study (on several ranks rank 0 alone would have left)."""
+    out = tmp_path / "s"
+    res = subprocess.run([sys.executable, "-c", REFRESH_FAILS, "study",
+                          str(CONFIGS / "cantilever.toml"), "--levels", "2", "--methods", "4",
+                          "--out", str(out), "--quiet"], cwd=ROOT, capture_output=True,
+                         text=True, timeout=300)
+    assert res.returncode == 0, res.stderr
+    assert res.stderr.count("warning: the study's tables could not be refreshed") == 2
+    assert len(read_csv(out / "study.csv")) == 2
+    assert (out / "study_tables.md").exists()
