@@ -51,11 +51,11 @@ def nothing_to_audit(out: Path) -> str:
         summary = json.loads(path.read_text())
     except (OSError, ValueError) as exc:
         return f"{path} is not readable JSON ({exc})"
-    if not summary.get("contact_interfaces"):
-        return f"{out} is a run without [[interface]]: there is no interface law to audit"
     if not summary.get("steps"):
         return (f"{out} has no completed step (status '{summary.get('status')}'): "
                 "nothing to audit")
+    if not summary.get("contact_interfaces"):
+        return f"{out} is a run without [[interface]]: there is no interface law to audit"
     return ""
 
 
