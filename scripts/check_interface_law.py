@@ -5,7 +5,8 @@
 Reads OUT/summary.json and OUT/step_NNNN.h5 and prints one JSON line per step with the
 figures of app/output/law_audit.py (state against forces and motion, debonding for good,
 slip accumulation, dissipation), then a line with the largest of each; exit status 1 when
-one is beyond --tol (a count beyond 0), else 0.
+one is beyond --tol (a count beyond 0), else 0; 2 with a one-line error when OUT has
+nothing to audit (no summary.json, a run without interfaces, or no completed step).
 """
 
 from __future__ import annotations
@@ -41,11 +42,32 @@ def read_steps(out: Path) -> tuple[list[dict], list[float], float, float]:
     return arrays, diss, fs, us
 
 
+def nothing_to_audit(out: Path) -> str:
+    """Why OUT cannot be audited (no summary.json, no interface, no completed step), or ""."""
+    path = out / "summary.json"
+    if not path.is_file():
+        return f"{path} not found: OUT must be the --out folder of a run"
+    try:
+        summary = json.loads(path.read_text())
+    except (OSError, ValueError) as exc:
+        return f"{path} is not readable JSON ({exc})"
+    if not summary.get("steps"):
+        return (f"{out} has no completed step (status '{summary.get('status')}'): "
+                "nothing to audit")
+    if not summary.get("contact_interfaces"):
+        return f"{out} is a run without [[interface]]: there is no interface law to audit"
+    return ""
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("out", type=Path)
     ap.add_argument("--tol", type=float, default=LAW_TOL)
     args = ap.parse_args(argv)
+    problem = nothing_to_audit(args.out)
+    if problem:
+        print(f"error: {problem}", file=sys.stderr)
+        return 2
     arrays, diss, fs, us = read_steps(args.out)
     worst: dict = {}
     prev = None

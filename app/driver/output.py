@@ -23,6 +23,7 @@ from app.mesh.model import Mesh
 from app.output.contact import contact_arrays
 from app.output.progress import step_line
 from app.output.reactions import ReactionProbe, support_owner
+from app.output.rigid_motion import rigid_motion
 from app.output.status import (
     check_finite,
     hold_signals,
@@ -90,6 +91,9 @@ def write_step(ctx: RunContext, model: Model, output: StepOutput, step: int, u: 
                 _add_interface_forces(info, contact_data, cfg)
         info.update(output.reactions(step, u, None if solved is None else
                                      model.contact.g.T @ solved.result.lam))
+        if model.floating is not None:  # the floating bodies' motion (rigid_modes is not)
+            info["rigid_motion"] = rigid_motion(mesh.points, mesh.node_body(), mesh.body_names,
+                                                list(dict.fromkeys(model.floating.bodies)), u)
         if output.operators is None and cfg.n_steps > 1:
             output.operators = element_operators(mesh, model.disc, output.my_elements)
         fields = element_fields(mesh, model.disc, u, output.my_elements,

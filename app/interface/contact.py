@@ -48,10 +48,7 @@ class ContactSetup:
         pairs = rows.pairs
         dup, counts = np.unique(pairs.slave, return_counts=True)
         if np.any(counts > 1):
-            n = int(dup[counts > 1][0])
-            raise InputError(f"slave node at x={mesh.points[n, 0]:.4g}, "
-                             f"y={mesh.points[n, 1]:.4g} belongs to two interfaces: a slave "
-                             "curve may be slave on one interface only")
+            raise InputError(_shared_slave_message(mesh, cfg, pairs, int(dup[counts > 1][0])))
         return cls(cfg, pairs, rows.matrix(mesh.n_nodes), rows, described)
 
     def bodies(self, mesh: Mesh) -> set[int]:
@@ -61,3 +58,17 @@ class ContactSetup:
     def stepper(self, c_mat: np.ndarray, cases, unit, rhs,
                 floating: FloatingModes | None) -> ContactStepper:
         return ContactStepper(self, c_mat, cases, unit, rhs, floating)
+
+
+def _shared_slave_message(mesh: Mesh, cfg: Config, pairs: ContactPairs, node: int) -> str:
+    """One-line error for a node on the slave side of two interfaces (a corner shared by
+    two slave curves, or one slave curve used twice), naming the interfaces and curves."""
+    its = sorted(set(pairs.interface[pairs.slave == node].tolist()))
+    body = mesh.body_names[int(mesh.node_body()[node])]
+    where = " and ".join(f"'{cfg.interfaces[i].name}' (slave '{cfg.interfaces[i].slave}')"
+                         for i in its)
+    return (f"slave node at x={mesh.points[node, 0]:.4g}, y={mesh.points[node, 1]:.4g} of "
+            f"body '{body}' is on the slave side of interfaces {where}: a node may be slave "
+            "on one interface only, so two slave curves may not share a corner node; make "
+            f"'{body}' the master on all but one of them (README \"Interfaces meeting at a "
+            "corner\")")

@@ -177,7 +177,8 @@ def _check_held(mesh: Mesh, cfg: Config, fixed: np.ndarray,
     for b in range(n_b):
         groups.setdefault(find(b), []).append(b)
     for members in groups.values():
-        if not supported.intersection(members):
+        # a body linked to no other is left to floating_modes' own message (its modes)
+        if len(members) > 1 and not supported.intersection(members):
             names = ", ".join(f"'{mesh.body_names[b]}'" for b in members)
             raise SolveError(f"bodies {names} are free to move together: no support holds "
                              "any of them; add a [[support]]")

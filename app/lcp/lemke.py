@@ -436,10 +436,41 @@ def _cold(core, P: _Problem, M, q, tol: float, max_pivots: int, pivots: int, ref
     return LCPResult(z, w, pivots, status, comp, res.zset.copy(), msg, warm, refacts, worst)
 
 
+_FINAL_RESTARTS = 3
+"""Warm starts from the final basis of a run that ended "inaccurate" (`_from_final_basis`)."""
+
+
+def _from_final_basis(core, M, q, max_pivots, tol, res: LCPResult,
+                      crash: bool) -> LCPResult | None:
+    """A run that ended "inaccurate" stopped on a complementary basis whose z_B has an
+    entry just below 0 (round-off on an ill-conditioned path, e.g. a soft floating body
+    pressed between stiff ones, E ratio 1e4 and more): a warm start from that basis (block
+    pivoting, then Lemke; no cold start) ends on the answer in a few iterations; up to
+    _FINAL_RESTARTS of them, each from the basis the last one ended on. The checked result
+    with the pivots of all runs, or None when every one fails."""
+    pivots, basis = res.pivots, res.basis
+    for _ in range(_FINAL_RESTARTS):
+        budget = None if max_pivots is None else max(int(max_pivots) - pivots, 0)
+        again = _run(core, M, q, budget, tol, basis, False, crash)
+        pivots += again.pivots
+        if again.ok:
+            again.pivots = pivots
+            again.message = f"{res.message}; then, from its final basis: {again.message}"
+            return again
+        if again.basis is None or not again.basis.any():
+            return None
+        basis = again.basis
+    return None
+
+
 def _solve(core, M, q, max_pivots, tol, basis, cold_start, crash) -> LCPResult:
     """`_run`, then the basis repair of `app.lcp.repair` for a symmetric M when the run
     ended inaccurate or on a secondary ray (the first result stands if that fails too)."""
     res = _run(core, M, q, max_pivots, tol, basis, cold_start, crash)
+    if res.status == "inaccurate" and res.basis.any():
+        again = _from_final_basis(core, M, q, max_pivots, tol, res, crash)
+        if again is not None:
+            return again
     if res.ok or res.status not in ("inaccurate", "secondary ray"):
         return res
     M, q, _, _ = _validate(M, q)

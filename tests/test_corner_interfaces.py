@@ -1,0 +1,109 @@
+"""Interfaces meeting at a corner: a floating block in the corner between a foundation and
+a wall. Its bottom and left curves share the corner node, so both cannot be slave curves:
+one-line error naming both interfaces; with the block as master on the wall contact the
+scene solves and the block's two contact forces balance its weight and side load."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from tests.support import read_summary, run_cli
+
+BODIES = """
+[analysis]
+plane = "strain"
+method = "cs-fem"
+sd = 4
+[mesh]
+size = 0.1
+[[body]]
+name = "foundation"
+E = 1000.0
+nu = 0.3
+[body.shape]
+type = "rectangle"
+origin = [-1.0, -1.0]
+width = 3.0
+height = 1.0
+structured = true
+[body.curves]
+bottom = "base"
+top = "foundation_top"
+[[body]]
+name = "wall"
+E = 1000.0
+nu = 0.3
+size = 0.07
+[body.shape]
+type = "rectangle"
+origin = [-1.0, 0.0]
+width = 1.0
+height = 1.5
+structured = true
+[body.curves]
+left = "wall_left"
+right = "wall_right"
+bottom = "wall_bottom"
+[[body]]
+name = "block"
+E = 1000.0
+nu = 0.3
+size = 0.09
+body_force = [-3.0, -10.0]
+[body.shape]
+type = "rectangle"
+origin = [0.0, 0.0]
+width = 1.0
+height = 1.0
+structured = true
+[body.curves]
+bottom = "block_bottom"
+left = "block_left"
+[[support]]
+on = "base"
+ux = 0.0
+uy = 0.0
+[[support]]
+on = "wall_left"
+ux = 0.0
+uy = 0.0
+"""
+
+
+def interface(name: str, slave: str, master: str, extra: str = "mu = 0.3") -> str:
+    return (f'[[interface]]\nname = "{name}"\nslave = "{slave}"\nmaster = "{master}"\n'
+            f"{extra}\nsearch_distance = 0.01\n")
+
+
+BOND = "bonded = true\nmu = 0.3\na = 100.0\nc = 100.0"
+
+
+def test_two_slave_curves_sharing_a_corner_node_is_one_line_error(tmp_path):
+    cfg = tmp_path / "corner.toml"
+    cfg.write_text(BODIES + interface("floor", "block_bottom", "foundation_top")
+                   + interface("wallc", "block_left", "wall_right"))
+    res = run_cli(["run", str(cfg), "--out", str(tmp_path / "out")])
+    assert res.returncode == 2, res.stderr
+    lines = [ln for ln in res.stderr.splitlines() if ln.startswith("error:")]
+    assert len(lines) == 1 and "Traceback" not in res.stderr, res.stderr
+    msg = lines[0]
+    for part in ("x=0, y=0", "body 'block'", "'floor' (slave 'block_bottom')",
+                 "'wallc' (slave 'block_left')", "'block' the master"):
+        assert part in msg, msg
+    assert read_summary(tmp_path / "out")["status"] == "failed"
+
+
+def test_block_as_master_on_one_side_solves_and_balances(tmp_path):
+    cfg = tmp_path / "corner.toml"
+    cfg.write_text(BODIES + interface("floor", "block_bottom", "foundation_top")
+                   + interface("wallc", "wall_right", "block_left")
+                   + interface("wallfloor", "foundation_top", "wall_bottom", BOND))
+    res = run_cli(["run", str(cfg), "--out", str(tmp_path / "out")])
+    assert res.returncode == 0, res.stderr
+    step = read_summary(tmp_path / "out")["steps"][-1]
+    its = step["interfaces"]
+    # forces on the block: the slave side's force on floor, minus it where it is master
+    on_block = np.array(its["floor"]["force"]) - np.array(its["wallc"]["force"])
+    assert np.allclose(on_block, [3.0, 10.0], atol=1e-9), on_block
+    assert its["wallc"]["normal_force"] > 1.0 and its["floor"]["normal_force"] > 5.0
+    assert step["balance"]["max_relative_residual"] < 1e-12
