@@ -15,6 +15,7 @@ import os
 import re
 import signal
 import sys
+import threading
 from collections.abc import Callable
 from pathlib import Path
 
@@ -112,6 +113,22 @@ def _run_stop_hooks() -> None:
             fn()
         except Exception as exc:  # the job ends anyway; say why the hook wrote nothing
             print(f"warning: {exc}", file=sys.stderr, flush=True)
+
+
+_STOP_LOCK = threading.Lock()
+"""Taken, and never released (the process exits), by whoever ends the job on a signal:
+the watchdog's `RunGuard.stop_now`, or `_hand_off_pending` to the C handler. Both at once
+wrote summary.json over each other (a stray summary.json.tmp)."""
+
+
+def _hand_off_pending() -> str | None:
+    """The name of a signal recorded but not acted on, for app/hard_stop.py to raise into
+    the C handler it has just armed (the watchdog thread would wait for the GIL through the
+    long call); None if there is none. Waits while the watchdog is ending the job."""
+    if not _PENDING:
+        return None
+    _STOP_LOCK.acquire()
+    return _PENDING[0]
 
 
 def _record_signal(signum, frame):
@@ -343,13 +360,14 @@ class RunGuard:
         except ValueError:  # not the main thread: no watchdog
             grace = None
         if grace == 0.0:  # where the watchdog stops at once, also inside long C calls
-            hard_stop.set_provider(self._hard_stop_text,
-                                   lambda: _PENDING[0] if _PENDING else None)
+            hard_stop.set_provider(self._hard_stop_text, _hand_off_pending)
         return self
 
     def stop_now(self, name: str) -> None:
         """From the watchdog thread: record `interrupted`, print it and exit at once."""
         import json
+
+        _STOP_LOCK.acquire()  # (a hand-off to the C handler took it first: it exits)
 
         where = ("" if PETSc.COMM_WORLD.getSize() > 1 else
                  " (stopped inside a long computation)")
