@@ -17,6 +17,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
+from app.condensation.compliance import contact_dofs
 from app.errors import InputError
 
 DENSE_BYTES = 24.0
@@ -24,12 +25,9 @@ DENSE_BYTES = 24.0
 
 
 def free_contact_dofs(g: sp.spmatrix, fixed: np.ndarray) -> int:
-    """n_c: the free (not prescribed) DOFs that a row of G touches with a non-zero weight."""
-    g = sp.csc_matrix(g, copy=True)
-    g.eliminate_zeros()
-    touched = np.diff(g.indptr) > 0
-    touched[np.asarray(fixed, dtype=np.int64)] = False
-    return int(np.count_nonzero(touched))
+    """n_c: the free (not prescribed) DOFs that a row of G touches with a non-zero weight
+    (the compliance's `contact_dofs`)."""
+    return int(contact_dofs(sp.csr_matrix(g, copy=True), fixed)[0].size)
 
 
 def dense_contact_bytes(n_contact_dofs: int, n_rows: int) -> float:

@@ -15,7 +15,8 @@ from __future__ import annotations
 
 import numpy as np
 
-BONDED, STICK, SLIP_PLUS, SLIP_MINUS, OPEN = range(5)
+from app.interface.steps import BONDED, OPEN, SLIP_MINUS, SLIP_PLUS, STICK
+
 LAW_TOL = 1e-7
 """Largest relative violation accepted by `failed`."""
 
