@@ -19,7 +19,7 @@ from collections.abc import Callable
 from petsc4py import PETSc
 
 from app.output import status
-from app.output.status import EXIT_SIGNAL, RunInterrupted, StopWatchdog, stop_grace
+from app.output.status import EXIT_SIGNAL, RunInterrupted, StopWatchdog
 
 
 class BatchGuard:
@@ -39,12 +39,7 @@ class BatchGuard:
         self._old = (signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM))
         status.arm_signals()
         status.on_stop(self.finish)
-        try:
-            self._watchdog = StopWatchdog(self, stop_grace(self.rank,
-                                                           PETSc.COMM_WORLD.getSize()))
-            status._WATCHDOG.append(self._watchdog)
-        except ValueError:  # not the main thread: no watchdog
-            self._watchdog = None
+        self._watchdog = status.start_watchdog(self)
         return self
 
     def finish(self) -> None:
@@ -68,14 +63,9 @@ class BatchGuard:
         os._exit(EXIT_SIGNAL.get(name, 130))
 
     def __exit__(self, exc_type, exc, tb) -> bool:
-        watchdog = self._watchdog
-        if watchdog is not None:
-            watchdog.handled.set()  # the main thread stops here, in Python code
-            if watchdog in status._WATCHDOG:
-                status._WATCHDOG.remove(watchdog)
-            if watchdog.writing.locked():
-                watchdog.writing.release()
-            watchdog.close()
+        if self._watchdog is not None:
+            self._watchdog.handled.set()  # the main thread stops here, in Python code
+        status.end_watchdog(self._watchdog)
         status.remove_on_stop(self.finish)
         for sig, old in zip((signal.SIGINT, signal.SIGTERM), self._old, strict=True):
             try:

@@ -317,6 +317,30 @@ class StopWatchdog:
 _WATCHDOG: list[StopWatchdog] = []
 
 
+def start_watchdog(guard) -> StopWatchdog | None:
+    """A StopWatchdog for `guard` (a RunGuard or a study's BatchGuard), on top of the
+    stack `step_writing` uses; None off the main thread (no watchdog there)."""
+    comm = PETSc.COMM_WORLD
+    try:
+        watchdog = StopWatchdog(guard, stop_grace(comm.getRank(), comm.getSize()))
+    except ValueError:
+        return None
+    _WATCHDOG.append(watchdog)
+    return watchdog
+
+
+def end_watchdog(watchdog: StopWatchdog | None) -> None:
+    """Undo `start_watchdog` (set `watchdog.handled` first where the guard stops itself):
+    off the stack, the writing lock released, the thread and the wakeup fd closed."""
+    if watchdog is None:
+        return
+    if watchdog in _WATCHDOG:
+        _WATCHDOG.remove(watchdog)
+    if watchdog.writing.locked():
+        watchdog.writing.release()
+    watchdog.close()
+
+
 def step_writing(active: bool) -> None:
     """Tell the watchdog that a step's files are being written (True) or done (False)."""
     if _WATCHDOG:
@@ -339,6 +363,7 @@ class RunGuard:
         self._lock = None
         self._old_term = None
         self._old_int = None
+        self._watchdog: StopWatchdog | None = None
         self.removed: list[str] = []
 
     def __enter__(self) -> RunGuard:
@@ -354,12 +379,9 @@ class RunGuard:
             self.write(self.out, self.summary)
         self._old_int = signal.getsignal(signal.SIGINT)
         self._old_term = arm_signals()
-        try:
-            grace = stop_grace(self.rank, PETSc.COMM_WORLD.getSize())
-            _WATCHDOG.append(StopWatchdog(self, grace))
-        except ValueError:  # not the main thread: no watchdog
-            grace = None
-        if grace == 0.0:  # where the watchdog stops at once, also inside long C calls
+        self._watchdog = start_watchdog(self)
+        if self._watchdog is not None and self._watchdog.grace == 0.0:
+            # where the watchdog stops at once, also inside long C calls
             hard_stop.set_provider(self._hard_stop_text, _hand_off_pending)
         return self
 
@@ -396,16 +418,13 @@ class RunGuard:
 
     def __exit__(self, exc_type, exc, tb) -> bool:
         hard_stop.set_provider(None)
-        watchdog = _WATCHDOG.pop() if _WATCHDOG else None
+        watchdog = self._watchdog
         if watchdog is not None:
             watchdog.handled.set()  # the run reached Python code and stops here
         try:
             return self._finish(exc)
         finally:
-            if watchdog is not None:
-                if watchdog.writing.locked():
-                    watchdog.writing.release()
-                watchdog.close()
+            end_watchdog(watchdog)
             _ON_FAILURE.clear()
             if self._old_term is not None:
                 signal.signal(signal.SIGTERM, self._old_term)
