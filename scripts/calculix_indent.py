@@ -231,10 +231,9 @@ def block_x(cfg, mesh, block: str, x_max: float = 0.3) -> list[float]:
 
 def plot(rows: list[dict], path: str) -> None:
     """p(x) of both codes: one row of panels per slave side, one column per block size."""
-    import matplotlib
+    from app.plotting import pyplot
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     sides = list(dict.fromkeys(r["slave"] for r in rows))
     sizes = list(dict.fromkeys(r["block_size"] for r in rows))
