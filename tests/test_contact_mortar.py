@@ -41,7 +41,7 @@ def minimal(**interface) -> dict:
 
 def test_registry_and_config_key():
     assert set(DISCRETISATIONS) == {"node-to-segment", "mortar", "mortar-bisector",
-                                 "mortar-smooth", "mortar-standard"}
+                                 "mortar-smooth", "mortar-standard", "mortar-coarse-slave"}
     unset = parse_config(minimal()).interfaces[0].discretisation
     assert contact_discretisation(unset, "x") is DISCRETISATIONS[DEFAULT]
     cfg = parse_config(minimal(discretisation="mortar"))

@@ -15,6 +15,7 @@ import numpy as np
 from app.contact.constraints import ContactConstraints
 from app.contact.mortar import mortar_constraints
 from app.contact.mortar_bisector import mortar_bisector_constraints
+from app.contact.mortar_coarse_slave import mortar_coarse_slave_constraints
 from app.contact.mortar_smooth import mortar_smooth_constraints
 from app.contact.mortar_standard import mortar_standard_constraints
 from app.contact.pairs import ContactPairs, contact_pairs
@@ -61,6 +62,7 @@ DISCRETISATIONS: dict[str, Builder] = {
     "mortar-bisector": mortar_bisector_constraints,
     "mortar-smooth": mortar_smooth_constraints,
     "mortar-standard": mortar_standard_constraints,
+    "mortar-coarse-slave": mortar_coarse_slave_constraints,
 }
 """Contact discretisations by config name."""
 

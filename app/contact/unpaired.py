@@ -86,6 +86,16 @@ def crossed_unpaired(mesh: Mesh, slave: str, master: str, paired: np.ndarray,
     return Crossing(int(crossed.sum()), float(-g_now[deepest]), pts[nodes[deepest]].copy())
 
 
+def paired_sides(mesh: Mesh, slave: str, master: str, paired: np.ndarray) -> tuple[str, str]:
+    """(slave, master) curve names of an interface as its pairs have them: swapped when
+    every paired node (paired (k,)) lies on the configured master curve (a discretisation
+    that puts the multipliers on the coarser side, app/contact/mortar_coarse_slave.py)."""
+    m_nodes = np.unique(np.asarray(mesh.curves[master]))
+    if paired.size and np.isin(paired, m_nodes).all():
+        return master, slave
+    return slave, master
+
+
 def crossing_warning(name: str, step: int, crossing: Crossing, search_distance: float) -> str:
     """The one-line warning for an interface with crossed unpaired nodes (1-based step)."""
     x, y = crossing.position
