@@ -112,6 +112,7 @@ def test_indent_on_the_coarse_block_is_smooth_and_close_to_the_fine_answer(tmp_p
     assert s["max_pressure"] == pytest.approx(59.1, rel=0.03)
     assert s["normal_force"] == pytest.approx(20.1, rel=0.03)
     assert not [w for w in read_summary(out).get("warnings", []) if "'indent'" in w]
+    assert read_summary(out)["contact_interfaces"]["indent"]["pairs_on"] == "block_top"
     assert max(kkt_violations(out, 1).values()) < 1e-7
 
 
@@ -125,3 +126,13 @@ def test_paired_sides_follow_the_pairs():
     plain = mortar_constraints(mesh, itf(), 0)
     assert paired_sides(mesh, "up_bottom", "low_top", plain.pairs.slave) == ("up_bottom",
                                                                             "low_top")
+
+
+def test_summary_names_the_curve_with_the_pairs(tmp_path):
+    out = tmp_path / "o"
+    res = run_cli(["run", str(CONFIGS / "indent.toml"), "--out", str(out), "--quiet",
+                   "--set", f'interface.indent.discretisation="{DISC}"',
+                   "--set", "body.block.size=0.02"])  # the arc's size: no swap
+    assert res.returncode == 0, res.stderr
+    d = read_summary(out)["contact_interfaces"]["indent"]
+    assert d["pairs_on"] == "cyl_arc" and d["discretisation"] == DISC

@@ -195,7 +195,8 @@ def test_multibody_indent_and_bond_smooth_on_the_default_mesh(tmp_path):
     assert_law_holds(out, s["n_steps"])
     described = s["contact_interfaces"]
     assert described["indent"] == {"discretisation": "mortar-smooth", "n_pairs": 21,
-                                   "master_interpolation": "quadratic B-spline"}
+                                   "master_interpolation": "quadratic B-spline",
+                                   "pairs_on": "cyl_arc"}
     assert described["stack"]["master_interpolation"] == "linear"  # mortar (the default)
     assert described["stack"]["discretisation"] == "mortar"
 

@@ -11,6 +11,7 @@ from app.config import Config
 from app.contact.constraints import ContactConstraints
 from app.contact.discretisation import DEFAULT, contact_discretisation
 from app.contact.pairs import ContactPairs
+from app.contact.unpaired import paired_sides
 from app.errors import InputError
 from app.interface.floating import FloatingModes
 from app.interface.steps import ContactStepper
@@ -41,9 +42,10 @@ class ContactSetup:
         for i, itf in enumerate(cfg.interfaces):  # the builders check the curves exist
             build = contact_discretisation(itf.discretisation, f"interface '{itf.name}'")
             found.append(build(mesh, itf, i))
+            slave, _ = paired_sides(mesh, itf.slave, itf.master, found[-1].pairs.slave)
             described[itf.name] = {"discretisation": itf.discretisation or DEFAULT,
                                    "master_interpolation": found[-1].master_interpolation,
-                                   "n_pairs": found[-1].n_pairs}
+                                   "n_pairs": found[-1].n_pairs, "pairs_on": slave}
         rows = ContactConstraints.concatenate(found)
         pairs = rows.pairs
         dup, counts = np.unique(pairs.slave, return_counts=True)
