@@ -8,7 +8,8 @@ master"). One JSON line per run:
 - `indent`: configs/indent.toml (arc elements 0.018 as slave, or the block as slave) with
   the block's element size S: largest deviation of p from a local quadratic fit over the
   closed pairs (/ max p), the same two pairs in from each end ("inner"), max p, the
-  contact force P and the number of closed pairs.
+  contact force P, the number of closed pairs, and the largest difference from the
+  answer with the block meshed at 0.02 (mortar), interpolated at the pairs (/ its max p).
 - `bond`: configs/multibody.toml with block1's element size S on the foundation (0.2),
   the bonded `bond` interface: bonded pairs left at the last step, and the fraction
   debonded (a smooth answer debonds none; README "A bond between a fine slave and a
@@ -25,7 +26,8 @@ master"). One JSON line per run:
 
     .venv/bin/python scripts/bench_indent_ratio.py [--only indent bond spaces]
         [--block-sizes 0.144 0.12 ... 0.02] [--block1-sizes 0.1 ... 0.025]
-        [--discretisations node-to-segment mortar mortar-smooth] [--gammas 1 10]
+        [--discretisations node-to-segment mortar mortar-smooth mortar-coarse-slave]
+        [--gammas 1 10]
 """
 
 from __future__ import annotations
@@ -46,6 +48,8 @@ from app.contact.smoothness import local_fit_deviation  # noqa: E402
 ARC = 0.018
 """Element size of the arc under the contact in indent.toml (refine size 0.02, measured
 median tributary length 0.018): the size ratio of a block of size S is S / ARC."""
+REFERENCE_SIZE = 0.02
+"""Block element size of the fine reference of the `indent` rows (1.1x the arc)."""
 FOUNDATION = 0.2
 """Element size of multibody's foundation (the bond's master as shipped)."""
 
@@ -61,8 +65,29 @@ def smoothness(x: np.ndarray, p: np.ndarray) -> dict:
             "max_p": float(p.max(initial=0.0))}
 
 
+def fine_reference() -> tuple[np.ndarray, np.ndarray]:
+    """(x, p) (k,) of every pair of indent.toml with the block meshed at REFERENCE_SIZE
+    (about the arc's size; mortar, arc as slave, open pairs included): the smooth answer
+    the other rows are compared with."""
+    s = run_app("configs/indent.toml", ["--set", f"body.block.size={REFERENCE_SIZE}",
+                                        "--set", 'interface.indent.discretisation="mortar"'],
+                pairs=("x", "p"))
+    c = s["last_step_pairs"]
+    return c["x"], c["p"]
+
+
+def reference_deviation(x: np.ndarray, p: np.ndarray, ref: tuple[np.ndarray, np.ndarray]
+                        ) -> float:
+    """Largest |p - p_ref(x)| / max p_ref over the closed pairs (p > 0), p_ref the fine
+    reference (x_ref, p_ref) interpolated linearly (0 beyond its ends)."""
+    on = p > 0
+    pr = np.interp(x[on], ref[0], ref[1], left=0.0, right=0.0)
+    return float(np.abs(p[on] - pr).max(initial=0.0) / ref[1].max())
+
+
 def _indent_rows(a: argparse.Namespace) -> Iterator[dict]:
     """indent.toml per discretisation, side and block size."""
+    ref = fine_reference()
     for disc in a.discretisations:
         for block_slave in (False, True):
             sides = ("block_top", "cyl_arc") if block_slave else ("cyl_arc", "block_top")
@@ -79,6 +104,7 @@ def _indent_rows(a: argparse.Namespace) -> Iterator[dict]:
                 if "last_step_pairs" in s:
                     c = s["last_step_pairs"]
                     row |= smoothness(c["x"], c["p"])
+                    row["ref_deviation"] = reference_deviation(c["x"], c["p"], ref)
                     row["P"] = s["steps"][-1]["interfaces"]["indent"]["normal_force"]
                 yield row
 
@@ -283,7 +309,8 @@ def _arguments(argv: list[str] | None = None) -> argparse.Namespace:
     ap.add_argument("--block1-sizes", type=float, nargs="+",
                     default=[0.1, 0.05, 0.04, 0.0333, 0.025])
     ap.add_argument("--discretisations", nargs="+",
-                    default=["node-to-segment", "mortar", "mortar-smooth"])
+                    default=["node-to-segment", "mortar", "mortar-smooth",
+                             "mortar-coarse-slave"])
     ap.add_argument("--gammas", type=float, nargs="+", default=[1.0, 10.0],
                     help="LPS weights of the `spaces` rows (x mean diagonal of C)")
     return ap.parse_args(argv)

@@ -36,7 +36,8 @@ from app.contact.resolution import interior_deviation  # noqa: E402
 from app.contact.smoothness import local_fit_deviation  # noqa: E402
 from app.output.read import last_step_file, read_pairs  # noqa: E402
 
-DISCS = ("node-to-segment", "mortar", "mortar-smooth", "mortar-standard")
+DISCS = ("node-to-segment", "mortar", "mortar-smooth", "mortar-standard",
+         "mortar-coarse-slave")
 SIDES = {  # config: (interface, default slave, default master)
     "patch": ("interface", "upper_bottom", "lower_top"),
     "hertz": ("contact", "cyl_arc", "block_top"),
