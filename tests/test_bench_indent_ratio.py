@@ -6,6 +6,7 @@ from __future__ import annotations
 import sys
 
 import numpy as np
+import pytest
 from support import ROOT
 
 from app.lcp.lemke import lemke
@@ -96,3 +97,17 @@ def test_cubic_weights_reproduce_linear_fields_with_and_without_neighbours():
     nodes_x = np.array([-1.0, 0.0, 1.0, 2.0])  # prev, a, b, next on a uniform line
     np.testing.assert_allclose(np.einsum("kpg,k->pg", w, nodes_x), eta, atol=1e-14)
     assert np.all(w[0][~has_prev] == 0) and np.all(w[3][~has_next] == 0)
+
+
+def test_reference_deviation_reads_the_core_of_the_contact():
+    xr = np.linspace(-1.0, 1.0, 41)
+    pr = 60.0 * np.sqrt(np.clip(1 - (xr / 0.9) ** 2, 0, None))
+    x = np.linspace(-0.95, 0.95, 9)
+    p = np.interp(x, xr, pr)
+    assert bench.reference_deviation(x, p, (xr, pr)) < 1e-12
+    edge = p.copy()
+    edge[0] += 20.0  # at the contact edge: not read
+    assert bench.reference_deviation(x, edge, (xr, pr)) < 1e-12
+    mid = p.copy()
+    mid[4] += 6.0  # at the centre: 10% of max p
+    assert bench.reference_deviation(x, mid, (xr, pr)) == pytest.approx(0.1)
