@@ -1,5 +1,5 @@
 """Run under `mpiexec -n 2` by tests/test_timer_total.py: patch.toml with rank 0's phase
-timer started 0.3 s after rank 1's (as when rank 0 writes the first summary.json while
+timer started 2 s after rank 1's (as when rank 0 writes the first summary.json while
 rank 1 goes on). Rank 0 prints the summary's total and the sum of its phases as JSON."""
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ def main() -> None:
 
     def late_on_rank0(*args, **kwargs):
         if rank == 0:
-            time.sleep(0.3)
+            time.sleep(2.0)
         return timer(*args, **kwargs)
 
     context.Timer = late_on_rank0

@@ -1,7 +1,9 @@
 """On several ranks the summary's total is the max over ranks of the seconds since each
-rank's timer started, like its phases (max over ranks): the phases never add up to more
-than the total. Before, the total was rank 0's own, and a rank that started earlier put
-its wait for rank 0 into the first phase (two ranks: phases up to 1.084 x the total)."""
+rank's timer started, like its phases (max over ranks). Before, the total was rank 0's own,
+and a rank that started earlier put its wait for rank 0 into the first phase, so the phases
+exceeded the total by that wait (rank 0 started 2 s late: by about 2 s). The phases are
+each a max over ranks, so on a busy machine their sum may still exceed the total by a few
+per cent (README "One factorization, constant-cost steps"); the test allows half the 2 s offset for that."""
 
 from __future__ import annotations
 
@@ -23,5 +25,5 @@ def test_phases_do_not_exceed_the_total_when_ranks_start_apart(tmp_path):
                          text=True, timeout=300)
     assert res.returncode == 0, res.stderr[-2000:]
     t = json.loads(res.stdout.strip().splitlines()[-1])
-    assert t["phases"] > 0.3  # rank 1's wait for rank 0 is in its first phase
-    assert t["phases"] <= t["total"] * (1 + 1e-9), t
+    assert t["phases"] > 2.0  # rank 1's wait for rank 0 is in its first phase
+    assert t["phases"] - t["total"] < 1.0, t  # the old total missed the whole 2 s wait
