@@ -11,7 +11,9 @@ displacement delta (the mean x displacement of the nodes at y = --top-y, the loa
 top, weighted by their tributary lengths: the displacement a uniform load there works
 on). At the end, per closed cycle (a path from a turning point back to it through the
 opposite one), the loop area by the trapezoid rule over the steps, the run's dissipation
-over the cycle's steps and the closed form 4 D_v(Q*).
+over the cycle's steps and the closed form 4 D_v(Q*); the energy balance from step 1 on
+(work of the tangential load minus the change of strain energy against the summed
+dissipation); and the run's total dissipation against the closed form of its path.
 """
 
 from __future__ import annotations
@@ -108,10 +110,28 @@ def analyse(out: Path, radius: float, center_x: float, top_y: float) -> dict:
                        "loop_area": area, "dissipation": float(diss[i + 1: j + 1].sum()),
                        "exact": exact, "loop_area_rel_error": abs(area - exact) / exact,
                        "dissipation_rel_error": abs(diss[i + 1: j + 1].sum() - exact) / exact})
+    energy = energy_balance(steps, name, [r["delta"] for r in rows], diss)
     _, work = masing_path(Q, lambda s: float(virgin_dissipation(s, mu_P_all(Q, P, rows),
                                                                 e_star, thick)))
-    return {"rows": rows, "cycles": cycles, "dissipation_total": float(diss.sum()),
+    return {"rows": rows, "cycles": cycles, "energy": energy,
+            "dissipation_total": float(diss.sum()),
             "dissipation_total_exact": float(work[-1])}
+
+
+def energy_balance(steps: list[dict], name: str, delta: list[float],
+                   diss: np.ndarray) -> dict:
+    """Work of the tangential load (the trapezoid rule over the steps, Q_x = minus the
+    interface's x force on the slave) minus the change of strain energy, against the
+    summed dissipation, from step 1 (the normal load, held after it) to the last."""
+    qx = -np.array([s["interfaces"][name]["force"][0] for s in steps])
+    d = np.asarray(delta)
+    work = float(np.sum(0.5 * (qx[1:] + qx[:-1]) * np.diff(d)))
+    stored = float(steps[-1]["strain_energy"] - steps[0]["strain_energy"])
+    dissipated = float(diss[1:].sum())
+    return {"external_work": work, "stored_energy_change": stored,
+            "dissipation": dissipated, "residual": work - stored - dissipated,
+            "residual_rel": (work - stored - dissipated) / dissipated if dissipated else
+            float("nan")}
 
 
 def mu_P_all(Q: np.ndarray, P: np.ndarray, rows: list[dict]) -> float:
@@ -140,6 +160,9 @@ def main(argv: list[str] | None = None) -> int:
               f"{r.get('dissipation_exact', np.nan):11.4e} {r['delta']:12.5e}")
     for c in res["cycles"]:
         print(json.dumps(c))
+    print(json.dumps({"energy": res["energy"]}))
+    print(json.dumps({"dissipation_total": res["dissipation_total"],
+                      "dissipation_total_exact": res["dissipation_total_exact"]}))
     return 0
 
 
