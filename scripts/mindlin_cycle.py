@@ -27,6 +27,7 @@ import h5py
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from app.interface.steps import STICK  # noqa: E402
 from app.references.mindlin import (  # noqa: E402
     cycle_dissipation,
     masing_path,
@@ -81,10 +82,11 @@ def analyse(out: Path, radius: float, center_x: float, top_y: float) -> dict:
     rows = []
     for k in range(1, len(steps) + 1):
         with h5py.File(out / f"step_{k:04d}.h5") as f:
-            c = {n: f["contact"][n][()] for n in ("x", "q", "length", "interface", "mu")}
+            c = {n: f["contact"][n][()] for n in ("x", "q", "p", "length", "interface", "mu",
+                                                    "state")}
         sel = c["interface"] == 0
         o = np.argsort(c["x"][sel])
-        x, q, length = (c[n][sel][o] for n in ("x", "q", "length"))
+        x, q, length, p, state = (c[n][sel][o] for n in ("x", "q", "length", "p", "state"))
         mu = float(c["mu"][sel][0])
         if e_star is None:  # from the Hertz half-width the reference reported
             a_h, P_last = ref["hertz"]["a_hertz"], ref["hertz"]["P"]
@@ -94,8 +96,10 @@ def analyse(out: Path, radius: float, center_x: float, top_y: float) -> dict:
                "dissipation": float(diss[:k].sum())}
         if Q[: k].any():
             m = mindlin_errors(x - center_x, q, length, Q_path=Q[:k], P=float(P[k - 1]), mu=mu,
-                               R=radius, E_star=e_star, thickness=thick)
+                               R=radius, E_star=e_star, thickness=thick,
+                               stick=(state == STICK) & (p > 0))
             row |= {"l2_interp": m["traction_l2_interp_rel_error"],
+                    "stick": m.get("stick_half_width_rel_error", np.nan),
                     "l2_trib": m["traction_l2_rel_error"],
                     "dissipation_exact": m["dissipation_exact"]}
         rows.append(row)
@@ -140,6 +144,60 @@ def mu_P_all(Q: np.ndarray, P: np.ndarray, rows: list[dict]) -> float:
     return float(Q[k] / rows[k]["Q_over_muP"])
 
 
+def plot(out: Path, res: dict, steps: list[int], center_x: float, radius: float,
+         path: Path) -> None:
+    """Left: Q / (mu P) against the load-point displacement (the loop); right: q / (mu p0)
+    at `steps` against Masing's closed form (x / a)."""
+    from app.closed_form import hertz_contact
+    from app.plotting import pyplot
+    from app.references.mindlin import masing_traction
+
+    plt = pyplot()
+    summary = json.loads((out / "summary.json").read_text())
+    name = next(iter(summary["contact_interfaces"]))
+    Q = np.array([s["interfaces"][name]["tangential_force"] for s in summary["steps"]])
+    P = np.array([s["interfaces"][name]["normal_force"] for s in summary["steps"]])
+    Q[np.abs(Q) <= 1e-9 * np.abs(Q).max(initial=0.0)] = 0.0
+    rows = res["rows"]
+    thick = float(summary["provenance"]["config_resolved"].get("analysis", {})
+                  .get("thickness", 1.0))
+    h = summary["reference"]["hertz"]
+    e_star = 4 * h["P"] / thick * radius / (np.pi * h["a_hertz"] ** 2)
+    fig, (ax0, ax1) = plt.subplots(1, 2, figsize=(11, 4.2))
+    # the loop is thin beside the elastic compliance: delta less the chord through its tips
+    d, r = np.array([w["delta"] for w in rows]), np.array([w["Q_over_muP"] for w in rows])
+    slope = (d[np.argmax(r)] - d[np.argmin(r)]) / (r.max() - r.min()) if np.ptp(r) else 0.0
+    ax0.plot(d - slope * r, r, "o-", ms=3)
+    ax0.set_xlabel("delta less the chord through the tips")
+    ax0.set_ylabel("Q / (mu P)  (along the contact tangent)")
+    for c in res["cycles"][:1]:
+        ax0.set_title(f"loop area {c['loop_area']:.4g}, cycle dissipation "
+                      f"{c['dissipation']:.4g} (closed form {c['exact']:.4g})", fontsize=9)
+    for k in steps:
+        with h5py.File(out / f"step_{k:04d}.h5") as f:
+            c = {n: f["contact"][n][()] for n in ("x", "q", "interface", "mu")}
+        sel = c["interface"] == 0
+        o = np.argsort(c["x"][sel])
+        x, q, mu = c["x"][sel][o] - center_x, c["q"][sel][o], float(c["mu"][sel][0])
+        a, p0 = hertz_contact(P[k - 1] / thick, radius, e_star)
+        terms, _ = masing_path(Q[:k], lambda s, mp=mu * P[k - 1]: float(
+            virgin_dissipation(s, mp, e_star, thick)))
+        win = np.abs(x) <= 1.2 * a
+        line, = ax1.plot(x[win] / a, q[win] / (mu * p0), "o", ms=3,
+                         label=f"step {k}, Q/(mu P) = {rows[k - 1]['Q_over_muP']:.3f}")
+        xx = np.linspace(-1.2 * a, 1.2 * a, 801)
+        ax1.plot(xx / a, masing_traction(xx, terms[-1], a, p0, mu, mu * P[k - 1]) / (mu * p0),
+                 "-", lw=1, color=line.get_color())
+    ax1.set_xlabel("x / a")
+    ax1.set_ylabel("q / (mu p0): pairs (dots), Mindlin-Deresiewicz (lines)")
+    ax1.legend(fontsize=8)
+    for ax in (ax0, ax1):
+        ax.grid(True, alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("out", type=Path)
@@ -147,16 +205,22 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--center-x", type=float, default=0.0)
     ap.add_argument("--top-y", type=float, default=1.0)
     ap.add_argument("--json", action="store_true", help="one JSON document instead of a table")
+    ap.add_argument("--plot", type=Path, default=None,
+                    help="PNG: the loop Q / (mu P) against delta, and q(x) at --steps")
+    ap.add_argument("--steps", type=int, nargs="+", default=[6, 16, 35])
     args = ap.parse_args(argv)
     res = analyse(args.out, args.radius, args.center_x, args.top_y)
+    if args.plot is not None:
+        plot(args.out, res, args.steps, args.center_x, args.radius, args.plot)
     if args.json:
         print(json.dumps(res))
         return 0
-    print(f"{'step':>4} {'Q/muP':>8} {'L2 interp':>9} {'L2 trib':>8} {'diss':>11} "
-          f"{'diss exact':>11} {'delta':>12}")
+    print(f"{'step':>4} {'Q/muP':>8} {'L2 interp':>9} {'L2 trib':>8} {'stick':>7} "
+          f"{'diss':>11} {'diss exact':>11} {'delta':>12}")
     for r in res["rows"]:
         print(f"{r['step']:4d} {r['Q_over_muP']:8.4f} {r.get('l2_interp', np.nan):9.4f} "
-              f"{r.get('l2_trib', np.nan):8.4f} {r['dissipation']:11.4e} "
+              f"{r.get('l2_trib', np.nan):8.4f} {r.get('stick', np.nan):7.4f} "
+              f"{r['dissipation']:11.4e} "
               f"{r.get('dissipation_exact', np.nan):11.4e} {r['delta']:12.5e}")
     for c in res["cycles"]:
         print(json.dumps(c))

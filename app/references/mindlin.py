@@ -31,6 +31,7 @@ import numpy as np
 
 from app.closed_form import (
     INTERPOLATED_L2_RANGE,
+    _edges_from_states,
     cattaneo_traction,
     hertz_contact,
     interpolated_l2_rel_error,
@@ -126,15 +127,19 @@ def _path(run: RunFigures, name: str) -> tuple[np.ndarray, np.ndarray, np.ndarra
 
 
 def mindlin_errors(x, q, length, *, Q_path: np.ndarray, P: float, mu: float, R: float,
-                   E_star: float, thickness: float = 1.0) -> dict:
+                   E_star: float, thickness: float = 1.0, stick=None) -> dict:
     """q(x) at the last entry of Q_path against Masing's traction (x relative to the centre,
-    q signed along t), and the closed-form dissipation along the path."""
+    sorted, q signed along t), the closed-form dissipation along the path and, with
+    `stick` ((m,) bool: pairs in contact that did not slip in the last step), the stick
+    zone against the last branch's: |x| < a sqrt(1 - Q' / (mu P)), Q' = |Q| on the virgin
+    branch, |Q - Q_r| / 2 after a reversal at Q_r."""
     a, p0 = hertz_contact(P / thickness, R, E_star)
     mu_P = mu * P
     nan = float("nan")
     if np.abs(Q_path).max(initial=0.0) > mu_P:
         return {"Q_over_muP": float(np.abs(Q_path).max() / mu_P), "traction_l2_rel_error": nan,
-                "traction_l2_interp_rel_error": nan, "dissipation_exact": nan}
+                "traction_l2_interp_rel_error": nan, "stick_half_width_rel_error": nan,
+                "dissipation_exact": nan}
     terms, work = masing_path(Q_path, lambda s: float(virgin_dissipation(s, mu_P, E_star,
                                                                           thickness)))
     exact = lambda s: masing_traction(s, terms[-1], a, p0, mu, mu_P)  # noqa: E731
@@ -142,7 +147,17 @@ def mindlin_errors(x, q, length, *, Q_path: np.ndarray, P: float, mu: float, R: 
     qc = exact(x)
     den = np.sum(length[zone] * qc[zone] ** 2)
     l2 = np.sqrt(np.sum(length[zone] * (q[zone] - qc[zone]) ** 2) / den) if den > 0 else nan
-    return {"Q": float(Q_path[-1]), "Q_over_muP": float(Q_path[-1] / mu_P), "a_hertz": a,
+    out = {}
+    if stick is not None and terms[-1]:
+        c_exact = a * math.sqrt(max(1.0 - terms[-1][-1][1] / mu_P, 0.0))
+        left, right = _edges_from_states(x, np.asarray(stick))
+        half = 0.5 * (right - left)
+        out = {"stick_half_width": half, "stick_half_width_exact": c_exact,
+               "stick_edges": [left, right],
+               "stick_half_width_rel_error": abs(half - c_exact) / c_exact if c_exact > 0
+               else nan}
+    return out | {
+            "Q": float(Q_path[-1]), "Q_over_muP": float(Q_path[-1] / mu_P), "a_hertz": a,
             "terms": [list(t) for t in terms[-1]], "traction_l2_rel_error": float(l2),
             "traction_l2_interp_rel_error": interpolated_l2_rel_error(
                 x, q, exact, INTERPOLATED_L2_RANGE * a),
@@ -157,12 +172,13 @@ def _errors(params: dict, run: RunFigures) -> dict:
     if c.mu <= 0.0 or P <= 0.0 or Q_path.size == 0:
         out["mindlin"] = {"P": P, "traction_l2_rel_error": math.nan,
                           "traction_l2_interp_rel_error": math.nan,
+                          "stick_half_width_rel_error": math.nan,
                           "dissipation_rel_error": math.nan}
         return out
     o = np.argsort(c.x)
     m = mindlin_errors(c.x[o] - params["center_x"], c.q[o], c.length[o], Q_path=Q_path, P=P,
                        mu=c.mu, R=params["radius"], E_star=c.E_star,
-                       thickness=run.thickness)
+                       thickness=run.thickness, stick=c.stick[o])
     loaded = Q_path != 0.0
     d_run = float(diss.sum())
     d_ex = m["dissipation_exact"]
@@ -195,6 +211,7 @@ REFERENCE = Reference(
     errors=_errors,
     columns=((("hertz", "p_max_rel_error"), "peak_pressure"),
              (("hertz", "pressure_l2_interp_rel_error"), "pressure_l2_interp"),
+             (("mindlin", "stick_half_width_rel_error"), "stick_zone"),
              (("mindlin", "traction_l2_rel_error"), "traction_l2"),
              (("mindlin", "traction_l2_interp_rel_error"), "traction_l2_interp"),
              (("mindlin", "dissipation_rel_error"), "dissipation")),
