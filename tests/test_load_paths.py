@@ -80,23 +80,14 @@ def test_bond_sheared_both_ways_below_its_strength_is_elastic(tmp_path):
     """bonded.toml pressed, then sheared to +-0.2 of its top displacement and back: no
     pair debonds or slips, no dissipation, the same forces at the same displacements,
     and the supports' work equals the strain energy (scripts/energy_balance.py)."""
-    src = (CONFIGS / "bonded.toml").read_text()
     ux = [0, 0, 0, 0.1, 0.2, 0.1, 0, -0.1, -0.2, -0.1, 0]
-    uy = [1 / 3, 2 / 3] + [1] * 9
-    start = src.index("history = [0, 0, 0, 0.2")
-    end = src.index("[[support]]", start)
-    src = src[:start] + f"history = {ux}\n\n" + src[end:]
-    start = src.index("history = [0.333333333333")
-    end = src.index("[[interface]]", start)
-    src = src[:start] + f"history = {uy}\n\n" + src[end:]
-    cfg = tmp_path / "bond.toml"
-    cfg.write_text(src.replace("steps = 20", "steps = 11"))
+    cfg = bonded_path(tmp_path, ux, [1 / 3, 2 / 3] + [1] * 9)
     out = tmp_path / "out"
     assert run_cli(["run", str(cfg), "--out", str(out)]).returncode == 0
     summary = read_summary(out)
     assert all(s["states"]["bonded"] == s["n_pairs"] for s in summary["steps"])
     assert sum(s["dissipation"] for s in summary["steps"]) == 0.0
-    scale = contact(out, 5)["q_force"].__abs__().max()
+    scale = np.abs(contact(out, 5)["q_force"]).max()
     for a, b in ((3, 7), (3, 11), (4, 6)):
         assert np.abs(contact(out, a)["q_force"] - contact(out, b)["q_force"]).max() < \
             1e-10 * scale
@@ -113,3 +104,55 @@ def test_energy_balance_refuses_loads(tmp_path):
                          env=mpi_env(), capture_output=True, text=True)
     assert res.returncode == 2 and res.stderr.startswith("error: ") and \
         res.stderr.count("\n") == 1, res.stderr
+
+
+def bonded_path(tmp: Path, ux: list[float], uy: list[float]) -> Path:
+    """configs/bonded.toml with the histories of its top's ux and uy."""
+    src = (CONFIGS / "bonded.toml").read_text()
+    for head, end, hist in (("history = [0, 0, 0, 0.2", "[[support]]", ux),
+                            ("history = [0.333333333333", "[[interface]]", uy)):
+        start = src.index(head)
+        src = src[:start] + f"history = {hist}\n\n" + src[src.index(end, start):]
+    cfg = tmp / "bond.toml"
+    cfg.write_text(src.replace("steps = 20", f"steps = {len(ux)}"))
+    return cfg
+
+
+def test_debonded_pairs_stay_coulomb_on_reversal(tmp_path):
+    """Sheared until every pair debonds, then back and forth: the block slides at
+    |Fx| = mu Fy both ways (strength c gone), and no pair is bonded again."""
+    ux = [0, 0, 0, 0.2, 0.3, 0.4, 0.2, 0, -0.2, -0.4, -0.2, 0, 0.2, 0.4]
+    out = tmp_path / "out"
+    cfg = bonded_path(tmp_path, ux, [1 / 3, 2 / 3] + [1] * 12)
+    assert run_cli(["run", str(cfg), "--out", str(out)]).returncode == 0
+    steps = read_summary(out)["steps"]
+    assert steps[5]["interfaces"]["bond"]["debonded_pairs"] == steps[5]["n_pairs"]
+    for k in range(6, 14):
+        fx, fy = steps[k]["interfaces"]["bond"]["force"]
+        assert abs(abs(fx) - 0.3 * fy) < 1e-10 * fy, (k, fx, fy)
+        assert steps[k]["states"]["bonded"] == 0
+    # the sense of the sliding force follows the sense of the top's motion
+    assert steps[6]["interfaces"]["bond"]["force"][0] > 0 > \
+        steps[10]["interfaces"]["bond"]["force"][0]
+    audit_passes(out)
+
+
+def test_opened_pairs_lose_their_adhesion_for_good(tmp_path):
+    """Pressed, pulled until the two end pairs open (and debond), pressed again, pulled
+    again: the same tension as the first time (the end pairs carry none: no re-bonding),
+    then pulled off completely."""
+    uy = [1 / 3, 2 / 3, 1, 0.5, 0, -1, 0, 1, 0.5, 0, -1, -2]
+    out = tmp_path / "out"
+    cfg = bonded_path(tmp_path, [0] * len(uy), uy)
+    assert run_cli(["run", str(cfg), "--out", str(out)]).returncode == 0
+    steps = read_summary(out)["steps"]
+    first, second = (steps[k]["interfaces"]["bond"] for k in (5, 10))
+    assert first["states"]["open"] == 2 and first["debonded_pairs"] == 2
+    assert second["debonded_pairs"] == 2 and second["states"]["open"] == 2
+    assert first["normal_force"] < 0  # tension held by the bonded pairs' adhesion
+    assert abs(second["normal_force"] - first["normal_force"]) < 1e-9 * abs(
+        first["normal_force"])
+    c = contact(out, 8)
+    assert c["p_force"][c["state"] != 0].min() >= -1e-12 * c["p_force"].max()
+    assert steps[11]["interfaces"]["bond"]["normal_force"] == 0.0
+    audit_passes(out)
