@@ -115,7 +115,7 @@ def analyse(out: Path, radius: float, center_x: float, top_y: float) -> dict:
                        "exact": exact, "loop_area_rel_error": abs(area - exact) / exact,
                        "dissipation_rel_error": abs(diss[i + 1: j + 1].sum() - exact) / exact})
     energy = energy_balance(steps, name, [r["delta"] for r in rows], diss)
-    _, work = masing_path(Q, lambda s: float(virgin_dissipation(s, mu_P_all(Q, P, rows),
+    _, work, _ = masing_path(Q, lambda s: float(virgin_dissipation(s, mu_P_all(Q, P, rows),
                                                                 e_star, thick)))
     return {"rows": rows, "cycles": cycles, "energy": energy,
             "dissipation_total": float(diss.sum()),
@@ -180,7 +180,7 @@ def plot(out: Path, res: dict, steps: list[int], center_x: float, radius: float,
         o = np.argsort(c["x"][sel])
         x, q, mu = c["x"][sel][o] - center_x, c["q"][sel][o], float(c["mu"][sel][0])
         a, p0 = hertz_contact(P[k - 1] / thick, radius, e_star)
-        terms, _ = masing_path(Q[:k], lambda s, mp=mu * P[k - 1]: float(
+        terms, _, _ = masing_path(Q[:k], lambda s, mp=mu * P[k - 1]: float(
             virgin_dissipation(s, mp, e_star, thick)))
         win = np.abs(x) <= 1.2 * a
         line, = ax1.plot(x[win] / a, q[win] / (mu * p0), "o", ms=3,

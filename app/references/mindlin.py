@@ -60,23 +60,31 @@ def cycle_dissipation(Q_amplitude: float, mu_P: float, E_star: float,
     return float(4.0 * virgin_dissipation(Q_amplitude, mu_P, E_star, thickness))
 
 
-def masing_path(Q: np.ndarray, dv: Callable[[float], float]) -> tuple[list[Terms], np.ndarray]:
+def masing_path(Q: np.ndarray, dv: Callable[[float], float]
+                ) -> tuple[list[Terms], np.ndarray, np.ndarray]:
     """Tractions and cumulative dissipation along a tangential load path (Masing's rules).
 
     Q: (n,) tangential forces at the steps (the path starts at 0 before Q[0] and is linear
     between the entries); dv: the virgin dissipation D_v(|Q|). Returns per entry the
-    traction as `Terms` and (n,) the dissipation from the start up to that entry.
+    traction as `Terms`, (n,) the dissipation from the start up to that entry, and (n,) the
+    load Q' of the branch that slid at the end of the step into it (|Q| on the virgin
+    branch, |Q - Q_r| / 2 after a reversal at Q_r; 0 for a step without change): its pairs
+    in |x| > a sqrt(1 - Q' / (mu P)) slip. A step that ends where a branch meets its
+    origin's branch slid on the younger one, though the traction is the older one's.
     """
     turns: list[tuple[float, Terms]] = []  # turning points (Q_r, traction there), oldest first
     direction, q_now, work = 0.0, 0.0, 0.0
     out_terms: list[Terms] = []
-    out_work = np.zeros(len(Q))
+    out_work, out_slip = np.zeros(len(Q)), np.zeros(len(Q))
 
     def terms_at(x: float) -> Terms:
         if not turns:
             return ((math.copysign(1.0, x), abs(x)),) if x != 0.0 else ()
         q_r, t_r = turns[-1]
         return t_r + ((2.0 * math.copysign(1.0, x - q_r), abs(x - q_r) / 2.0),)
+
+    def branch_load(x: float) -> float:
+        return abs(x) if not turns else abs(x - turns[-1][0]) / 2.0
 
     def branch_work(x0: float, x1: float) -> float:
         if not turns:
@@ -87,6 +95,7 @@ def masing_path(Q: np.ndarray, dv: Callable[[float], float]) -> tuple[list[Terms
     tol = 1e-9 * float(np.abs(Q).max(initial=0.0))  # a load back at a turning point meets it
     for k, target in enumerate(map(float, Q)):
         d = float(np.sign(target - q_now))
+        slip = 0.0
         if d != 0.0:
             if direction != 0.0 and d != direction:
                 turns.append((q_now, terms_at(q_now)))
@@ -96,15 +105,18 @@ def masing_path(Q: np.ndarray, dv: Callable[[float], float]) -> tuple[list[Terms
                 if meet is not None and (target - meet) * d >= -tol and \
                         (meet - q_now) * d >= -tol:
                     work += branch_work(q_now, meet)
+                    slip = branch_load(meet)
                     q_now = meet
                     del turns[-2 if len(turns) >= 2 else -1:]
                     continue
                 work += branch_work(q_now, target)
+                if abs(target - q_now) > tol:
+                    slip = branch_load(target)
                 q_now = target
                 break
         out_terms.append(terms_at(q_now))
-        out_work[k] = work
-    return out_terms, out_work
+        out_work[k], out_slip[k] = work, slip
+    return out_terms, out_work, out_slip
 
 
 def masing_traction(x, terms: Terms, a: float, p0: float, mu: float, mu_P: float):
@@ -131,8 +143,8 @@ def mindlin_errors(x, q, length, *, Q_path: np.ndarray, P: float, mu: float, R: 
     """q(x) at the last entry of Q_path against Masing's traction (x relative to the centre,
     sorted, q signed along t), the closed-form dissipation along the path and, with
     `stick` ((m,) bool: pairs in contact that did not slip in the last step), the stick
-    zone against the last branch's: |x| < a sqrt(1 - Q' / (mu P)), Q' = |Q| on the virgin
-    branch, |Q - Q_r| / 2 after a reversal at Q_r."""
+    zone against that of the branch the last step slid on: |x| < a sqrt(1 - Q' / (mu P)),
+    Q' = |Q| on the virgin branch, |Q - Q_r| / 2 after a reversal at Q_r."""
     a, p0 = hertz_contact(P / thickness, R, E_star)
     mu_P = mu * P
     nan = float("nan")
@@ -140,8 +152,8 @@ def mindlin_errors(x, q, length, *, Q_path: np.ndarray, P: float, mu: float, R: 
         return {"Q_over_muP": float(np.abs(Q_path).max() / mu_P), "traction_l2_rel_error": nan,
                 "traction_l2_interp_rel_error": nan, "stick_half_width_rel_error": nan,
                 "dissipation_exact": nan}
-    terms, work = masing_path(Q_path, lambda s: float(virgin_dissipation(s, mu_P, E_star,
-                                                                          thickness)))
+    terms, work, slip = masing_path(Q_path, lambda s: float(
+        virgin_dissipation(s, mu_P, E_star, thickness)))
     exact = lambda s: masing_traction(s, terms[-1], a, p0, mu, mu_P)  # noqa: E731
     zone = np.abs(x) < a
     qc = exact(x)
@@ -149,7 +161,7 @@ def mindlin_errors(x, q, length, *, Q_path: np.ndarray, P: float, mu: float, R: 
     l2 = np.sqrt(np.sum(length[zone] * (q[zone] - qc[zone]) ** 2) / den) if den > 0 else nan
     out = {}
     if stick is not None and terms[-1]:
-        c_exact = a * math.sqrt(max(1.0 - terms[-1][-1][1] / mu_P, 0.0))
+        c_exact = a * math.sqrt(max(1.0 - slip[-1] / mu_P, 0.0))
         left, right = _edges_from_states(x, np.asarray(stick))
         half = 0.5 * (right - left)
         out = {"stick_half_width": half, "stick_half_width_exact": c_exact,
