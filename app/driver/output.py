@@ -207,7 +207,8 @@ def reference_errors(cfg: Config, disc: Discretisation, summary: dict, mesh: Mes
         profile = _contact_profile(cfg, disc, mesh, contact, last_contact)
     figures = RunFigures(E=float(disc.E[0]), nu=float(disc.nu[0]), plane=disc.plane,
                          thickness=disc.thickness, strain_energy=summary["strain_energy"],
-                         point_values=summary["point_values"], contact=profile)
+                         point_values=summary["point_values"], contact=profile,
+                         steps=summary.get("steps", []))
     return reference(cfg.reference["type"]).compare(cfg.reference, figures)
 
 

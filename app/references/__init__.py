@@ -10,11 +10,12 @@ hertz.py), and add it to REFERENCES below.
 from __future__ import annotations
 
 from app.errors import InputError
-from app.references import cattaneo, hertz, timoshenko
+from app.references import cattaneo, hertz, mindlin, timoshenko
 from app.references.base import ContactProfile, Reference, RunFigures
 
 REFERENCES: dict[str, Reference] = {
-    r.name: r for r in (timoshenko.REFERENCE, hertz.REFERENCE, cattaneo.REFERENCE)
+    r.name: r for r in (timoshenko.REFERENCE, hertz.REFERENCE, cattaneo.REFERENCE,
+                        mindlin.REFERENCE)
 }
 
 __all__ = ["REFERENCES", "ContactProfile", "Reference", "RunFigures", "reference"]

@@ -35,8 +35,8 @@ class ContactProfile:
 @dataclass
 class RunFigures:
     """A run's results a reference compares with: material and plane of the first body,
-    thickness, strain energy, the displacements at the [points] and the contact profile
-    (None without contact)."""
+    thickness, strain energy, the displacements at the [points], the contact profile
+    (None without contact) and summary.json's `steps` entries (the load path)."""
 
     E: float
     nu: float
@@ -45,6 +45,7 @@ class RunFigures:
     strain_energy: float
     point_values: dict
     contact: ContactProfile | None = None
+    steps: list = field(default_factory=list)
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,232 @@
+"""Mindlin-Deresiewicz: Cattaneo's cylinder under a tangential load that goes up and down.
+
+Plane-strain line contact, equal materials (normal and tangential problems uncouple), the
+normal force P held while the tangential force Q varies. Loading from 0 (the virgin
+branch) gives Cattaneo's traction, q = sign(Q) q_L(|Q|) with q_L(x; Q) =
+`cattaneo_traction` at Q / (mu P). After a reversal at Q_r, where the traction was q_r,
+
+    q(x) = q_r(x) + sign(Q - Q_r) 2 q_L(x; |Q - Q_r| / 2)
+
+(Johnson, Contact Mechanics, 7.2 and 7.3; the 2D superposition holds because an elliptic
+shear traction over |x| < b with peak mu p0 b / a moves the stick zone |x| < c <= b
+rigidly: the surface strain of q0 sqrt(1 - x^2/b^2) is proportional to q0 x / b, the same
+for both terms). A counter-slip zone grows in from the contact edges; the branch meets
+the previous one where it started (Masing's memory rule: the two turning points are
+forgotten and the older branch continues), the virgin branch at -Q_r.
+
+Dissipation: on the virgin branch the slip in c < |x| < a is
+s = (mu p0 / (E* a)) (x sqrt(x^2 - c^2) - c^2 acosh(x / c)), and the work mu p |s| summed
+over the slip zone is D_v(Q) = (mu P)^2 / (pi E* t) [(1 - r) ln(1 - r) + r - r^2 / 2],
+r = Q / (mu P), t the thickness; a branch from Q_r dissipates 2 D_v(|Q - Q_r| / 2) (its
+slip field is twice the virgin one at half the load, at the same friction mu p), so a
+closed cycle between -Q* and Q* dissipates 4 D_v(Q*), the area of its hysteresis loop.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+
+import numpy as np
+
+from app.closed_form import (
+    INTERPOLATED_L2_RANGE,
+    _edges_from_states,
+    cattaneo_traction,
+    hertz_contact,
+    interpolated_l2_rel_error,
+)
+from app.references.base import Reference, RunFigures
+from app.references.hertz import pressure_errors, pressure_overlay
+
+Terms = tuple[tuple[float, float], ...]
+"""A traction as a sum of Cattaneo terms: q(x) = sum over (k, Q) of k q_L(x; Q)."""
+
+
+def virgin_dissipation(Q, mu_P: float, E_star: float, thickness: float = 1.0):
+    """D_v: frictional work of loading from 0 to |Q| <= mu P on the virgin branch (force x
+    length; P, Q total forces over `thickness`). nan beyond mu P (gross slip)."""
+    r = np.abs(np.asarray(Q, dtype=float)) / mu_P
+    with np.errstate(divide="ignore", invalid="ignore"):
+        log_term = np.where(r < 1.0, (1.0 - r) * np.log(np.where(r < 1.0, 1.0 - r, 1.0)), 0.0)
+    out = mu_P**2 / (math.pi * E_star * thickness) * (log_term + r - 0.5 * r**2)
+    return np.where(r <= 1.0, out, np.nan)
+
+
+def cycle_dissipation(Q_amplitude: float, mu_P: float, E_star: float,
+                      thickness: float = 1.0) -> float:
+    """Work of one closed cycle -Q* -> Q* -> -Q*: the area of the hysteresis loop of Q
+    against the relative tangential displacement, 4 D_v(Q*)."""
+    return float(4.0 * virgin_dissipation(Q_amplitude, mu_P, E_star, thickness))
+
+
+def masing_path(Q: np.ndarray, dv: Callable[[float], float]
+                ) -> tuple[list[Terms], np.ndarray, np.ndarray]:
+    """Tractions and cumulative dissipation along a tangential load path (Masing's rules).
+
+    Q: (n,) tangential forces at the steps (the path starts at 0 before Q[0] and is linear
+    between the entries); dv: the virgin dissipation D_v(|Q|). Returns per entry the
+    traction as `Terms`, (n,) the dissipation from the start up to that entry, and (n,) the
+    load Q' of the branch that slid at the end of the step into it (|Q| on the virgin
+    branch, |Q - Q_r| / 2 after a reversal at Q_r; 0 for a step without change): its pairs
+    in |x| > a sqrt(1 - Q' / (mu P)) slip. A step that ends where a branch meets its
+    origin's branch slid on the younger one, though the traction is the older one's.
+    """
+    turns: list[tuple[float, Terms]] = []  # turning points (Q_r, traction there), oldest first
+    direction, q_now, work = 0.0, 0.0, 0.0
+    out_terms: list[Terms] = []
+    out_work, out_slip = np.zeros(len(Q)), np.zeros(len(Q))
+
+    def terms_at(x: float) -> Terms:
+        if not turns:
+            return ((math.copysign(1.0, x), abs(x)),) if x != 0.0 else ()
+        q_r, t_r = turns[-1]
+        return t_r + ((2.0 * math.copysign(1.0, x - q_r), abs(x - q_r) / 2.0),)
+
+    def branch_load(x: float) -> float:
+        return abs(x) if not turns else abs(x - turns[-1][0]) / 2.0
+
+    def branch_work(x0: float, x1: float) -> float:
+        if not turns:
+            return abs(dv(abs(x1)) - dv(abs(x0)))
+        q_r = turns[-1][0]
+        return 2.0 * abs(dv(abs(x1 - q_r) / 2.0) - dv(abs(x0 - q_r) / 2.0))
+
+    tol = 1e-9 * float(np.abs(Q).max(initial=0.0))  # a load back at a turning point meets it
+    for k, target in enumerate(map(float, Q)):
+        d = float(np.sign(target - q_now))
+        slip = 0.0
+        if d != 0.0:
+            if direction != 0.0 and d != direction:
+                turns.append((q_now, terms_at(q_now)))
+            direction = d
+            while True:  # the memory rule: a branch that meets its origin's branch joins it
+                meet = (turns[-2][0] if len(turns) >= 2 else -turns[0][0]) if turns else None
+                if meet is not None and (target - meet) * d >= -tol and \
+                        (meet - q_now) * d >= -tol:
+                    work += branch_work(q_now, meet)
+                    slip = branch_load(meet)
+                    q_now = meet
+                    del turns[-2 if len(turns) >= 2 else -1:]
+                    continue
+                work += branch_work(q_now, target)
+                if abs(target - q_now) > tol:
+                    slip = branch_load(target)
+                q_now = target
+                break
+        out_terms.append(terms_at(q_now))
+        out_work[k], out_slip[k] = work, slip
+    return out_terms, out_work, out_slip
+
+
+def masing_traction(x, terms: Terms, a: float, p0: float, mu: float, mu_P: float):
+    """q(x) of a traction given as Cattaneo terms (signed, along the interface's t)."""
+    x = np.asarray(x, dtype=float)
+    out = np.zeros_like(x)
+    for k, load in terms:
+        out += k * cattaneo_traction(x, a, p0, mu, min(load / mu_P, 1.0))
+    return out
+
+
+def _path(run: RunFigures, name: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The interface's tangential force, normal force and dissipation per step (round-off
+    tangential forces, below 1e-9 of the largest, read as 0)."""
+    q, p, d = (np.array([float(s.get("interfaces", {}).get(name, {}).get(key, 0.0))
+                         for s in run.steps])
+               for key in ("tangential_force", "normal_force", "dissipation"))
+    q[np.abs(q) <= 1e-9 * np.abs(q).max(initial=0.0)] = 0.0
+    return q, p, d
+
+
+def mindlin_errors(x, q, length, *, Q_path: np.ndarray, P: float, mu: float, R: float,
+                   E_star: float, thickness: float = 1.0, stick=None) -> dict:
+    """q(x) at the last entry of Q_path against Masing's traction (x relative to the centre,
+    sorted, q signed along t), the closed-form dissipation along the path and, with
+    `stick` ((m,) bool: pairs in contact that did not slip in the last step), the stick
+    zone against that of the branch the last step slid on: |x| < a sqrt(1 - Q' / (mu P)),
+    Q' = |Q| on the virgin branch, |Q - Q_r| / 2 after a reversal at Q_r."""
+    a, p0 = hertz_contact(P / thickness, R, E_star)
+    mu_P = mu * P
+    nan = float("nan")
+    if np.abs(Q_path).max(initial=0.0) > mu_P:
+        return {"Q_over_muP": float(np.abs(Q_path).max() / mu_P), "traction_l2_rel_error": nan,
+                "traction_l2_interp_rel_error": nan, "stick_half_width_rel_error": nan,
+                "dissipation_exact": nan}
+    terms, work, slip = masing_path(Q_path, lambda s: float(
+        virgin_dissipation(s, mu_P, E_star, thickness)))
+    exact = lambda s: masing_traction(s, terms[-1], a, p0, mu, mu_P)  # noqa: E731
+    zone = np.abs(x) < a
+    qc = exact(x)
+    den = np.sum(length[zone] * qc[zone] ** 2)
+    l2 = np.sqrt(np.sum(length[zone] * (q[zone] - qc[zone]) ** 2) / den) if den > 0 else nan
+    out = {}
+    if stick is not None and terms[-1]:
+        c_exact = a * math.sqrt(max(1.0 - slip[-1] / mu_P, 0.0))
+        left, right = _edges_from_states(x, np.asarray(stick))
+        half = 0.5 * (right - left)
+        out = {"stick_half_width": half, "stick_half_width_exact": c_exact,
+               "stick_edges": [left, right],
+               "stick_half_width_rel_error": abs(half - c_exact) / c_exact if c_exact > 0
+               else nan}
+    return out | {
+            "Q": float(Q_path[-1]), "Q_over_muP": float(Q_path[-1] / mu_P), "a_hertz": a,
+            "terms": [list(t) for t in terms[-1]], "traction_l2_rel_error": float(l2),
+            "traction_l2_interp_rel_error": interpolated_l2_rel_error(
+                x, q, exact, INTERPOLATED_L2_RANGE * a),
+            "dissipation_exact": float(work[-1])}
+
+
+def _errors(params: dict, run: RunFigures) -> dict:
+    out = pressure_errors(params, run)
+    c = run.contact
+    Q_path, P_path, diss = _path(run, c.interface)
+    P = float(c.p_force.sum())
+    if c.mu <= 0.0 or P <= 0.0 or Q_path.size == 0:
+        out["mindlin"] = {"P": P, "traction_l2_rel_error": math.nan,
+                          "traction_l2_interp_rel_error": math.nan,
+                          "stick_half_width_rel_error": math.nan,
+                          "dissipation_rel_error": math.nan}
+        return out
+    o = np.argsort(c.x)
+    m = mindlin_errors(c.x[o] - params["center_x"], c.q[o], c.length[o], Q_path=Q_path, P=P,
+                       mu=c.mu, R=params["radius"], E_star=c.E_star,
+                       thickness=run.thickness, stick=c.stick[o])
+    loaded = Q_path != 0.0
+    d_run = float(diss.sum())
+    d_ex = m["dissipation_exact"]
+    out["mindlin"] = m | {
+        "P": P, "Q_max": float(np.abs(Q_path).max(initial=0.0)),
+        # the closed form holds P; how far it moved while Q was applied
+        "P_variation": float(np.abs(P_path[loaded] - P).max(initial=0.0) / P),
+        # the reversals the traction remembers (each branch adds one term)
+        "turning_points": max(len(m.get("terms", ())) - 1, 0),
+        "dissipation": d_run,
+        "dissipation_rel_error": abs(d_run - d_ex) / d_ex if d_ex > 0 else math.nan}
+    return out
+
+
+def _overlay(ref: dict, mu: float) -> dict:
+    curves = pressure_overlay(ref, mu)
+    h, mi = ref["hertz"], ref["mindlin"]
+    if "terms" in mi and math.isfinite(h["a_hertz"]):
+        x0, terms = ref.get("center_x", 0.0), tuple(map(tuple, mi["terms"]))
+        mu_P = mu * h["P"]
+        curves["q"] = ("Mindlin-Deresiewicz", lambda x: masing_traction(
+            x - x0, terms, h["a_hertz"], h["p0_hertz"], mu, mu_P))
+    return curves
+
+
+REFERENCE = Reference(
+    name="mindlin",
+    keys={"radius": None, "center_x": 0.0},
+    positive=("radius",),
+    errors=_errors,
+    columns=((("hertz", "p_max_rel_error"), "peak_pressure"),
+             (("hertz", "pressure_l2_interp_rel_error"), "pressure_l2_interp"),
+             (("mindlin", "stick_half_width_rel_error"), "stick_zone"),
+             (("mindlin", "traction_l2_rel_error"), "traction_l2"),
+             (("mindlin", "traction_l2_interp_rel_error"), "traction_l2_interp"),
+             (("mindlin", "dissipation_rel_error"), "dissipation")),
+    overlay=_overlay,
+    needs_contact=True,
+)
