@@ -10,8 +10,8 @@ nearly singular and singular compliances, mu 0 / 0.3 / 1, infeasible ones, and l
 LCPs), adds warm-start variants (wrong, infeasible, degenerate bases, wrong sizes), and
 solves each with every solver of `app.lcp.audit.solvers`. Every case that is not "ok" is
 one line {"finding": ...}; then one line per (solver, class) with the counts of outcomes,
-and a last line {"summary": ...} with the totals per outcome. Exit status 1 when any
-outcome is a failure (wrong, missed, hang, exception).
+one per group of classes (all solvers), and a last line {"summary": ...} with the totals
+per outcome. Exit status 1 when any outcome is a failure (wrong, missed, hang, exception).
 """
 
 from __future__ import annotations
@@ -39,9 +39,8 @@ def cases(seed: int, large: bool) -> list[tuple[ac.Case, Reference]]:
     for c in base:
         ref = Reference(c)
         out.append((c, ref))
-        if c.q.size <= 12:
-            sol = ref.sols[0] if ref.sols else None
-            out += [(w, ref) for w in ac.warm_variants(c, rng, sol)]
+        sol = ref.sols[0] if ref.sols else None
+        out += [(w, ref) for w in ac.warm_variants(c, rng, sol)]
     return out
 
 
@@ -67,10 +66,13 @@ def main(argv: list[str] | None = None) -> int:
                     print(json.dumps({"finding": row, "solver": name, "class": case.cls,
                                       "n": int(case.q.size), "round": args.seed + r,
                                       "kw": _kw(case.kw)}), flush=True)
-    total = Counter()
+    total, groups = Counter(), defaultdict(Counter)
     for (name, cls), c in sorted(counts.items()):
         total.update(c)
+        groups[ac.group(cls)].update(c)
         print(json.dumps({"solver": name, "class": cls, "cases": sum(c.values()), **c}))
+    for g, c in groups.items():
+        print(json.dumps({"group": g, "cases": sum(c.values()), **c}))
     print(json.dumps({"summary": {"cases": sum(total.values()), **total},
                       "rounds": args.rounds, "seed": args.seed}))
     return 1 if any(total[f] for f in FAILURES) else 0

@@ -341,3 +341,18 @@ def large_twin_cases(rng: np.random.Generator) -> list[Case]:
     p = rng.permutation(qc.size)
     out.append(Case("large_contact_shuffled_mu0", Mc[np.ix_(p, p)], qc[p], "copositive-plus"))
     return out
+
+
+GROUPS = (("warm_wrong_size", "wrong-size bases"), ("warm_", "warm starts (all classes)"),
+          ("large_", "large (n 30-420)"), ("infeasible", "infeasible"),
+          ("contact_lifted", "infeasible"), ("contact", "contact (modified Coulomb)"),
+          ("scaled", "badly scaled"), ("extreme", "badly scaled"),
+          ("degenerate", "degenerate (integer, ties, zeros)"), ("bimatrix", "bimatrix games"),
+          ("psd", "positive semidefinite"), ("lp_kkt", "positive semidefinite"),
+          ("twins", "positive semidefinite"), ("", "P-matrices"))
+"""(class prefix, group) for the checker's summary by group; the first match counts."""
+
+
+def group(cls: str) -> str:
+    """The summary group of a case class (`GROUPS`)."""
+    return next(g for prefix, g in GROUPS if cls.startswith(prefix))
