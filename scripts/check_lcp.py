@@ -3,7 +3,7 @@
     .venv/bin/python scripts/check_lcp.py                 # 20 rounds, seed 0
     .venv/bin/python scripts/check_lcp.py --rounds 3 --no-large --solver lemke
 
-Each round draws the cases of `app.lcp.audit_cases` (random P-matrices, symmetric positive
+Each round draws the cases of `app.interface.audit_cases` (random P-matrices, symmetric positive
 (semi)definite, non-symmetric PSD, degenerate integer data, rows and symmetric scalings by
 1e-8..1e8, the project's modified Coulomb LCPs on spring lattices: supported, floating,
 nearly singular and singular compliances, mu 0 / 0.3 / 1, infeasible ones, and larger
@@ -23,7 +23,7 @@ from collections import Counter, defaultdict
 
 import numpy as np
 
-from app.lcp import audit_cases as ac
+from app.interface import audit_cases as ac
 from app.lcp.audit import FAILURES, Reference, classify, solvers
 
 

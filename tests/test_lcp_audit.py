@@ -9,9 +9,9 @@ import sys
 
 import numpy as np
 
+from app.interface.audit_cases import Case, contact_case
 from app.lcp import exact, lemke
 from app.lcp.audit import Reference, classify, row_violation
-from app.lcp.audit_cases import Case, contact_case
 from app.lcp.result import LCPResult
 from tests.support import ROOT, mpi_env
 
@@ -75,8 +75,8 @@ def test_one_fixed_seed_round_has_no_failure():
     """scripts/check_lcp.py, one round (seed 0) of lemke without the large cases: every
     outcome is ok or an unguaranteed miss (the bimatrix games)."""
     res = subprocess.run([sys.executable, "scripts/check_lcp.py", "--rounds", "1",
-                          "--no-large", "--solver", "lemke"], cwd=ROOT, env=mpi_env(), capture_output=True,
-                         text=True, timeout=600)
+                          "--no-large", "--solver", "lemke"], cwd=ROOT, env=mpi_env(),
+                         capture_output=True, text=True, timeout=600)
     assert res.returncode == 0, res.stdout[-3000:] + res.stderr[-2000:]
     summary = json.loads(res.stdout.splitlines()[-1])["summary"]
     assert summary["cases"] > 700

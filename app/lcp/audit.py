@@ -1,5 +1,5 @@
 """The adversarial checker of the LCP solvers (scripts/check_lcp.py): solve each case of
-`app.lcp.audit_cases` with each solver and classify the outcome against an independent
+`app.interface.audit_cases` with each solver and classify the outcome against an independent
 reference (`app.lcp.exact`: enumeration for n <= 12, LP feasibility, the KKT residual).
 
 Outcomes, worst first:
@@ -19,17 +19,34 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from app.lcp import exact
-from app.lcp.audit_cases import Case
 from app.lcp.lemke import _lemke_tableau
 from app.lcp.solvers import LCP_SOLVERS
 
 WRONG_REL = 1e-6
 """A "solved" answer is wrong when some row violates w_i >= 0 or z_i w_i = 0 by more
 than this x |q_i| + sum_j |M_ij| z_j (the size of the terms of w_i; 1000 x lemke's tol)."""
+@dataclass
+class Case:
+    """One LCP to solve. scale: z of this LCP is z_ref / scale, where z_ref solves the
+    LCP `ref` (M, q) (None: this one); kw: extra keyword arguments of the solver (basis,
+    cold_start, ...); error: the call must raise ValueError."""
+
+    cls: str
+    M: np.ndarray
+    q: np.ndarray
+    guarantee: str
+    kw: dict = field(default_factory=dict)
+    ref: tuple[np.ndarray, np.ndarray] | None = None
+    scale: np.ndarray | None = None
+    error: bool = False
+    expect: str | None = None  # "infeasible" when built to have no solution
+
+
 FLOOR_REL = 1e-10
 """Floor of a row's size in `row_violation`, relative to the scale of the LCP (so that
 with WRONG_REL a violation below 1e-16 of that scale is round-off)."""

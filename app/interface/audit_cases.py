@@ -1,5 +1,6 @@
 """Adversarial LCP cases for the checker (`app.lcp.audit`, scripts/check_lcp.py): one
-generator per class, each returning `Case`s with what the matrix class guarantees.
+generator per class, each returning `Case`s with what the matrix class guarantees. (At the
+interface stage because the contact cases are the interface's own `ContactLCP`.)
 
 Guarantees: "P" (every principal minor positive: exactly one solution, Lemke finds it),
 "copositive-plus" (e.g. positive semidefinite: Lemke finds a solution iff the LCP is
@@ -10,28 +11,10 @@ q, what `lemke` gets in a run) on compliances C = G K^-1 G^T of small spring lat
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-
 import numpy as np
 
 from app.interface.coulomb import ContactLCP
-
-
-@dataclass
-class Case:
-    """One LCP to solve. scale: z of this LCP is z_ref / scale, where z_ref solves the
-    LCP `ref` (M, q) (None: this one); kw: extra keyword arguments of the solver (basis,
-    cold_start, ...); error: the call must raise ValueError."""
-
-    cls: str
-    M: np.ndarray
-    q: np.ndarray
-    guarantee: str
-    kw: dict = field(default_factory=dict)
-    ref: tuple[np.ndarray, np.ndarray] | None = None
-    scale: np.ndarray | None = None
-    error: bool = False
-    expect: str | None = None  # "infeasible" when built to have no solution
+from app.lcp.audit import Case
 
 
 def p_pd(n: int, rng: np.random.Generator) -> np.ndarray:
