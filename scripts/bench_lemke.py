@@ -5,6 +5,7 @@
     .venv/bin/python scripts/bench_lemke.py --n 900 --reference   # also time the tableau
     .venv/bin/python scripts/bench_lemke.py --n 1500 3000 6000 --siconos   # side by side
     .venv/bin/python scripts/bench_lemke.py --n 1500 3000 6000 --textbook  # crash vs textbook
+    .venv/bin/python scripts/bench_lemke.py --recovery   # LCPs that need the recovery step
 
 Each line also times one dense LU of the final active block (the floor) and the ratio.
 "seconds" is the best of --repeat cold calls (default 3; each call starts from scratch) and
@@ -32,7 +33,7 @@ import numpy as np
 import scipy.linalg as sla
 
 from app.lcp import lemke
-from app.lcp.cases import strip_contact_lcp
+from app.lcp.cases import near_duplicate_lcp, row_scaled_lcp, strip_contact_lcp
 
 
 def frictional_lcp(m: int, *, mu: float = 0.3, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
@@ -123,6 +124,28 @@ def run(n: int, reference: bool = False, seed: int = 0, siconos: bool = False,
     return out
 
 
+def recovery_sets() -> list[dict]:
+    """Totals over LCPs whose first run fails and that `lemke`'s recovery step
+    (app/lcp/recovery.py) solves, each from the crash and the textbook start: the 32
+    near-duplicate contact LCPs (n = 50, the QP repair) and 20 row-scaled P-matrix LCPs
+    (n = 40, the balanced LCP). One line per set: LCPs, solved, pivots, seconds."""
+    sets = {"near_duplicate": [near_duplicate_lcp(s, k, ld) for s in range(8)
+                               for k in ("matern", "imq") for ld in ("flat", "parabolic")],
+            "row_scaled": [row_scaled_lcp(s) for s in range(20)]}
+    out = []
+    for name, lcps in sets.items():
+        solved = pivots = 0
+        t0 = time.perf_counter()
+        for M, q in lcps:
+            for crash in (True, False):
+                res = lemke(M, q, crash=crash)
+                solved += res.ok
+                pivots += res.pivots
+        out.append({"set": name, "lcps": 2 * len(lcps), "solved": solved, "pivots": pivots,
+                    "seconds": round(time.perf_counter() - t0, 4)})
+    return out
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--large", action="store_true", help="also n = 6000")
@@ -135,7 +158,13 @@ def main() -> None:
                     help="also time the textbook cold start (lemke(..., crash=False))")
     ap.add_argument("--siconos", action="store_true",
                     help="also run Siconos's Lemke on the same LCP (apt install python3-siconos)")
+    ap.add_argument("--recovery", action="store_true",
+                    help="only the LCPs that need lemke's recovery step (totals per set)")
     args = ap.parse_args()
+    if args.recovery:
+        for line in recovery_sets():
+            print(json.dumps(line), flush=True)
+        return
     bad = [n for n in args.n or [] if n < 3 or n % 3]
     if bad:  # (n = 31 ran n = 30 under "n": 30; n = 0 was a ZeroDivisionError traceback)
         ap.error(f"--n {bad[0]}: sizes must be positive multiples of 3 (3 unknowns a pair)")

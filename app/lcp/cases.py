@@ -48,3 +48,27 @@ def random_contact_lcp(m: int, rng: np.random.Generator,
     c = rng.uniform(0.0, 0.5, m)
     s = rng.uniform(-1.0, 1.0, m)
     return M, np.concatenate([rng.uniform(-1.0, 1.0, m), c + s, c - s])
+
+
+def near_duplicate_lcp(seed: int, kernel: str, load: str) -> tuple[np.ndarray, np.ndarray]:
+    """(M, q), n = 50: frictionless contacts on a line, 10 of them 1e-5 from another, a
+    smooth SPD compliance kernel ("matern" or "imq"), condition 1e10 to 1e12, a unique
+    solution; load "flat" (q = -1) or "parabolic" (the same as tests/test_lemke.py's)."""
+    rng = np.random.default_rng(seed)
+    x = np.linspace(-1.0, 1.0, 40)
+    x = np.sort(np.concatenate([x, x[rng.choice(40, 10, replace=False)] + 1e-5]))
+    d = np.abs(x[:, None] - x[None, :])
+    M = np.exp(-d / 0.3) * (1 + d / 0.3) if kernel == "matern" else 1 / np.sqrt(1 + (d / 0.1)**2)
+    q = -np.ones(50) if load == "flat" else 0.5 * x**2 - 0.3
+    return M, q
+
+
+def row_scaled_lcp(seed: int, n: int = 40) -> tuple[np.ndarray, np.ndarray]:
+    """(R M, R q): a P-matrix LCP (positive definite symmetric part plus a skew part) with
+    its rows scaled by 10^U(-8, 8): the solutions of (M, q)."""
+    rng = np.random.default_rng(seed)
+    A, K = rng.standard_normal((n, n)), rng.standard_normal((n, n))
+    M = A @ A.T / n + 0.05 * np.eye(n) + rng.uniform(0, 3) * (K - K.T)
+    q = rng.standard_normal(n)
+    R = 10.0 ** rng.uniform(-8, 8, n)
+    return R[:, None] * M, R * q

@@ -14,7 +14,8 @@ and check). The package is split by concern:
 - `app.lcp.revised`: the revised core (the one `lemke` runs);
 - `app.lcp.tableau`: the textbook full-tableau core (`_lemke_tableau`, a slow reference);
 - `app.lcp.crash`: the crash basis (block principal pivoting) for cold starts;
-- `app.lcp.repair`: the basis repair for symmetric LCPs (convex QP / NNLS).
+- `app.lcp.recovery`: the one recovery step after a run that ended "inaccurate" or on a
+  secondary ray (restart from the final basis, `app.lcp.balance`, `app.lcp.repair`).
 
 Conventions shared by both cores:
 
@@ -51,7 +52,7 @@ from app.lcp.crash import (
     verified_twins,
 )
 from app.lcp.pivoting import _LEX_REL, _PIV_REL, _TIE_REL, _CoreOut, _lexmin  # noqa: F401
-from app.lcp.repair import is_symmetric, qp_basis
+from app.lcp.recovery import RECOVERED, recover
 from app.lcp.result import DEFAULT_TOL, STATUSES, LCPResult, default_max_pivots
 from app.lcp.revised import (  # noqa: F401 (the knobs, for tests)
     _COMPACT_TERMS,
@@ -298,6 +299,8 @@ def _run(
         raise ValueError(f"tol must be a positive finite number, got {tol!r}")
     max_pivots = default_max_pivots(n) if max_pivots is None else int(max_pivots)
     zero = np.zeros(n)
+    if basis is not None:
+        _given_basis(basis, n)  # a wrong shape is an error whatever q (q >= 0 ignored it)
     if (q >= 0).all():  # M was checked whole by _validate (no sampling when q >= 0)
         return LCPResult(
             zero, q.copy(), 0, "solved", 0.0, np.zeros(n, dtype=bool), "q >= 0: z = 0 solves it"
@@ -436,58 +439,23 @@ def _cold(core, P: _Problem, M, q, tol: float, max_pivots: int, pivots: int, ref
     return LCPResult(z, w, pivots, status, comp, res.zset.copy(), msg, warm, refacts, worst)
 
 
-_FINAL_RESTARTS = 3
-"""Warm starts from the final basis of a run that ended "inaccurate" (`_from_final_basis`)."""
-
-
-def _from_final_basis(core, M, q, max_pivots, tol, res: LCPResult,
-                      crash: bool) -> LCPResult | None:
-    """A run that ended "inaccurate" stopped on a complementary basis whose z_B has an
-    entry just below 0 (round-off on an ill-conditioned path, e.g. a soft floating body
-    pressed between stiff ones, E ratio 1e4 and more): a warm start from that basis (block
-    pivoting, then Lemke; no cold start) ends on the answer in a few iterations; up to
-    _FINAL_RESTARTS of them, each from the basis the last one ended on. The checked result
-    with the pivots of all runs, or None when every one fails."""
-    pivots, basis = res.pivots, res.basis
-    for _ in range(_FINAL_RESTARTS):
-        budget = None if max_pivots is None else max(int(max_pivots) - pivots, 0)
-        again = _run(core, M, q, budget, tol, basis, False, crash)
-        pivots += again.pivots
-        if again.ok:
-            again.pivots = pivots
-            again.message = f"{res.message}; then, from its final basis: {again.message}"
-            return again
-        if again.basis is None or not again.basis.any():
-            return None
-        basis = again.basis
-    return None
-
-
 def _solve(core, M, q, max_pivots, tol, basis, cold_start, crash) -> LCPResult:
-    """`_run`, then the basis repair of `app.lcp.repair` for a symmetric M when the run
-    ended inaccurate or on a secondary ray (the first result stands if that fails too)."""
+    """`_run`, then, when it ended "inaccurate" or on a secondary ray, the one recovery step
+    of `app.lcp.recovery.recover` (restart from the final basis, the balanced LCP, the
+    basis repair; the first result stands when every one fails)."""
     res = _run(core, M, q, max_pivots, tol, basis, cold_start, crash)
-    if res.status == "inaccurate" and res.basis.any():
-        again = _from_final_basis(core, M, q, max_pivots, tol, res, crash)
-        if again is not None:
-            return again
-    if res.ok or res.status not in ("inaccurate", "secondary ray"):
+    if res.ok or res.status not in RECOVERED:
         return res
     M, q, _, _ = _validate(M, q)
-    if not is_symmetric(M):
-        return res
-    B = qp_basis(M, q)
-    if B is None:
-        return res
-    budget = None if max_pivots is None else max(int(max_pivots) - res.pivots, 0)
-    again = _run(core, M, q, budget, tol, B, False, False)
-    if not again.ok:
-        return res
-    again.pivots += res.pivots
-    again.warm_start = "qp"
-    again.message = (f"{res.message}; then solved from the positive set of the convex QP "
-                     f"(non-negative least squares) in {again.pivots - res.pivots} pivots")
-    return again
+    tol = DEFAULT_TOL if tol is None else float(tol)
+
+    def run(Mr, qr, budget, B, cold, crash_r):
+        return _run(core, Mr, qr, budget, tol, B, cold, crash_r)
+
+    def check(Mr, qr, z):
+        return _check(Mr, qr, z, tol)
+
+    return recover(run, check, M, q, res, max_pivots, crash)
 
 
 def lemke(
@@ -535,9 +503,12 @@ def lemke(
     Returns an `LCPResult`. "solved" only after the check above passes (z on the final
     basis is recomputed by a fresh LU solve); "secondary ray": no solution was found from
     this start (for a copositive-plus M, e.g. positive semidefinite, there is none; for
-    contact: no static equilibrium); "inaccurate": a candidate failed the check. For a
-    symmetric M a run that ends "inaccurate" or on a secondary ray is repeated from the
-    positive set of the convex QP (`app.lcp.repair`; warm_start "qp" when that solves it).
+    contact: no static equilibrium); "inaccurate": a candidate failed the check. A run that
+    ends "inaccurate" or on a secondary ray goes through one recovery step
+    (`app.lcp.recovery`, in this order: warm starts from its final basis; the LCP solved
+    again with rows and columns balanced, when their units differ widely; for a symmetric
+    M, a warm start from the positive set of the convex QP, warm_start "qp"); pivots
+    count every attempt.
     q >= 0 returns z = 0 with 0 pivots.
     """
     return _solve(_core_revised, M, q, max_pivots, tol, basis, cold_start, crash)
