@@ -16,6 +16,7 @@ from __future__ import annotations
 import argparse
 import json
 import random
+import re
 import shutil
 import signal
 import subprocess
@@ -32,7 +33,8 @@ from app_runner import ENV  # noqa: E402
 
 
 def step_numbers(out: Path) -> list[int]:
-    return sorted(int(p.stem[5:]) for p in out.glob("step_[0-9][0-9][0-9][0-9].h5"))
+    return sorted(int(p.stem[5:]) for p in out.glob("step_*.h5")
+                  if re.fullmatch(r"step_\d{4,}\.h5", p.name))
 
 
 def xdmf_times(path: Path) -> list[float] | str:
@@ -40,6 +42,42 @@ def xdmf_times(path: Path) -> list[float] | str:
         return [float(t.get("Value")) for t in ET.parse(path).getroot().iter("Time")]
     except (ET.ParseError, OSError) as exc:
         return f"{type(exc).__name__}: {exc}"
+
+
+def meshio_problems(out: Path, steps: list[int]) -> list[str]:
+    """Read both XDMF files with meshio's TimeSeriesReader: the steps' times, and the
+    README's arrays with their shapes at every step."""
+    import meshio
+
+    problems = []
+    for name in ("results.xdmf", "contact.xdmf"):
+        if not (out / name).exists() or not steps:
+            continue
+        try:
+            with meshio.xdmf.TimeSeriesReader(out / name) as r:
+                points, _ = r.read_points_cells()
+                times = []
+                for k in range(r.num_steps):
+                    t, pd, cd = r.read_data(k)
+                    times.append(t)
+                    want = ({"displacement": 3} if name == "results.xdmf"
+                            else {"displacement": 3, "normal": 3, "tangent": 3, "p": 1})
+                    for arr, comps in want.items():
+                        got = pd.get(arr)
+                        if got is None or got.shape != ((len(points),) if comps == 1
+                                                         else (len(points), comps)):
+                            problems.append(f"meshio {name} t={t}: {arr} "
+                                            f"{None if got is None else got.shape}")
+                    if name == "results.xdmf":
+                        stress = cd.get("stress", [None])[0]
+                        if stress is None or stress.shape[1] != 4:
+                            problems.append(f"meshio {name} t={t}: stress")
+        except Exception as exc:  # any failure to read is the finding
+            problems.append(f"meshio {name}: {type(exc).__name__}: {exc}")
+            continue
+        if times != [float(k) for k in steps]:
+            problems.append(f"meshio {name} times {times} vs steps {steps}")
+    return problems
 
 
 def audit(out: Path) -> tuple[dict, list[str]]:
@@ -73,6 +111,7 @@ def audit(out: Path) -> tuple[dict, list[str]]:
                 f["displacement"][()]
         except (OSError, KeyError) as exc:
             problems.append(f"step_{k:04d}.h5: {exc}")
+    problems += meshio_problems(out, steps)
     left = sorted(p.name for p in out.glob("*.tmp"))
     if left:
         problems.append(f"temporary files left: {left}")
@@ -104,14 +143,23 @@ def trial(config: Path, ranks: int, delay: float, sig: signal.Signals, out: Path
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("config", type=Path)
+    ap.add_argument("config", type=Path, nargs="?")
     ap.add_argument("--ranks", type=int, default=2)
     ap.add_argument("--trials", type=int, default=6)
     ap.add_argument("--max-delay", type=float, help="seconds (default: one full run's time)")
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--out", type=Path, default=Path("/tmp/check_interrupts"))
     ap.add_argument("--paraview", action="store_true", help="also open each folder in ParaView")
+    ap.add_argument("--audit", type=Path, nargs="+",
+                    help="only check these existing output folders (no runs)")
     a, extra = ap.parse_known_args()
+    if a.audit:
+        bad = 0
+        for out in a.audit:
+            facts, problems = audit(out)
+            bad += bool(problems)
+            print(json.dumps({"out": str(out), **facts, "problems": problems}), flush=True)
+        sys.exit(1 if bad else 0)
     rng = random.Random(a.seed)
     if a.max_delay is None:
         t0 = time.monotonic()

@@ -108,6 +108,12 @@ def flatten(obj, path: str = "") -> dict[str, object]:
 def compare_summaries(a: dict, b: dict, roundoff: float) -> tuple[dict, list[str]]:
     """Max relative difference per summary field, and the exact mismatches."""
     fa, fb = flatten(a), flatten(b)
+    for k in [k for k in fa if k.endswith("/mode") and "contact_held_modes" in k]:
+        # the words for a combination fitted to a round-off slide name a random direction
+        ratio = k[:-len("mode")] + "slide_ratio"
+        if all(abs(f.get(ratio, 1.0)) < roundoff for f in (fa, fb)):
+            fa.pop(k)
+            fb.pop(k, None)
     mism = [f"summary key only in one run: {k}" for k in sorted(set(fa) ^ set(fb))
             if not SOLVER_PATH.search(k)]
     scale: dict[str, float] = {}

@@ -18,6 +18,7 @@ Exit 1 if any folder has a problem.
 from __future__ import annotations
 
 import json
+import re
 import sys
 from pathlib import Path
 
@@ -32,7 +33,8 @@ H5_NAME = {"normal": "normal_3d", "tangent": "tangent_3d"}  # contact.xdmf renam
 
 
 def step_files(out: Path) -> list[int]:
-    return sorted(int(p.stem[5:]) for p in out.glob("step_[0-9][0-9][0-9][0-9].h5"))
+    return sorted(int(p.stem[5:]) for p in out.glob("step_*.h5")
+                  if re.fullmatch(r"step_\d{4,}\.h5", p.name))
 
 
 def _range(arr: np.ndarray, comps: int) -> tuple[float, float]:
