@@ -1,6 +1,6 @@
 import sys
 
-from app import startup_signals
+from app.output import startup_signals
 
 startup_signals.arm(None, "", act=False)  # a signal while the modules load is recorded
 from app.cli import main  # noqa: E402

@@ -156,7 +156,7 @@ def main(argv: list[str] | None = None) -> int:
     if bad:
         parser.error(f"unknown option {bad[0]} (PETSc options take a single dash)")
 
-    from app import startup_signals
+    from app.output import startup_signals
 
     run_out = None if args.command != "run" else Path(args.out or Path("out") / args.config.stem)
     startup_signals.arm(run_out, str(args.config), act=args.command == "run")

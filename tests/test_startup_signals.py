@@ -1,4 +1,4 @@
-"""SIGINT / SIGTERM before a run's guard is in force (app/startup_signals.py): during the
+"""SIGINT / SIGTERM before a run's guard is in force (app/output/startup_signals.py): during the
 start-up phase, and between the guard's clean-up of OUT and its first summary.json.
 
 Before: SIGTERM (what mpiexec sends every rank on Ctrl-C) killed the run there with

@@ -22,8 +22,9 @@ from pathlib import Path
 import numpy as np
 from petsc4py import PETSc
 
-from app import hard_stop, startup_signals
+from app import hard_stop
 from app.errors import InputError, SolveError
+from app.output import startup_signals
 
 LOCK_NAME = ".lock"
 STALE = startup_signals.STALE
