@@ -9,6 +9,8 @@ With `--paraview`, each folder is also opened with ParaView (scripts/check_xdmf.
 pvpython). One JSON line per trial; exit 1 if any trial has a problem.
 
     .venv/bin/python scripts/check_interrupts.py configs/cattaneo.toml --trials 6 --paraview
+    .venv/bin/python scripts/check_interrupts.py configs/hertz.toml --earlier --max-delay 1.5
+    .venv/bin/python scripts/check_interrupts.py --audit OUT [OUT ...]   # folders only
 """
 
 from __future__ import annotations
@@ -80,8 +82,9 @@ def meshio_problems(out: Path, steps: list[int]) -> list[str]:
     return problems
 
 
-def audit(out: Path) -> tuple[dict, list[str]]:
-    """(facts, problems) of an output folder left by a stopped run."""
+def audit(out: Path, config: Path | None = None) -> tuple[dict, list[str]]:
+    """(facts, problems) of an output folder left by a stopped run (of `config`: the
+    summary must be that run's, not an earlier run's in the same folder)."""
     problems: list[str] = []
     steps = step_numbers(out)
     facts: dict = {"step_files": steps}
@@ -92,6 +95,8 @@ def audit(out: Path) -> tuple[dict, list[str]]:
     except (OSError, json.JSONDecodeError) as exc:
         return facts, problems + [f"summary.json: {type(exc).__name__}: {exc}"]
     facts.update(status=s.get("status"), error=s.get("error"))
+    if config is not None and s.get("config") != str(config):
+        problems.append(f"summary.json is of {s.get('config')}, not of this run")
     listed = [st["step"] for st in s.get("steps", [])]
     if listed != steps:
         problems.append(f"summary steps {listed} vs step files {steps}")
@@ -119,9 +124,14 @@ def audit(out: Path) -> tuple[dict, list[str]]:
 
 
 def trial(config: Path, ranks: int, delay: float, sig: signal.Signals, out: Path,
-          extra: list[str]) -> dict:
-    """One run stopped by `sig` after `delay` seconds (seconds after mpiexec starts)."""
+          extra: list[str], earlier: bool = False) -> dict:
+    """One run stopped by `sig` after `delay` seconds (seconds after mpiexec starts);
+    earlier: into a folder holding a completed run of configs/patch.toml."""
     shutil.rmtree(out, ignore_errors=True)
+    if earlier:
+        subprocess.run([sys.executable, "-m", "app", "run", str(ROOT / "configs" / "patch.toml"),
+                        "--out", str(out), "--quiet"], cwd=ROOT,
+                       env=dict(ENV, PYTHONPATH=str(ROOT)), capture_output=True, check=True)
     cmd = [sys.executable, "-m", "app", "run", str(config), "--out", str(out), *extra]
     if ranks > 1:
         cmd = [shutil.which("mpiexec") or "mpiexec", "--oversubscribe", "-n", str(ranks), *cmd]
@@ -135,7 +145,7 @@ def trial(config: Path, ranks: int, delay: float, sig: signal.Signals, out: Path
         proc.kill()
         _, err = proc.communicate()
         return {"delay": delay, "signal": sig.name, "problems": ["hung after the signal"]}
-    facts, problems = audit(out)
+    facts, problems = audit(out, config)
     line = [x for x in err.splitlines() if x.startswith("error:")]
     return {"delay": round(delay, 2), "signal": sig.name, "exit": proc.returncode, **facts,
             "line": line[-1] if line else None, "problems": problems}
@@ -150,6 +160,8 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--out", type=Path, default=Path("/tmp/check_interrupts"))
     ap.add_argument("--paraview", action="store_true", help="also open each folder in ParaView")
+    ap.add_argument("--earlier", action="store_true",
+                    help="run into a folder that holds an earlier, completed run")
     ap.add_argument("--audit", type=Path, nargs="+",
                     help="only check these existing output folders (no runs)")
     a, extra = ap.parse_known_args()
@@ -169,7 +181,8 @@ def main() -> None:
     for i in range(a.trials):
         sig = (signal.SIGINT, signal.SIGTERM)[i % 2]
         out = a.out / f"trial_{i}"
-        row = trial(a.config, a.ranks, rng.uniform(0.3, a.max_delay), sig, out, extra)
+        row = trial(a.config, a.ranks, rng.uniform(0.3, a.max_delay), sig, out, extra,
+                    a.earlier)
         if a.paraview and not row["problems"] and row.get("step_files"):
             pv = subprocess.run([shutil.which("pvpython") or "pvpython",
                                  str(ROOT / "scripts" / "check_xdmf.py"), str(out)],
