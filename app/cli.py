@@ -156,6 +156,10 @@ def main(argv: list[str] | None = None) -> int:
     if bad:
         parser.error(f"unknown option {bad[0]} (PETSc options take a single dash)")
 
+    from app.output import startup_signals
+
+    run_out = None if args.command != "run" else Path(args.out or Path("out") / args.config.stem)
+    startup_signals.arm(run_out, str(args.config), act=args.command == "run")
     import petsc4py
 
     petsc4py.init([sys.argv[0]] + petsc_args)
@@ -179,6 +183,8 @@ def main(argv: list[str] | None = None) -> int:
                          "before it is written"), 130
     except PETSc.Error as exc:
         message, code = f"error: PETSc: {petsc_error_line(exc)}", 2
+    finally:
+        startup_signals.restore()  # when no run's guard took the signals over
     if rank == 0:
         print(message, file=sys.stderr)
     return code

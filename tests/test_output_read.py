@@ -37,3 +37,12 @@ def test_last_step_file(tmp_path: Path) -> None:
         _write(tmp_path / f"step_{k:04d}.h5")
     (tmp_path / "step_0011.h5.tmp").write_text("")
     assert last_step_file(tmp_path).name == "step_0010.h5"
+
+
+def test_last_step_file_counts_past_step_9999(tmp_path: Path) -> None:
+    """analysis.steps may be up to 100000: step_10000.h5 comes after step_9999.h5."""
+    assert last_step_file(tmp_path) is None
+    for k in (2, 9999, 10000, 10001):
+        (tmp_path / f"step_{k:04d}.h5").touch()
+    (tmp_path / "step_99999.h5.tmp").touch()  # a write in progress is no step
+    assert last_step_file(tmp_path).name == "step_10001.h5"

@@ -6,6 +6,7 @@ of one interface at one step, sorted by x.
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import h5py
@@ -13,9 +14,11 @@ import numpy as np
 
 
 def last_step_file(out: Path) -> Path | None:
-    """The highest-numbered `step_NNNN.h5` in a run folder, or None if there is none."""
-    files = sorted(Path(out).glob("step_[0-9][0-9][0-9][0-9].h5"))
-    return files[-1] if files else None
+    """The highest-numbered `step_NNNN.h5` in a run folder, or None if there is none.
+    Step 10000 and later have five or more digits (step_10000.h5): compared by number
+    (before, a 4-digit pattern returned step_9999.h5 of a longer run)."""
+    files = [p for p in Path(out).glob("step_*.h5") if re.fullmatch(r"step_\d{4,}\.h5", p.name)]
+    return max(files, key=lambda p: int(p.stem[5:]), default=None)
 
 
 def read_pairs(path: Path, interface: int = 0, keys: tuple[str, ...] | None = None

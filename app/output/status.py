@@ -24,10 +24,10 @@ from petsc4py import PETSc
 
 from app import hard_stop
 from app.errors import InputError, SolveError
+from app.output import startup_signals
 
 LOCK_NAME = ".lock"
-STALE = re.compile(r"^(step_\d{4,}\.h5|results\.xdmf|contact\.xdmf|mesh\.h5|summary\.json)"
-                   r"(\.tmp)?$")
+STALE = startup_signals.STALE
 """Files this tool writes into OUT (and their temporary names)."""
 TEMPORARY = re.compile(r"^(step_\d{4,}\.h5|results\.xdmf|contact\.xdmf|mesh\.h5|"
                        r"summary\.json)\.tmp$")
@@ -374,15 +374,24 @@ class RunGuard:
             return clear_files(self.out)
 
         _ON_FAILURE.clear()
+        startup_signals.defer()  # a signal now is acted on below, not between these writes
         self.removed = collective(start) or []
         if self.rank == 0:
             self.write(self.out, self.summary)
         self._old_int = signal.getsignal(signal.SIGINT)
         self._old_term = arm_signals()
+        early = startup_signals.finish()
+        self._old_int = startup_signals.unwrap(signal.SIGINT, self._old_int)
+        self._old_term = startup_signals.unwrap(signal.SIGTERM, self._old_term)
         self._watchdog = start_watchdog(self)
         if self._watchdog is not None and self._watchdog.grace == 0.0:
             # where the watchdog stops at once, also inside long C calls
             hard_stop.set_provider(self._hard_stop_text, _hand_off_pending)
+        if early is not None:  # a signal of the start-up phase: stop as at any other time
+            if not _stops_on_signal():
+                self.stop_now(early)
+            stop = KeyboardInterrupt() if early == "SIGINT" else RunInterrupted(early)
+            self.__exit__(type(stop), stop, None)  # writes `interrupted`, raises
         return self
 
     def stop_now(self, name: str) -> None:

@@ -1,0 +1,151 @@
+"""SIGINT / SIGTERM before a run's guard exists: the start-up phase.
+
+Between the process start and `RunGuard.__enter__` (the imports, MPI's start, the config
+and size checks: 0.3-2 s) Python's default handlers were in force: SIGTERM, which
+Open MPI's mpiexec sends every rank on Ctrl-C, killed the ranks with nothing written, so
+an earlier run's `completed` summary.json and step files stayed in OUT as if they were
+this run's; and a signal between the guard's clean-up and its first summary.json left
+only summary.json.tmp (README "Exit status").
+
+`arm(None, "", act=False)` (app/__main__.py, before the modules load) records a signal;
+`arm(out, config)` (cli.main, right after the command line is parsed; stdlib only)
+installs a handler that stops at once, also for a signal recorded before: rank 0 takes
+OUT's lock (when no other run holds it), removes this tool's files of an earlier run,
+writes an `interrupted` summary.json (temporary file and rename) and prints the line;
+every rank exits with 130 / 143.
+`defer()` (the guard's entry) turns it into a recorder, and `finish()` (once the guard's
+own handlers are armed) hands the recorded signal to the guard; from then on it passes
+signals on to the handlers from before `arm` (a study's guard may have saved it).
+"""
+
+from __future__ import annotations
+
+import fcntl
+import json
+import os
+import re
+import signal
+import sys
+from pathlib import Path
+
+STALE = re.compile(r"^(step_\d{4,}\.h5|results\.xdmf|contact\.xdmf|mesh\.h5|summary\.json)"
+                   r"(\.tmp)?$")
+"""Files this tool writes into OUT (and their temporary names)."""
+EXIT_SIGNAL = {"SIGINT": 130, "SIGTERM": 143}
+LOCK_NAME = ".lock"
+
+_STATE: dict = {"mode": "off", "pending": None, "originals": None, "out": None,
+                "config": None}
+"""mode: off (pass signals on), record, act (stop at once) or stopping."""
+
+
+def launcher_rank() -> int:
+    """This process's rank as the MPI launcher set it (before MPI is started); 0 alone."""
+    for key in ("OMPI_COMM_WORLD_RANK", "PMIX_RANK", "PMI_RANK"):
+        if key in os.environ:
+            try:
+                return int(os.environ[key])
+            except ValueError:
+                pass
+    return 0
+
+
+def arm(out: Path | None, config: str, act: bool = True) -> None:
+    """Install the start-up handler for SIGINT and SIGTERM. out: the run's folder (None:
+    write nothing); act False: only record (a study, whose runs' guards act on it)."""
+    pending = _STATE["pending"] if _STATE["mode"] == "record" else None
+    _STATE.update(mode="act" if act else "record", pending=pending, out=out, config=config)
+    try:
+        current = (signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM))
+        if current != (_handler, _handler):  # (since app/__main__.py: keep the first ones)
+            _STATE["originals"] = current
+        signal.signal(signal.SIGINT, _handler)
+        signal.signal(signal.SIGTERM, _handler)
+    except ValueError:  # not the main thread (tests calling main in a thread)
+        _STATE["mode"] = "off"
+        return
+    if act and pending is not None:
+        _stop(pending)
+
+
+def defer() -> None:
+    """From now on only record (the guard writes its first summary.json)."""
+    if _STATE["mode"] == "act":
+        _STATE["mode"] = "record"
+
+
+def finish() -> str | None:
+    """The signal recorded since `arm` (None: none, or finished already). From now on the
+    handler passes every signal on to the handler that was there before `arm`."""
+    pending = _STATE["pending"] if _STATE["mode"] != "off" else None
+    _STATE.update(mode="off", pending=None)
+    return pending
+
+
+def unwrap(signum: int, handler):
+    """`handler`, or the handler from before `arm` if `handler` is the start-up one (what a
+    guard puts back when it ends)."""
+    if handler is _handler and _STATE["originals"] is not None:
+        return _STATE["originals"][0 if signum == signal.SIGINT else 1]
+    return handler
+
+
+def restore() -> None:
+    """Put back the handlers from before `arm` where the start-up one is still installed
+    (the command ended, with or without a run)."""
+    finish()
+    try:
+        for signum in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(signum, unwrap(signum, signal.getsignal(signum)))
+    except ValueError:
+        pass
+
+
+def _handler(signum, frame) -> None:
+    name = signal.Signals(signum).name
+    if _STATE["mode"] == "off":  # finished: as the handler from before `arm`
+        original = unwrap(signum, _handler)
+        if callable(original) and original is not _handler:
+            return original(signum, frame)
+        if original != signal.SIG_IGN:
+            signal.signal(signum, signal.SIG_DFL)
+            signal.raise_signal(signum)
+        return None
+    if _STATE["mode"] != "act":
+        _STATE["pending"] = _STATE["pending"] or name
+        return None
+    _stop(name)
+    return None
+
+
+def _stop(name: str) -> None:
+    """Record `interrupted` (rank 0) and exit: the start-up handler's action."""
+    _STATE["mode"] = "stopping"  # a second signal while this one is handled: recorded
+    reason = f"interrupted by {name} during start-up; no step completed"
+    if launcher_rank() == 0:
+        if _STATE["out"] is not None:
+            _record(Path(_STATE["out"]), reason)
+        print(f"error: {reason}", file=sys.stderr, flush=True)
+    os._exit(EXIT_SIGNAL[name])
+
+
+def _record(out: Path, reason: str) -> None:
+    """With OUT's lock (skipped when another run holds it or OUT is not there): remove the
+    earlier run's files of this tool, write the `interrupted` summary.json."""
+    try:
+        out.mkdir(parents=True, exist_ok=True)  # as the run would have
+        fh = open(out / LOCK_NAME, "a")
+    except OSError:  # not usable: the run would have stopped there too
+        return
+    try:
+        fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+        for p in out.iterdir():
+            if STALE.match(p.name) and p.is_file():
+                p.unlink(missing_ok=True)
+        text = json.dumps({"config": _STATE["config"], "n_steps": None, "steps": [],
+                           "status": "interrupted", "error": reason}, indent=2) + "\n"
+        tmp = out / "summary.json.tmp"
+        tmp.write_text(text)
+        os.replace(tmp, out / "summary.json")
+    except OSError:  # another run writes there, or a full disk: leave the folder alone
+        pass

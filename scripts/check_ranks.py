@@ -1,0 +1,323 @@
+"""Parallel consistency: does a scene give the same results on 1, 2, 3, ... ranks?
+
+Runs each scene with `python -m app run` on every rank count (under `mpiexec
+--oversubscribe` for more than one rank) and compares each multi-rank run with the 1-rank
+run: every number of summary.json (energies, contact figures, reference errors, reactions,
+rigid motion, balance, step statuses; not timings, memory or provenance) and every dataset
+of mesh.h5 and each step_NNNN.h5 (displacements, stresses, `/contact`), and the list of
+steps in results.xdmf / contact.xdmf. One JSON line per (scene, variant, ranks):
+
+    {"config": ..., "args": [...], "ranks": 2, "status": ["completed", "completed"],
+     "max_rel_diff": {"summary": .., "displacement": .., "stress": .., "contact": ..},
+     "worst": [field, rel. diff], "mismatches": [...], "verdict": "ok" | "DIFFERENT"}
+
+A number's relative difference is |a - b| / (the largest |value| of its field over all
+steps, pairs, nodes): round-off near a zero crossing is judged against the field's size.
+Integers, strings and array shapes must be equal (`mismatches`). Round-off figures whose
+size is round-off itself (KKT violations, LCP residual, balance residuals, mismatches)
+are only required to stay below `--roundoff` (default 1e-7) on both runs.
+
+    .venv/bin/python scripts/check_ranks.py                       # every shipped scene
+    .venv/bin/python scripts/check_ranks.py configs/hertz.toml --ranks 1 2 --variants bulk
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from app_runner import ENV  # noqa: E402
+
+# summary keys that are not results (wall times, memory, where it ran)
+VOLATILE = {"provenance", "timings", "peak_memory_mb", "step_seconds", "elapsed_seconds",
+            "lcp_seconds", "assembly_rate_elements_per_s", "ranks", "energy_bracket"}
+# figures that are round-off by nature: compared against --roundoff, not with each other
+ROUNDOFF = re.compile(r"(^|/)(kkt|lcp_residual|lcp_displacement_mismatch|residual|"
+                      r"relative_residual|max_relative_residual)(/|$)")
+# per-step counters that may differ with round-off without the result differing
+SOLVER_PATH = re.compile(r"(^|/)(lemke_pivots|consistency_refinements|lcp_solves)$")
+# a field below this fraction of its family's largest value is round-off in that family
+FAMILY_ROUNDOFF = 1e-7
+# cheap defaults for the slowest scenes (`--full` drops them)
+CHEAP = {"cattaneo_many": ["--mesh-size", "1.0"]}
+# step-file datasets judged against a family when their own values are round-off (a
+# patch test's s_xy, the gap of closed pairs, q of frictionless pairs)
+H5_FAMILY = {
+    "stress": ("stress", "s_xx", "s_yy", "s_xy", "s_zz", "von_mises"),
+    "length": ("displacement", "contact/gap", "contact/tau", "contact/tau_prev", "contact/slip",
+               "contact/slip_increment", "contact/displacement"),
+    "traction": ("contact/p", "contact/q"),
+    "force": ("contact/p_force", "contact/q_force", "contact/a_force", "contact/c_force"),
+}
+BULK_VARIANTS = [["--sd", s] for s in ("1", "2", "3", "4", "8", "16")] + [
+    ["--method", "fem-q4"]]
+
+
+def run(config: Path, args: list[str], ranks: int, out: Path,
+        timeout: float) -> subprocess.CompletedProcess:
+    """`python -m app run CONFIG --out OUT ARGS` on `ranks` ranks."""
+    cmd = [sys.executable, "-m", "app", "run", str(config), "--out", str(out), "--quiet", *args]
+    if ranks > 1:
+        cmd = [shutil.which("mpiexec") or "mpiexec", "--oversubscribe", "-n", str(ranks), *cmd]
+    env = dict(ENV, PYTHONPATH=str(ROOT))
+    return subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True,
+                          timeout=timeout)
+
+
+def _field(path: str) -> str:
+    """The field a summary leaf belongs to: its path with list indices removed."""
+    return re.sub(r"\[\d+\]", "", path)
+
+
+def _family(field: str) -> str:
+    """The group a field is judged in when its own values are round-off: its parent, at
+    most three path components ('steps/reactions/support:base', 'steps/balance/bodies',
+    'point_values/tip')."""
+    parts = field.split("/")
+    return "/".join(parts[:max(1, min(3, len(parts) - 1))])
+
+
+def flatten(obj, path: str = "") -> dict[str, object]:
+    """Leaves of a JSON document by path ('steps[0]/interfaces/bond/p' ...)."""
+    if isinstance(obj, dict):
+        out: dict[str, object] = {}
+        for k, v in obj.items():
+            if k not in VOLATILE:
+                out.update(flatten(v, f"{path}/{k}" if path else k))
+        return out
+    if isinstance(obj, list):
+        out = {}
+        for i, v in enumerate(obj):
+            out.update(flatten(v, f"{path}[{i}]"))
+        return out
+    return {path: obj}
+
+
+def compare_summaries(a: dict, b: dict, roundoff: float) -> tuple[dict, list[str]]:
+    """Max relative difference per summary field, and the exact mismatches."""
+    fa, fb = flatten(a), flatten(b)
+    for k in [k for k in fa if k.endswith("/mode") and "contact_held_modes" in k]:
+        # the words for a combination fitted to a round-off slide name a random direction
+        ratio = k[:-len("mode")] + "slide_ratio"
+        if all(abs(f.get(ratio, 1.0)) < roundoff for f in (fa, fb)):
+            fa.pop(k)
+            fb.pop(k, None)
+    mism = [f"summary key only in one run: {k}" for k in sorted(set(fa) ^ set(fb))
+            if not SOLVER_PATH.search(k)]
+    scale: dict[str, float] = {}
+    for k in set(fa) & set(fb):
+        for v in (fa[k], fb[k]):
+            if isinstance(v, (int, float)) and not isinstance(v, bool):
+                for g in (_field(k), "family:" + _family(_field(k))):
+                    scale[g] = max(scale.get(g, 0.0), abs(v))
+    for g in [g for g in scale if not g.startswith("family:")]:
+        # the run's final figures (strain_energy, ...) are those of the last step
+        scale[g] = max(scale[g], scale.get("steps/" + g, 0.0))
+        # a field whose every value is round-off next to its family (a zero reaction, a
+        # floating body's net contact force) is judged against the family's size
+        fam = scale["family:" + _family(g)]
+        if scale[g] < FAMILY_ROUNDOFF * fam:
+            scale[g] = fam
+    diffs: dict[str, float] = {}
+    for k in sorted(set(fa) & set(fb)):
+        va, vb = fa[k], fb[k]
+        if ROUNDOFF.search(k):
+            for v in (va, vb):
+                if isinstance(v, float) and abs(v) > roundoff and not k.endswith("residual"):
+                    mism.append(f"{k} = {v:.3g} above round-off")
+            continue
+        if SOLVER_PATH.search(k):
+            continue
+        if isinstance(va, float) or isinstance(vb, float):
+            if not isinstance(va, (int, float)) or not isinstance(vb, (int, float)):
+                mism.append(f"{k}: {va!r} vs {vb!r}")
+                continue
+            s = scale.get(_field(k), 0.0)
+            d = abs(va - vb) / s if s > 0 else 0.0
+            diffs[_field(k)] = max(diffs.get(_field(k), 0.0), d)
+        elif va != vb:
+            mism.append(f"{k}: {str(va)[:80]!r} vs {str(vb)[:80]!r}")
+    return diffs, mism
+
+
+def h5_datasets(path: Path) -> dict[str, np.ndarray]:
+    """Every dataset of an HDF5 file by its path, plus its attributes as 'path@attr'."""
+    out: dict[str, np.ndarray] = {}
+    with h5py.File(path, "r") as f:
+        def visit(name, obj):
+            if isinstance(obj, h5py.Dataset):
+                out[name] = obj[()]
+        f.visititems(visit)
+        for k, v in f.attrs.items():
+            out[f"@{k}"] = np.asarray(v)
+    return out
+
+
+def compare_arrays(a: np.ndarray, b: np.ndarray) -> tuple[float, float] | str:
+    """(max |a - b|, max |a|, |b|) of two arrays, or a string saying why they differ in
+    kind (shape, integers, strings, where they are finite)."""
+    if a.shape != b.shape:
+        return f"shape {a.shape} vs {b.shape}"
+    if a.dtype.kind not in "fiub" or b.dtype.kind not in "fiub":
+        return (0.0, 0.0) if np.array_equal(a, b) else "different values"
+    if a.dtype.kind in "iub" and b.dtype.kind in "iub":
+        return (0.0, 0.0) if np.array_equal(a, b) else "different integers"
+    a, b = a.astype(float), b.astype(float)
+    if not np.array_equal(np.isfinite(a), np.isfinite(b)):
+        return "non-finite entries differ"
+    fin = np.isfinite(a)
+    scale = max(np.abs(a[fin]).max(initial=0.0), np.abs(b[fin]).max(initial=0.0))
+    return float(np.abs(a[fin] - b[fin]).max(initial=0.0)), float(scale)
+
+
+def xdmf_steps(path: Path) -> list[str]:
+    """The time values listed in an XDMF time series."""
+    if not path.exists():
+        return []
+    return [t.get("Value") for t in ET.parse(path).getroot().iter("Time")]
+
+
+def compare_outputs(ref: Path, other: Path, roundoff: float = 1e-7) -> tuple[dict, list[str]]:
+    """Compare two output folders of the same scene: ({field: max rel. diff}, mismatches).
+
+    Fields: `summary:<path>` per summary field, `<file>:<dataset>` per HDF5 dataset
+    (step files grouped as `step:<dataset>`)."""
+    diffs: dict[str, float] = {}
+    mism: list[str] = []
+    sa = json.loads((ref / "summary.json").read_text())
+    sb = json.loads((other / "summary.json").read_text())
+    d, m = compare_summaries(sa, sb, roundoff)
+    diffs.update({f"summary:{k}": v for k, v in d.items()})
+    mism += m
+    files_a = sorted(p.name for p in ref.glob("*.h5"))
+    files_b = sorted(p.name for p in other.glob("*.h5"))
+    if files_a != files_b:
+        mism.append(f"h5 files {files_a} vs {files_b}")
+    for name in ("results.xdmf", "contact.xdmf"):
+        if xdmf_steps(ref / name) != xdmf_steps(other / name):
+            mism.append(f"{name} times {xdmf_steps(ref / name)} vs {xdmf_steps(other / name)}")
+    delta: dict[str, list[float]] = {}  # field -> [max |a - b|, max |a|] over all steps
+    for name in sorted(set(files_a) & set(files_b)):
+        da, db = h5_datasets(ref / name), h5_datasets(other / name)
+        group = "step" if name.startswith("step_") else name
+        for k in sorted(set(da) ^ set(db)):
+            mism.append(f"{name}: {k} only in one run")
+        for k in sorted(set(da) & set(db)):
+            r = compare_arrays(np.asarray(da[k]), np.asarray(db[k]))
+            if isinstance(r, str):
+                mism.append(f"{name}:{k}: {r}")
+            else:
+                acc = delta.setdefault(f"{group}:{k}", [0.0, 0.0])
+                acc[0], acc[1] = max(acc[0], r[0]), max(acc[1], r[1])
+    # a step whose field is round-off (no load) is judged against the field's size over
+    # the whole run, a field that is round-off over the whole run against its family's
+    fam = {f: max((delta.get(f"step:{k}", [0.0, 0.0])[1] for k in keys), default=0.0)
+           for f, keys in H5_FAMILY.items()}
+    for k, (d, s) in delta.items():
+        f = next((f for f, keys in H5_FAMILY.items() if k.split(":", 1)[1] in keys), None)
+        if f is not None and s < FAMILY_ROUNDOFF * fam[f]:
+            s = fam[f]
+        diffs[k] = d / s if s > 0 else 0.0
+    return diffs, mism
+
+
+def headline(diffs: dict[str, float]) -> dict[str, float]:
+    """Max relative difference by kind: summary, displacement, stress, contact, other."""
+    out = {"summary": 0.0, "displacement": 0.0, "stress": 0.0, "contact": 0.0, "other": 0.0}
+    for k, v in diffs.items():
+        if k.startswith("summary:"):
+            kind = "summary"
+        elif "contact/" in k:
+            kind = "contact"
+        elif k.endswith("displacement"):
+            kind = "displacement"
+        elif re.search(r"(stress|s_xx|s_yy|s_xy|s_zz|von_mises|strain_energy_density)$", k):
+            kind = "stress"
+        else:
+            kind = "other"
+        out[kind] = max(out[kind], v)
+    return {k: float(f"{v:.3g}") for k, v in out.items()}
+
+
+def check(config: Path, args: list[str], ranks: list[int], tol: float, roundoff: float,
+          timeout: float, keep: Path | None) -> list[dict]:
+    """Run one scene on every rank count and compare each with the first."""
+    base = Path(tempfile.mkdtemp(prefix="check_ranks_", dir=keep))
+    rows = []
+    try:
+        outs, status = {}, {}
+        for n in ranks:
+            out = base / f"n{n}"
+            res = run(config, args, n, out, timeout)
+            outs[n] = out
+            path = out / "summary.json"
+            status[n] = (json.loads(path.read_text()).get("status") if path.exists()
+                         else f"no summary (exit {res.returncode}): {res.stderr[-200:]}")
+        n0 = ranks[0]
+        for n in ranks[1:]:
+            row = {"config": str(config.relative_to(ROOT)), "args": args, "ranks": n,
+                   "against": n0, "status": [status[n0], status[n]]}
+            if not (outs[n0] / "summary.json").exists() or not (outs[n] / "summary.json").exists():
+                row.update(verdict="DIFFERENT", mismatches=["no summary.json"])
+                rows.append(row)
+                continue
+            diffs, mism = compare_outputs(outs[n0], outs[n], roundoff)
+            worst = max(diffs.items(), key=lambda kv: kv[1], default=("", 0.0))
+            row.update(max_rel_diff=headline(diffs), worst=[worst[0], float(f"{worst[1]:.3g}")],
+                       mismatches=mism[:20], n_mismatches=len(mism))
+            row["verdict"] = "ok" if not mism and worst[1] <= tol else "DIFFERENT"
+            if keep is not None:
+                row["out"] = str(base)
+            rows.append(row)
+    finally:
+        if keep is None:
+            shutil.rmtree(base, ignore_errors=True)
+    return rows
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("configs", nargs="*", type=Path,
+                    help="scenes (default: configs/*.toml and configs/hard/*.toml)")
+    ap.add_argument("--ranks", type=int, nargs="+", default=[1, 2, 3])
+    ap.add_argument("--variants", choices=["scene", "bulk"], default="scene",
+                    help="bulk: each of --sd 1 2 3 4 8 16 and --method fem-q4")
+    ap.add_argument("--tol", type=float, default=1e-8)
+    ap.add_argument("--roundoff", type=float, default=1e-7)
+    ap.add_argument("--timeout", type=float, default=900)
+    ap.add_argument("--full", action="store_true", help=f"no cheap settings for {list(CHEAP)}")
+    ap.add_argument("--keep", type=Path, help="keep the outputs under this folder")
+    ap.add_argument("--skip", nargs="*", default=[], help="scene names to leave out")
+    a, extra = ap.parse_known_args()  # the rest goes to every run, e.g. --mesh-size 1.0
+    configs = a.configs or sorted((ROOT / "configs").glob("*.toml")) + sorted(
+        (ROOT / "configs" / "hard").glob("*.toml"))
+    variants = BULK_VARIANTS if a.variants == "bulk" else [[]]
+    if a.keep:
+        a.keep.mkdir(parents=True, exist_ok=True)
+    bad = 0
+    for config in configs:
+        config = config.resolve()
+        if config.stem in a.skip:
+            continue
+        for v in variants:
+            args = (CHEAP.get(config.stem, []) if not a.full else []) + v + extra
+            for row in check(config, args, a.ranks, a.tol, a.roundoff, a.timeout, a.keep):
+                bad += row["verdict"] != "ok"
+                print(json.dumps(row), flush=True)
+    sys.exit(1 if bad else 0)
+
+
+if __name__ == "__main__":
+    main()
