@@ -23,6 +23,7 @@ from app.petsc_config_guard import check_config_file_petsc
 from app.references import REFERENCES, reference
 from app.scene import Scene, parse_scene
 from app.scene.geometry import is_number
+from app.user_paths import path_kind
 
 
 @dataclass
@@ -492,9 +493,10 @@ def apply_overrides(raw: dict[str, Any], overrides: list[str]) -> dict[str, Any]
 def load_config(path: str | Path, overrides: list[str] | None = None) -> Config:
     """Read and check a TOML scene file; `overrides` are `--set KEY=VALUE` strings."""
     p = Path(path)
-    if not p.exists():
+    kind = path_kind(p, "config file")
+    if kind is None:
         raise InputError(f"config file '{p}' does not exist")
-    if not p.is_file():
+    if kind != "file":
         raise InputError(f"config file '{p}' is not a regular file")
     try:
         with p.open("rb") as fh:

@@ -19,6 +19,7 @@ from petsc4py import PETSc
 from app.config_keys import suggestion
 from app.errors import InputError
 from app.petsc_lib import PETSC_INT, load_petsc
+from app.user_paths import path_kind
 
 
 def _type_names(cls) -> list[str]:
@@ -66,7 +67,13 @@ def check_log_view_file(config_petsc: dict[str, str]) -> None:
     if not name:
         return
     folder = Path(name).parent
-    if not folder.is_dir() or not os.access(folder, os.W_OK | os.X_OK) or Path(name).is_dir():
+    try:
+        bad = path_kind(folder, "-log_view") != "dir" or path_kind(name, "-log_view") == "dir" \
+            or not os.access(folder, os.W_OK | os.X_OK)
+    except InputError:  # a name the system cannot look up (too long)
+        PETSc.Options().delValue("log_view")
+        raise
+    if bad:
         PETSc.Options().delValue("log_view")  # else PetscFinalize fails on it at exit
         raise InputError(f"-log_view {value}: cannot write the file {name} (its folder does "
                          "not exist or is not writable, or it is a folder)")
