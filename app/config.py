@@ -118,6 +118,17 @@ def _vec2(value: Any, where: str) -> np.ndarray:
     return np.array([_num(v, where) for v in value])
 
 
+def _name_key(t: dict, key: str, where: str, what: str) -> str:
+    """t[key], a non-empty name string: 'missing key' when absent, else the wrong value
+    (a number or an empty string was reported as a missing key before)."""
+    if key not in t:
+        raise InputError(f"{where}: missing key {key} ({what})")
+    v = t[key]
+    if not isinstance(v, str) or not v:
+        raise InputError(f"{where}: {key} must be {what} (got {v!r})")
+    return v
+
+
 def _table(raw: dict, key: str, where: str) -> dict:
     v = raw.get(key, {})
     if not isinstance(v, dict):
@@ -303,9 +314,7 @@ def _bodies(raw: dict) -> tuple[list[str], list[float], list[float], list[np.nda
         raise InputError("no [[body]] given: a scene needs at least one body")
     names, E, nu, bf = [], [], [], []
     for i, b in enumerate(bodies):
-        if "name" not in b or not isinstance(b["name"], str) or not b["name"]:
-            raise InputError(f"body #{i + 1}: missing key name")
-        nm = b["name"]
+        nm = _name_key(b, "name", f"body #{i + 1}", "a non-empty string")
         check_keys(b, "body", f"body '{nm}'")
         for k in ("E", "nu"):
             if k not in b:
@@ -325,8 +334,7 @@ def _bodies(raw: dict) -> tuple[list[str], list[float], list[float], list[np.nda
 
 def _support(s: dict, where: str, n_steps: int, params: dict[str, float]) -> Support:
     """One [[support]]: ux and/or uy (numbers or expressions) with a history."""
-    if "on" not in s or not isinstance(s["on"], str):
-        raise InputError(f"{where}: missing key on (a curve or point group name)")
+    _name_key(s, "on", where, "a curve or point group name")
     check_keys(s, "support", f"{where} ({s['on']})")
     vals = {}
     for comp, key in enumerate(("ux", "uy")):
@@ -339,8 +347,7 @@ def _support(s: dict, where: str, n_steps: int, params: dict[str, float]) -> Sup
 
 def _load(ld: dict, where: str, n_steps: int, params: dict[str, float]) -> Load:
     """One [[load]]: exactly one of traction, pressure, total_force, with a history."""
-    if "on" not in ld or not isinstance(ld["on"], str):
-        raise InputError(f"{where}: missing key on (a curve name)")
+    _name_key(ld, "on", where, "a curve name")
     check_keys(ld, "load", f"{where} ({ld['on']})")
     kinds = [k for k in ("traction", "pressure", "total_force") if k in ld]
     if len(kinds) != 1:
@@ -367,8 +374,7 @@ def _interface(raw: dict, it: dict, i: int, earlier: list[Interface]) -> Interfa
     where = f"interface '{nm}'"
     check_keys(it, "interface", where)
     for k in ("slave", "master"):
-        if k not in it or not isinstance(it[k], str):
-            raise InputError(f"{where}: missing key {k} (a curve name)")
+        _name_key(it, k, where, "a curve name")
     if it["slave"] == it["master"]:
         raise InputError(f"{where}: slave and master are the same curve '{it['slave']}'")
     if "search_distance" not in it:
