@@ -123,6 +123,12 @@ def must_fail(key: str, old: Any, new: Any) -> bool | None:
     return None
 
 
+def _domain_key(path: tuple, key: str) -> str:
+    """The key whose value domain applies: a [parameters] name is a free number (a
+    parameter called nu is not a Poisson ratio)."""
+    return "parameter" if path[0] == "parameters" else key
+
+
 # ------------------------------------------------------------------ the cases
 
 
@@ -228,6 +234,7 @@ class Generator:
             (self.set_value, 30), (self.file_value, 12), (self.list_element, 6),
             (self.drop_key, 10), (self.structure, 12), (self.broken_file, 8),
             (self.cli_run, 12), (self.set_syntax, 4), (self.study, 6),
+            (self.add_entry, 6), (self.petsc_table, 4),
         ]
 
     def cases(self, n: int) -> list[Case]:
@@ -262,7 +269,7 @@ class Generator:
         text, new = self.rng.choice(BAD_SCALARS)
         sets = ["--set", f"{'.'.join(path)}={text}"]
         case = self.base(cfg, "set_value", f"--set {'.'.join(path)}={text[:40]}", sets,
-                         must_fail=must_fail(key, old, new))
+                         must_fail=must_fail(_domain_key(path, key), old, new))
         if path == ("mesh", "size"):  # mesh.size itself: no --mesh-size
             case.argv = without_mesh_size(case.argv)
         return case
@@ -277,7 +284,7 @@ class Generator:
         cont[key] = new
         return self.base(cfg, "file_value", f"file {'.'.join(path)} = {repr(new)[:40]}",
                          toml=self.text_of(cfg, raw), config_kind="text",
-                         must_fail=must_fail(key, old, new))
+                         must_fail=must_fail(_domain_key(path, key), old, new))
 
     def list_element(self, cfg: str) -> Case:
         raw = copy.deepcopy(self.raw[cfg])
@@ -473,6 +480,51 @@ class Generator:
         if opt != "petsc":
             case.desc = f"{opt} {case.argv[-1] if opt not in ('--out',) else v!r}"
         return case
+
+    def add_entry(self, cfg: str) -> Case:
+        """A new [[...]] entry (or [points] name) through --set, partly filled in."""
+        raw = self.raw[cfg]
+        curves = sorted({c for b in raw["body"] for c in b.get("curves", {}).values()}) \
+            or ["nowhere"]
+        n = {k: len(raw.get(k, [])) for k in ("body", "support", "load", "interface")}
+        c1, c2 = self.rng.choice(curves), self.rng.choice(curves)
+        b, su, lo, it = n["body"], n["support"], n["load"], n["interface"]
+        options = [  # (the --set strings, must they fail?)
+            ([f"body.{b}.name=extra", f"body.{b}.E=1.0"], True),
+            ([f"body.{b}.name=extra", f"body.{b}.E=1.0", f"body.{b}.nu=0.3",
+              f"body.{b}.shape={{type = \"disk\", center = [0.0, 0.0], radius = 0.3}}"], None),
+            ([f"support.{su}.on={c1}"], True),
+            ([f"support.{su}.on={c1}", f"support.{su}.ux=nan"], True),
+            ([f"load.{lo}.on={c1}", f"load.{lo}.pressure=1e300"], None),
+            ([f"load.{lo}.on={c1}", f"load.{lo}.traction=[\"x/0\", 0.0]"], True),
+            ([f"interface.{it}.slave={c1}", f"interface.{it}.master={c2}",
+              f"interface.{it}.search_distance=0.1"], True if c1 == c2 else None),
+            (["points.extra=[1e300, 0.0]"], True), (["points.extra=[0.0]"], True),
+            ([f"points.{c1}=[0.0, 0.0]"], True if c1 != "nowhere" else None),
+            (["mesh.patch.0.box=[0.0, 0.0, 0.0, 0.0]", "mesh.patch.0.size=0.1"], True),
+            (["mesh.patch.0.box=[-1e6, -1e6, 1e6, 1e6]", "mesh.patch.0.size=1e-9"], True),
+            (["mesh.refine.9.size=0.1"], True),
+            (["mesh.refine.0.curves=[]", "mesh.refine.0.points=[]"], True),
+            (["reference.type=hertz"], None),
+            (["reference.type=timoshenko", "reference.P=nan"], True),
+        ]
+        sets, fail = self.rng.choice(options)
+        argv = [a for s_ in sets for a in ("--set", s_)]
+        return self.base(cfg, "add_entry", " ".join(sets)[:70], argv, must_fail=fail)
+
+    def petsc_table(self, cfg: str) -> Case:
+        """A [petsc] value of the config (through --set and in the file)."""
+        key = self.rng.choice(["ksp_type", "pc_type", "ksp_rtol", "mat_mumps_icntl_14",
+                               "ksp_max_it", "options_left", "no_such_option", "log_view",
+                               "pc_factor_mat_solver_type", "ksp_view"])
+        text, value = self.rng.choice(BAD_SCALARS)
+        if self.rng.random() < 0.5:
+            return self.base(cfg, "petsc_table", f"--set petsc.{key}={text[:30]}",
+                             ["--set", f"petsc.{key}={text}"])
+        raw = copy.deepcopy(self.raw[cfg])
+        raw.setdefault("petsc", {})[key] = value
+        return self.base(cfg, "petsc_table", f"file petsc.{key} = {repr(value)[:30]}",
+                         toml=self.text_of(cfg, raw), config_kind="text")
 
     def set_syntax(self, cfg: str) -> Case:
         body = self.raw[cfg]["body"][0].get("name", "0")
