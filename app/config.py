@@ -437,7 +437,11 @@ def _reference_table(raw: dict) -> dict | None:
     if kind not in REFERENCES:
         raise InputError(f"reference.type = {kind!r}: use one of "
                          f"{', '.join(REFERENCES)}{suggestion(str(kind), REFERENCES)}")
-    reference(kind).params(table)
+    params = reference(kind).params(table)
+    points = raw.get("points") if isinstance(raw.get("points"), dict) else {}
+    if "point" in params and params["point"] not in points:  # (found after the run before)
+        raise InputError(f"reference.point = {params['point']!r} is not a name in [points] "
+                         f"({', '.join(points) or 'none'})")
     return dict(table)
 
 
