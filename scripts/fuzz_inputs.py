@@ -145,6 +145,7 @@ class Case:
     toml: str | None = None  # mutated config text written to {CASE}/config.toml
     raw_bytes: bytes | None = None  # written as is instead (broken encodings)
     config_kind: str = "copy"  # copy | text | bytes | dir | missing
+    msh: str | None = None  # a mutated gmsh mesh written to {CASE}/mesh.msh
     must_fail: bool | None = None
     expect_summary: bool = True  # exit 2 must leave OUT/summary.json `failed`
     extra: dict = field(default_factory=dict)
@@ -226,7 +227,7 @@ def absolute_mesh_file(raw: dict, config: Path) -> None:
 class Generator:
     """Random cases from a list of shipped configs (deterministic for a seed)."""
 
-    def __init__(self, seed: int, configs: list[str]):
+    def __init__(self, seed: int, configs: list[str], families: list[str] | None = None):
         self.rng = random.Random(seed)
         self.configs = configs
         self.raw = {c: tomllib.loads((ROOT / c).read_text()) for c in configs}
@@ -234,8 +235,13 @@ class Generator:
             (self.set_value, 30), (self.file_value, 12), (self.list_element, 6),
             (self.drop_key, 10), (self.structure, 12), (self.broken_file, 8),
             (self.cli_run, 12), (self.set_syntax, 4), (self.study, 6),
-            (self.add_entry, 6), (self.petsc_table, 4),
+            (self.add_entry, 6), (self.petsc_table, 4), (self.msh_file, 5),
         ]
+        if families:
+            unknown = set(families) - {f.__name__ for f, _ in self.families}
+            if unknown:
+                raise SystemExit(f"unknown families {sorted(unknown)}")
+            self.families = [(f, w) for f, w in self.families if f.__name__ in families]
 
     def cases(self, n: int) -> list[Case]:
         funcs = [f for f, w in self.families for _ in range(w)]
@@ -526,6 +532,41 @@ class Generator:
         return self.base(cfg, "petsc_table", f"file petsc.{key} = {repr(value)[:30]}",
                          toml=self.text_of(cfg, raw), config_kind="text")
 
+    def msh_file(self, cfg: str) -> Case:
+        """meshes/punch.toml on a mutated copy of meshes/punch.msh (whatever `cfg`)."""
+        cfg = "meshes/punch.toml"
+        lines = (ROOT / "meshes/punch.msh").read_text().splitlines()
+        kind = self.rng.choice(["truncate", "drop_line", "dup_line", "number", "number",
+                                "rename", "version", "shuffle_block"])
+        i = self.rng.randrange(len(lines))
+        if kind == "truncate":
+            lines = lines[:i]
+        elif kind == "drop_line":
+            del lines[i]
+        elif kind == "dup_line":
+            lines.insert(i, lines[i])
+        elif kind == "number":
+            toks = lines[i].split(" ")
+            j = self.rng.randrange(len(toks))
+            toks[j] = self.rng.choice(["nan", "inf", "-1", "0", "1e308", "99999999",
+                                       "-99999999", "0.5", "x", ""])
+            lines[i] = " ".join(toks)
+        elif kind == "rename":
+            k = next(n for n, ln in enumerate(lines) if ln == "$PhysicalNames")
+            j = k + 2 + self.rng.randrange(int(lines[k + 1]))
+            lines[j] = lines[j].rsplit(" ", 1)[0] + ' "' + self.rng.choice(
+                ["block", "punch_top", "", "x" * 300, "bl\u00f6ck"]) + '"'
+        elif kind == "version":
+            lines[1] = self.rng.choice(["2.2 0 8", "4.1 1 8", "3.0 0 8", "9 0 8", "4.1 0 4"])
+        else:
+            j = self.rng.randrange(max(1, len(lines) - 20))
+            lines[j:j + 20] = lines[j:j + 20][::-1]
+        raw = copy.deepcopy(self.raw.get(cfg) or tomllib.loads((ROOT / cfg).read_text()))
+        raw["mesh"]["file"] = "{CASE}/mesh.msh"
+        return Case(0, "msh_file", f"punch.msh {kind} at line {i}", cfg,
+                    ["run", "{CONFIG}", "--out", "{OUT}", "--quiet"], toml=dump_toml(raw),
+                    config_kind="text", msh="\n".join(lines) + "\n", must_fail=None)
+
     def set_syntax(self, cfg: str) -> Case:
         body = self.raw[cfg]["body"][0].get("name", "0")
         v = self.rng.choice(["noequals", "=5", ".=1", "a..b=1", "body.99.E=1",
@@ -567,6 +608,37 @@ class Generator:
         return case
 
 
+def regression_cases() -> list[Case]:
+    """One case of each BUG class this fuzzer found and that was fixed (all were BUG
+    before the fix; see README "Input checks", the fuzzer)."""
+    run = ["run", "{CONFIG}", "--out", "{OUT}", "--quiet"]
+    long_name = "n" * 300
+    cases = [
+        Case(0, "regression", "a 5000-character value quoted back (error line length)",
+             "configs/patch.toml", run + ["--set", 'interface.interface.search_distance="'
+                                          + "x" * 5000 + '"'], must_fail=True),
+        Case(0, "regression", "--out with a 300-character name (OSError traceback)",
+             "configs/patch.toml", ["run", "{CONFIG}", "--out", "{CASE}/" + long_name,
+                                    "--quiet"], expect_summary=False),
+        Case(0, "regression", "config path with a 300-character name (OSError traceback)",
+             "configs/patch.toml", ["run", "{CASE}/" + long_name + ".toml", "--out", "{OUT}",
+                                    "--quiet"], must_fail=True),
+        Case(0, "regression", "-options_file that does not exist (PETSc start traceback)",
+             "configs/patch.toml", run + ["-options_file", "/nonexistent/opts"],
+             expect_summary=False),
+        Case(0, "regression", "-history in a folder that does not exist (segfault)",
+             "configs/patch.toml", run + ["-history", "/proc/x/y"], expect_summary=False),
+        Case(0, "regression", "no load at all (kkt.complementarity NaN)",
+             "configs/two_blocks.toml", run + ["--mesh-size", "1.0", "--set", "load=[]"]),
+        Case(0, "regression", "reference.point a list (TypeError traceback after the run)",
+             "configs/cantilever.toml", run + ["--mesh-size", "0.5", "--set",
+                                               "reference.point=[1.0, 2.0]"], must_fail=True),
+    ]
+    for i, c in enumerate(cases):
+        c.id = 10_000 + i
+    return cases
+
+
 # ------------------------------------------------------------------ running one case
 
 
@@ -584,6 +656,8 @@ def materialise(case: Case, case_dir: Path) -> list[str]:
     elif case.config_kind == "dir":
         cfile.mkdir()
     (case_dir / "empty.msh").write_text("")
+    if case.msh is not None:
+        (case_dir / "mesh.msh").write_text(case.msh)
     (case_dir / "afile").write_text("not a folder\n")
     sub = {"{CONFIG}": str(cfile), "{OUT}": str(case_dir / "out"), "{CASE}": str(case_dir)}
     argv = []
@@ -734,9 +808,11 @@ def select_configs(patterns: list[str]) -> list[str]:
     return files
 
 
-def generate_cases(seed: int, n: int, configs: list[str] | None = None) -> list[Case]:
+def generate_cases(seed: int, n: int, configs: list[str] | None = None,
+                   families: list[str] | None = None) -> list[Case]:
     """The first n cases of the generator for `seed` (for tests and the command line)."""
-    return Generator(seed, configs or select_configs(list(DEFAULT_CONFIGS))).cases(n)
+    return Generator(seed, configs or select_configs(list(DEFAULT_CONFIGS)),
+                     families).cases(n)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -749,11 +825,18 @@ def main(argv: list[str] | None = None) -> int:
                     "configs/*.toml and configs/hard/*.toml")
     ap.add_argument("--ranks", type=int, choices=(1, 2), default=1)
     ap.add_argument("--jobs", type=int, default=2, help="cases run at once")
+    ap.add_argument("--families", default=None,
+                    help="comma list of mutation families (default: all), e.g. msh_file,cli_run")
     ap.add_argument("--keep", action="store_true", help="keep the folders of every case")
+    ap.add_argument("--regressions", action="store_true",
+                    help="also run one case of every BUG class found and fixed so far")
     ap.add_argument("--work", default=None, help="folder for the cases (default: a temp dir)")
     args = ap.parse_args(argv)
     cases = generate_cases(args.seed, args.cases,
-                           select_configs(args.configs or list(DEFAULT_CONFIGS)))
+                           select_configs(args.configs or list(DEFAULT_CONFIGS)),
+                           args.families.split(",") if args.families else None)
+    if args.regressions:
+        cases += regression_cases()
     work = Path(args.work or tempfile.mkdtemp(prefix="fuzz_inputs_"))
     work.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
