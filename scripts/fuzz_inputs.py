@@ -11,7 +11,9 @@ line option), runs `python -m app ...` in a subprocess with a timeout and classi
 - BUG: anything else: a traceback, another exit status, a timeout, a multi-line error, no
   `failed` summary, `running` left behind, a non-finite number in a `completed` summary,
   or a value that is invalid on its face (NaN, a negative E, nu >= 0.5, a wrong type, a
-  missing required key, a curve that does not exist) accepted with exit 0.
+  missing required key, a curve that does not exist) accepted with exit 0;
+- SLOW: a timeout on a model the app's own size estimate puts above 1e5 elements (a big
+  valid model the size check accepted, e.g. a radius scaled by 1000), reported apart.
 
 Prints one JSON line per case and a final summary line ({"summary": ...}); the exit status
 is 1 when a BUG was found. Every case is cheap: the configs run at 4x their mesh.size.
@@ -236,6 +238,7 @@ class Generator:
             (self.drop_key, 10), (self.structure, 12), (self.broken_file, 8),
             (self.cli_run, 12), (self.set_syntax, 4), (self.study, 6),
             (self.add_entry, 6), (self.petsc_table, 4), (self.msh_file, 5),
+            (self.scaled_value, 10),
         ]
         if families:
             unknown = set(families) - {f.__name__ for f, _ in self.families}
@@ -291,6 +294,23 @@ class Generator:
         return self.base(cfg, "file_value", f"file {'.'.join(path)} = {repr(new)[:40]}",
                          toml=self.text_of(cfg, raw), config_kind="text",
                          must_fail=must_fail(_domain_key(path, key), old, new))
+
+    def scaled_value(self, cfg: str) -> Case:
+        """A number (or every number of a list) scaled by a factor: mostly values the
+        checks accept, which then have to run or fail cleanly (no NaN, no traceback)."""
+        raw = copy.deepcopy(self.raw[cfg])
+        nums = [x for x in leaves(raw) if x[0][0] != "petsc" and (
+            isinstance(x[3], float) or isinstance(x[3], list) and x[3]
+            and all(isinstance(v, float) for v in x[3]))]
+        path, cont, key, old = self.rng.choice(nums)
+        f = self.rng.choice([1e-12, 1e-6, 1e-3, 0.1, 0.5, 2.0, 10.0, 1e3, 1e6, 1e12, -1.0,
+                             0.0])
+        new = [v * f for v in old] if isinstance(old, list) else old * f
+        cont[key] = new
+        fail = must_fail(_domain_key(path, key), old, new) if not isinstance(old, list) \
+            else None
+        return self.base(cfg, "scaled_value", f"file {'.'.join(path)} x {f:g}",
+                         toml=self.text_of(cfg, raw), config_kind="text", must_fail=fail)
 
     def list_element(self, cfg: str) -> Case:
         raw = copy.deepcopy(self.raw[cfg])
@@ -508,7 +528,8 @@ class Generator:
             (["points.extra=[1e300, 0.0]"], True), (["points.extra=[0.0]"], True),
             ([f"points.{c1}=[0.0, 0.0]"], True if c1 != "nowhere" else None),
             (["mesh.patch.0.box=[0.0, 0.0, 0.0, 0.0]", "mesh.patch.0.size=0.1"], True),
-            (["mesh.patch.0.box=[-1e6, -1e6, 1e6, 1e6]", "mesh.patch.0.size=1e-9"], True),
+            # (structured bodies ignore patches, README: refused or without effect)
+            (["mesh.patch.0.box=[-1e6, -1e6, 1e6, 1e6]", "mesh.patch.0.size=1e-9"], None),
             (["mesh.refine.9.size=0.1"], True),
             (["mesh.refine.0.curves=[]", "mesh.refine.0.points=[]"], True),
             (["reference.type=hertz"], None),
@@ -761,6 +782,28 @@ def classify(case: Case, rc: int | None, stderr: str, out: Path) -> tuple[str, s
     return "CLEAN_ERROR", errors[0][7:120]
 
 
+BIG_MODEL = 1e5
+"""Elements (the app's own estimate before meshing) above which a timeout is a big valid
+model the size check accepted (verdict SLOW), not a hang."""
+
+
+def estimated_elements(argv: list[str]) -> float:
+    """The app's size estimate (elements) of a `run`/`study` command line; 0 if none."""
+    try:
+        from app.config import load_config
+        from app.mesh.estimate import estimate
+
+        sets = [argv[i + 1] for i, a in enumerate(argv) if a == "--set"]
+        cfg = load_config(argv[1], sets)
+        scale = 1.0
+        if "--mesh-size" in argv:
+            scale = float(argv[argv.index("--mesh-size") + 1]) / cfg.mesh_size
+        est = estimate(cfg.scene, scale)
+        return est.elements if est else 0.0
+    except Exception:  # the config does not load: no estimate
+        return 0.0
+
+
 def run_case(case: Case, work: Path, timeout: float, ranks: int, keep: bool) -> dict:
     case_dir = work / f"case_{case.id:04d}"
     case_dir.mkdir(parents=True)
@@ -782,6 +825,9 @@ def run_case(case: Case, work: Path, timeout: float, ranks: int, keep: bool) -> 
             if isinstance(exc.stderr, bytes) else (exc.stderr or "")
     seconds = time.perf_counter() - t0
     verdict, reason = classify(case, rc, stderr, case_dir / "out")
+    if reason == "timeout" and estimated_elements(argv) > BIG_MODEL:
+        verdict, reason = "SLOW", f"timeout on a model of {estimated_elements(argv):.3g} " \
+            "estimated elements (accepted by the size check)"
     result = {"id": case.id, "verdict": verdict, "reason": reason, "family": case.family,
               "desc": case.desc, "config": case.config, "exit": rc,
               "seconds": round(seconds, 2), "argv": argv}
@@ -840,7 +886,7 @@ def main(argv: list[str] | None = None) -> int:
     work = Path(args.work or tempfile.mkdtemp(prefix="fuzz_inputs_"))
     work.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
-    counts = {"OK": 0, "CLEAN_ERROR": 0, "BUG": 0}
+    counts = {"OK": 0, "CLEAN_ERROR": 0, "SLOW": 0, "BUG": 0}
     classes: dict[str, int] = {}
     with ThreadPoolExecutor(max_workers=max(1, args.jobs)) as pool:
         for r in pool.map(lambda c: run_case(c, work, args.timeout, args.ranks, args.keep),
