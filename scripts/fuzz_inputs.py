@@ -654,6 +654,13 @@ def regression_cases() -> list[Case]:
         Case(0, "regression", "reference.point a list (TypeError traceback after the run)",
              "configs/cantilever.toml", run + ["--mesh-size", "0.5", "--set",
                                                "reference.point=[1.0, 2.0]"], must_fail=True),
+        Case(0, "regression", "-log_view 1 from [petsc] (PETSc error at exit 0)",
+             "configs/patch.toml", run + ["--set", 'petsc.log_view="1"']),
+        Case(0, "regression", "-log_view ::ascii_xml from [petsc] (segfault)",
+             "configs/patch.toml", run + ["--set", 'petsc.log_view="::ascii_xml"']),
+        Case(0, "regression", "reference.center_x=1e308 (-inf contact edges at exit 0)",
+             "configs/hertz.toml", run + ["--mesh-size", "2.0", "--set",
+                                          "reference.center_x=1e308"]),
     ]
     for i, c in enumerate(cases):
         c.id = 10_000 + i
