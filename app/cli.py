@@ -7,6 +7,7 @@ Arguments the application does not know are PETSc options (-ksp_type, -pc_type,
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import time
 from pathlib import Path
@@ -157,12 +158,17 @@ def main(argv: list[str] | None = None) -> int:
         parser.error(f"unknown option {bad[0]} (PETSc options take a single dash)")
 
     from app.output import startup_signals
+    from app.petsc_start import start_petsc
 
     run_out = None if args.command != "run" else Path(args.out or Path("out") / args.config.stem)
     startup_signals.arm(run_out, str(args.config), act=args.command == "run")
-    import petsc4py
 
-    petsc4py.init([sys.argv[0]] + petsc_args)
+    refused = start_petsc(petsc_args)
+    if refused:  # PETSc did not start: no summary.json, as for a command line error
+        startup_signals.restore()
+        if startup_signals.launcher_rank() == 0:
+            print(f"error: {refused}", file=sys.stderr)
+        return 2
     args.started = time.perf_counter()  # a run's `startup` phase counts from here
     from petsc4py import PETSc
 
@@ -265,7 +271,7 @@ def _run_command(args, petsc_args: list[str], rank: int) -> int:
     except InputError as exc:
         from app.input_failure import record_input_failure
 
-        folder = None if args.out is None and not args.config.is_file() else \
+        folder = None if args.out is None and not os.path.isfile(args.config) else \
             (lambda: output_folder(args.out, default_out))
         record_input_failure(exc, folder, args.config, list(args.set))
     try:
@@ -327,15 +333,15 @@ def check_run_input(cfg, args, finest_level: int = 0) -> float:
 
 def output_folder(text: str | None, default: Path, what: str = "--out") -> Path:
     """The folder `text` (or `default` when None), created and checked writable."""
-    import os
     import tempfile
 
     from app.errors import InputError
+    from app.user_paths import path_kind
 
     if text is not None and not str(text).strip():
         raise InputError(f"{what} is empty: give a folder name")
     path = Path(text) if text is not None else default
-    if path.exists() and not path.is_dir():
+    if path_kind(path, what) not in (None, "dir"):
         raise InputError(f"{what} {path} exists and is not a folder")
     try:
         path.mkdir(parents=True, exist_ok=True)

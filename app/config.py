@@ -23,6 +23,7 @@ from app.petsc_config_guard import check_config_file_petsc
 from app.references import REFERENCES, reference
 from app.scene import Scene, parse_scene
 from app.scene.geometry import is_number
+from app.user_paths import path_kind
 
 
 @dataclass
@@ -115,6 +116,17 @@ def _vec2(value: Any, where: str) -> np.ndarray:
     if not isinstance(value, list) or len(value) != 2:
         raise InputError(f"{where} must be a list of two numbers [x, y] (got {value!r})")
     return np.array([_num(v, where) for v in value])
+
+
+def _name_key(t: dict, key: str, where: str, what: str) -> str:
+    """t[key], a non-empty name string: 'missing key' when absent, else the wrong value
+    (a number or an empty string was reported as a missing key before)."""
+    if key not in t:
+        raise InputError(f"{where}: missing key {key} ({what})")
+    v = t[key]
+    if not isinstance(v, str) or not v:
+        raise InputError(f"{where}: {key} must be {what} (got {v!r})")
+    return v
 
 
 def _table(raw: dict, key: str, where: str) -> dict:
@@ -302,9 +314,7 @@ def _bodies(raw: dict) -> tuple[list[str], list[float], list[float], list[np.nda
         raise InputError("no [[body]] given: a scene needs at least one body")
     names, E, nu, bf = [], [], [], []
     for i, b in enumerate(bodies):
-        if "name" not in b or not isinstance(b["name"], str) or not b["name"]:
-            raise InputError(f"body #{i + 1}: missing key name")
-        nm = b["name"]
+        nm = _name_key(b, "name", f"body #{i + 1}", "a non-empty string")
         check_keys(b, "body", f"body '{nm}'")
         for k in ("E", "nu"):
             if k not in b:
@@ -324,8 +334,7 @@ def _bodies(raw: dict) -> tuple[list[str], list[float], list[float], list[np.nda
 
 def _support(s: dict, where: str, n_steps: int, params: dict[str, float]) -> Support:
     """One [[support]]: ux and/or uy (numbers or expressions) with a history."""
-    if "on" not in s or not isinstance(s["on"], str):
-        raise InputError(f"{where}: missing key on (a curve or point group name)")
+    _name_key(s, "on", where, "a curve or point group name")
     check_keys(s, "support", f"{where} ({s['on']})")
     vals = {}
     for comp, key in enumerate(("ux", "uy")):
@@ -338,8 +347,7 @@ def _support(s: dict, where: str, n_steps: int, params: dict[str, float]) -> Sup
 
 def _load(ld: dict, where: str, n_steps: int, params: dict[str, float]) -> Load:
     """One [[load]]: exactly one of traction, pressure, total_force, with a history."""
-    if "on" not in ld or not isinstance(ld["on"], str):
-        raise InputError(f"{where}: missing key on (a curve name)")
+    _name_key(ld, "on", where, "a curve name")
     check_keys(ld, "load", f"{where} ({ld['on']})")
     kinds = [k for k in ("traction", "pressure", "total_force") if k in ld]
     if len(kinds) != 1:
@@ -366,8 +374,7 @@ def _interface(raw: dict, it: dict, i: int, earlier: list[Interface]) -> Interfa
     where = f"interface '{nm}'"
     check_keys(it, "interface", where)
     for k in ("slave", "master"):
-        if k not in it or not isinstance(it[k], str):
-            raise InputError(f"{where}: missing key {k} (a curve name)")
+        _name_key(it, k, where, "a curve name")
     if it["slave"] == it["master"]:
         raise InputError(f"{where}: slave and master are the same curve '{it['slave']}'")
     if "search_distance" not in it:
@@ -430,7 +437,11 @@ def _reference_table(raw: dict) -> dict | None:
     if kind not in REFERENCES:
         raise InputError(f"reference.type = {kind!r}: use one of "
                          f"{', '.join(REFERENCES)}{suggestion(str(kind), REFERENCES)}")
-    reference(kind).params(table)
+    params = reference(kind).params(table)
+    points = raw.get("points") if isinstance(raw.get("points"), dict) else {}
+    if "point" in params and params["point"] not in points:  # (found after the run before)
+        raise InputError(f"reference.point = {params['point']!r} is not a name in [points] "
+                         f"({', '.join(points) or 'none'})")
     return dict(table)
 
 
@@ -492,9 +503,10 @@ def apply_overrides(raw: dict[str, Any], overrides: list[str]) -> dict[str, Any]
 def load_config(path: str | Path, overrides: list[str] | None = None) -> Config:
     """Read and check a TOML scene file; `overrides` are `--set KEY=VALUE` strings."""
     p = Path(path)
-    if not p.exists():
+    kind = path_kind(p, "config file")
+    if kind is None:
         raise InputError(f"config file '{p}' does not exist")
-    if not p.is_file():
+    if kind != "file":
         raise InputError(f"config file '{p}' is not a regular file")
     try:
         with p.open("rb") as fh:

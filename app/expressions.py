@@ -130,8 +130,10 @@ def parse_expression(text: str, where: str, parameters: dict[str, float]) -> Exp
     except SyntaxError as exc:
         raise InputError(f"{where}: expression {_show(text)} is not valid: "
                          f"{exc.msg}") from None
-    except (RecursionError, MemoryError, ValueError):
+    except (RecursionError, MemoryError):
         raise InputError(f"{where}: expression {_show(text)} is nested too deeply") from None
+    except ValueError as exc:  # a NUL character (it was reported as "nested too deeply")
+        raise InputError(f"{where}: expression {_show(text)} is not valid: {exc}") from None
     expr = Expression(text.strip(), tree, dict(parameters), where)
     _check_tree(expr)
     with np.errstate(all="ignore"):

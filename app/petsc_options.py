@@ -19,6 +19,7 @@ from petsc4py import PETSc
 from app.config_keys import suggestion
 from app.errors import InputError
 from app.petsc_lib import PETSC_INT, load_petsc
+from app.user_paths import path_kind
 
 
 def _type_names(cls) -> list[str]:
@@ -53,6 +54,43 @@ def check_solver_options(config_petsc: dict[str, str]) -> None:
                                  f"{suggestion(value, known)}; known: {', '.join(known)}")
 
 
+LOG_VIEW_FORMATS = ("default", "ascii_info", "ascii_info_detail", "ascii_csv", "ascii_xml",
+                    "ascii_flamegraph")
+"""Formats PETSc's log view writes (src/sys/logging/plog.c, PetscLogView)."""
+LOG_VIEW_MODES = ("write", "append", "w", "a")
+NESTED_FORMATS = ("ascii_xml", "ascii_flamegraph")
+"""Formats of PETSc's nested log: from the config's [petsc] table (started after PETSc)
+they ended a completed run in a segmentation fault, exit 139."""
+
+
+def check_log_view_spec(config_petsc: dict[str, str]) -> None:
+    """InputError (one line) unless -log_view is `[ascii][:file][:format][:mode]` with
+    a format and mode PETSc's log view takes: PETSc reads the value only at PetscFinalize,
+    and `-log_view 1` (or draw, binary:f, stdout, `:f:bogus`, `:f::bogus`) ended a
+    completed run, exit 0, in a 12-line PETSc error and no log (scripts/fuzz_inputs.py);
+    an XML or flame-graph log from the config, in a segmentation fault."""
+    value = given_options(config_petsc).get("log_view")
+    if value is None or not str(value).strip():
+        return
+    vtype, _, rest = str(value).partition(":")
+    _, _, rest = rest.partition(":")
+    fmt, _, mode = rest.partition(":")
+    problem = None
+    if vtype.strip().lower() not in ("", "ascii"):
+        problem = f"the viewer type is {vtype!r}; the log is ASCII text: use ascii or nothing"
+    elif fmt.strip() and fmt.strip().lower() not in LOG_VIEW_FORMATS:
+        problem = f"unknown format {fmt!r}; use one of {', '.join(LOG_VIEW_FORMATS)}"
+    elif mode.strip() and mode.strip().lower() not in LOG_VIEW_MODES:
+        problem = f"unknown file mode {mode!r}; use write or append"
+    elif fmt.strip().lower() in NESTED_FORMATS and not PETSc.Options().hasName("log_view"):
+        problem = (f"the {fmt} log needs PETSc's nested log, which starts with PETSc only: "
+                   "give this -log_view on the command line, not in [petsc]")
+    if problem:
+        PETSc.Options().delValue("log_view")  # else PetscFinalize fails on it at exit
+        raise InputError(f"-log_view {value}: {problem} ([ascii][:file][:format][:mode], "
+                         "e.g. -log_view :log.txt:ascii_info_detail)")
+
+
 def check_log_view_file(config_petsc: dict[str, str]) -> None:
     """InputError (one line) when -log_view names a file that cannot be written: PETSc
     opens it only at PetscFinalize, and a completed run then ended with a 30-line PETSc
@@ -60,13 +98,20 @@ def check_log_view_file(config_petsc: dict[str, str]) -> None:
     import os
     from pathlib import Path
 
+    check_log_view_spec(config_petsc)
     value = given_options(config_petsc).get("log_view")
     parts = str(value or "").split(":")
     name = parts[1].strip() if len(parts) > 1 else ""
     if not name:
         return
     folder = Path(name).parent
-    if not folder.is_dir() or not os.access(folder, os.W_OK | os.X_OK) or Path(name).is_dir():
+    try:
+        bad = path_kind(folder, "-log_view") != "dir" or path_kind(name, "-log_view") == "dir" \
+            or not os.access(folder, os.W_OK | os.X_OK)
+    except InputError:  # a name the system cannot look up (too long)
+        PETSc.Options().delValue("log_view")
+        raise
+    if bad:
         PETSc.Options().delValue("log_view")  # else PetscFinalize fails on it at exit
         raise InputError(f"-log_view {value}: cannot write the file {name} (its folder does "
                          "not exist or is not writable, or it is a folder)")

@@ -17,7 +17,7 @@ APP = Path(__file__).resolve().parents[1] / "app"
 
 FOUNDATIONS = ("errors", "config", "config_keys", "scene", "closed_form", "references",
                "petsc_lib", "parallel", "expressions", "petsc_options", "hard_stop",
-               "petsc_config_guard")
+               "petsc_config_guard", "user_paths")
 STAGES = ("mesh", "discretisation", "assembly", "contact", "condensation", "lcp",
           "interface", "output")
 NUMPY_ONLY = ("discretisation", "contact", "lcp")  # kernels testable without MPI or files

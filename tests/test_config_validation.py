@@ -273,3 +273,19 @@ def test_degenerate_shapes_are_errors(key, value):
 
     with pytest.raises(InputError, match="shape is degenerate"):
         parse_scene(_with(PATCH, ("body", 0, "shape", key), value))
+
+
+@pytest.mark.parametrize(("path", "value", "needle"), [
+    (("body", 1, "name"), True, "body #2: name must be a non-empty string (got True)"),
+    (("body", 0, "name"), "", "body #1: name must be a non-empty string (got '')"),
+    (("support", 0, "on"), 2, "support #1: on must be a curve or point group name (got 2)"),
+    (("load", 0, "on"), ["upper_top"], "load #1: on must be a curve name (got ['upper_top'])"),
+    (("interface", 0, "master"), 1e12, "master must be a curve name (got 1000000000000.0)"),
+])
+def test_a_name_of_the_wrong_type_is_not_reported_missing(path, value, needle):
+    """Before: `support #1: missing key on (...)` for `on = 2` (scripts/fuzz_inputs.py)."""
+    msg = _error(_with(PATCH, path, value))
+    assert needle in msg and "missing" not in msg, msg
+    del_raw = copy.deepcopy(PATCH)
+    del del_raw[path[0]][path[1]][path[2]]
+    assert f"missing key {path[2]}" in _error(del_raw)

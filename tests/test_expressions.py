@@ -103,6 +103,7 @@ EXPLOIT = "().__class__.__bases__[0].__subclasses__()"
     ("-" * 100 + "1", "nested"),
     ("sqrt(" * 80 + "x" + ")" * 80, "nested"),
     ("x" + " + x" * MAX_LENGTH, "longer than"),
+    ("a\x00b", "null bytes"),  # was "nested too deeply" (scripts/fuzz_inputs.py)
 ])
 def test_anything_else_is_a_one_line_error(text, needle):
     with pytest.raises(InputError) as info:

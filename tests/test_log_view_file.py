@@ -16,3 +16,33 @@ def test_unwritable_log_view_file_is_one_line_before_the_run(tmp_path):
     res = run_cli(["run", str(CONFIGS / "patch.toml"), "--out", str(out), "--quiet",
                    "-log_view", f":{tmp_path}/log.txt"])
     assert res.returncode == 0 and "Summary of Stages" in (tmp_path / "log.txt").read_text()
+
+
+def test_log_view_specs_petsc_cannot_write_are_one_line_before_the_run(tmp_path):
+    """Before: `-log_view 1` (draw, binary:f, stdout, a bad file mode) completed, exit 0,
+    then a 12-line PETSc error at PetscFinalize and no log; `ascii_xml` or
+    `ascii_flamegraph` from [petsc] (--set) a segmentation fault, exit 139 (found by
+    scripts/fuzz_inputs.py). The same XML log from the command line still works."""
+    import pytest
+
+    from app.errors import InputError
+    from app.petsc_options import check_log_view_spec
+
+    for bad, needle in [("1", "viewer type is '1'"), ("draw", "viewer type"),
+                        ("binary:f.bin", "viewer type"), (":f.txt::bogus", "file mode"),
+                        (":f.txt:info_detail", "unknown format"),
+                        ("::ascii_xml", "nested log")]:
+        with pytest.raises(InputError, match=needle):
+            check_log_view_spec({"log_view": bad})
+    for good in ("", "ascii", ":f.txt", "ascii:f.txt:ascii_info_detail:append", "::ascii_csv"):
+        check_log_view_spec({"log_view": good})
+    out = tmp_path / "o"
+    for spec in ("1", f":{tmp_path}/log.xml:ascii_xml"):
+        res = run_cli(["run", str(CONFIGS / "patch.toml"), "--out", str(out), "--quiet",
+                       "--set", f'petsc.log_view="{spec}"'])
+        assert res.returncode == 2, res.stderr
+        assert len(res.stderr.strip().splitlines()) == 1 and "PETSC ERROR" not in res.stderr
+        assert read_summary(out)["status"] == "failed"
+    res = run_cli(["run", str(CONFIGS / "patch.toml"), "--out", str(out), "--quiet",
+                   "-log_view", f":{tmp_path}/log.xml:ascii_xml"])
+    assert res.returncode == 0 and "<petscroot>" in (tmp_path / "log.xml").read_text()

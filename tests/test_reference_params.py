@@ -18,6 +18,11 @@ from app.errors import InputError
     ("cantilever", "reference.P=0", "P must be non-zero"),
     ("cantilever", "reference.L=-10", "L must be > 0"),
     ("cantilever", "reference.D=inf", "D must be > 0"),
+    # before: a TypeError traceback after the whole run, exit 1 (scripts/fuzz_inputs.py)
+    ("cantilever", "reference.point=[1e300, 0]", r"point must be a name \(got \[1e\+300, 0\]"),
+    ("cantilever", 'reference.point=""', "point must be a name"),
+    # before: found only after the whole run
+    ("cantilever", "reference.point=nope", r"'nope' is not a name in \[points\] \(tip\)"),
 ])
 def test_bad_reference_numbers_are_refused_at_load(config, override, needle):
     with pytest.raises(InputError, match=needle):

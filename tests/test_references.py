@@ -65,3 +65,26 @@ def test_overlay_reproduces_the_closed_form():
     np.testing.assert_allclose(curves["p"][1](x), hertz_pressure(x, h["a_hertz"], h["p0_hertz"]))
     assert np.abs(curves["p"][1](x) - fig.contact.p).max() < 0.02 * fig.contact.p.max()
     assert curves["q"][0] == "Cattaneo-Mindlin"
+
+
+def test_hertz_centre_off_the_interface_is_an_input_error():
+    """reference.center_x = 1e308 overflowed the contact edges to -inf in a completed
+    summary (scripts/fuzz_inputs.py); any centre outside the pairs is meaningless."""
+    import numpy as np
+    import pytest
+
+    from app.errors import InputError
+    from app.references.base import ContactProfile, RunFigures
+    from app.references.hertz import pressure_errors
+
+    x = np.linspace(-0.2, 0.2, 21)
+    p = np.maximum(0.0, 1.0 - (x / 0.1) ** 2)
+    c = ContactProfile(x=x, p=p, q=0 * x, length=np.full(21, 0.02), p_force=p * 0.02,
+                       q_force=0 * x, stick=np.zeros(21, bool), mu=0.0, E_star=1e3,
+                       interface="contact")
+    run = RunFigures(E=1e3, nu=0.3, plane="strain", thickness=1.0, strain_energy=1.0,
+                     point_values={}, contact=c)
+    assert pressure_errors({"radius": 1.0, "center_x": 0.05}, run)["center_x"] == 0.05
+    for x0 in (1e308, 0.3, -0.21):
+        with pytest.raises(InputError, match="lies outside interface 'contact'"):
+            pressure_errors({"radius": 1.0, "center_x": x0}, run)

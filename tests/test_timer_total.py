@@ -3,7 +3,8 @@ rank's timer started, like its phases (max over ranks). Before, the total was ra
 and a rank that started earlier put its wait for rank 0 into the first phase, so the phases
 exceeded the total by that wait (rank 0 started 2 s late: by about 2 s). The phases are
 each a max over ranks, so on a busy machine their sum may still exceed the total by a few
-per cent (README "One factorization, constant-cost steps"); the test allows half the 2 s offset for that."""
+per cent (README "One factorization, constant-cost steps"); the test allows half the 2 s
+offset for that."""
 
 from __future__ import annotations
 

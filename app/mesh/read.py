@@ -15,6 +15,7 @@ import numpy as np
 from app.errors import InputError
 from app.mesh.coincident import check_coincident_nodes
 from app.mesh.model import Mesh, orient_ccw
+from app.user_paths import path_kind
 
 _KINDS = {"vertex": 0, "line": 1, "quad": 2}  # accepted cell types -> dimension
 _DIM_WORD = {0: "point", 1: "curve", 2: "surface"}
@@ -79,8 +80,10 @@ def _load_msh(path: Path):
     import meshio.gmsh
 
     fname = str(path)
-    if not path.is_file():
-        raise InputError(f"mesh file {fname} not found (mesh.file)")
+    kind = path_kind(path, "mesh file (mesh.file)")
+    if kind != "file":
+        raise InputError(f"mesh file {fname} " + ("not found" if kind is None else
+                                                  "is not a file") + " (mesh.file)")
     try:
         m = meshio.gmsh.read(path)  # not meshio.read: that one calls sys.exit on failure
     except Exception as e:  # meshio raises assorted exception types on bad input

@@ -78,7 +78,9 @@ def kkt_check(gap, tau, tau_prev, p, q, mu, a, c, frictional, *, u_scale: float 
     return {
         "gap": float(max(0.0, -gap.min(initial=0.0)) / us),
         "normal_force": float(max(0.0, -(p + a).min(initial=0.0)) / fs),
-        "complementarity": float(np.abs(gap * (p + a)).max(initial=0.0) / (us * fs)),
+        # each factor scaled first: us * fs underflows to 0 when both are at their floor
+        # (a step with no load and no motion), and the figure was NaN (0 / 0)
+        "complementarity": float(np.abs(gap / us * ((p + a) / fs)).max(initial=0.0)),
         "friction_bound": float(max(0.0, (np.abs(q) - bound).max(initial=0.0)) / fs),
         "slip_direction": float(direction.max(initial=0.0) / fs),
     }

@@ -82,6 +82,8 @@ class Reference:
             value = table.get(key, default)
             if value is None:
                 raise InputError(f"[reference] type '{self.name}' needs {key}")
+            if isinstance(default, str) and (not isinstance(value, str) or not value):
+                raise InputError(f"[reference] {key} must be a name (got {value!r})")
             if not isinstance(default, str):
                 if isinstance(value, bool) or not isinstance(value, int | float):
                     raise InputError(f"[reference] {key} must be a number (got {value!r})")

@@ -2,13 +2,22 @@
 
 from __future__ import annotations
 
+import numpy as np
+
 from app.closed_form import hertz_errors, hertz_pressure
+from app.errors import InputError
 from app.references.base import Reference, RunFigures
 
 
 def pressure_errors(params: dict, run: RunFigures) -> dict:
     """The `hertz` entry: p(x) of the first interface against Hertz at its total force."""
     c = run.contact
+    x0 = params["center_x"]
+    if len(c.x) and not float(np.min(c.x)) <= x0 <= float(np.max(c.x)):
+        # (1e308 overflowed the contact edges to -inf in a completed summary)
+        raise InputError(f"reference.center_x = {x0:g} lies outside interface "
+                         f"'{c.interface}', whose pairs span x = {np.min(c.x):.4g} to "
+                         f"{np.max(c.x):.4g}: the contact centre must be on the interface")
     return {"interface": c.interface, "center_x": params["center_x"],
             "hertz": hertz_errors(c.x, c.p, c.length, P=float(c.p_force.sum()),
                                   R=params["radius"], E_star=c.E_star,
