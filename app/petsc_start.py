@@ -80,5 +80,3 @@ def start_petsc(petsc_args: list[str]) -> str | None:
     reason = _reason(captured) or str(failed)
     return str(InputError(f"PETSc cannot start with the options {' '.join(petsc_args)}: "
                           f"{reason}"))
-
-
