@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from app.lcp import STATUSES, LCPResult, default_max_pivots, lemke
-from app.lcp.cases import random_contact_lcp, strip_contact_lcp
+from app.lcp.cases import near_duplicate_lcp, random_contact_lcp, strip_contact_lcp
 from app.lcp.lemke import _lemke_tableau
 
 LM = importlib.import_module("app.lcp.lemke")  # the module (app.lcp.lemke is the function)
@@ -574,18 +574,6 @@ def test_bordered_block_solve_matches_a_direct_solve():
     expect = np.zeros(40)
     expect[idx] = np.linalg.solve(Ms.dense()[np.ix_(idx, idx)], -qs[idx])
     np.testing.assert_allclose(z, expect, rtol=1e-10, atol=1e-12)
-
-
-def near_duplicate_lcp(seed: int, kernel: str, load: str):
-    """50 frictionless contacts on a line, 10 of them 1e-5 from another: a smooth SPD
-    compliance kernel, condition number 1e10 to 1e12, unique solution."""
-    rng = np.random.default_rng(seed)
-    x = np.linspace(-1.0, 1.0, 40)
-    x = np.sort(np.concatenate([x, x[rng.choice(40, 10, replace=False)] + 1e-5]))
-    d = np.abs(x[:, None] - x[None, :])
-    M = np.exp(-d / 0.3) * (1 + d / 0.3) if kernel == "matern" else 1 / np.sqrt(1 + (d / 0.1)**2)
-    q = -np.ones(50) if load == "flat" else 0.5 * x**2 - 0.3
-    return M, q
 
 
 @pytest.mark.parametrize("kernel", ["matern", "imq"])
