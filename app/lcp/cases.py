@@ -53,7 +53,8 @@ def random_contact_lcp(m: int, rng: np.random.Generator,
 def near_duplicate_lcp(seed: int, kernel: str, load: str) -> tuple[np.ndarray, np.ndarray]:
     """(M, q), n = 50: frictionless contacts on a line, 10 of them 1e-5 from another, a
     smooth SPD compliance kernel ("matern" or "imq"), condition 1e10 to 1e12, a unique
-    solution; load "flat" (q = -1) or "parabolic" (tests/test_lemke.py and the benchmarks use it)."""
+    solution; load "flat" (q = -1) or "parabolic" (tests/test_lemke.py and the
+    benchmarks use it)."""
     rng = np.random.default_rng(seed)
     x = np.linspace(-1.0, 1.0, 40)
     x = np.sort(np.concatenate([x, x[rng.choice(40, 10, replace=False)] + 1e-5]))
