@@ -136,3 +136,21 @@ def test_summary_names_the_curve_with_the_pairs(tmp_path):
     assert res.returncode == 0, res.stderr
     d = read_summary(out)["contact_interfaces"]["indent"]
     assert d["pairs_on"] == "cyl_arc" and d["discretisation"] == DISC
+
+
+@pytest.mark.parametrize("slave, master, fy", [("upper_bottom", "lower_top", 20.0),
+                                               ("lower_top", "upper_bottom", -20.0)])
+def test_interface_force_is_the_configured_slaves_either_way(tmp_path, slave, master, fy):
+    """patch.toml, the lower block at 0.5: steps[k].interfaces.<name>.force is the force on
+    the configured slave (10 x 2 up on the upper block) whether or not the roles swapped;
+    it flipped sign with the swap before."""
+    out = tmp_path / "o"
+    res = run_cli(["run", str(CONFIGS / "patch.toml"), "--out", str(out), "--quiet",
+                   "--set", "body.lower.size=0.5",
+                   "--set", f'interface.interface.discretisation="{DISC}"',
+                   "--set", f'interface.interface.slave="{slave}"',
+                   "--set", f'interface.interface.master="{master}"'])
+    assert res.returncode == 0, res.stderr
+    s = read_summary(out)
+    force = s["steps"][-1]["interfaces"]["interface"]["force"]
+    np.testing.assert_allclose(force, [0.0, fy], atol=1e-8)

@@ -200,3 +200,11 @@ def test_a_pressure_normal_to_a_prescribed_dof_is_not_reported(tmp_path):
     assert res.returncode == 0, res.stderr
     assert "prescribed DOFs" not in res.stderr
     assert "warnings" not in read_summary(tmp_path / "o")
+
+
+def test_interface_resultants_of_a_swapped_interface_are_the_configured_slaves():
+    c = {"p_force": np.array([1.0, 2.0]), "q_force": np.array([0.5, 0.0]),
+         "normal": np.array([[0.0, 1.0], [0.0, 1.0]]),
+         "tangent": np.array([[1.0, 0.0], [1.0, 0.0]]), "interface": np.array([0, 1])}
+    out = interface_resultants(c, ["a", "b"], swapped={"b"})
+    assert out == {"a": {"force": [0.5, 1.0]}, "b": {"force": [-0.0, -2.0]}}

@@ -88,7 +88,7 @@ def write_step(ctx: RunContext, model: Model, output: StepOutput, step: int, u: 
                 contact_data, info["kkt"] = contact_arrays(model.contact, solved.result, u,
                                                            cfg.thickness)
                 output.last_contact = contact_data
-                _add_interface_forces(info, contact_data, cfg)
+                _add_interface_forces(info, contact_data, cfg, model.contact.described)
         info.update(output.reactions(step, u, None if solved is None else
                                      model.contact.g.T @ solved.result.lam))
         if model.floating is not None:  # the floating bodies' motion (rigid_modes is not)
@@ -188,11 +188,15 @@ def _reaction_setup(mesh: Mesh, cfg: Config, cases: list[LoadCase], probe: React
     return at_step
 
 
-def _add_interface_forces(step_info: dict, contact_data: dict, cfg: Config) -> None:
-    """Resultant force vectors (global axes) into steps[k].interfaces.<name>.force."""
+def _add_interface_forces(step_info: dict, contact_data: dict, cfg: Config,
+                          described: dict | None = None) -> None:
+    """Resultant force vectors (global axes) into steps[k].interfaces.<name>.force, on
+    the configured slave side also where the pairs are on the master (`described`)."""
     from app.output.reactions import interface_resultants
 
-    res = interface_resultants(contact_data, [i.name for i in cfg.interfaces])
+    swapped = {i.name for i in cfg.interfaces
+               if (described or {}).get(i.name, {}).get("pairs_on", i.slave) != i.slave}
+    res = interface_resultants(contact_data, [i.name for i in cfg.interfaces], swapped)
     for name, val in res.items():
         step_info.setdefault("interfaces", {}).setdefault(name, {}).update(val)
 

@@ -139,17 +139,23 @@ def body_balance(points: np.ndarray, node_body: np.ndarray, body_names: list[str
             "force_scale": step_scale}
 
 
-def interface_resultants(contact: dict[str, np.ndarray], names: list[str]) -> dict:
-    """Force on each interface's slave side, sum of p n + q t over its pairs, global axes.
+def interface_resultants(contact: dict[str, np.ndarray], names: list[str],
+                         swapped: set[str] | None = None) -> dict:
+    """Force on each interface's configured slave side, sum of p n + q t over its pairs,
+    global axes.
 
-    The master side carries the opposite force. Returns {name: {"force": [Fx, Fy]}}.
+    The master side carries the opposite force. The interfaces named in `swapped` have
+    their pairs on the configured master (`mortar-coarse-slave`), so their sum is the
+    master's force and is negated: the figure does not flip with the element-size ratio.
+    Returns {name: {"force": [Fx, Fy]}}.
     """
     f = (contact["p_force"][:, None] * contact["normal"]
          + contact["q_force"][:, None] * contact["tangent"])
     out = {}
     for i, name in enumerate(names):
         sel = contact["interface"] == i
-        out[name] = {"force": [float(v) for v in f[sel].sum(axis=0)]}
+        sign = -1.0 if swapped and name in swapped else 1.0
+        out[name] = {"force": [float(sign * v) for v in f[sel].sum(axis=0)]}
     return out
 
 
