@@ -15,6 +15,7 @@ from app.references.mindlin import (
     cycle_dissipation,
     masing_path,
     masing_traction,
+    mindlin_errors,
     virgin_dissipation,
 )
 from tests.support import CONFIGS, read_summary, run_cli
@@ -152,3 +153,25 @@ def test_nested_loop_is_forgotten_by_the_run(tmp_path):
     assert m["turning_points"] == 1  # the peak at 1.2 Q*; the inner loop is gone
     assert m["traction_l2_interp_rel_error"] < 0.35  # 0.320 (0.048 at level 3)
     assert m["dissipation_rel_error"] < 0.3  # 0.240 (0.0051 at level 3)
+
+
+@pytest.mark.parametrize("over", [-1e-14, 0.0, 1e-14])
+def test_gross_slip_is_said_and_does_not_hinge_on_round_off(over):
+    """|Q| at mu P (a displacement-driven path slides): the traction is compared with
+    q = mu p, the dissipation has no closed form. Before, 1e-14 above mu P gave nan for
+    every figure and 1e-14 below a finite, meaningless dissipation error, silently."""
+    x = np.linspace(-1.5 * A, 1.5 * A, 3001)
+    length = np.full_like(x, x[1] - x[0])
+    q = MU * hertz_pressure(x, A, P0)
+    m = mindlin_errors(x, q, length, Q_path=np.array([0.5, 1.0 + over, 1.0]) * MUP, P=P,
+                       mu=MU, R=1.0, E_star=ES, stick=np.zeros(x.size, bool))
+    assert m["gross_slip_step"] == 2 and m["note"].startswith("gross slip")
+    assert math.isnan(m["dissipation_exact"]) and m["stick_half_width_exact"] == 0.0
+    assert m["traction_l2_rel_error"] < 1e-3
+
+
+def test_a_path_beyond_mu_p_is_refused_with_a_note():
+    x = np.linspace(-A, A, 101)
+    m = mindlin_errors(x, 0 * x, np.full_like(x, x[1] - x[0]), Q_path=np.array([1.2 * MUP]),
+                       P=P, mu=MU, R=1.0, E_star=ES)
+    assert math.isnan(m["traction_l2_rel_error"]) and "not held" in m["note"]

@@ -39,6 +39,10 @@ from app.closed_form import (
 from app.references.base import Reference, RunFigures
 from app.references.hertz import pressure_errors, pressure_overlay
 
+GROSS_SLIP_TOL = 1e-8
+"""|Q| within this fraction of mu P is gross slip (the run's |Q| never exceeds mu P but by
+round-off, to either side)."""
+
 Terms = tuple[tuple[float, float], ...]
 """A traction as a sum of Cattaneo terms: q(x) = sum over (k, Q) of k q_L(x; Q)."""
 
@@ -148,12 +152,24 @@ def mindlin_errors(x, q, length, *, Q_path: np.ndarray, P: float, mu: float, R: 
     a, p0 = hertz_contact(P / thickness, R, E_star)
     mu_P = mu * P
     nan = float("nan")
-    if np.abs(Q_path).max(initial=0.0) > mu_P:
-        return {"Q_over_muP": float(np.abs(Q_path).max() / mu_P), "traction_l2_rel_error": nan,
+    r_max = float(np.abs(Q_path).max(initial=0.0) / mu_P)
+    if r_max > 1.0 + GROSS_SLIP_TOL:
+        return {"Q_over_muP": r_max, "traction_l2_rel_error": nan,
                 "traction_l2_interp_rel_error": nan, "stick_half_width_rel_error": nan,
-                "dissipation_exact": nan}
+                "dissipation_exact": nan, "note": f"max |Q| / (mu P) = {r_max:.6g} > 1 with P "
+                "of the last step: P was not held, no closed form"}
+    gross = np.flatnonzero(np.abs(Q_path) >= mu_P * (1.0 - GROSS_SLIP_TOL))
+    Q_path = np.clip(Q_path, -mu_P, mu_P)  # round-off above mu P is mu P
     terms, work, slip = masing_path(Q_path, lambda s: float(
         virgin_dissipation(s, mu_P, E_star, thickness)))
+    note = {}
+    if gross.size:  # sliding at |Q| = mu P: its work depends on how far, not on Q
+        work = np.full_like(work, nan)
+        if gross[-1] == len(Q_path) - 1:  # the last step slid at mu P: no stick zone
+            slip[-1] = mu_P
+        note = {"gross_slip_step": int(gross[0]) + 1, "note": "gross slip: |Q| = mu P from "
+                f"step {int(gross[0]) + 1}: the whole contact slides, the "
+                "dissipation has no closed form (the traction is compared with Q = mu P)"}
     exact = lambda s: masing_traction(s, terms[-1], a, p0, mu, mu_P)  # noqa: E731
     zone = np.abs(x) < a
     qc = exact(x)
@@ -168,7 +184,7 @@ def mindlin_errors(x, q, length, *, Q_path: np.ndarray, P: float, mu: float, R: 
                "stick_edges": [left, right],
                "stick_half_width_rel_error": abs(half - c_exact) / c_exact if c_exact > 0
                else nan}
-    return out | {
+    return out | note | {
             "Q": float(Q_path[-1]), "Q_over_muP": float(Q_path[-1] / mu_P), "a_hertz": a,
             "terms": [list(t) for t in terms[-1]], "traction_l2_rel_error": float(l2),
             "traction_l2_interp_rel_error": interpolated_l2_rel_error(
