@@ -175,3 +175,12 @@ def test_a_path_beyond_mu_p_is_refused_with_a_note():
     m = mindlin_errors(x, 0 * x, np.full_like(x, x[1] - x[0]), Q_path=np.array([1.2 * MUP]),
                        P=P, mu=MU, R=1.0, E_star=ES)
     assert math.isnan(m["traction_l2_rel_error"]) and "not held" in m["note"]
+
+
+def test_p_variation_counts_the_start_of_a_step_that_applies_q():
+    """P and Q applied in one step (not Cattaneo's sequence): P went 0 -> P while Q was on,
+    P_variation 1 (it read 0 before, only the ends of the steps were compared)."""
+    one = reference("mindlin").compare({"radius": 1.0}, _figures([0.5]))["mindlin"]
+    assert one["P_variation"] == pytest.approx(1.0)
+    fig = _figures([0.0, 0.5])  # P first, then Q: held
+    assert reference("mindlin").compare({"radius": 1.0}, fig)["mindlin"]["P_variation"] < 1e-4

@@ -192,6 +192,16 @@ def mindlin_errors(x, q, length, *, Q_path: np.ndarray, P: float, mu: float, R: 
             "dissipation_exact": float(work[-1])}
 
 
+def p_variation(Q_path: np.ndarray, P_path: np.ndarray, P: float) -> float:
+    """max |P' - P| / P over the normal forces P' at the start and end of every step with a
+    tangential force at either end (the path starts at Q = P = 0): the closed form holds P
+    while Q is on. The start counts: a single step that applies P and Q together has 1."""
+    q0, p0 = (np.concatenate(([0.0], v[:-1])) for v in (Q_path, P_path))
+    loaded = (Q_path != 0.0) | (q0 != 0.0)
+    ends = np.concatenate((P_path[loaded], p0[loaded]))
+    return float(np.abs(ends - P).max(initial=0.0) / P)
+
+
 def _errors(params: dict, run: RunFigures) -> dict:
     out = pressure_errors(params, run)
     c = run.contact
@@ -207,13 +217,12 @@ def _errors(params: dict, run: RunFigures) -> dict:
     m = mindlin_errors(c.x[o] - params["center_x"], c.q[o], c.length[o], Q_path=Q_path, P=P,
                        mu=c.mu, R=params["radius"], E_star=c.E_star,
                        thickness=run.thickness, stick=c.stick[o])
-    loaded = Q_path != 0.0
     d_run = float(diss.sum())
     d_ex = m["dissipation_exact"]
     out["mindlin"] = m | {
         "P": P, "Q_max": float(np.abs(Q_path).max(initial=0.0)),
         # the closed form holds P; how far it moved while Q was applied
-        "P_variation": float(np.abs(P_path[loaded] - P).max(initial=0.0) / P),
+        "P_variation": p_variation(Q_path, P_path, P),
         # the reversals the traction remembers (each branch adds one term)
         "turning_points": max(len(m.get("terms", ())) - 1, 0),
         "dissipation": d_run,
