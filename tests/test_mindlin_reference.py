@@ -184,3 +184,10 @@ def test_p_variation_counts_the_start_of_a_step_that_applies_q():
     assert one["P_variation"] == pytest.approx(1.0)
     fig = _figures([0.0, 0.5])  # P first, then Q: held
     assert reference("mindlin").compare({"radius": 1.0}, fig)["mindlin"]["P_variation"] < 1e-4
+
+
+def test_a_frictionless_interface_gets_nan_with_a_note():
+    fig = _figures([0.0, 0.5])
+    fig.contact.mu = 0.0
+    out = reference("mindlin").compare({"radius": 1.0}, fig)["mindlin"]
+    assert math.isnan(out["traction_l2_rel_error"]) and "mu = 0" in out["note"]

@@ -211,7 +211,9 @@ def _errors(params: dict, run: RunFigures) -> dict:
         out["mindlin"] = {"P": P, "traction_l2_rel_error": math.nan,
                           "traction_l2_interp_rel_error": math.nan,
                           "stick_half_width_rel_error": math.nan,
-                          "dissipation_rel_error": math.nan}
+                          "dissipation_rel_error": math.nan,
+                          "note": f"no tangential closed form: mu = {c.mu:g}, P = {P:.6g}, "
+                          f"{Q_path.size} steps"}
         return out
     o = np.argsort(c.x)
     m = mindlin_errors(c.x[o] - params["center_x"], c.q[o], c.length[o], Q_path=Q_path, P=P,
