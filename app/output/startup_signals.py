@@ -28,6 +28,8 @@ import signal
 import sys
 from pathlib import Path
 
+from app.output.out_owner import foreign_files
+
 STALE = re.compile(r"^(step_\d{4,}\.h5|results\.xdmf|contact\.xdmf|mesh\.h5|summary\.json)"
                    r"(\.tmp)?$")
 """Files this tool writes into OUT (and their temporary names)."""
@@ -139,6 +141,8 @@ def _record(out: Path, reason: str) -> None:
         return
     try:
         fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+        if foreign_files(out, STALE):  # the user's files under this tool's names: untouched
+            return
         for p in out.iterdir():
             if STALE.match(p.name) and p.is_file():
                 p.unlink(missing_ok=True)

@@ -25,6 +25,7 @@ from petsc4py import PETSc
 from app import hard_stop
 from app.errors import InputError, SolveError
 from app.output import startup_signals
+from app.output.out_owner import foreign_files, foreign_message
 
 LOCK_NAME = ".lock"
 STALE = startup_signals.STALE
@@ -371,6 +372,9 @@ class RunGuard:
 
         def start():
             self._lock = lock_folder(self.out)
+            foreign = foreign_files(self.out, STALE)
+            if foreign:
+                raise InputError(foreign_message(self.out, foreign))
             return clear_files(self.out)
 
         _ON_FAILURE.clear()

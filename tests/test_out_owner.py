@@ -1,0 +1,78 @@
+"""A run's --out clean-up touches only this tool's files (app/output/out_owner.py): a
+folder whose summary.json is another program's stops the run with a one-line error, and
+the start-up signal handler leaves it alone. Before, that summary.json and the files under
+the tool's names next to it (mesh.h5, step_NNNN.h5, ...) were removed or replaced."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+from support import CONFIGS, ROOT, mpi_env, run_cli
+
+from app.output.out_owner import foreign_files
+from app.output.startup_signals import STALE
+
+
+def test_foreign_files_by_name_and_summary(tmp_path):
+    (tmp_path / "notes.txt").write_text("mine")
+    (tmp_path / "mesh.h5").write_text("x")
+    assert foreign_files(tmp_path, STALE) == []  # no summary.json: an earlier run's leftover
+    (tmp_path / "summary.json").write_text('{"other": "tool"}')
+    assert foreign_files(tmp_path, STALE) == ["mesh.h5", "summary.json"]
+    (tmp_path / "summary.json").write_text("not json")
+    assert foreign_files(tmp_path, STALE) == ["mesh.h5", "summary.json"]
+    (tmp_path / "summary.json").write_text('{"status": "completed", "config": "a.toml"}')
+    assert foreign_files(tmp_path, STALE) == []  # an earlier run's: its files are cleared
+
+
+def test_run_stops_before_it_removes_a_users_files(tmp_path):
+    out = tmp_path / "o"
+    out.mkdir()
+    (out / "mesh.h5").write_text("the user's")
+    (out / "step_0009.h5").write_text("the user's")
+    (out / "summary.json").write_text('{"tool": "other"}')
+    res = run_cli(["run", str(CONFIGS / "patch.toml"), "--out", str(out), "--quiet"])
+    assert res.returncode == 2
+    assert "error: --out" in res.stderr and "mesh.h5, step_0009.h5, summary.json" in res.stderr
+    assert len(res.stderr.strip().splitlines()) == 1, res.stderr
+    assert (out / "mesh.h5").read_text() == "the user's"
+    assert (out / "step_0009.h5").read_text() == "the user's"
+
+
+def test_run_over_an_earlier_run_still_clears_it(tmp_path):
+    out = tmp_path / "o"
+    assert run_cli(["run", str(CONFIGS / "patch.toml"), "--out", str(out), "--quiet"]
+                   ).returncode == 0
+    (out / "step_0042.h5").write_text("stale")
+    (out / "notes.txt").write_text("mine")
+    res = run_cli(["run", str(CONFIGS / "patch.toml"), "--out", str(out), "--quiet"])
+    assert res.returncode == 0, res.stderr
+    assert not (out / "step_0042.h5").exists() and (out / "notes.txt").exists()
+
+
+HOOK = r"""
+import signal, sys
+import app.cli as cli
+orig = cli.check_run_input
+def hooked(*a, **k):
+    signal.raise_signal(signal.SIGINT)
+    return orig(*a, **k)
+cli.check_run_input = hooked
+sys.exit(cli.main())
+"""
+
+
+def test_sigint_during_startup_leaves_another_programs_summary(tmp_path):
+    out = tmp_path / "o"
+    out.mkdir()
+    theirs = json.dumps({"tool": "other", "result": 1})
+    (out / "summary.json").write_text(theirs)
+    script = tmp_path / "hook.py"
+    script.write_text(HOOK)
+    res = subprocess.run([sys.executable, str(script), "run", str(CONFIGS / "patch.toml"),
+                          "--out", str(out), "--quiet"], cwd=ROOT, env=mpi_env(),
+                         capture_output=True, text=True, timeout=300)
+    assert res.returncode == 130, res.stderr
+    assert (out / "summary.json").read_text() == theirs
