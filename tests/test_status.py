@@ -386,3 +386,13 @@ def test_full_disk_on_two_ranks_fails_instead_of_hanging(tmp_path):
     assert s["status"] == "failed" and "cannot write" in s["error"]
     assert _written_steps(out) == list(range(1, len(s["steps"]) + 1))
     assert not list(out.glob("*.tmp"))
+
+
+def test_interrupt_after_the_last_step_says_so(tmp_path):
+    """A signal during the final output of a 1-step run read `during step 2/1` before."""
+    summary = {"steps": [{"step": 1}], "status": "running"}
+    with pytest.raises(RunInterrupted) as info:
+        with RunGuard(tmp_path, summary, write_summary, 1):
+            raise KeyboardInterrupt
+    assert info.value.summary["error"].startswith(
+        "interrupted by SIGINT after the last step (1/1); steps 1..1 are written")

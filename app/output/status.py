@@ -446,9 +446,12 @@ class RunGuard:
                 self._lock.close()
 
     def _interrupted_reason(self, name: str, where: str = "") -> str:
+        """The `error` line; after the last step (the final output, the reference) it says
+        so (before: `during step N+1/N`)."""
         k = len(self.summary.get("steps", []))
-        return (f"interrupted by {name} during step {k + 1}/{self.n_steps}{where}; "
-                f"{self._done()}")
+        at = (f"after the last step ({k}/{self.n_steps})" if k >= self.n_steps > 0
+              else f"during step {k + 1}/{self.n_steps}")
+        return f"interrupted by {name} {at}{where}; {self._done()}"
 
     def _hard_stop_text(self, name: str) -> tuple[Path, int, bytes, str]:
         """What app/_hard_stop.c writes on `name` during a long C call (rank 0): the
@@ -477,10 +480,8 @@ class RunGuard:
             return False
         if isinstance(exc, KeyboardInterrupt | RunInterrupted):
             name = exc.signal_name if isinstance(exc, RunInterrupted) else "SIGINT"
-            k = len(s.get("steps", []))
             s["status"] = "interrupted"
-            s["error"] = (f"interrupted by {name} during step {k + 1}/{self.n_steps}; "
-                          f"{self._done()}")
+            s["error"] = self._interrupted_reason(name)
             self._record()
             stop = RunInterrupted(name, s["error"])
             stop.summary = s
