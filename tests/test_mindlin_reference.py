@@ -152,3 +152,17 @@ def test_nested_loop_is_forgotten_by_the_run(tmp_path):
     assert m["turning_points"] == 1  # the peak at 1.2 Q*; the inner loop is gone
     assert m["traction_l2_interp_rel_error"] < 0.35  # 0.320 (0.048 at level 3)
     assert m["dissipation_rel_error"] < 0.3  # 0.240 (0.0051 at level 3)
+
+
+def test_stick_edges_are_positions_on_the_interface_as_cattaneos():
+    """`stick_edges` are absolute x (centre added back), as `cattaneo.stick_edges`; they were
+    relative to `center_x`."""
+    fig = _figures([0.0, 0.64])
+    x0, c = 0.3, A * math.sqrt(1.0 - 0.64)
+    fig.contact.stick = np.abs(fig.contact.x) < c
+    fig.contact.x = fig.contact.x + x0
+    out = reference("mindlin").compare({"radius": 1.0, "center_x": x0}, fig)["mindlin"]
+    assert out["stick_half_width_rel_error"] < 1e-3
+    left, right = out["stick_edges"]
+    assert left == pytest.approx(x0 - c, abs=2e-3 * A)
+    assert right == pytest.approx(x0 + c, abs=2e-3 * A)
