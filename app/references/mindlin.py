@@ -44,7 +44,7 @@ Terms = tuple[tuple[float, float], ...]
 """A traction as a sum of Cattaneo terms: q(x) = sum over (k, Q) of k q_L(x; Q)."""
 
 
-def virgin_dissipation(Q, mu_P: float, E_star: float, thickness: float = 1.0):
+def virgin_dissipation(Q, mu_P: float, E_star: float, thickness: float = 1.0) -> np.ndarray:
     """D_v: frictional work of loading from 0 to |Q| <= mu P on the virgin branch (force x
     length; P, Q total forces over `thickness`). nan beyond mu P (gross slip)."""
     r = np.abs(np.asarray(Q, dtype=float)) / mu_P
@@ -120,7 +120,8 @@ def masing_path(Q: np.ndarray, dv: Callable[[float], float]
     return out_terms, out_work, out_slip
 
 
-def masing_traction(x, terms: Terms, a: float, p0: float, mu: float, mu_P: float):
+def masing_traction(x, terms: Terms, a: float, p0: float, mu: float,
+                    mu_P: float) -> np.ndarray:
     """q(x) of a traction given as Cattaneo terms (signed, along the interface's t)."""
     x = np.asarray(x, dtype=float)
     out = np.zeros_like(x)
