@@ -8,9 +8,9 @@ import importlib
 import numpy as np
 import pytest
 
-from app.interface.audit_cases import p_pd
 from app.lcp import exact, lemke
 from app.lcp.balance import balance, imbalanced
+from app.lcp.cases import p_pd
 from app.lcp.recovery import recover
 from app.lcp.result import LCPResult
 
