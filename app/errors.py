@@ -12,9 +12,15 @@ MAX_MESSAGE = 1500
 _LONG = re.compile(r"\S{" + str(LONG_WORD + 1) + ",}")
 
 
+def cut_middle(text: str, head: int, tail: int) -> str:
+    """`text` with all but its first `head` and last `tail` characters replaced by
+    `...[N characters]...` (unchanged when that would not make it shorter)."""
+    cut = len(text) - head - tail
+    return text if cut <= 0 else f"{text[:head]}...[{cut} characters]...{text[-tail:]}"
+
+
 def _cut(match: re.Match) -> str:
-    word = match.group(0)
-    return f"{word[:200]}...[{len(word) - 240} characters]...{word[-40:]}"
+    return cut_middle(match.group(0), 200, 40)
 
 
 class _OneLineError(Exception):
@@ -29,7 +35,7 @@ class _OneLineError(Exception):
             text = "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
         text = _LONG.sub(_cut, text)
         if len(text) > MAX_MESSAGE:
-            text = f"{text[:1000]}...[{len(text) - 1300} characters]...{text[-300:]}"
+            text = cut_middle(text, 1000, 300)
         return text
 
 

@@ -13,7 +13,7 @@ import errno
 import stat
 from pathlib import Path
 
-from app.errors import InputError
+from app.errors import InputError, cut_middle
 
 _ABSENT = (errno.ENOENT, errno.ENOTDIR)
 """Errors that mean: nothing is there (a part of the path is missing or is a file)."""
@@ -38,4 +38,4 @@ def path_kind(path: Path | str, what: str) -> str | None:
 
 def _short(text: str, limit: int = 120) -> str:
     """`text` cut in the middle to at most about `limit` characters."""
-    return text if len(text) <= limit else f"{text[:limit - 30]}...{text[-25:]}"
+    return text if len(text) <= limit else cut_middle(text, limit - 50, 25)

@@ -96,6 +96,16 @@ def reference_deviation(x: np.ndarray, p: np.ndarray, ref: tuple[np.ndarray, np.
     return float(np.abs(p[core] - pr[core]).max(initial=0.0) / ref[1].max())
 
 
+def _set_args(body: str, size: float, interface: str, disc: str,
+              sides: tuple[str, str]) -> list[str]:
+    """`--set` options: the body's element size, the interface's discretisation and its
+    (slave, master) curves."""
+    return ["--set", f"body.{body}.size={size}",
+            "--set", f'interface.{interface}.discretisation="{disc}"',
+            "--set", f'interface.{interface}.slave="{sides[0]}"',
+            "--set", f'interface.{interface}.master="{sides[1]}"']
+
+
 def _indent_rows(a: argparse.Namespace) -> Iterator[dict]:
     """indent.toml per discretisation, side and block size."""
     ref = fine_reference()
@@ -103,12 +113,8 @@ def _indent_rows(a: argparse.Namespace) -> Iterator[dict]:
         for block_slave in (False, True):
             sides = ("block_top", "cyl_arc") if block_slave else ("cyl_arc", "block_top")
             for size in a.block_sizes:
-                s = run_app("configs/indent.toml", [
-                    "--set", f"body.block.size={size}",
-                    "--set", f'interface.indent.discretisation="{disc}"',
-                    "--set", f'interface.indent.slave="{sides[0]}"',
-                    "--set", f'interface.indent.master="{sides[1]}"'],
-                    pairs=("x", "p"))
+                s = run_app("configs/indent.toml", _set_args("block", size, "indent", disc, sides),
+                            pairs=("x", "p"))
                 row = {"case": "indent", "discretisation": disc, "slave": sides[0],
                        "block_size": size, "ratio": round(size / ARC, 2),
                        "error": s.get("error")}
@@ -127,12 +133,9 @@ def _bond_rows(a: argparse.Namespace) -> Iterator[dict]:
             sides = ("foundation_top", "block1_bottom") if swapped else \
                 ("block1_bottom", "foundation_top")
             for size in a.block1_sizes:
-                s = run_app("configs/multibody.toml", [
-                    "--set", f"body.block1.size={size}",
-                    "--set", f'interface.bond.discretisation="{disc}"',
-                    "--set", f'interface.bond.slave="{sides[0]}"',
-                    "--set", f'interface.bond.master="{sides[1]}"'],
-                    pairs=("state", "debonded_step"))
+                s = run_app("configs/multibody.toml",
+                            _set_args("block1", size, "bond", disc, sides),
+                            pairs=("state", "debonded_step"))
                 row = {"case": "bond", "discretisation": disc, "slave": sides[0],
                        "block1_size": size, "ratio": round(FOUNDATION / size, 2),
                        "error": s.get("error")}

@@ -41,7 +41,8 @@ def balance(summary: dict) -> list[dict]:
     """Per step: work of the supports, strain energy change, dissipation, residual."""
     cfg = summary["provenance"]["config_resolved"]
     if any(cfg.get("load", [])) or any(b.get("body_force") for b in cfg.get("body", [])):
-        raise ValueError("the config has loads or body forces: their work is not computed here")
+        raise ValueError("the config has loads or body forces, whose work is not computed "
+                         "here: give the output of a run driven by support displacements only")
     supports = cfg.get("support", [])
     names = support_names(supports)
     rows, prev = [], None
@@ -78,8 +79,12 @@ def main(argv: list[str] | None = None) -> int:
     try:
         summary = json.loads((args.out / "summary.json").read_text())
         rows = balance(summary)
-    except (OSError, ValueError, KeyError) as exc:
+    except (OSError, ValueError) as exc:
         print(f"error: {exc}", file=sys.stderr)
+        return 2
+    except KeyError as exc:  # a summary without provenance, steps or reactions
+        print(f"error: {args.out / 'summary.json'} has no key {exc}: give the OUT of a "
+              "completed run", file=sys.stderr)
         return 2
     for r in rows:
         print(json.dumps(r))

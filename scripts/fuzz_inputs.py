@@ -44,6 +44,13 @@ from pathlib import Path
 from typing import Any
 
 ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+from app.contact.discretisation import DISCRETISATIONS  # noqa: E402
+from app.discretisation.methods import BULK_METHODS  # noqa: E402
+from app.errors import MAX_MESSAGE  # noqa: E402
+from app.lcp.solvers import LCP_SOLVERS  # noqa: E402
+from app.scene.mesh_algorithms import MESH_ALGORITHMS  # noqa: E402
+
 DEFAULT_CONFIGS = ("configs/*.toml", "configs/hard/*.toml")
 
 # ------------------------------------------------------------------ what a value may be
@@ -51,11 +58,9 @@ DEFAULT_CONFIGS = ("configs/*.toml", "configs/hard/*.toml")
 POSITIVE = {"E", "thickness", "size", "search_distance", "radius", "width", "height"}
 NONNEG = {"mu", "c", "a", "penetration_tol", "flat"}
 BOOLS = {"structured", "bonded", "warm_start", "candidate_pairs", "interference"}
-ENUMS = {"plane": {"strain", "stress"}, "method": {"cs-fem", "fem-q4"},
-         "compliance": {"auto", "schur", "solve"}, "lcp_solver": {"lemke"},
-         "algorithm": {"delaunay", "frontal-delaunay", "frontal-quad"},
-         "discretisation": {"mortar", "node-to-segment", "mortar-bisector", "mortar-smooth",
-                            "mortar-standard"},
+ENUMS = {"plane": {"strain", "stress"}, "method": set(BULK_METHODS),
+         "compliance": {"auto", "schur", "solve"}, "lcp_solver": set(LCP_SOLVERS),
+         "algorithm": set(MESH_ALGORITHMS), "discretisation": set(DISCRETISATIONS),
          "side": {"lower", "upper", "left", "right"}}
 VECTOR2 = {"origin", "center", "body_force", "total_force", "traction"}
 REFS = {"on", "slave", "master"}
@@ -777,7 +782,7 @@ def classify(case: Case, rc: int | None, stderr: str, out: Path) -> tuple[str, s
     if len(errors) != 1 or lines[-1] != errors[0] or others:
         return "BUG", f"not one error line: {len(errors)} error lines, {len(others)} others: " \
             + " | ".join(lines)[:300]
-    if len(errors[0]) > 1000:
+    if len(errors[0]) > len("error: ") + MAX_MESSAGE:  # app/errors.py cuts longer ones
         return "BUG", f"error line of {len(errors[0])} characters"
     if case.expect_summary and case.argv[0] == "run" and out.is_dir() \
             and not case.config_kind == "missing":

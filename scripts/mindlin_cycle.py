@@ -28,6 +28,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from app.interface.steps import STICK  # noqa: E402
+from app.output.read import read_pairs  # noqa: E402
 from app.references.mindlin import (  # noqa: E402
     cycle_dissipation,
     masing_path,
@@ -81,13 +82,10 @@ def analyse(out: Path, radius: float, center_x: float, top_y: float) -> dict:
                   .get("thickness", 1.0))
     rows = []
     for k in range(1, len(steps) + 1):
-        with h5py.File(out / f"step_{k:04d}.h5") as f:
-            c = {n: f["contact"][n][()] for n in ("x", "q", "p", "length", "interface", "mu",
-                                                    "state")}
-        sel = c["interface"] == 0
-        o = np.argsort(c["x"][sel])
-        x, q, length, p, state = (c[n][sel][o] for n in ("x", "q", "length", "p", "state"))
-        mu = float(c["mu"][sel][0])
+        c = read_pairs(out / f"step_{k:04d}.h5", 0, ("x", "q", "p", "length", "interface", "mu",
+                                                      "state"))
+        x, q, length, p, state = (c[n] for n in ("x", "q", "length", "p", "state"))
+        mu = float(c["mu"][0])
         if e_star is None:  # from the Hertz half-width the reference reported
             a_h, P_last = ref["hertz"]["a_hertz"], ref["hertz"]["P"]
             e_star = 4 * P_last / thick * radius / (np.pi * a_h**2)
@@ -174,11 +172,8 @@ def plot(out: Path, res: dict, steps: list[int], center_x: float, radius: float,
         ax0.set_title(f"loop area {c['loop_area']:.4g}, cycle dissipation "
                       f"{c['dissipation']:.4g} (closed form {c['exact']:.4g})", fontsize=9)
     for k in steps:
-        with h5py.File(out / f"step_{k:04d}.h5") as f:
-            c = {n: f["contact"][n][()] for n in ("x", "q", "interface", "mu")}
-        sel = c["interface"] == 0
-        o = np.argsort(c["x"][sel])
-        x, q, mu = c["x"][sel][o] - center_x, c["q"][sel][o], float(c["mu"][sel][0])
+        c = read_pairs(out / f"step_{k:04d}.h5", 0, ("x", "q", "interface", "mu"))
+        x, q, mu = c["x"] - center_x, c["q"], float(c["mu"][0])
         a, p0 = hertz_contact(P[k - 1] / thick, radius, e_star)
         terms, _, _ = masing_path(Q[:k], lambda s, mp=mu * P[k - 1]: float(
             virgin_dissipation(s, mp, e_star, thick)))

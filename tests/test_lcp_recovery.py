@@ -8,9 +8,9 @@ import importlib
 import numpy as np
 import pytest
 
-from app.interface.audit_cases import p_pd
 from app.lcp import exact, lemke
 from app.lcp.balance import balance, imbalanced
+from app.lcp.cases import p_pd
 from app.lcp.recovery import recover
 from app.lcp.result import LCPResult
 
@@ -121,3 +121,23 @@ def test_an_answer_of_the_balanced_lcp_is_checked_in_the_callers_units(monkeypat
     monkeypatch.setattr("app.lcp.recovery._unbalanced", wrong_unbalanced)
     monkeypatch.setattr("app.lcp.recovery.is_symmetric", lambda M: False)
     assert not lemke(Mr, qr, crash=False).ok
+
+
+def test_unbalanced_maps_z_back_and_rejects_an_answer_wrong_in_the_callers_units():
+    """`_unbalanced`: z = C z' of the balanced LCP passes the check on the caller's M, q;
+    the same z' without C (an answer right only in the balanced units) does not."""
+    from app.lcp.recovery import _unbalanced
+
+    M, q, Mr, qr = row_scaled_p(1)
+    r, c = balance(Mr)
+    assert not np.allclose(c, 1.0)
+    solved = lemke(r[:, None] * Mr * c, r * qr)
+    assert solved.ok
+
+    def check(Mc, qc, z):
+        return LM._check(Mc, qc, z, LM.DEFAULT_TOL)
+
+    out = _unbalanced(check, Mr, qr, solved, c)
+    assert out is not None and out.ok
+    np.testing.assert_allclose(out.z, lemke(M, q).z, rtol=1e-7, atol=1e-9 * np.abs(out.z).max())
+    assert _unbalanced(check, Mr, qr, solved, np.ones_like(c)) is None

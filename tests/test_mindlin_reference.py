@@ -191,3 +191,17 @@ def test_a_frictionless_interface_gets_nan_with_a_note():
     fig.contact.mu = 0.0
     out = reference("mindlin").compare({"radius": 1.0}, fig)["mindlin"]
     assert math.isnan(out["traction_l2_rel_error"]) and "mu = 0" in out["note"]
+
+
+def test_stick_edges_are_positions_on_the_interface_as_cattaneos():
+    """`stick_edges` are absolute x (centre added back), as `cattaneo.stick_edges`; they were
+    relative to `center_x`."""
+    fig = _figures([0.0, 0.64])
+    x0, c = 0.3, A * math.sqrt(1.0 - 0.64)
+    fig.contact.stick = np.abs(fig.contact.x) < c
+    fig.contact.x = fig.contact.x + x0
+    out = reference("mindlin").compare({"radius": 1.0, "center_x": x0}, fig)["mindlin"]
+    assert out["stick_half_width_rel_error"] < 1e-3
+    left, right = out["stick_edges"]
+    assert left == pytest.approx(x0 - c, abs=2e-3 * A)
+    assert right == pytest.approx(x0 + c, abs=2e-3 * A)

@@ -54,20 +54,13 @@ def _interrupted_run(tmp_path, hook: str, ranks: int) -> tuple[subprocess.Comple
 
 
 @pytest.mark.parametrize("ranks", [1, pytest.param(2, marks=pytest.mark.mpi)])
-def test_sigterm_during_startup_records_this_run_as_interrupted(tmp_path, ranks):
-    res, s = _interrupted_run(tmp_path, "startup", ranks)
+@pytest.mark.parametrize("hook, when", [("startup", "start-up"), ("guard", "step 1/1")])
+def test_sigterm_before_the_guard_records_this_run_as_interrupted(tmp_path, hook, when, ranks):
+    """`startup`: inside the config and size checks; `guard`: between the guard's clean-up
+    of OUT and its first summary.json (no summary.json.tmp left)."""
+    res, s = _interrupted_run(tmp_path, hook, ranks)
     assert s["status"] == "interrupted" and s["config"].endswith("hertz.toml")
-    assert s["error"] == "interrupted by SIGTERM during start-up; no step completed"
-    assert "error: interrupted by SIGTERM during start-up" in res.stderr
-    if ranks == 1:
-        assert res.returncode == 143
-
-
-@pytest.mark.parametrize("ranks", [1, pytest.param(2, marks=pytest.mark.mpi)])
-def test_sigterm_between_clean_up_and_first_summary_leaves_no_tmp(tmp_path, ranks):
-    res, s = _interrupted_run(tmp_path, "guard", ranks)
-    assert s["status"] == "interrupted" and s["config"].endswith("hertz.toml")
-    assert s["error"] == "interrupted by SIGTERM during step 1/1; no step completed"
-    assert "error: interrupted by SIGTERM during step 1/1" in res.stderr
+    assert s["error"] == f"interrupted by SIGTERM during {when}; no step completed"
+    assert f"error: interrupted by SIGTERM during {when}" in res.stderr
     if ranks == 1:
         assert res.returncode == 143

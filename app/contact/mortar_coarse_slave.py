@@ -26,22 +26,27 @@ usual error naming the interfaces).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from types import SimpleNamespace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from app.contact.constraints import ContactConstraints
-from app.contact.mortar import linear_master, mortar_constraints
+from app.contact.mortar import MasterBasis, linear_master, mortar_constraints
 from app.contact.mortar_smooth import master_slave_ratio
 from app.contact.resolution import SIZE_RATIO_WARN
 from app.mesh.model import Mesh
+
+if TYPE_CHECKING:  # app.contact.discretisation imports this module
+    from app.contact.discretisation import InterfaceSpec
 
 SWAP_RATIO = SIZE_RATIO_WARN
 """The roles swap when the master / slave element-size ratio (medians, as the stripe
 check's, app/contact/resolution.py) exceeds this."""
 
 
-def swapped(itf) -> SimpleNamespace:
+def swapped(itf: InterfaceSpec) -> SimpleNamespace:
     """The interface spec (what a builder reads, app.contact.discretisation.InterfaceSpec)
     with slave and master exchanged."""
     return SimpleNamespace(name=itf.name, slave=itf.master, master=itf.slave,
@@ -50,20 +55,21 @@ def swapped(itf) -> SimpleNamespace:
                            interference=itf.interference)
 
 
-def size_ratio_probe(seen: list[float]):
+def size_ratio_probe(seen: list[float]) -> Callable[..., MasterBasis]:
     """A master-basis factory for app.contact.mortar.mortar_constraints that appends the
     interface's master / slave size ratio (`master_slave_ratio`) to `seen` and returns
     the linear trace (so the rows are `mortar`'s)."""
 
     def factory(pts: np.ndarray, m_edges: np.ndarray, facing: np.ndarray,
-                slave_length: np.ndarray):
+                slave_length: np.ndarray) -> MasterBasis:
         seen.append(master_slave_ratio(pts, m_edges, facing, slave_length))
         return linear_master(pts, m_edges, facing, slave_length)
 
     return factory
 
 
-def mortar_coarse_slave_constraints(mesh: Mesh, itf, index: int) -> ContactConstraints:
+def mortar_coarse_slave_constraints(mesh: Mesh, itf: InterfaceSpec,
+                                    index: int) -> ContactConstraints:
     """`mortar` rows of one interface, with slave and master swapped when the master is
     more than SWAP_RATIO x coarser than the slave (see the module docstring)."""
     seen: list[float] = []

@@ -15,13 +15,7 @@ import numpy as np
 
 from app.interface.coulomb import ContactLCP
 from app.lcp.audit import Case
-
-
-def p_pd(n: int, rng: np.random.Generator) -> np.ndarray:
-    """P-matrix: positive definite symmetric part plus a skew part."""
-    A = rng.standard_normal((n, n))
-    K = rng.standard_normal((n, n))
-    return A @ A.T / n + 0.05 * np.eye(n) + rng.uniform(0, 3) * (K - K.T)
+from app.lcp.cases import p_pd
 
 
 def p_triangular(n: int, rng: np.random.Generator) -> np.ndarray:

@@ -64,12 +64,18 @@ def near_duplicate_lcp(seed: int, kernel: str, load: str) -> tuple[np.ndarray, n
     return M, q
 
 
+def p_pd(n: int, rng: np.random.Generator) -> np.ndarray:
+    """(n, n) P-matrix: positive definite symmetric part plus a skew part."""
+    A = rng.standard_normal((n, n))
+    K = rng.standard_normal((n, n))
+    return A @ A.T / n + 0.05 * np.eye(n) + rng.uniform(0, 3) * (K - K.T)
+
+
 def row_scaled_lcp(seed: int, n: int = 40) -> tuple[np.ndarray, np.ndarray]:
-    """(R M, R q): a P-matrix LCP (positive definite symmetric part plus a skew part) with
-    its rows scaled by 10^U(-8, 8): the solutions of (M, q)."""
+    """(R M, R q): a P-matrix LCP (`p_pd`) with its rows scaled by 10^U(-8, 8): the
+    solutions of (M, q)."""
     rng = np.random.default_rng(seed)
-    A, K = rng.standard_normal((n, n)), rng.standard_normal((n, n))
-    M = A @ A.T / n + 0.05 * np.eye(n) + rng.uniform(0, 3) * (K - K.T)
+    M = p_pd(n, rng)
     q = rng.standard_normal(n)
     R = 10.0 ** rng.uniform(-8, 8, n)
     return R[:, None] * M, R * q

@@ -27,6 +27,7 @@ import re
 import signal
 import sys
 from pathlib import Path
+from typing import Any
 
 from app.output.out_owner import foreign_files
 
@@ -84,7 +85,7 @@ def finish() -> str | None:
     return pending
 
 
-def unwrap(signum: int, handler):
+def unwrap(signum: int, handler: Any) -> Any:
     """`handler`, or the handler from before `arm` if `handler` is the start-up one (what a
     guard puts back when it ends)."""
     if handler is _handler and _STATE["originals"] is not None:

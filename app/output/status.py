@@ -27,12 +27,12 @@ from app.errors import InputError, SolveError
 from app.output import startup_signals
 from app.output.out_owner import foreign_files, foreign_message
 
-LOCK_NAME = ".lock"
+LOCK_NAME = startup_signals.LOCK_NAME
 STALE = startup_signals.STALE
 """Files this tool writes into OUT (and their temporary names)."""
 TEMPORARY = re.compile(r"^(step_\d{4,}\.h5|results\.xdmf|contact\.xdmf|mesh\.h5|"
                        r"summary\.json)\.tmp$")
-EXIT_SIGNAL = {"SIGINT": 130, "SIGTERM": 143}
+EXIT_SIGNAL = startup_signals.EXIT_SIGNAL
 
 
 class RunInterrupted(BaseException):

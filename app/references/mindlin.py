@@ -35,6 +35,7 @@ from app.closed_form import (
     cattaneo_traction,
     hertz_contact,
     interpolated_l2_rel_error,
+    stick_half_width,
 )
 from app.references.base import Reference, RunFigures
 from app.references.hertz import pressure_errors, pressure_overlay
@@ -47,7 +48,7 @@ Terms = tuple[tuple[float, float], ...]
 """A traction as a sum of Cattaneo terms: q(x) = sum over (k, Q) of k q_L(x; Q)."""
 
 
-def virgin_dissipation(Q, mu_P: float, E_star: float, thickness: float = 1.0):
+def virgin_dissipation(Q, mu_P: float, E_star: float, thickness: float = 1.0) -> np.ndarray:
     """D_v: frictional work of loading from 0 to |Q| <= mu P on the virgin branch (force x
     length; P, Q total forces over `thickness`). nan beyond mu P (gross slip)."""
     r = np.abs(np.asarray(Q, dtype=float)) / mu_P
@@ -123,7 +124,8 @@ def masing_path(Q: np.ndarray, dv: Callable[[float], float]
     return out_terms, out_work, out_slip
 
 
-def masing_traction(x, terms: Terms, a: float, p0: float, mu: float, mu_P: float):
+def masing_traction(x, terms: Terms, a: float, p0: float, mu: float,
+                    mu_P: float) -> np.ndarray:
     """q(x) of a traction given as Cattaneo terms (signed, along the interface's t)."""
     x = np.asarray(x, dtype=float)
     out = np.zeros_like(x)
@@ -143,12 +145,13 @@ def _path(run: RunFigures, name: str) -> tuple[np.ndarray, np.ndarray, np.ndarra
 
 
 def mindlin_errors(x, q, length, *, Q_path: np.ndarray, P: float, mu: float, R: float,
-                   E_star: float, thickness: float = 1.0, stick=None) -> dict:
+                   E_star: float, thickness: float = 1.0, stick=None, x0: float = 0.0) -> dict:
     """q(x) at the last entry of Q_path against Masing's traction (x relative to the centre,
     sorted, q signed along t), the closed-form dissipation along the path and, with
     `stick` ((m,) bool: pairs in contact that did not slip in the last step), the stick
     zone against that of the branch the last step slid on: |x| < a sqrt(1 - Q' / (mu P)),
-    Q' = |Q| on the virgin branch, |Q - Q_r| / 2 after a reversal at Q_r."""
+    Q' = |Q| on the virgin branch, |Q - Q_r| / 2 after a reversal at Q_r. x0: the centre,
+    added back to `stick_edges` (absolute positions, as `cattaneo_errors`' ones)."""
     a, p0 = hertz_contact(P / thickness, R, E_star)
     mu_P = mu * P
     nan = float("nan")
@@ -177,11 +180,11 @@ def mindlin_errors(x, q, length, *, Q_path: np.ndarray, P: float, mu: float, R: 
     l2 = np.sqrt(np.sum(length[zone] * (q[zone] - qc[zone]) ** 2) / den) if den > 0 else nan
     out = {}
     if stick is not None and terms[-1]:
-        c_exact = a * math.sqrt(max(1.0 - slip[-1] / mu_P, 0.0))
+        c_exact = stick_half_width(a, min(slip[-1] / mu_P, 1.0))
         left, right = _edges_from_states(x, np.asarray(stick))
         half = 0.5 * (right - left)
         out = {"stick_half_width": half, "stick_half_width_exact": c_exact,
-               "stick_edges": [left, right],
+               "stick_edges": [left + x0, right + x0],
                "stick_half_width_rel_error": abs(half - c_exact) / c_exact if c_exact > 0
                else nan}
     return out | note | {
@@ -218,7 +221,7 @@ def _errors(params: dict, run: RunFigures) -> dict:
     o = np.argsort(c.x)
     m = mindlin_errors(c.x[o] - params["center_x"], c.q[o], c.length[o], Q_path=Q_path, P=P,
                        mu=c.mu, R=params["radius"], E_star=c.E_star,
-                       thickness=run.thickness, stick=c.stick[o])
+                       thickness=run.thickness, stick=c.stick[o], x0=params["center_x"])
     d_run = float(diss.sum())
     d_ex = m["dissipation_exact"]
     out["mindlin"] = m | {
