@@ -61,11 +61,13 @@ def test_a_fine_slave_on_a_coarse_master_swaps_the_roles():
     np.testing.assert_allclose(rows.pairs.normal, [[0.0, -1.0]] * 5, atol=1e-14)
 
 
-@pytest.mark.parametrize("slave, master", [("upper_bottom", "lower_top"),
-                                           ("lower_top", "upper_bottom")])
-def test_patch_test_with_a_coarse_master_either_way(tmp_path, slave, master):
+@pytest.mark.parametrize("slave, master, fy", [("upper_bottom", "lower_top", 20.0),
+                                               ("lower_top", "upper_bottom", -20.0)])
+def test_patch_test_with_a_coarse_master_either_way(tmp_path, slave, master, fy):
     """patch.toml with the lower block at 0.5 (2.5x the upper): uniform p to 1e-8 as
-    configured and swapped (mortar-smooth: 8.0% as configured, README)."""
+    configured and swapped (mortar-smooth: 8.0% as configured, README); and
+    steps[k].interfaces.<name>.force is the force on the configured slave (10 x 2 up on the
+    upper block) whether or not the roles swapped (it flipped sign with the swap before)."""
     out = tmp_path / "o"
     res = run_cli(["run", str(CONFIGS / "patch.toml"), "--out", str(out), "--quiet",
                    "--set", "body.lower.size=0.5",
@@ -76,6 +78,8 @@ def test_patch_test_with_a_coarse_master_either_way(tmp_path, slave, master):
     c = read_pairs(last_step_file(out), 0, ("p", "slave"))
     assert np.abs(c["p"] - 10.0).max() / 10.0 < 1e-8
     assert max(kkt_violations(out, 1).values()) < 1e-7
+    force = read_summary(out)["steps"][-1]["interfaces"]["interface"]["force"]
+    np.testing.assert_allclose(force, [0.0, fy], atol=1e-8)
 
 
 def test_fine_bond_on_a_coarse_foundation_stays_bonded(tmp_path):
@@ -136,21 +140,3 @@ def test_summary_names_the_curve_with_the_pairs(tmp_path):
     assert res.returncode == 0, res.stderr
     d = read_summary(out)["contact_interfaces"]["indent"]
     assert d["pairs_on"] == "cyl_arc" and d["discretisation"] == DISC
-
-
-@pytest.mark.parametrize("slave, master, fy", [("upper_bottom", "lower_top", 20.0),
-                                               ("lower_top", "upper_bottom", -20.0)])
-def test_interface_force_is_the_configured_slaves_either_way(tmp_path, slave, master, fy):
-    """patch.toml, the lower block at 0.5: steps[k].interfaces.<name>.force is the force on
-    the configured slave (10 x 2 up on the upper block) whether or not the roles swapped;
-    it flipped sign with the swap before."""
-    out = tmp_path / "o"
-    res = run_cli(["run", str(CONFIGS / "patch.toml"), "--out", str(out), "--quiet",
-                   "--set", "body.lower.size=0.5",
-                   "--set", f'interface.interface.discretisation="{DISC}"',
-                   "--set", f'interface.interface.slave="{slave}"',
-                   "--set", f'interface.interface.master="{master}"'])
-    assert res.returncode == 0, res.stderr
-    s = read_summary(out)
-    force = s["steps"][-1]["interfaces"]["interface"]["force"]
-    np.testing.assert_allclose(force, [0.0, fy], atol=1e-8)
