@@ -83,3 +83,16 @@ def kkt_violations(out: Path, step: int, f_scale: float = 0.0) -> dict:
         "stick": np.abs(dtau[~slipping]).max(initial=0.0) / us,
         "gap_vs_written": np.abs(gap - c["gap"]).max() / us,
     }
+
+
+def rectangle_body(name: str, origin: tuple[float, float], width: float = 1.0,
+                   height: float = 1.0, curves: dict[str, str] | None = None,
+                   extra: str = "") -> str:
+    """The TOML of one `[[body]]`: a structured rectangle of E = 1000, nu = 0.3, `extra`
+    lines (e.g. 'size = 0.5') among its keys and `curves` (side -> curve name)."""
+    text = (f'[[body]]\nname = "{name}"\nE = 1000.0\nnu = 0.3\n{extra}'
+            f'[body.shape]\ntype = "rectangle"\norigin = [{origin[0]}, {origin[1]}]\n'
+            f"width = {width}\nheight = {height}\nstructured = true\n")
+    if curves:
+        text += "[body.curves]\n" + "".join(f'{k} = "{v}"\n' for k, v in curves.items())
+    return text

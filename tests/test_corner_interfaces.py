@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from tests.support import read_summary, run_cli
+from tests.support import read_summary, rectangle_body, run_cli
 
 BODIES = """
 [analysis]
@@ -16,50 +16,13 @@ method = "cs-fem"
 sd = 4
 [mesh]
 size = 0.1
-[[body]]
-name = "foundation"
-E = 1000.0
-nu = 0.3
-[body.shape]
-type = "rectangle"
-origin = [-1.0, -1.0]
-width = 3.0
-height = 1.0
-structured = true
-[body.curves]
-bottom = "base"
-top = "foundation_top"
-[[body]]
-name = "wall"
-E = 1000.0
-nu = 0.3
-size = 0.07
-[body.shape]
-type = "rectangle"
-origin = [-1.0, 0.0]
-width = 1.0
-height = 1.5
-structured = true
-[body.curves]
-left = "wall_left"
-right = "wall_right"
-bottom = "wall_bottom"
-[[body]]
-name = "block"
-E = 1000.0
-nu = 0.3
-size = 0.09
-body_force = [-3.0, -10.0]
-[body.shape]
-type = "rectangle"
-origin = [0.0, 0.0]
-width = 1.0
-height = 1.0
-structured = true
-[body.curves]
-bottom = "block_bottom"
-left = "block_left"
-[[support]]
+""" + rectangle_body("foundation", (-1.0, -1.0), 3.0, 1.0,
+                    {"bottom": "base", "top": "foundation_top"}) \
+    + rectangle_body("wall", (-1.0, 0.0), 1.0, 1.5,
+                     {"left": "wall_left", "right": "wall_right", "bottom": "wall_bottom"},
+                     extra="size = 0.07\n") \
+    + rectangle_body("block", (0.0, 0.0), curves={"bottom": "block_bottom", "left": "block_left"},
+                     extra="size = 0.09\nbody_force = [-3.0, -10.0]\n") + """[[support]]
 on = "base"
 ux = 0.0
 uy = 0.0

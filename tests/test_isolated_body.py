@@ -4,21 +4,9 @@ scene without interfaces; before, it said "bodies 'loose' are free to move toget
 
 from __future__ import annotations
 
-from tests.support import CONFIGS, read_summary, run_cli
+from tests.support import CONFIGS, read_summary, rectangle_body, run_cli
 
-LOOSE = """
-[[body]]
-name = "loose"
-E = 1000.0
-nu = 0.3
-size = 0.5
-[body.shape]
-type = "rectangle"
-origin = [4.0, 0.0]
-width = 1.0
-height = 1.0
-structured = true
-"""
+LOOSE = "\n" + rectangle_body("loose", (4.0, 0.0), extra="size = 0.5\n")
 
 
 def test_isolated_body_among_contacting_ones_is_named(tmp_path):

@@ -6,7 +6,7 @@ from __future__ import annotations
 import h5py
 import numpy as np
 import pytest
-from support import run_cli
+from support import rectangle_body, run_cli
 
 from app.assembly.shared_supports import first_support_values
 from app.errors import InputError
@@ -58,19 +58,7 @@ plane = "strain"
 size = 0.5
 [points]
 corner = [0.0, 0.0]
-[[body]]
-name = "col"
-E = 1000.0
-nu = 0.3
-[body.shape]
-type = "rectangle"
-origin = [0.0, 0.0]
-width = 1.0
-height = 1.0
-structured = true
-[body.curves]
-bottom = "base"
-[[support]]
+""" + rectangle_body("col", (0.0, 0.0), curves={"bottom": "base"}) + """[[support]]
 on = "base"
 ux = 0.0
 uy = -0.01
