@@ -11,7 +11,7 @@ import numpy as np
 from app.condensation.compliance import compliance_from_factor, compliance_solve
 from app.condensation.recovery import contact_displacement, mismatch
 from app.contact.resolution import stripe_checks, stripe_warning
-from app.contact.unpaired import crossed_unpaired, crossing_warning, paired_sides
+from app.contact.unpaired import crossed_unpaired, crossing_warning
 from app.driver.context import RunContext, write_summary
 from app.driver.linear import LinearSystem, UnitSolutions
 from app.driver.model import Model
@@ -92,7 +92,8 @@ def _crossing_warnings(ctx: RunContext, model: Model, u: np.ndarray, step: int) 
     pairs = model.contact.pairs
     for i, itf in enumerate(ctx.cfg.interfaces):
         paired = pairs.slave[pairs.interface == i]
-        slave, master = paired_sides(model.mesh, itf.slave, itf.master, paired)
+        on = model.contact.described.get(itf.name, {}).get("pairs_on", itf.slave)
+        slave, master = (itf.slave, itf.master) if on == itf.slave else (itf.master, itf.slave)
         crossing = crossed_unpaired(model.mesh, slave, master, paired, u.reshape(-1, 2),
                                     itf.name)
         if crossing is not None:
