@@ -37,6 +37,7 @@ from app.plotting import pyplot
 from app.references import REFERENCES
 from app.run import RunOptions, run
 from app.study_mesh import build_level_mesh
+from app.study_missing import missing_runs, planned_runs
 from app.study_reference import (
     add_reference_errors,
     energy_bracket,
@@ -116,11 +117,16 @@ def run_study(cfg: Config, out: Path, levels: int, methods: list[tuple[str, int]
         if not done:  # (a row without its profile: stopped while it was recorded)
             return f"study: no run completed in {out}"
         plots = PETSc.COMM_WORLD.getSize() == 1  # several ranks: mpiexec kills in 1 s
+        plan = planned_runs(first_level, last, reference_levels,
+                            [label(m, sd) for m, sd in methods], ref_label)
+        missing = missing_runs(out, plan, {(r["level"], r["method"]) for r in done},
+                               failures, last)
         finish_study(cfg, out, done, dict(profiles), ref_label, reference_mode, True,
-                     failures, plots=plots)
+                     failures + missing, plots=plots)
         return (f"study: interrupted; the {len(done)} completed runs are in study.csv and "
                 f"study_tables.md" + (", and the plots" if plots else
-                                      " (no plots on several ranks)") + f", in {out}")
+                                      " (no plots on several ranks)") + f", in {out}; "
+                f"study_tables.md lists the {len(missing)} runs that did not complete")
 
     with BatchGuard(write_completed):
         for level in range(first_level, last + 1):
