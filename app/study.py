@@ -53,7 +53,9 @@ from app.study_richardson import (
     method_limits,
     order_summary,
     reference_scalars,
+    skipped_orders,
     tables,
+    unresolved_orders,
 )
 
 PHASES = ("mesh", "assembly", "factorization", "solve", "pair_search", "compliance", "lcp",
@@ -269,7 +271,7 @@ def finish_study(cfg: Config, out: Path, rows: list[dict], profiles: dict, ref_l
         add_limit_spread(limits, ref_label)
         write_csv(out / "richardson.csv", limits)
         table += tables(limits, order_summary(rows, constructed=constructed_orders(
-            limits, ref_label)))
+            limits, ref_label), unresolved=unresolved_orders(rows, limits, ref_label)))
     if failures:
         table += "\nfailed runs (no row in study.csv; see their summary.json)\n\n" + "".join(
             f"- {f.splitlines()[0]}\n" for f in failures)
@@ -282,7 +284,7 @@ def finish_study(cfg: Config, out: Path, rows: list[dict], profiles: dict, ref_l
     floors = {f"ref_{r['quantity']}": r["uncertainty_rel"] for r in limits
               if r["method"] == ref_label}
     plot_study(rows, out, title=f"{cfg.path.stem} ({cfg.reference['type']})", note=note,
-               floors=floors, constructed=constructed_orders(limits, ref_label))
+               floors=floors, constructed=skipped_orders(rows, limits, ref_label))
     if bracket:
         plot_bracket(bracket, out)
 
@@ -333,8 +335,8 @@ def _error_panel(ax: Any, rows: list[dict], methods: list[str], ek: str, xkey: s
                  constructed: dict[tuple[str, str], set[int]] | None = None) -> None:
     """One log-log panel of plot_study: column ek against xkey ("n_dofs": the legend
     gives the fitted rate and the last observed order, not one fixed by the reference's
-    own limit, `constructed`), one line per method, and the reference's uncertainty
-    floors[ek] dotted if > 0."""
+    own limit or within its uncertainty, `constructed`), one line per method, and the
+    reference's uncertainty floors[ek] dotted if > 0."""
     import matplotlib.ticker
 
     for m in methods:

@@ -93,25 +93,60 @@ def constructed_orders(limits: list[dict], ref_label: str) -> dict[tuple[str, st
     return out
 
 
+def unresolved_orders(rows: list[dict], limits: list[dict], ref_label: str
+                      ) -> dict[tuple[str, str], set[int]]:
+    """{(method, ref_ column): levels} of the observed orders log2(e_{l-1} / e_l) whose
+    e_{l-1} or e_l is at most the relative uncertainty of the reference's Richardson limit
+    (uncertainty_rel): the reference may account for all of such an error, so its order
+    measures the reference, not the method (e.g. 1SD's energy on Hertz, below 4SD's
+    limit's uncertainty at every level). Only limits that are the reference (three or
+    more levels, `reference_scalars`)."""
+    floors = {f"ref_{r['quantity']}": r["uncertainty_rel"] for r in limits
+              if r["method"] == ref_label and r["n_levels"] >= 3}
+    out: dict[tuple[str, str], set[int]] = {}
+    for m in dict.fromkeys(r["method"] for r in rows):
+        rr = sorted((r for r in rows if r["method"] == m), key=lambda r: r["level"])
+        for col, floor in floors.items():
+            levels = {cur["level"] for prev, cur in zip(rr, rr[1:], strict=False)
+                      if min(prev.get(col, math.inf), cur.get(col, math.inf)) <= floor}
+            if levels:
+                out[(m, col)] = levels
+    return out
+
+
+def skipped_orders(rows: list[dict], limits: list[dict], ref_label: str
+                   ) -> dict[tuple[str, str], set[int]]:
+    """The orders a plot's "last order" leaves out: `constructed_orders` and
+    `unresolved_orders` together, {(method, ref_ column): levels}."""
+    out = constructed_orders(limits, ref_label)
+    for key, levels in unresolved_orders(rows, limits, ref_label).items():
+        out[key] = out.get(key, set()) | levels
+    return out
+
+
 def order_summary(rows: list[dict], last: int = 3,
-                  constructed: dict[tuple[str, str], set[int]] | None = None) -> list[dict]:
+                  constructed: dict[tuple[str, str], set[int]] | None = None,
+                  unresolved: dict[tuple[str, str], set[int]] | None = None) -> list[dict]:
     """Per method and ref_ column: the observed orders (levels 1..finest), the
     min/max/spread of its `last` finest finite orders (last + 1 levels; the reference
     method's own finest level has no order), and the steadiest window: the `last`
     successive orders with the smallest spread (`window`: its levels, `window_spread`).
     constructed: {(method, column): levels} whose orders are fixed by the reference's own
     Richardson limit (`constructed_orders`): shown with a `*` and left out of the spread
-    and the windows."""
+    and the windows. unresolved: {(method, column): levels} whose errors are within the
+    reference's uncertainty (`unresolved_orders`): shown with a `~` and left out too."""
     cols = [k for k in dict.fromkeys(k for r in rows for k in r) if k.startswith("ref_")]
     out = []
     for m in dict.fromkeys(r["method"] for r in rows):
         rr = sorted((r for r in rows if r["method"] == m), key=lambda r: r["level"])
         for c in cols:
             fixed = (constructed or {}).get((m, c), set())
+            vague = (unresolved or {}).get((m, c), set()) - fixed
             orders = [r.get(f"order_{c}", math.nan) for r in rr[1:]]
-            text = [(f"{o:.2f}" + ("*" if r["level"] in fixed else ""))
-                    if math.isfinite(o) else "-" for o, r in zip(orders, rr[1:], strict=True)]
-            orders = [math.nan if r["level"] in fixed else o
+            text = [(f"{o:.2f}" + ("*" if r["level"] in fixed else "~" if r["level"] in vague
+                                   else "")) if math.isfinite(o) else "-"
+                    for o, r in zip(orders, rr[1:], strict=True)]
+            orders = [math.nan if r["level"] in fixed | vague else o
                       for o, r in zip(orders, rr[1:], strict=True)]
             row = {"method": m, "error": c, "orders": " ".join(text)}
             tail = [o for o in orders if math.isfinite(o)][-last:]
@@ -152,7 +187,9 @@ def tables(limits: list[dict], summary: list[dict]) -> str:
     lines += ["| " + " | ".join(_g(r.get(k, math.nan)) for k in keys) + " |" for r in limits]
     keys = ["method", "error", "orders", "min", "max", "spread", "window", "window_spread"]
     lines += ["", "observed orders against the reference (levels 1..finest; *: fixed by the "
-              "reference's own Richardson limit, not measured, and left out of the rest; "
+              "reference's own Richardson limit, not measured, and left out of the rest; ~: "
+              "an error of the two levels is within the uncertainty of that limit, so the "
+              "order is not resolved, and left out of the rest too; "
               "min/max/spread of the last three finite orders; window: the four successive "
               "levels whose three orders have the smallest spread, window_spread)", "",
               "| " + " | ".join(keys) + " |", "|---" * len(keys) + "|"]

@@ -8,7 +8,14 @@ import math
 import pytest
 
 from app.richardson import extrapolate, observed_order, richardson
-from app.study_richardson import consecutive_levels, method_limits, order_summary
+from app.study_reference import add_orders
+from app.study_richardson import (
+    consecutive_levels,
+    method_limits,
+    order_summary,
+    skipped_orders,
+    unresolved_orders,
+)
 
 
 def seq(limit, terms, levels):
@@ -101,3 +108,24 @@ def test_order_summary_skips_the_reference_level_and_finds_the_steadiest_window(
     (s,) = order_summary(rows)
     assert s["spread"] == pytest.approx(0.8) and s["window"] == "0-3"  # first of the ties
     assert s["window_spread"] == pytest.approx(1.0 - math.log2(0.5 / 0.3))
+
+
+def test_orders_within_the_reference_uncertainty_are_marked_and_left_out():
+    """1SD's energy on hertz.toml (levels 0-2) is 1.6e-4, 3.6e-4, 2.1e-4 from 4SD's limit,
+    whose uncertainty is 1.3e-3: its orders -1.12, 0.76 measured the reference, unmarked."""
+    limits = [{"method": "4SD", "quantity": "energy", "n_levels": 4, "levels": "0-3",
+               "order_source": "observed", "uncertainty_rel": 1e-3}]
+    errs = {"1SD": [1.6e-4, 3.6e-4, 2.1e-4, 1.9e-4], "FEM-Q4": [4e-2, 1e-2, 2.5e-3, 8e-4]}
+    rows = [{"level": lv, "method": m, "ref_energy": e}
+            for m, es in errs.items() for lv, e in enumerate(es)]
+    add_orders(rows)
+    vague = unresolved_orders(rows, limits, "4SD")
+    assert vague == {("1SD", "ref_energy"): {1, 2, 3}, ("FEM-Q4", "ref_energy"): {3}}
+    got = {s["method"]: s for s in order_summary(rows, unresolved=vague)}
+    assert got["1SD"]["orders"] == "-1.17~ 0.78~ 0.14~" and "spread" not in got["1SD"]
+    assert got["FEM-Q4"]["orders"] == "2.00 2.00 1.64~" and "spread" not in got["FEM-Q4"]
+    # without the mark, the unresolved orders entered the spread
+    assert order_summary(rows)[0]["spread"] == pytest.approx(0.78 + 1.17, abs=0.01)
+    # the plots' "last order" leaves out both kinds
+    limits[0]["method"] = "FEM-Q4"
+    assert skipped_orders(rows, limits, "FEM-Q4")[("FEM-Q4", "ref_energy")] == {2, 3}
