@@ -349,8 +349,11 @@ def _error_panel(ax: Any, rows: list[dict], methods: list[str], ek: str, xkey: s
             orders = [r.get(f"order_{ek}", math.nan) if r["level"] not in fixed else math.nan
                       for r in rr]
             last = next((o for o in reversed(orders) if math.isfinite(o)), math.nan)
-            lab += f" (rate {fitted_rate(x, y):.2f}, last order {last:.2f})"
+            lab += f" (rate {_figure(fitted_rate(x, y))}, last order {_figure(last)})"
         ax.loglog(x, y, "o-", label=lab, ms=3)
+    if not any(np.isfinite(line.get_ydata()).any() for line in ax.lines):
+        ax.text(0.5, 0.5, "no finite error in any run\n(e.g. a reference value of 0)",
+                ha="center", va="center", transform=ax.transAxes, fontsize=8)
     if (floors or {}).get(ek, 0) > 0:
         ax.axhline(floors[ek], color="grey", ls=":", lw=1,
                    label="uncertainty of the Richardson limit")
@@ -361,6 +364,11 @@ def _error_panel(ax: Any, rows: list[dict], methods: list[str], ek: str, xkey: s
                  + ek[4:], fontsize=9)
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=7)
+
+
+def _figure(v: float) -> str:
+    """A legend's rate or order: two decimals, or "-" when there is none (NaN)."""
+    return f"{v:.2f}" if math.isfinite(v) else "-"
 
 
 def energy_title(rows: list[dict]) -> str:

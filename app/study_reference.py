@@ -94,9 +94,9 @@ def add_reference_errors(rows: list[dict], profiles: dict, ref_label: str,
     for r in rows:
         pr = profiles[(r["level"], r["method"])]
         is_ref = r["level"] == max(levels) and r["method"] == ref_label
-        vals = {"ref_energy": abs(pr["energy"] - ref["energy"]) / abs(ref["energy"])}
+        vals = {"ref_energy": relative_error(pr["energy"], ref["energy"])}
         if win is not None and "x" in pr:
-            vals["ref_p_max"] = abs(pr["p_max"] - ref["p_max"]) / ref["p_max"]
+            vals["ref_p_max"] = relative_error(pr["p_max"], ref["p_max"])
             vals["ref_pressure_l2"] = l2_against(pr["x"], pr["p"], ref["x"], ref["p"], win)
             vals["ref_pressure_l2_core"] = l2_against(pr["x"], pr["p"], ref["x"], ref["p"],
                                                       core)
@@ -104,12 +104,18 @@ def add_reference_errors(rows: list[dict], profiles: dict, ref_label: str,
                 vals["ref_traction_l2"] = l2_against(pr["x"], pr["q"], ref["x"], ref["q"], win)
         for name, uy in ref["points"].items():
             if name in pr["points"] and uy != 0:
-                vals[f"ref_{name}"] = abs(pr["points"][name] - uy) / abs(uy)
+                vals[f"ref_{name}"] = relative_error(pr["points"][name], uy)
         fields = ("ref_pressure_l2", "ref_pressure_l2_core", "ref_traction_l2")
         r.update({k: (math.nan if is_ref and (k in fields or not scalars) else v)
                   for k, v in vals.items()})
     add_orders(rows)
     return note
+
+
+def relative_error(value: float, ref: float) -> float:
+    """|value - ref| / |ref|; NaN when ref is 0 (e.g. the energy or peak pressure of a
+    scene whose load is zero or whose contact never closes: no relative error to give)."""
+    return abs(value - ref) / abs(ref) if ref != 0 else math.nan
 
 
 def observed_order(coarse: float, fine: float) -> float:
@@ -145,7 +151,8 @@ def energy_bracket(rows: list[dict]) -> list[dict]:
         row = {"level": level, "n_dofs": by["1SD"]["n_dofs"], "U_1SD": u1,
                f"U_{low}": ul, "lower_method": low,
                "one_sd_is_upper": bool(u1 >= ul),
-               "width_rel": abs(u1 - ul) / abs(0.5 * (u1 + ul))}
+               "width_rel": relative_error(u1, ul) if u1 + ul == 0
+               else abs(u1 - ul) / abs(0.5 * (u1 + ul))}
         for m, r in by.items():
             row[f"ref_energy_{m}"] = r.get("ref_energy", math.nan)
         out.append(row)
