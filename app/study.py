@@ -386,17 +386,24 @@ def energy_title(rows: list[dict]) -> str:
     return "strain energy against smoothing domains"
 
 
+def sd_series(by_method: dict[str, dict], methods: list[str]) -> tuple[list[int], list[float]]:
+    """(smoothing domains, strain energies) of one level's CS-FEM runs (`by_method`: label
+    -> row), in increasing SD count whatever the order of --methods (in that order,
+    `--methods 16,1,4` drew a line 16 -> 1 -> 4 that doubled back)."""
+    sds = sorted((m for m in methods if m.endswith("SD") and m in by_method),
+                 key=lambda m: int(m[:-2]))
+    return [int(m[:-2]) for m in sds], [by_method[m]["strain_energy"] for m in sds]
+
+
 def _plot_energy_vs_sd(rows: list[dict], methods: list[str], out: Path) -> Path:
     """OUT/energy_vs_sd.png: strain energy against the smoothing domains per element, one
     line per level, FEM-Q4 dashed; returns its path."""
     plt = pyplot()
 
     fig, ax = plt.subplots(figsize=(5, 3.8))
-    sds = [m for m in methods if m.endswith("SD")]
     for level in sorted({r["level"] for r in rows}):
         rr = {r["method"]: r for r in rows if r["level"] == level}
-        xs = [int(m[:-2]) for m in sds if m in rr]
-        ys = [rr[m]["strain_energy"] for m in sds if m in rr]
+        xs, ys = sd_series(rr, methods)
         line = ax.semilogx(xs, ys, "o-", label=f"level {level}", base=2)[0]
         if "FEM-Q4" in rr:
             ax.axhline(rr["FEM-Q4"]["strain_energy"], color=line.get_color(), ls="--", lw=0.8)
