@@ -198,9 +198,9 @@ def write_tables(rows: list[dict], bracket: list[dict], out: Path, note: str) ->
 def plot_bracket(bracket: list[dict], out: Path) -> Path:
     """energy_bracket.png: the bracket width and each bound's energy error against the
     reference, against DOFs."""
+    import matplotlib.ticker
+
     plt = pyplot()
-
-
     x = np.array([b["n_dofs"] for b in bracket], dtype=float)
     fig, ax = plt.subplots(figsize=(5.2, 3.8))
     w = np.array([b["width_rel"] for b in bracket])
@@ -211,6 +211,7 @@ def plot_bracket(bracket: list[dict], out: Path) -> Path:
             if np.isfinite(y).sum() >= 1:
                 ax.loglog(x, y, "o--", ms=3, label=f"|U-U_ref|/U_ref {k[11:]} "
                           f"(rate {fitted_rate(x, y):.2f})")
+    ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())  # (they overlapped)
     ax.set_xlabel("DOFs")
     ax.set_ylabel("relative energy")
     ax.set_title("energy bracket U(1SD) / U(" + bracket[0]["lower_method"] + ")", fontsize=9)

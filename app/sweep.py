@@ -219,8 +219,8 @@ def plot_sweep(rows: list[dict], keys: list[str], out: Path, at_step: int = 0) -
     when = "the last step" if at_step == 0 else f"step {at_step}"
     paths = []
     for key in keys:
-        if not ok or not all(isinstance(r[key], float) for r in ok):
-            continue
+        if not ok or len({type(r[key]) for r in ok}) > 1:
+            continue  # (values all numbers, or all text: then the axis is categorical)
         others = [k for k in keys if k != key]
         groups: dict[tuple, list[dict]] = {}
         for r in ok:

@@ -148,3 +148,19 @@ def test_contact_length_counts_no_round_off_forces_and_not_the_ranks(tmp_path):
         assert any(float(r["contact_length"]) == 2.0 for r in steps)  # pressed: all of it
         lengths.append([float(r["contact_length"]) for r in steps])
     assert lengths[0] == lengths[1]
+
+
+def test_a_sweep_over_text_values_is_plotted_on_a_categorical_axis(tmp_path):
+    """`--sweep 'interface.bond.discretisation="mortar","node-to-segment"'` wrote no plot
+    for the key, silently."""
+    from app.sweep import plot_sweep
+
+    key = "interface.bond.discretisation"
+    rows = [{key: v, "interface.bond.c": c, "status": "completed", "interface": "bond",
+             "normal_force": 2.0, "tangential_force": c, "dissipation": 0.02}
+            for v in ('"mortar"', '"node-to-segment"') for c in (2.0, 6.0)]
+    paths = plot_sweep(rows, [key, "interface.bond.c"], tmp_path)
+    assert [p.name for p in paths] == ["sweep_interface_bond_discretisation.png",
+                                       "sweep_interface_bond_c.png"]
+    rows[0][key] = 1.0  # numbers and text mixed: no axis for that key
+    assert [p.name for p in plot_sweep(rows, [key], tmp_path)] == []
