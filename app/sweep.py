@@ -106,7 +106,8 @@ def summarize(steps: list[dict], at_step: int) -> dict:
         return {}
     k = at_step - 1 if at_step > 0 else len(steps) + at_step - 1
     row = steps[min(max(k, 0), len(steps) - 1)]
-    out = {f"{q}": row[q] for q in ("normal_force", "tangential_force", "max_pressure")}
+    out = {"step": row["step"]}  # the step the figures below are at (--at-step)
+    out |= {f"{q}": row[q] for q in ("normal_force", "tangential_force", "max_pressure")}
     out |= {f"{z}_length": row[f"{z}_length"] for z in ZONES}
     out["peak_normal_force"] = max(abs(s["normal_force"]) for s in steps)
     out["peak_tangential_force"] = max(abs(s["tangential_force"]) for s in steps)
@@ -210,13 +211,24 @@ PANELS = [
 STYLES = ("-", "--", ":", "-.")
 
 
+def report_label(rows: list[dict], at_step: int) -> str:
+    """Which step the plots' figures are at: "the last step", "step N" (for --at-step < 0
+    the step it names when all rows agree, before: "step -3"), or "K steps before the last"."""
+    if at_step >= 0:
+        return "the last step" if at_step == 0 else f"step {at_step}"
+    steps = {r.get("step") for r in rows}
+    if len(steps) == 1 and isinstance(step := steps.pop(), int):
+        return f"step {step}"
+    return f"{-at_step} steps before the last"
+
+
 def plot_sweep(rows: list[dict], keys: list[str], out: Path, at_step: int = 0) -> list[Path]:
     """sweep_<key>.png per swept key: the contact's figures against the key's value; colour
     = quantity, line style = interface and combination of the other keys."""
     plt = pyplot()
 
     ok = [r for r in rows if r.get("status") == "completed"]
-    when = "the last step" if at_step == 0 else f"step {at_step}"
+    when = report_label(ok, at_step)
     paths = []
     for key in keys:
         if not ok or len({type(r[key]) for r in ok}) > 1:

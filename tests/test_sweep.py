@@ -164,3 +164,19 @@ def test_a_sweep_over_text_values_is_plotted_on_a_categorical_axis(tmp_path):
                                        "sweep_interface_bond_c.png"]
     rows[0][key] = 1.0  # numbers and text mixed: no axis for that key
     assert [p.name for p in plot_sweep(rows, [key], tmp_path)] == []
+
+
+def test_a_negative_at_step_is_named_by_the_step_it_reports():
+    """The plots' titles read "at step -3", and sweep.csv did not say which step."""
+    from app.sweep import report_label, summarize
+
+    steps = [{"step": k, "normal_force": 1.0, "tangential_force": 0.1 * k,
+              "max_pressure": 2.0, "debonded_pairs": 0, "n_pairs": 4, "dissipation": 0.0,
+              **{f"{z}_length": 0.0 for z in ("contact", "stick", "slip", "open", "bonded")}}
+             for k in range(1, 21)]
+    row = summarize(steps, -3)
+    assert row["step"] == 17 and row["tangential_force"] == pytest.approx(1.7)
+    assert summarize(steps, 0)["step"] == 20 and summarize(steps, 5)["step"] == 5
+    assert report_label([row, dict(row)], -3) == "step 17"
+    assert report_label([row, row | {"step": 9}], -3) == "3 steps before the last"
+    assert report_label([row], 0) == "the last step" and report_label([row], 4) == "step 4"
