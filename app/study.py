@@ -51,6 +51,7 @@ from app.study_richardson import (
     add_limit_spread,
     constructed_orders,
     method_limits,
+    order_marks,
     order_summary,
     reference_scalars,
     skipped_orders,
@@ -266,7 +267,7 @@ def finish_study(cfg: Config, out: Path, rows: list[dict], profiles: dict, ref_l
     write_csv(out / "study.csv", rows)
     if bracket:
         write_csv(out / "energy_bracket.csv", bracket)
-    table = write_tables(rows, bracket, out, note)
+    table = write_tables(rows, bracket, out, note, order_marks(rows, limits, ref_label))
     if limits:
         add_limit_spread(limits, ref_label)
         write_csv(out / "richardson.csv", limits)

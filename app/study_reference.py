@@ -169,19 +169,25 @@ def _fmt(v) -> str:
     return str(v)
 
 
-def write_tables(rows: list[dict], bracket: list[dict], out: Path, note: str) -> str:
+def write_tables(rows: list[dict], bracket: list[dict], out: Path, note: str,
+                 marks: dict[tuple[str, str], dict[int, str]] | None = None) -> str:
     """Markdown tables (errors with observed orders per method; the energy bracket) in
-    OUT/study_tables.md; returns the text."""
+    OUT/study_tables.md; returns the text. marks: {(method, column): {level: mark}} put
+    after an order (app/study_richardson.order_marks: * fixed by the reference's own
+    limit, ~ within its uncertainty)."""
     cols = [k for k in dict.fromkeys(k for r in rows for k in r)
             if k.startswith(("err_", "ref_"))]
-    lines = [f"errors (observed order in parentheses); {note}", "",
+    lines = [f"errors (observed order in parentheses; *: fixed by the reference's own "
+             f"Richardson limit, ~: an error within that limit's uncertainty); {note}", "",
              "| method | level | DOFs | time [s] | " + " | ".join(c for c in cols) + " |",
              "|---" * (4 + len(cols)) + "|"]
     for r in sorted(rows, key=lambda r: (r["method"], r["level"])):
         cells = []
         for c in cols:
             o = r.get(f"order_{c}", math.nan)
-            cells.append(_fmt(r.get(c, math.nan)) + (f" ({o:.2f})" if math.isfinite(o) else ""))
+            mark = (marks or {}).get((r["method"], c), {}).get(r["level"], "")
+            cells.append(_fmt(r.get(c, math.nan))
+                         + (f" ({o:.2f}{mark})" if math.isfinite(o) else ""))
         lines.append(f"| {r['method']} | {r['level']} | {r['n_dofs']} | {r['t_total']:.2f} | "
                      + " | ".join(cells) + " |")
     if bracket:

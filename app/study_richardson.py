@@ -114,6 +114,18 @@ def unresolved_orders(rows: list[dict], limits: list[dict], ref_label: str
     return out
 
 
+def order_marks(rows: list[dict], limits: list[dict], ref_label: str
+                ) -> dict[tuple[str, str], dict[int, str]]:
+    """{(method, ref_ column): {level: "*" or "~"}}: the marks of `order_summary` (fixed by
+    the reference's own limit, or within its uncertainty) for the errors table too."""
+    out: dict[tuple[str, str], dict[int, str]] = {}
+    for key, levels in unresolved_orders(rows, limits, ref_label).items():
+        out.setdefault(key, {}).update(dict.fromkeys(levels, "~"))
+    for key, levels in constructed_orders(limits, ref_label).items():
+        out.setdefault(key, {}).update(dict.fromkeys(levels, "*"))
+    return out
+
+
 def skipped_orders(rows: list[dict], limits: list[dict], ref_label: str
                    ) -> dict[tuple[str, str], set[int]]:
     """The orders a plot's "last order" leaves out: `constructed_orders` and

@@ -129,3 +129,21 @@ def test_orders_within_the_reference_uncertainty_are_marked_and_left_out():
     # the plots' "last order" leaves out both kinds
     limits[0]["method"] = "FEM-Q4"
     assert skipped_orders(rows, limits, "FEM-Q4")[("FEM-Q4", "ref_energy")] == {2, 3}
+
+
+def test_the_errors_table_marks_the_same_orders(tmp_path):
+    from app.study_reference import write_tables
+    from app.study_richardson import order_marks
+
+    limits = [{"method": "4SD", "quantity": "energy", "n_levels": 3, "levels": "0-2",
+               "order_source": "observed", "uncertainty_rel": 1e-3}]
+    errs = {"1SD": [1.6e-4, 3.6e-4, 2.1e-4], "4SD": [4e-2, 1e-2, 2.5e-3]}
+    rows = [{"level": lv, "method": m, "ref_energy": e, "n_dofs": 10, "t_total": 1.0}
+            for m, es in errs.items() for lv, e in enumerate(es)]
+    add_orders(rows)
+    marks = order_marks(rows, limits, "4SD")
+    assert marks == {("1SD", "ref_energy"): {1: "~", 2: "~"},
+                     ("4SD", "ref_energy"): {1: "*", 2: "*"}}
+    text = write_tables(rows, [], tmp_path, "note", marks)
+    assert "| 1SD | 1 | 10 | 1.00 | 0.00036 (-1.17~) |" in text
+    assert "| 4SD | 2 | 10 | 1.00 | 0.0025 (2.00*) |" in text
