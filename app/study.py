@@ -49,14 +49,11 @@ from app.study_reference import (
 from app.study_richardson import (
     REFERENCE_MODES,
     add_limit_spread,
-    constructed_orders,
     method_limits,
     order_marks,
     order_summary,
     reference_scalars,
-    skipped_orders,
     tables,
-    unresolved_orders,
 )
 
 PHASES = ("mesh", "assembly", "factorization", "solve", "pair_search", "compliance", "lcp",
@@ -267,12 +264,12 @@ def finish_study(cfg: Config, out: Path, rows: list[dict], profiles: dict, ref_l
     write_csv(out / "study.csv", rows)
     if bracket:
         write_csv(out / "energy_bracket.csv", bracket)
-    table = write_tables(rows, bracket, out, note, order_marks(rows, limits, ref_label))
+    marks = order_marks(rows, limits, ref_label, extrapolated=scalars is not None)
+    table = write_tables(rows, bracket, out, note, marks)
     if limits:
         add_limit_spread(limits, ref_label)
         write_csv(out / "richardson.csv", limits)
-        table += tables(limits, order_summary(rows, constructed=constructed_orders(
-            limits, ref_label), unresolved=unresolved_orders(rows, limits, ref_label)))
+        table += tables(limits, order_summary(rows, marks=marks))
     if failures:
         table += "\nfailed runs (no row in study.csv; see their summary.json)\n\n" + "".join(
             f"- {f.splitlines()[0]}\n" for f in failures)
@@ -285,7 +282,7 @@ def finish_study(cfg: Config, out: Path, rows: list[dict], profiles: dict, ref_l
     floors = {f"ref_{r['quantity']}": r["uncertainty_rel"] for r in limits
               if r["method"] == ref_label}
     plot_study(rows, out, title=f"{cfg.path.stem} ({cfg.reference['type']})", note=note,
-               floors=floors, constructed=skipped_orders(rows, limits, ref_label))
+               floors=floors, constructed={k: set(v) for k, v in marks.items()})
     if bracket:
         plot_bracket(bracket, out)
 

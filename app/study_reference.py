@@ -174,11 +174,12 @@ def write_tables(rows: list[dict], bracket: list[dict], out: Path, note: str,
     """Markdown tables (errors with observed orders per method; the energy bracket) in
     OUT/study_tables.md; returns the text. marks: {(method, column): {level: mark}} put
     after an order (app/study_richardson.order_marks: * fixed by the reference's own
-    limit, ~ within its uncertainty)."""
+    limit, ~ within its uncertainty, = against the reference at the same level)."""
     cols = [k for k in dict.fromkeys(k for r in rows for k in r)
             if k.startswith(("err_", "ref_"))]
     lines = [f"errors (observed order in parentheses; *: fixed by the reference's own "
-             f"Richardson limit, ~: an error within that limit's uncertainty); {note}", "",
+             f"Richardson limit, ~: an error within that limit's uncertainty, =: an error "
+             f"against the reference run at the same level); {note}", "",
              "| method | level | DOFs | time [s] | " + " | ".join(c for c in cols) + " |",
              "|---" * (4 + len(cols)) + "|"]
     for r in sorted(rows, key=lambda r: (r["method"], r["level"])):

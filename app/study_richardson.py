@@ -114,31 +114,52 @@ def unresolved_orders(rows: list[dict], limits: list[dict], ref_label: str
     return out
 
 
-def order_marks(rows: list[dict], limits: list[dict], ref_label: str
-                ) -> dict[tuple[str, str], dict[int, str]]:
-    """{(method, ref_ column): {level: "*" or "~"}}: the marks of `order_summary` (fixed by
-    the reference's own limit, or within its uncertainty) for the errors table too."""
-    out: dict[tuple[str, str], dict[int, str]] = {}
-    for key, levels in unresolved_orders(rows, limits, ref_label).items():
-        out.setdefault(key, {}).update(dict.fromkeys(levels, "~"))
-    for key, levels in constructed_orders(limits, ref_label).items():
-        out.setdefault(key, {}).update(dict.fromkeys(levels, "*"))
+FIELDS = ("ref_pressure_l2", "ref_pressure_l2_core", "ref_traction_l2")
+"""The ref_ columns compared with the finest level of the reference method in every mode."""
+
+
+def same_level_orders(rows: list[dict], ref_label: str, extrapolated: bool
+                      ) -> dict[tuple[str, str], set[int]]:
+    """{(method, ref_ column): levels} of the other methods' orders whose finer error is
+    against the reference run at the same level (or a coarser one): a difference between
+    two methods on one mesh, not an error against a finer solution, so log2(e_{l-1} / e_l)
+    is no order of convergence (e.g. FEM-Q4's L2(p) "3.66" at 4SD's finest level of
+    hertz.toml, levels 0-2). The fields always (they use the finest level), the scalars
+    too unless `extrapolated` (Richardson limits)."""
+    finest = max((r["level"] for r in rows if r["method"] == ref_label), default=None)
+    if finest is None:
+        return {}
+    cols = [k for k in dict.fromkeys(k for r in rows for k in r) if k.startswith("ref_")
+            and (k in FIELDS or not extrapolated)]
+    out: dict[tuple[str, str], set[int]] = {}
+    for r in rows:
+        if r["method"] != ref_label and r["level"] >= finest:
+            for c in cols:
+                out.setdefault((r["method"], c), set()).add(r["level"])
     return out
 
 
-def skipped_orders(rows: list[dict], limits: list[dict], ref_label: str
-                   ) -> dict[tuple[str, str], set[int]]:
-    """The orders a plot's "last order" leaves out: `constructed_orders` and
-    `unresolved_orders` together, {(method, ref_ column): levels}."""
-    out = constructed_orders(limits, ref_label)
-    for key, levels in unresolved_orders(rows, limits, ref_label).items():
-        out[key] = out.get(key, set()) | levels
+def order_marks(rows: list[dict], limits: list[dict], ref_label: str,
+                extrapolated: bool = True) -> dict[tuple[str, str], dict[int, str]]:
+    """{(method, ref_ column): {level: mark}} of the orders that measure no convergence of
+    the method: "*" fixed by the reference's own Richardson limit (`constructed_orders`),
+    "~" an error within that limit's uncertainty (`unresolved_orders`), "=" an error
+    against the reference at the same level (`same_level_orders`; extrapolated: the
+    scalars' reference is a Richardson limit). Shown after the orders in the tables and
+    left out of the spreads, the windows and the plots' "last order"."""
+    out: dict[tuple[str, str], dict[int, str]] = {}
+    for mark, found in (("=", same_level_orders(rows, ref_label, extrapolated)),
+                        ("~", unresolved_orders(rows, limits, ref_label)),
+                        ("*", constructed_orders(limits, ref_label))):
+        for key, levels in found.items():
+            out.setdefault(key, {}).update(dict.fromkeys(levels, mark))
     return out
 
 
 def order_summary(rows: list[dict], last: int = 3,
                   constructed: dict[tuple[str, str], set[int]] | None = None,
-                  unresolved: dict[tuple[str, str], set[int]] | None = None) -> list[dict]:
+                  unresolved: dict[tuple[str, str], set[int]] | None = None,
+                  marks: dict[tuple[str, str], dict[int, str]] | None = None) -> list[dict]:
     """Per method and ref_ column: the observed orders (levels 1..finest), the
     min/max/spread of its `last` finest finite orders (last + 1 levels; the reference
     method's own finest level has no order), and the steadiest window: the `last`
@@ -146,19 +167,23 @@ def order_summary(rows: list[dict], last: int = 3,
     constructed: {(method, column): levels} whose orders are fixed by the reference's own
     Richardson limit (`constructed_orders`): shown with a `*` and left out of the spread
     and the windows. unresolved: {(method, column): levels} whose errors are within the
-    reference's uncertainty (`unresolved_orders`): shown with a `~` and left out too."""
+    reference's uncertainty (`unresolved_orders`): shown with a `~` and left out too.
+    marks: {(method, column): {level: mark}} (`order_marks`), shown and left out too."""
     cols = [k for k in dict.fromkeys(k for r in rows for k in r) if k.startswith("ref_")]
+    every: dict[tuple[str, str], dict[int, str]] = {}
+    for found in ({k: dict.fromkeys(v, "~") for k, v in (unresolved or {}).items()},
+                  marks or {}, {k: dict.fromkeys(v, "*") for k, v in (constructed or {}).items()}):
+        for key, by_level in found.items():
+            every.setdefault(key, {}).update(by_level)
     out = []
     for m in dict.fromkeys(r["method"] for r in rows):
         rr = sorted((r for r in rows if r["method"] == m), key=lambda r: r["level"])
         for c in cols:
-            fixed = (constructed or {}).get((m, c), set())
-            vague = (unresolved or {}).get((m, c), set()) - fixed
+            mark = every.get((m, c), {})
             orders = [r.get(f"order_{c}", math.nan) for r in rr[1:]]
-            text = [(f"{o:.2f}" + ("*" if r["level"] in fixed else "~" if r["level"] in vague
-                                   else "")) if math.isfinite(o) else "-"
+            text = [f"{o:.2f}{mark.get(r['level'], '')}" if math.isfinite(o) else "-"
                     for o, r in zip(orders, rr[1:], strict=True)]
-            orders = [math.nan if r["level"] in fixed | vague else o
+            orders = [math.nan if r["level"] in mark else o
                       for o, r in zip(orders, rr[1:], strict=True)]
             row = {"method": m, "error": c, "orders": " ".join(text)}
             tail = [o for o in orders if math.isfinite(o)][-last:]
@@ -201,7 +226,9 @@ def tables(limits: list[dict], summary: list[dict]) -> str:
     lines += ["", "observed orders against the reference (levels 1..finest; *: fixed by the "
               "reference's own Richardson limit, not measured, and left out of the rest; ~: "
               "an error of the two levels is within the uncertainty of that limit, so the "
-              "order is not resolved, and left out of the rest too; "
+              "order is not resolved, and left out of the rest too; =: the finer error is "
+              "against the reference run at its own level (a difference of two methods on "
+              "one mesh), left out too; "
               "min/max/spread of the last three finite orders; window: the four successive "
               "levels whose three orders have the smallest spread, window_spread)", "",
               "| " + " | ".join(keys) + " |", "|---" * len(keys) + "|"]

@@ -12,8 +12,9 @@ from app.study_reference import add_orders
 from app.study_richardson import (
     consecutive_levels,
     method_limits,
+    order_marks,
     order_summary,
-    skipped_orders,
+    same_level_orders,
     unresolved_orders,
 )
 
@@ -126,14 +127,14 @@ def test_orders_within_the_reference_uncertainty_are_marked_and_left_out():
     assert got["FEM-Q4"]["orders"] == "2.00 2.00 1.64~" and "spread" not in got["FEM-Q4"]
     # without the mark, the unresolved orders entered the spread
     assert order_summary(rows)[0]["spread"] == pytest.approx(0.78 + 1.17, abs=0.01)
-    # the plots' "last order" leaves out both kinds
+    # every mark together (the plots' "last order" leaves out all of them)
     limits[0]["method"] = "FEM-Q4"
-    assert skipped_orders(rows, limits, "FEM-Q4")[("FEM-Q4", "ref_energy")] == {2, 3}
+    assert order_marks(rows, limits, "FEM-Q4")[("FEM-Q4", "ref_energy")] == {2: "*",
+                                                                             3: "*"}
 
 
 def test_the_errors_table_marks_the_same_orders(tmp_path):
     from app.study_reference import write_tables
-    from app.study_richardson import order_marks
 
     limits = [{"method": "4SD", "quantity": "energy", "n_levels": 3, "levels": "0-2",
                "order_source": "observed", "uncertainty_rel": 1e-3}]
@@ -147,3 +148,20 @@ def test_the_errors_table_marks_the_same_orders(tmp_path):
     text = write_tables(rows, [], tmp_path, "note", marks)
     assert "| 1SD | 1 | 10 | 1.00 | 0.00036 (-1.17~) |" in text
     assert "| 4SD | 2 | 10 | 1.00 | 0.0025 (2.00*) |" in text
+
+
+def test_orders_against_the_reference_at_its_own_level_are_marked():
+    """hertz.toml, levels 0-2, 1SD/4SD/FEM-Q4: FEM-Q4's L2(p) against level 2 of 4SD reads
+    0.0193, 0.0116, 0.00092: "3.66" at level 2 is the FEM-Q4 - 4SD difference on one mesh."""
+    errs = {"4SD": [0.0192, 0.0118, math.nan], "FEM-Q4": [0.0193, 0.0116, 0.000919]}
+    rows = [{"level": lv, "method": m, "ref_pressure_l2": e, "ref_energy": e}
+            for m, es in errs.items() for lv, e in enumerate(es)]
+    add_orders(rows)
+    assert same_level_orders(rows, "4SD", extrapolated=True) == {
+        ("FEM-Q4", "ref_pressure_l2"): {2}}
+    assert same_level_orders(rows, "4SD", extrapolated=False) == {
+        ("FEM-Q4", "ref_pressure_l2"): {2}, ("FEM-Q4", "ref_energy"): {2}}
+    marks = order_marks(rows, [], "4SD")
+    got = {(s["method"], s["error"]): s for s in order_summary(rows, marks=marks)}
+    assert got[("FEM-Q4", "ref_pressure_l2")]["orders"] == "0.73 3.66="
+    assert got[("FEM-Q4", "ref_energy")]["orders"] == "0.73 3.66"  # against a limit
