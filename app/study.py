@@ -282,7 +282,7 @@ def finish_study(cfg: Config, out: Path, rows: list[dict], profiles: dict, ref_l
     floors = {f"ref_{r['quantity']}": r["uncertainty_rel"] for r in limits
               if r["method"] == ref_label}
     plot_study(rows, out, title=f"{cfg.path.stem} ({cfg.reference['type']})", note=note,
-               floors=floors, constructed={k: set(v) for k, v in marks.items()})
+               floors=floors, constructed=marks)
     if bracket:
         plot_bracket(bracket, out)
 
@@ -299,11 +299,13 @@ def write_csv(path: Path, rows: list[dict]) -> None:
 
 def plot_study(rows: list[dict], out: Path, title: str = "", note: str = "",
                floors: dict[str, float] | None = None,
-               constructed: dict[tuple[str, str], set[int]] | None = None) -> list[Path]:
+               constructed: dict[tuple[str, str], set[int] | dict[int, str]] | None = None
+               ) -> list[Path]:
     """error_vs_dofs.png, error_vs_time.png (closed-form errors err_* and errors against
     the model reference ref_*, one panel each) and energy_vs_sd.png in OUT; floors
     {column: relative uncertainty of the reference} are drawn as dotted lines;
-    constructed: the orders the legend's "last order" skips (`constructed_orders`)."""
+    constructed: the orders the legend's "last order" skips (`order_marks`, see
+    `_error_panel`)."""
     plt = pyplot()
 
     methods = list(dict.fromkeys(r["method"] for r in rows))
@@ -330,10 +332,12 @@ def plot_study(rows: list[dict], out: Path, title: str = "", note: str = "",
 
 def _error_panel(ax: Any, rows: list[dict], methods: list[str], ek: str, xkey: str, xlabel: str,
                  floors: dict[str, float] | None,
-                 constructed: dict[tuple[str, str], set[int]] | None = None) -> None:
+                 constructed: dict[tuple[str, str], set[int] | dict[int, str]] | None = None
+                 ) -> None:
     """One log-log panel of plot_study: column ek against xkey ("n_dofs": the legend
-    gives the fitted rate and the last observed order, not one fixed by the reference's
-    own limit or within its uncertainty, `constructed`), one line per method, and the
+    gives the fitted rate and the last observed order, not one of the levels in
+    `constructed`, e.g. the `order_marks` {level: mark}; the rate leaves out the levels
+    marked "=" and the errors at most floors[ek]), one line per method, and the
     reference's uncertainty floors[ek] dotted if > 0."""
     import matplotlib.ticker
 
@@ -347,7 +351,13 @@ def _error_panel(ax: Any, rows: list[dict], methods: list[str], ek: str, xkey: s
             orders = [r.get(f"order_{ek}", math.nan) if r["level"] not in fixed else math.nan
                       for r in rr]
             last = next((o for o in reversed(orders) if math.isfinite(o)), math.nan)
-            lab += f" (rate {_figure(fitted_rate(x, y))}, last order {_figure(last)})"
+            # the fit leaves out errors that are no error against a finer solution ("="
+            # marks of order_marks) or within the reference's uncertainty (floors)
+            kinds = fixed if isinstance(fixed, dict) else {}
+            fit = np.array([kinds.get(r["level"]) != "=" for r in rr], dtype=bool)
+            fit &= ~(y <= (floors or {}).get(ek, 0.0))
+            lab += (f" (rate {_figure(fitted_rate(x[fit], y[fit]))}, "
+                    f"last order {_figure(last)})")
         ax.loglog(x, y, "o-", label=lab, ms=3)
     if not any(np.isfinite(line.get_ydata()).any() for line in ax.lines):
         ax.text(0.5, 0.5, "no finite error in any run\n(e.g. a reference value of 0)",

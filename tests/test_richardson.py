@@ -165,3 +165,24 @@ def test_orders_against_the_reference_at_its_own_level_are_marked():
     got = {(s["method"], s["error"]): s for s in order_summary(rows, marks=marks)}
     assert got[("FEM-Q4", "ref_pressure_l2")]["orders"] == "0.73 3.66="
     assert got[("FEM-Q4", "ref_energy")]["orders"] == "0.73 3.66"  # against a limit
+
+
+def test_the_plot_rate_leaves_out_same_level_and_unresolved_errors():
+    """FEM-Q4's L2(p) on hertz.toml, levels 0-2, against level 2 of 4SD: the legend's
+    rate 2.24 was the fit through the same-mesh difference at level 2 (0.73 without it)."""
+    from app.plotting import pyplot
+    from app.study import _error_panel
+
+    errs = {"4SD": [0.0192, 0.0118, math.nan], "FEM-Q4": [0.0193, 0.0116, 0.000919]}
+    rows = [{"level": lv, "method": m, "ref_pressure_l2": e, "n_dofs": 2532 * 4**lv}
+            for m, es in errs.items() for lv, e in enumerate(es)]
+    add_orders(rows)
+    fig, ax = pyplot().subplots()
+    _error_panel(ax, rows, ["FEM-Q4"], "ref_pressure_l2", "n_dofs", "DOFs", None,
+                 order_marks(rows, [], "4SD"))
+    (label,) = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert label == "FEM-Q4 (rate 0.73, last order 0.73)"
+    fig, ax = pyplot().subplots()  # an error at most the floor is left out of the fit too
+    _error_panel(ax, rows, ["FEM-Q4"], "ref_pressure_l2", "n_dofs", "DOFs",
+                 {"ref_pressure_l2": 0.001}, None)
+    assert ax.get_legend().get_texts()[0].get_text() == "FEM-Q4 (rate 0.73, last order 3.66)"
