@@ -39,3 +39,25 @@ def missing_runs(out: Path, planned: list[tuple[int, str]], done: set[tuple[int,
         out_lines.append(f"{tag}: " + (f"{status} (see {summary.parent.name}/summary.json)"
                                        if status else "not run (the study was interrupted)"))
     return out_lines
+
+
+def missing_combinations(out: Path, keys: list[str], combos: list[tuple[str, ...]],
+                         rows: list[dict], value) -> list[dict]:
+    """The sweep.csv rows of the combinations an interrupted sweep has no row for: their
+    swept values (`value`: text -> the rows' value, app.sweep._value) and status
+    "interrupted" (or the status of OUT/run_<i>/summary.json) for the run it stopped,
+    "not run" for the ones it never started."""
+    have = [tuple(r.get(k) for k in keys) for r in rows]
+    out_rows = []
+    for i, combo in enumerate(combos):
+        params = {k: value(v) for k, v in zip(keys, combo, strict=True)}
+        if tuple(params.values()) in have:
+            continue
+        summary = Path(out) / f"run_{i:03d}" / "summary.json"
+        try:
+            status = json.loads(summary.read_text()).get("status", "interrupted")
+        except (OSError, ValueError):
+            status = "not run"
+        out_rows.append({**params, "status": status,
+                         "error": "the sweep was interrupted"})
+    return out_rows

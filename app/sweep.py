@@ -24,6 +24,7 @@ from app.output.status import step_writing
 from app.plotting import pyplot
 from app.run import RunOptions, run
 from app.study import write_csv
+from app.study_missing import missing_combinations
 
 ZONES = ("contact", "stick", "slip", "open", "bonded")
 
@@ -134,11 +135,14 @@ def run_sweep(config: Path, sets: list[str], sweeps: list[tuple[str, list[str]]]
         if not rows:
             return f"sweep: no run completed in {out}"
         plots = PETSc.COMM_WORLD.getSize() == 1  # several ranks: mpiexec kills in 1 s
+        missing = missing_combinations(out, keys, combos, rows, _value)
+        write_csv(out / "sweep.csv", rows + missing)  # with a row for each missing run
         if plots:
             plot_sweep([dict(r) for r in rows], keys, out, at_step)
         return (f"sweep: interrupted; its {len(rows)} rows are in sweep.csv" +
                 (" and the plots" if plots else " (no plots on several ranks)") +
-                f", in {out}")
+                f", in {out}, with a row for each of the {len(missing)} runs that did not "
+                "complete")
 
     with BatchGuard(write_completed):
         for i, combo in enumerate(combos):

@@ -8,7 +8,7 @@ import sys
 
 from support import CONFIGS, ROOT, mpi_env, read_csv
 
-from app.study_missing import missing_runs, planned_runs
+from app.study_missing import missing_combinations, missing_runs, planned_runs
 
 STOP_IN_THIRD_RUN = """
 import sys
@@ -58,3 +58,16 @@ def test_an_interrupted_study_lists_what_did_not_complete(tmp_path):
     tables = (out / "study_tables.md").read_text()
     assert "- level 1/1 4SD: not run (the study was interrupted)" in tables
     assert "- level 1/1 FEM-Q4: not run (the study was interrupted)" in tables
+
+
+def test_missing_combinations_of_a_sweep(tmp_path):
+    from app.sweep import _value
+
+    (tmp_path / "run_001").mkdir()
+    (tmp_path / "run_001" / "summary.json").write_text(json.dumps({"status": "interrupted"}))
+    combos = [("0.2", "1"), ("0.4", "1"), ("0.6", "1")]
+    rows = [{"mu": 0.2, "c": 1.0, "status": "completed", "interface": "a"},
+            {"mu": 0.2, "c": 1.0, "status": "completed", "interface": "b"}]
+    got = missing_combinations(tmp_path, ["mu", "c"], combos, rows, _value)
+    assert [(r["mu"], r["c"], r["status"]) for r in got] == [(0.4, 1.0, "interrupted"),
+                                                            (0.6, 1.0, "not run")]
