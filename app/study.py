@@ -131,8 +131,9 @@ def run_study(cfg: Config, out: Path, levels: int, methods: list[tuple[str, int]
     with BatchGuard(write_completed):
         for level in range(first_level, last + 1):
             scale = base_scale * 2.0**-level if remesh else base_scale
+            shown = not quiet and (remesh or level == first_level)  # split: level 0's mesh
             gmsh_s = build_level_mesh(cfg, scale, out / "mesh_cache",  # no run pays gmsh
-                                      None if quiet else f"level {level}/{last}")
+                                      f"level {level}/{last}" if shown else None)
             for method, sd in methods:
                 if level > last - reference_levels and label(method, sd) != ref_label:
                     continue  # finer levels: the reference method only
