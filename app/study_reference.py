@@ -86,8 +86,11 @@ def add_reference_errors(rows: list[dict], profiles: dict, ref_label: str,
     if scalars:
         ref |= {k: scalars[k] for k in ("energy", "p_max") if k in scalars}
         ref["points"] = {k: scalars.get(k, v) for k, v in ref["points"].items()}
-        note = (f"reference: Richardson limits of {ref_label} for energy, p_max and points; "
-                f"level {max(levels)} of {ref_label} ({ref['n_dofs']} DOFs) for p(x), q(x)")
+        names = [k for k in ("energy", "p_max") if k in scalars] + [
+            f"u_y({k})" for k in ref["points"] if k in scalars]  # what this scene has
+        note = (f"reference: Richardson limits of {ref_label} for {', '.join(names)}" + (
+            f"; level {max(levels)} of {ref_label} ({ref['n_dofs']} DOFs) for p(x), q(x)"
+            if "x" in ref else ""))
     win = contact_window(ref["x"], ref["p"]) if "x" in ref else None
     core = contact_window(ref["x"], ref["p"], CORE) if "x" in ref else None
     has_q = "q" in ref and np.abs(ref["q"]).max(initial=0.0) > 1e-12 * ref.get("p_max", 1)

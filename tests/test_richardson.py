@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 
 from app.richardson import extrapolate, observed_order, richardson
@@ -186,3 +187,20 @@ def test_the_plot_rate_leaves_out_same_level_and_unresolved_errors():
     _error_panel(ax, rows, ["FEM-Q4"], "ref_pressure_l2", "n_dofs", "DOFs",
                  {"ref_pressure_l2": 0.001}, None)
     assert ax.get_legend().get_texts()[0].get_text() == "FEM-Q4 (rate 0.73, last order 3.66)"
+
+
+def test_the_reference_note_names_what_the_scene_has():
+    """cantilever.toml's tables and plot titles read "Richardson limits of 4SD for energy,
+    p_max and points; ... for p(x), q(x)": a scene with no contact and one point."""
+    from app.study_reference import add_reference_errors
+
+    rows = [{"level": lv, "method": "4SD"} for lv in range(3)]
+    profiles = {(lv, "4SD"): {"energy": 1.0 + 4.0**-lv, "n_dofs": 4**lv,
+                              "points": {"tip": -1.0 - 4.0**-lv}} for lv in range(3)}
+    note = add_reference_errors(rows, profiles, "4SD", {"energy": 1.0, "tip": -1.0})
+    assert note == "reference: Richardson limits of 4SD for energy, u_y(tip)"
+    x = np.linspace(-1, 1, 5)
+    for p in profiles.values():
+        p |= {"x": x, "p": 1 - x**2, "q": 0 * x, "p_max": 1.0}
+    note = add_reference_errors(rows, profiles, "4SD", {"energy": 1.0, "p_max": 1.0})
+    assert note.startswith("reference: Richardson limits of 4SD for energy, p_max; level 2")
