@@ -294,17 +294,12 @@ def _run(
         basis = None
     M, q, probe, deferred = _validate(M, q, sample=basis is None and crash)
     n = q.size
-    tol = DEFAULT_TOL if tol is None else float(tol)
-    if not tol > 0 or not np.isfinite(tol):
-        raise ValueError(f"tol must be a positive finite number, got {tol!r}")
-    max_pivots = default_max_pivots(n) if max_pivots is None else int(max_pivots)
-    zero = np.zeros(n)
+    tol, max_pivots = _checked_knobs(tol, max_pivots, n)
     if basis is not None:
         _given_basis(basis, n)  # a wrong shape is an error whatever q (q >= 0 ignored it)
     if (q >= 0).all():  # M was checked whole by _validate (no sampling when q >= 0)
-        return LCPResult(
-            zero, q.copy(), 0, "solved", 0.0, np.zeros(n, dtype=bool), "q >= 0: z = 0 solves it"
-        )
+        return LCPResult(np.zeros(n), q.copy(), 0, "solved", 0.0, np.zeros(n, dtype=bool),
+                         "q >= 0: z = 0 solves it")
     P = _Problem(M, q, tol)
     given = basis is not None
     start = None
@@ -320,6 +315,15 @@ def _run(
         return out
     pivots, refacts, note = out
     return _cold(core, P, M, q, tol, max_pivots, pivots, refacts, note, "cold")
+
+
+def _checked_knobs(tol: float | None, max_pivots: int | None, n: int) -> tuple[float, int]:
+    """(tol, max_pivots) with their defaults (DEFAULT_TOL, `default_max_pivots(n)`);
+    ValueError for a tol that is not positive and finite."""
+    tol = DEFAULT_TOL if tol is None else float(tol)
+    if not tol > 0 or not np.isfinite(tol):
+        raise ValueError(f"tol must be a positive finite number, got {tol!r}")
+    return tol, default_max_pivots(n) if max_pivots is None else int(max_pivots)
 
 
 def _given_basis(basis, n: int) -> np.ndarray:
