@@ -12,7 +12,7 @@ and check). The package is split by concern:
 - `app.lcp.scaling`: the symmetric scaling and the dense helpers;
 - `app.lcp.pivoting`: the pivoting rules shared by the two cores;
 - `app.lcp.revised`: the revised core (the one `lemke` runs);
-- `app.lcp.tableau`: the textbook full-tableau core (`_lemke_tableau`, a slow reference);
+- `app.lcp.tableau`: the textbook full-tableau core (`lemke_tableau`, a slow reference);
 - `app.lcp.crash`: the crash basis (block principal pivoting) for cold starts;
 - `app.lcp.recovery`: the one recovery step after a run that ended "inaccurate" or on a
   secondary ray (restart from the final basis, `app.lcp.balance`, `app.lcp.repair`).
@@ -71,7 +71,7 @@ from app.lcp.scaling import row_blocks as _row_blocks
 from app.lcp.scaling import scaling as _scaling
 from app.lcp.tableau import _core_tableau
 
-__all__ = ["LCPResult", "lemke", "default_max_pivots", "STATUSES"]
+__all__ = ["LCPResult", "lemke", "lemke_tableau", "default_max_pivots", "STATUSES"]
 
 _CHECK_ROWS = 32
 """Rows of M per block in the final check (a buffer that stays in cache)."""
@@ -518,7 +518,7 @@ def lemke(
     return _solve(_core_revised, M, q, max_pivots, tol, basis, cold_start, crash)
 
 
-def _lemke_tableau(
+def lemke_tableau(
     M: np.ndarray,
     q: np.ndarray,
     *,
@@ -528,5 +528,9 @@ def _lemke_tableau(
     cold_start: bool = True,
     crash: bool = True,
 ) -> LCPResult:
-    """Reference: `lemke` with the full-tableau core (O(n^2) per pivot; for tests)."""
+    """Reference: `lemke` with the textbook full-tableau core (O(n^2) per pivot; the same
+    arguments, starts, check and recovery; for tests, the checker and benchmarks)."""
     return _solve(_core_tableau, M, q, max_pivots, tol, basis, cold_start, crash)
+
+
+_lemke_tableau = lemke_tableau  # the former private name (tests and scripts use it)
