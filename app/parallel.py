@@ -30,6 +30,9 @@ class Timer:
 
     @contextmanager
     def phase(self, name: str):
+        """Time the block as phase `name` (wall seconds, added up; barriers on entry and
+        exit, so the slowest rank counts) in its own PETSc log stage; records the peak
+        memory at its end and prints a progress line unless quiet."""
         t0 = time.perf_counter()  # the barriers count too: all of a run is in some phase
         comm = PETSc.COMM_WORLD
         if name not in self._stages:
@@ -59,6 +62,7 @@ class Timer:
         self.peak_mb[name] = peak_rss_mb()
 
     def reduced(self) -> dict[str, float]:
+        """Seconds per phase, the maximum over the ranks (collective), sorted by name."""
         comm = PETSc.COMM_WORLD.tompi4py()
         out = {}
         for k in sorted(self.seconds):

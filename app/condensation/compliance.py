@@ -130,6 +130,7 @@ def compliance_from_factor(solver, g: sp.csr_matrix, fixed: np.ndarray) -> np.nd
 
 
 def k_rank(solver) -> int:
+    """The MPI rank of this process on the stiffness's communicator."""
     return solver.k.getComm().getRank()
 
 

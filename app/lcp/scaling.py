@@ -60,6 +60,7 @@ class ScaledM:
         self.absmax = 1.0  # max |M~| by the choice of mu
 
     def col(self, j: int) -> np.ndarray:
+        """Column j of M~ = D M D / mu, (n,)."""
         return self.M[:, j] * (self.D * (self.D[j] / self.mu))
 
     def cols(self, idx: np.ndarray) -> np.ndarray:
@@ -100,6 +101,7 @@ class ScaledM:
         return self.D * ((self.D * v) @ self.M) / self.mu
 
     def dense(self) -> np.ndarray:
+        """M~ = D M D / mu as a dense (n, n) array (a new copy)."""
         return self.D[:, None] * self.M * (self.D / self.mu)
 
 

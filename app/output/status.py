@@ -305,6 +305,7 @@ class StopWatchdog:
                 self.guard.stop_now(signal.Signals(signum).name)
 
     def close(self) -> None:
+        """Stop watching: restore the previous signal wake-up fd and end the thread."""
         self.handled.set()
         try:
             signal.set_wakeup_fd(self._old_fd)
