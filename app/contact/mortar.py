@@ -30,6 +30,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 import scipy.sparse as sp
@@ -47,6 +48,9 @@ from app.contact.pairs import (
 )
 from app.errors import InputError
 from app.mesh.model import Mesh, orient_boundary_edges
+
+if TYPE_CHECKING:  # app.contact.discretisation imports this module
+    from app.contact.discretisation import InterfaceSpec
 
 _GAUSS_S, _GAUSS_W = np.polynomial.legendre.leggauss(4)
 NEAR_BAND = 0.1
@@ -141,6 +145,11 @@ MasterBasis = Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]
 """The master-side interpolation: (f (p,) master segments, eta (p, g) parameters on them)
 -> (nodes (p, k) master node ids, -1 for none; weights (k, p, g), summing to 1). An
 attribute `label` names it in the summary (none: "linear")."""
+BasisFactory = Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray], MasterBasis]
+"""(pts, m_edges, facing, slave_length) -> MasterBasis (see `linear_master`)."""
+NormalRule = Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray], np.ndarray]
+"""(nu_s, k_s, nu_m, k_m) -> (p, 2) unit contact normals, master -> slave (see
+`contact_normal`)."""
 
 
 def linear_master(pts: np.ndarray, m_edges: np.ndarray, facing: np.ndarray,
@@ -178,7 +187,9 @@ class Multipliers:
 DUAL = Multipliers("dual", dual_multipliers, slave_mass=False)
 
 
-def segment_overlaps(xs1, xs2, ns1, ns2, xa, xb, e, f):
+def segment_overlaps(xs1: np.ndarray, xs2: np.ndarray, ns1: np.ndarray, ns2: np.ndarray,
+                     xa: np.ndarray, xb: np.ndarray, e: np.ndarray, f: np.ndarray
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Gauss points of the overlaps of candidate pairs (slave segment e, master segment f).
 
     xs1, xs2, ns1, ns2: (S, 2) slave segment ends and their contact normals; xa, xb:
@@ -205,8 +216,9 @@ def segment_overlaps(xs1, xs2, ns1, ns2, xa, xb, e, f):
     return k, s, w, np.nan_to_num(eta, nan=0.5)
 
 
-def segment_integrals(xs1, xs2, ns1, ns2, xa, xb, e, f, basis: MasterBasis,
-                      multipliers: Multipliers = DUAL):
+def segment_integrals(xs1: np.ndarray, xs2: np.ndarray, ns1: np.ndarray, ns2: np.ndarray,
+                      xa: np.ndarray, xb: np.ndarray, e: np.ndarray, f: np.ndarray,
+                      basis: MasterBasis, multipliers: Multipliers = DUAL) -> tuple:
     """Mortar integrals of candidate pairs (slave segment e, master segment f).
 
     Arguments as `segment_overlaps`; basis: the master interpolation (`linear_master` or
@@ -270,7 +282,8 @@ class SlaveGeometry:
         return self.pts, self.m_edges, self.sg[self.near], self.d_len[self.near]
 
 
-def slave_geometry(mesh: Mesh, itf, normal_rule=None) -> SlaveGeometry:
+def slave_geometry(mesh: Mesh, itf: InterfaceSpec, normal_rule: NormalRule | None = None
+                   ) -> SlaveGeometry:
     """The `SlaveGeometry` of one interface (itf and normal_rule as `mortar_constraints`):
     its edges (InputError for an unknown curve or a zero-length master edge), the slave
     nodes' closest master points, contact normals and nodal gaps."""
@@ -287,9 +300,10 @@ def slave_geometry(mesh: Mesh, itf, normal_rule=None) -> SlaveGeometry:
                          g_node, near)
 
 
-def mortar_constraints(mesh: Mesh, itf, index: int, normal_rule=None,
-                       master_basis=None, multipliers: Multipliers = DUAL
-                       ) -> ContactConstraints:
+def mortar_constraints(mesh: Mesh, itf: InterfaceSpec, index: int,
+                       normal_rule: NormalRule | None = None,
+                       master_basis: BasisFactory | None = None,
+                       multipliers: Multipliers = DUAL) -> ContactConstraints:
     """Mortar rows of one interface (see the module docstring).
 
     normal_rule: (nu_s, k_s, nu_m, k_m) -> (p, 2) unit contact normals (master -> slave);
@@ -312,7 +326,8 @@ def mortar_constraints(mesh: Mesh, itf, index: int, normal_rule=None,
                        multipliers)
 
 
-def mortar_rows(geo: SlaveGeometry, itf, index: int, master_basis=None,
+def mortar_rows(geo: SlaveGeometry, itf: InterfaceSpec, index: int,
+                master_basis: BasisFactory | None = None,
                 multipliers: Multipliers = DUAL) -> ContactConstraints:
     """`mortar_constraints` from the interface's geometry (`slave_geometry`)."""
     sd = float(itf.search_distance)

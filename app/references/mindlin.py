@@ -28,6 +28,7 @@ import math
 from collections.abc import Callable
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from app.closed_form import (
     INTERPOLATED_L2_RANGE,
@@ -48,7 +49,8 @@ Terms = tuple[tuple[float, float], ...]
 """A traction as a sum of Cattaneo terms: q(x) = sum over (k, Q) of k q_L(x; Q)."""
 
 
-def virgin_dissipation(Q, mu_P: float, E_star: float, thickness: float = 1.0) -> np.ndarray:
+def virgin_dissipation(Q: ArrayLike, mu_P: float, E_star: float,
+                       thickness: float = 1.0) -> np.ndarray:
     """D_v: frictional work of loading from 0 to |Q| <= mu P on the virgin branch (force x
     length; P, Q total forces over `thickness`). nan beyond mu P (gross slip)."""
     r = np.abs(np.asarray(Q, dtype=float)) / mu_P
@@ -150,7 +152,7 @@ def masing_path(Q: np.ndarray, dv: Callable[[float], float]
     return out_terms, out_work, out_slip
 
 
-def masing_traction(x, terms: Terms, a: float, p0: float, mu: float,
+def masing_traction(x: ArrayLike, terms: Terms, a: float, p0: float, mu: float,
                     mu_P: float) -> np.ndarray:
     """q(x) of a traction given as Cattaneo terms (signed, along the interface's t)."""
     x = np.asarray(x, dtype=float)
@@ -170,8 +172,9 @@ def _path(run: RunFigures, name: str) -> tuple[np.ndarray, np.ndarray, np.ndarra
     return q, p, d
 
 
-def mindlin_errors(x, q, length, *, Q_path: np.ndarray, P: float, mu: float, R: float,
-                   E_star: float, thickness: float = 1.0, stick=None, x0: float = 0.0) -> dict:
+def mindlin_errors(x: ArrayLike, q: ArrayLike, length: ArrayLike, *, Q_path: np.ndarray,
+                   P: float, mu: float, R: float, E_star: float, thickness: float = 1.0,
+                   stick: ArrayLike | None = None, x0: float = 0.0) -> dict:
     """q(x) at the last entry of Q_path against Masing's traction (x relative to the centre,
     sorted, q signed along t), the closed-form dissipation along the path and, with
     `stick` ((m,) bool: pairs in contact that did not slip in the last step), the stick
