@@ -6,7 +6,7 @@ from __future__ import annotations
 import resource
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Any
@@ -29,7 +29,7 @@ class Timer:
     _stages: dict = field(default_factory=dict)
 
     @contextmanager
-    def phase(self, name: str):
+    def phase(self, name: str) -> Iterator[None]:
         """Time the block as phase `name` (wall seconds, added up; barriers on entry and
         exit, so the slowest rank counts) in its own PETSc log stage; records the peak
         memory at its end and prints a progress line unless quiet."""

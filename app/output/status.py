@@ -18,6 +18,7 @@ import sys
 import threading
 from collections.abc import Callable
 from pathlib import Path
+from typing import TextIO
 
 import numpy as np
 from petsc4py import PETSc
@@ -165,7 +166,7 @@ def release_signals() -> None:
         raise RunInterrupted(name)
 
 
-def lock_folder(out: Path):
+def lock_folder(out: Path) -> TextIO:
     """Create OUT, take its lock (non-blocking); returns the open lock file."""
     try:
         out.mkdir(parents=True, exist_ok=True)
