@@ -63,3 +63,20 @@ def test_flat_on_flat_at_an_angle_is_frame_independent(name, deg):
     np.testing.assert_allclose(b.g_normal, a.g_normal @ np.kron(np.eye(a.g_normal.shape[1]
                                                                         // 2), r.T),
                                atol=1e-12)
+
+
+@pytest.mark.parametrize("name", [n for n in DISCRETISATIONS if n != "node-to-segment"])
+def test_partly_covered_slave_node_gets_its_covered_length(name):
+    """A wider slave (the foundation) under a narrower master: the slave nodes at the
+    master's ends face it over half their tributary length. Their pair length (the
+    divisor of p, and the length that multiplies the bond strength c and adhesion a) is
+    that half, so the lengths add up to the contact length; it was the whole tributary
+    length (0.75 for a block 0.5 wide), which doubled the strength of the bond's edge
+    pair and halved its p."""
+    mesh = stacked(4, 3, x_up=(0.25, 0.75), x_low=(0.0, 1.0))
+    spec = SimpleNamespace(name="t", slave="low_top", master="up_bottom", search_distance=0.1,
+                           penetration_tol=None, interference=False)
+    rows = DISCRETISATIONS[name](mesh, spec, 0)
+    x = rows.pairs.position[:, 0]
+    np.testing.assert_allclose(np.sort(x), [0.25, 0.5, 0.75])
+    np.testing.assert_allclose(rows.pairs.length[np.argsort(x)], [0.125, 0.25, 0.125])

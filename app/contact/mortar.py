@@ -309,10 +309,13 @@ def mortar_constraints(mesh: Mesh, itf, index: int, normal_rule=None,
         refuse_penetration(itf.name, pts[nodes[keep]], g_node[keep], g_node[keep] < -tol, tol)
     k = np.flatnonzero(keep)
     tan = np.column_stack([-nrm[:, 1], nrm[:, 0]])
+    # length: the covered part of D_j (the lengths add up to the covered length), so that a
+    # slave node facing a master's end over half its support gets p = force / that half
+    # and c, a over that half (its whole D_j doubled the bond strength at a bond's edge)
     pairs = ContactPairs(
         interface=np.full(k.size, int(index), dtype=np.int64), slave=nodes[k].astype(np.int64),
         master=m_edges[sg[k]].copy(), xi=xi[k], normal=nrm[k], tangent=tan[k], g0=g0[k],
-        position=pts[nodes[k]].copy(), length=d_len[k])
+        position=pts[nodes[k]].copy(), length=np.minimum(d_len, cover)[k])
     return ContactConstraints(pairs, *_padded_rows(w[k].tocsr(), pairs),
                               master_interpolation=getattr(basis, "label", "linear"))
 
