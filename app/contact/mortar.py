@@ -315,9 +315,16 @@ def mortar_constraints(mesh: Mesh, itf, index: int, normal_rule=None,
     pairs = ContactPairs(
         interface=np.full(k.size, int(index), dtype=np.int64), slave=nodes[k].astype(np.int64),
         master=m_edges[sg[k]].copy(), xi=xi[k], normal=nrm[k], tangent=tan[k], g0=g0[k],
-        position=pts[nodes[k]].copy(), length=np.minimum(d_len, cover)[k])
+        position=pts[nodes[k]].copy(), length=covered_length(d_len, cover)[k])
     return ContactConstraints(pairs, *_padded_rows(w[k].tocsr(), pairs),
                               master_interpolation=getattr(basis, "label", "linear"))
+
+
+def covered_length(d_len: np.ndarray, cover: np.ndarray) -> np.ndarray:
+    """(q,) pair lengths: the covered weight where it is below the tributary length D_j
+    (a slave node facing the master over part of its support), else D_j itself (a fully
+    covered node keeps D_j bit for bit, not its round-off)."""
+    return np.where(cover < d_len * (1 - COVER_RTOL), cover, d_len)
 
 
 def no_made_overlap(g0: np.ndarray, g0_linear: np.ndarray) -> np.ndarray:
