@@ -21,6 +21,7 @@ from app.driver.model import Model
 from app.driver.rank0_io import on_rank0
 from app.mesh.model import Mesh
 from app.output.contact import contact_arrays
+from app.output.kkt_warning import kkt_warning
 from app.output.progress import step_line
 from app.output.reactions import ReactionProbe, support_owner
 from app.output.rigid_motion import rigid_motion
@@ -87,6 +88,9 @@ def write_step(ctx: RunContext, model: Model, output: StepOutput, step: int, u: 
             if ctx.rank == 0:
                 contact_data, info["kkt"] = contact_arrays(model.contact, solved.result, u,
                                                            cfg.thickness)
+                law = kkt_warning(info["kkt"], step + 1)
+                if law is not None:
+                    ctx.warn(law, ("kkt",))
                 output.last_contact = contact_data
                 _add_interface_forces(info, contact_data, cfg, model.contact.described)
         info.update(output.reactions(step, u, None if solved is None else

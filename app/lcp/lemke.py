@@ -65,7 +65,7 @@ from app.lcp.revised import (  # noqa: F401 (the knobs, for tests)
 from app.lcp.scaling import RCOND_MIN as _RCOND_MIN  # noqa: F401
 from app.lcp.scaling import ScaledM as _ScaledM
 from app.lcp.scaling import absmax as _absmax
-from app.lcp.scaling import diagonal_scaling
+from app.lcp.scaling import diagonal_scaling, pow2
 from app.lcp.scaling import lu_or_none as _lu_or_none  # noqa: F401
 from app.lcp.scaling import row_blocks as _row_blocks
 from app.lcp.scaling import scaling as _scaling
@@ -149,7 +149,7 @@ def _check(M: np.ndarray, q: np.ndarray, z: np.ndarray, tol: float,
     rows = np.flatnonzero((viol > 0) & ~settled)
     s = np.abs(q[rows])
     row_max = np.zeros(rows.size)  # max_j |M_ij| D_j
-    D = _diagonal_D(M) if rows.size else np.ones(0)
+    D = _floor_D(M, rows) if rows.size else np.ones(0)
     buf = np.empty((min(_CHECK_ROWS, rows.size), q.size))  # one small buffer, reused
     for i0 in range(0, rows.size, _CHECK_ROWS):
         a = buf[: min(rows.size - i0, _CHECK_ROWS)]
@@ -172,6 +172,23 @@ def _check(M: np.ndarray, q: np.ndarray, z: np.ndarray, tol: float,
     ok = bool((z >= 0).all() and worst <= tol)
     comp = float(np.abs(z * w).max()) if z.size else 0.0
     return w, ok, comp, worst
+
+
+def _floor_D(M: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """D of `_diagonal_D`, except for columns j whose diagonal is below 1e-6 of their
+    largest entry in the rows `rows` (the same test as `scaling`, on those rows): there
+    1 / sqrt of that entry. A round-off diagonal (a floating body's mode column of the
+    contact LCP, 2e-28 where it is 0 in exact arithmetic) made D_j 7e13 and the floor of
+    `_check` 5e12, so that a warm-start basis with w = -0.09 passed as solved (a load
+    step penetrating by 5e-4 on a scene turned by 90 deg)."""
+    D = _diagonal_D(M)
+    cmax = np.zeros(M.shape[1])
+    for i0 in range(0, rows.size, _CHECK_ROWS):
+        np.maximum(cmax, np.abs(M[rows[i0:i0 + _CHECK_ROWS]]).max(axis=0), out=cmax)
+    tiny = np.abs(np.diagonal(M)) < 1e-6 * cmax
+    if tiny.any():
+        D[tiny] = pow2(1.0 / np.sqrt(cmax[tiny]))
+    return D
 
 
 def _z_scale(M: np.ndarray, q: np.ndarray, z: np.ndarray, row_max: np.ndarray,
