@@ -40,8 +40,10 @@ ALLOW_LARGE_HELP = ("run even when the mesh estimated from the geometry and elem
 
 def _parser() -> argparse.ArgumentParser:
     """The `python -m app` parser: subcommands run and study."""
-    p = argparse.ArgumentParser(prog="python -m app", description=DESCRIPTION,
-                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    from app.early_failure import Parser  # (its errors raise: recorded in OUT too)
+
+    p = Parser(prog="python -m app", description=DESCRIPTION,
+               formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = p.add_subparsers(dest="command", required=True)
     _run_parser(sub)
     _study_parser(sub)
@@ -151,11 +153,16 @@ def main(argv: list[str] | None = None) -> int:
     parser = _parser()
     # PETSc options that begin with -h (-help) would be taken as argparse's -h with a value
     petsc_h = [a for a in argv if a.startswith("-h") and a != "-h"]
-    args, petsc_args = parser.parse_known_args([a for a in argv if a not in petsc_h])
-    petsc_args = petsc_h + petsc_args
-    bad = [a for a in petsc_args if a.startswith("--")]
-    if bad:
-        parser.error(f"unknown option {bad[0]} (PETSc options take a single dash)")
+    from app.early_failure import UsageError, record, usage_failure
+
+    try:
+        args, petsc_args = parser.parse_known_args([a for a in argv if a not in petsc_h])
+        petsc_args = petsc_h + petsc_args
+        bad = [a for a in petsc_args if a.startswith("--")]
+        if bad:
+            parser.error(f"unknown option {bad[0]} (PETSc options take a single dash)")
+    except UsageError as exc:  # argparse's lines, and OUT/summary.json says failed
+        return usage_failure(exc, _parser, [a for a in argv if a not in petsc_h])
 
     from app.output import startup_signals
     from app.petsc_start import start_petsc
@@ -164,10 +171,10 @@ def main(argv: list[str] | None = None) -> int:
     startup_signals.arm(run_out, str(args.config), act=args.command == "run")
 
     refused = start_petsc(petsc_args)
-    if refused:  # PETSc did not start: no summary.json, as for a command line error
+    if refused:  # PETSc did not start: OUT/summary.json says failed (rank 0)
         startup_signals.restore()
         if startup_signals.launcher_rank() == 0:
-            print(f"error: {refused}", file=sys.stderr)
+            print(f"error: {record(args, refused)}", file=sys.stderr)
         return 2
     args.started = time.perf_counter()  # a run's `startup` phase counts from here
     from petsc4py import PETSc

@@ -55,7 +55,8 @@ def test_study_writes_csv_and_plots_and_reuses_meshes(tmp_path):
 
 
 def test_study_rejects_bad_methods_and_configs(tmp_path):
-    res = run_cli(["study", str(CONFIGS / "cantilever.toml"), "--methods", "5"])
+    res = run_cli(["study", str(CONFIGS / "cantilever.toml"), "--methods", "5", "--out",
+                   str(tmp_path / "m")])  # (without --out: a failed summary in out/)
     assert res.returncode == 2 and "--methods" in res.stderr
     res = run_cli(["study", str(CONFIGS / "patch.toml"), "--out", str(tmp_path)])
     assert res.returncode == 2 and "[reference]" in res.stderr

@@ -184,3 +184,52 @@ def test_a_signal_before_the_first_run_completes_is_recorded(tmp_path, hook, sig
                                                      "sweep" if sweep else "convergence")
     run = json.loads((out / ("run_000" if sweep else "L0_4SD") / "summary.json").read_text())
     assert (run["status"], run["error"]) == ("interrupted", reason)
+
+
+def _usage_error(res, command: str) -> str:
+    """argparse's error line (last on stderr, after its usage), without the prefix."""
+    assert res.returncode == 2, res.stderr
+    last = res.stderr.strip().splitlines()[-1]
+    prefix = f"python -m app{command}: error: "
+    assert last.startswith(prefix), res.stderr
+    return last[len(prefix):]
+
+
+@pytest.mark.parametrize("args, reason", [
+    (["--levels", "x"], "argument --levels: invalid int value: 'x'"),
+    (["--reference", "bogus"], "argument --reference: invalid choice: 'bogus'"),
+    (["--levels", "--out", "{OUT}"], "argument --levels: expected one argument"),
+])
+def test_a_command_line_argparse_refuses_is_recorded_as_failed(tmp_path, args, reason):
+    """Before PETSc starts (app/early_failure.py): argparse's usage and line as before."""
+    out = tmp_path / "o"
+    res = run_cli(["study", HERTZ, *[str(out) if a == "{OUT}" else a for a in args],
+                   "--out", str(out)])
+    line = _usage_error(res, " study")
+    assert line.startswith(reason)
+    s = read_summary(out)
+    assert (s["status"], s["error"], s["command"], s["study"]) == ("failed", line, "study",
+                                                                    "convergence")
+    assert s["provenance"]["argv"][1:3] == ["study", HERTZ]
+
+
+def test_an_unknown_double_dash_option_and_a_refused_petsc_option_are_recorded(tmp_path):
+    out = tmp_path / "o"
+    res = run_cli(["study", HERTZ, "--out", str(out), "--sweep", "a.b=1", "--nope"])
+    line = _usage_error(res, "")
+    assert line == "unknown option --nope (PETSc options take a single dash)"
+    assert (read_summary(out)["error"], read_summary(out)["study"]) == (line, "sweep")
+    res = run_cli(["study", HERTZ, "--out", str(out), "-options_file", str(tmp_path / "no")])
+    line = _error_line(res)
+    assert line.startswith("PETSc cannot start with the options -options_file")
+    s = read_summary(out)
+    assert (s["status"], s["error"], s["study"]) == ("failed", line, "convergence")
+
+
+@pytest.mark.mpi
+def test_a_refused_command_line_on_two_ranks(tmp_path):
+    out = tmp_path / "o"
+    res = run_cli(["study", HERTZ, "--out", str(out), "--levels", "x"], ranks=2)
+    assert res.returncode != 0
+    s = read_summary(out)
+    assert s["status"] == "failed" and s["error"] == "argument --levels: invalid int value: 'x'"
