@@ -162,7 +162,7 @@ def main(argv: list[str] | None = None) -> int:
         if bad:
             parser.error(f"unknown option {bad[0]} (PETSc options take a single dash)")
     except UsageError as exc:  # argparse's lines, and OUT/summary.json says failed
-        return usage_failure(exc, _parser, [a for a in argv if a not in petsc_h])
+        return usage_failure(exc, _parser, [a for a in argv if a not in petsc_h], _out_folder)
 
     from app.output import startup_signals
     from app.petsc_start import start_petsc
@@ -174,7 +174,7 @@ def main(argv: list[str] | None = None) -> int:
     if refused:  # PETSc did not start: OUT/summary.json says failed (rank 0)
         startup_signals.restore()
         if startup_signals.launcher_rank() == 0:
-            print(f"error: {record(args, refused)}", file=sys.stderr)
+            print(f"error: {record(args, refused, _out_folder)}", file=sys.stderr)
         return 2
     args.started = time.perf_counter()  # a run's `startup` phase counts from here
     from petsc4py import PETSc
@@ -192,7 +192,7 @@ def main(argv: list[str] | None = None) -> int:
     except RunInterrupted as exc:
         message, code = f"error: {exc}", exc.exit_code
     except KeyboardInterrupt:  # outside a run's guard (between a study's runs): no traceback
-        from app.output.batch_status import OUTSIDE_A_STEP
+        from app.study_status import OUTSIDE_A_STEP
 
         message, code = f"error: {OUTSIDE_A_STEP}", 130
     except PETSc.Error as exc:
@@ -206,12 +206,12 @@ def main(argv: list[str] | None = None) -> int:
 
 def _study_command(args, petsc_args: list[str], rank: int) -> int:
     """`study`: a convergence study, or a parameter study with --sweep; OUT/summary.json
-    says completed, failed or interrupted (app/output/batch_status.py)."""
-    from app.output.batch_status import BatchStatus
+    says completed, failed or interrupted (app/study_status.py)."""
+    from app.study_status import BatchStatus
 
     with BatchStatus("sweep" if args.sweep else "convergence", args.config, list(args.set),
                      _out_folder(args, Path("out") / f"study_{args.config.stem}")) as batch:
-        rows, out = _study_rows(args, batch, rank)
+        rows, out = _study_rows(args, batch)
         batch.completed(len(rows), "sweep.csv" if args.sweep else "study.csv")
     if rank == 0 and not args.quiet:
         print(f"{len(rows)} {'rows' if args.sweep else 'runs'} -> "
@@ -227,7 +227,7 @@ def _out_folder(args, default: Path):
     return lambda: output_folder(args.out, default)
 
 
-def _study_rows(args, batch, rank: int) -> tuple[list[dict], Path]:
+def _study_rows(args, batch) -> tuple[list[dict], Path]:
     """The checks of the study's options, then its runs; the rows and OUT."""
     from app.config import load_config
     from app.errors import InputError

@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import argparse
 import datetime
-import os
 import sys
 from collections.abc import Callable
 from pathlib import Path
@@ -43,38 +42,43 @@ def study_head(kind: str, config: Path | str) -> dict:
     return {"command": "study", "study": kind, "config": str(config)}
 
 
+Folder = Callable[[argparse.Namespace, Path], Callable[[], Path] | None]
+"""(args, default OUT) -> a function giving OUT created and checked, or None (app/cli.py's
+_out_folder)."""
+
+
 def usage_failure(exc: UsageError, parser: Callable[[], argparse.ArgumentParser],
-                  argv: list[str]) -> int:
+                  argv: list[str], folder: Folder) -> int:
     """argparse's usage and error line (on stderr, as argparse prints them), after the
     failure is recorded in the command's OUT; returns the exit status 2."""
     args = _lenient(parser(), argv)
-    message = exc.message if args is None else record(args, exc.message)
+    message = exc.message if args is None else record(args, exc.message, folder)
     exc.parser.print_usage(sys.stderr)
     print(f"{exc.parser.prog}: error: {message}", file=sys.stderr)
     return 2
 
 
-def record(args: argparse.Namespace, reason: str) -> str:
+def record(args: argparse.Namespace, reason: str, folder: Folder) -> str:
     """Record `reason` in the OUT of a `run` or `study` command line (launcher rank 0);
     returns `reason`, with why no summary.json was written when OUT is not usable. Nothing
     to write without --out when the config is no file (as for bad input after the start)."""
-    from app.cli import output_folder
     from app.errors import InputError
 
     command, config = getattr(args, "command", None), getattr(args, "config", None)
     if command not in ("run", "study") or config is None or startup_signals.launcher_rank():
         return reason
-    if args.out is None and not os.path.isfile(config):
-        return reason
     config = Path(config)
-    default = Path("out") / (config.stem if command == "run" else f"study_{config.stem}")
+    out = folder(args, Path("out") / (config.stem if command == "run"
+                                      else f"study_{config.stem}"))
+    if out is None:
+        return reason
     head = ({"config": str(config), "n_steps": None, "steps": []} if command == "run" else
             study_head("sweep" if args.sweep else "convergence", config))
     head["provenance"] = {
         "start_time": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
         "argv": list(sys.argv), "overrides": [a for a in args.set or [] if a is not None]}
     try:
-        why = startup_signals.record_failure(output_folder(args.out, default), reason, head)
+        why = startup_signals.record_failure(out(), reason, head)
     except InputError as unusable:
         why = str(unusable)
     return reason if why is None else f"{reason}; no summary.json written: {why}"

@@ -1,6 +1,6 @@
 """A study or sweep that stops on bad input, or on a signal before its first run completes,
 leaves OUT/summary.json with `failed` or `interrupted` and the `error:` line
-(app/output/batch_status.py). Before, it left no summary.json in OUT."""
+(app/study_status.py). Before, it left no summary.json in OUT."""
 
 from __future__ import annotations
 
