@@ -153,7 +153,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = _parser()
     # PETSc options that begin with -h (-help) would be taken as argparse's -h with a value
     petsc_h = [a for a in argv if a.startswith("-h") and a != "-h"]
-    from app.early_failure import UsageError, record, usage_failure
+    from app.early_failure import UsageError, record, study_head, usage_failure
 
     try:
         args, petsc_args = parser.parse_known_args([a for a in argv if a not in petsc_h])
@@ -167,8 +167,10 @@ def main(argv: list[str] | None = None) -> int:
     from app.output import startup_signals
     from app.petsc_start import start_petsc
 
-    run_out = None if args.command != "run" else Path(args.out or Path("out") / args.config.stem)
-    startup_signals.arm(run_out, str(args.config), act=args.command == "run")
+    stem = args.config.stem if args.command == "run" else f"study_{args.config.stem}"
+    startup_signals.arm(Path(args.out or Path("out") / stem), str(args.config),
+                        head=None if args.command == "run" else study_head(
+                            "sweep" if args.sweep else "convergence", args.config))
 
     refused = start_petsc(petsc_args)
     if refused:  # PETSc did not start: OUT/summary.json says failed (rank 0)

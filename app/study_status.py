@@ -12,21 +12,25 @@ files refused, an earlier summary.json removed) and writes nothing yet: while th
 runs, OUT has no summary.json, so a job killed outright (SIGKILL) leaves none rather than
 a false `running`. On exit the summary says `completed`, `failed` (InputError,
 SolveError, PETSc error, write error) or `interrupted` (SIGINT / SIGTERM; on several ranks
-through the stop hooks of app/output/status.py, since no rank stops by itself there), with
-`error` = the `error:` line app/cli.py prints.
+through the stop hooks of app/output/status.py, since no rank stops by itself there, and
+inside a MUMPS factorization or solve through the C handler of app/hard_stop.py, which
+writes this summary after the run's), with `error` = the `error:` line app/cli.py prints.
 """
 
 from __future__ import annotations
 
 import datetime
+import json
 import sys
 from collections.abc import Callable
 from pathlib import Path
 
 from petsc4py import PETSc
 
+from app import hard_stop
+from app.early_failure import study_head
 from app.errors import InputError, SolveError
-from app.output import status
+from app.output import startup_signals, status
 from app.output.out_owner import foreign_files, foreign_message
 
 OUTSIDE_A_STEP = ("interrupted by SIGINT outside a load step; what completed before it is "
@@ -53,8 +57,7 @@ class BatchStatus:
 
     def head(self) -> dict:
         """The keys every study summary starts with (without provenance)."""
-        return {"command": "study", "study": self.kind, "config": str(self.config),
-                "status": "running"}
+        return {**study_head(self.kind, self.config), "status": "running"}
 
     def open(self, cfg) -> Path:
         """OUT, created, checked and locked (collective): refused when another run writes
@@ -64,6 +67,7 @@ class BatchStatus:
         from app.parallel import collective
 
         out = self.folder()
+        startup_signals.defer()  # a signal from now on: acted on by the runs' guards
 
         def take() -> None:
             lock = status.lock_folder(out)
@@ -79,6 +83,7 @@ class BatchStatus:
             cfg.raw, self.overrides, PETSc.COMM_WORLD.getSize())}
         self.out = out
         status.on_stop(self._stopped)
+        hard_stop.set_extra(self._hard_stop_text)
         return out
 
     def completed(self, rows: int, table: str) -> None:
@@ -97,6 +102,7 @@ class BatchStatus:
                                      head={**self.head()})
             return False
         status.remove_on_stop(self._stopped)
+        hard_stop.set_extra(None)
         try:
             error = self._record(exc)
         finally:
@@ -127,6 +133,15 @@ class BatchStatus:
         self.summary["error"] = status.stop_reason() or (
             "interrupted by SIGINT or SIGTERM; what completed before it is written")
         self._write()
+
+    def _hard_stop_text(self, name: str, line: str) -> tuple[Path, bytes]:
+        """What app/_hard_stop.c writes into OUT/summary.json on `name` inside a long PETSc
+        call of a run (rank 0 of several), after the run's own summary: `interrupted`,
+        with the run's line (`line`, "error: ...\\n") as the error (no end_time: it is
+        prepared when the call starts)."""
+        reason = line.removeprefix("error: ").rstrip("\n")
+        summary = {**self.summary, "status": "interrupted", "error": reason, "steps": []}
+        return self.out / "summary.json", (json.dumps(summary, indent=2) + "\n").encode()
 
     def _write(self) -> None:
         from app.output.summary import write_summary

@@ -38,7 +38,7 @@ EXIT_SIGNAL = {"SIGINT": 130, "SIGTERM": 143}
 LOCK_NAME = ".lock"
 
 _STATE: dict = {"mode": "off", "pending": None, "originals": None, "out": None,
-                "config": None}
+                "config": None, "head": None}
 """mode: off (pass signals on), record, act (stop at once) or stopping."""
 
 
@@ -53,11 +53,13 @@ def launcher_rank() -> int:
     return 0
 
 
-def arm(out: Path | None, config: str, act: bool = True) -> None:
-    """Install the start-up handler for SIGINT and SIGTERM. out: the run's folder (None:
-    write nothing); act False: only record (a study, whose runs' guards act on it)."""
+def arm(out: Path | None, config: str, act: bool = True, head: dict | None = None) -> None:
+    """Install the start-up handler for SIGINT and SIGTERM. out: the run's or study's
+    folder (None: write nothing); act False: only record; head: the summary's first keys
+    (default a run's; a study's, app/study_status.py, which defers once it takes OUT)."""
     pending = _STATE["pending"] if _STATE["mode"] == "record" else None
-    _STATE.update(mode="act" if act else "record", pending=pending, out=out, config=config)
+    _STATE.update(mode="act" if act else "record", pending=pending, out=out, config=config,
+                  head=head)
     try:
         current = (signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM))
         if current != (_handler, _handler):  # (since app/__main__.py: keep the first ones)
@@ -127,7 +129,7 @@ def _stop(name: str) -> None:
     reason = f"interrupted by {name} during start-up; no step completed"
     if launcher_rank() == 0:
         if _STATE["out"] is not None:
-            _record(Path(_STATE["out"]), reason)
+            _record(Path(_STATE["out"]), reason, head=_STATE["head"])
         print(f"error: {reason}", file=sys.stderr, flush=True)
     os._exit(EXIT_SIGNAL[name])
 
