@@ -15,6 +15,8 @@ SolveError, PETSc error, write error) or `interrupted` (SIGINT / SIGTERM; on sev
 through the stop hooks of app/output/status.py, since no rank stops by itself there, and
 inside a MUMPS factorization or solve through the C handler of app/hard_stop.py, which
 writes this summary after the run's), with `error` = the `error:` line app/cli.py prints.
+Until `open`, a signal is the start-up handler's (app/output/startup_signals.py, armed by
+app/cli.py with this summary's first keys): it writes `interrupted` and stops at once.
 """
 
 from __future__ import annotations
