@@ -5,7 +5,10 @@ All functions are plain numpy. Plane strain uses E' = E / (1 - nu^2), nu' = nu /
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
+from numpy.typing import ArrayLike
 
 
 def effective_moduli(E: float, nu: float, plane: str) -> tuple[float, float]:
@@ -15,8 +18,9 @@ def effective_moduli(E: float, nu: float, plane: str) -> tuple[float, float]:
     return E, nu
 
 
-def timoshenko_cantilever(x, y, *, P: float, L: float, D: float, E: float, nu: float,
-                          plane: str = "strain", thickness: float = 1.0) -> dict:
+def timoshenko_cantilever(x: ArrayLike, y: ArrayLike, *, P: float, L: float, D: float,
+                          E: float, nu: float, plane: str = "strain",
+                          thickness: float = 1.0) -> dict:
     """Timoshenko & Goodier cantilever: 0 <= x <= L, -D/2 <= y <= D/2, clamped at x = 0,
     parabolic shear traction of resultant P (downward) at x = L.
 
@@ -56,13 +60,14 @@ def hertz_contact(p: float, R: float, E_star: float) -> tuple[float, float]:
     return a, 2 * p / (np.pi * a)
 
 
-def hertz_pressure(x, a: float, p0: float) -> np.ndarray:
+def hertz_pressure(x: ArrayLike, a: float, p0: float) -> np.ndarray:
     """p(x) = p0 sqrt(1 - x^2 / a^2) inside |x| < a, 0 outside."""
     x = np.asarray(x, dtype=float)
     return p0 * np.sqrt(np.clip(1.0 - (x / a) ** 2, 0.0, None))
 
 
-def cattaneo_traction(x, a: float, p0: float, mu: float, Q_over_muP: float) -> np.ndarray:
+def cattaneo_traction(x: ArrayLike, a: float, p0: float, mu: float,
+                      Q_over_muP: float) -> np.ndarray:
     """Cattaneo-Mindlin tangential traction magnitude for a tangential load Q < mu P.
 
     Stick half-width c = a sqrt(1 - Q / (mu P)); q(x) = mu p0 [sqrt(1 - x^2/a^2)
@@ -96,7 +101,8 @@ INTERPOLATED_L2_RANGE = 1.5
 """The interpolated L2 errors integrate over |x - x0| <= INTERPOLATED_L2_RANGE x a_Hertz."""
 
 
-def interpolated_l2_rel_error(x, values, exact, half_range: float, *,
+def interpolated_l2_rel_error(x: ArrayLike, values: ArrayLike,
+                              exact: Callable[[np.ndarray], np.ndarray], half_range: float, *,
                               n_samples: int = 20001) -> float:
     """L2 error of a pair profile against a closed form, the definition CalculiX results
     are quoted in (../shared/design/CALCULIX-NOTES.md).
@@ -116,8 +122,8 @@ def interpolated_l2_rel_error(x, values, exact, half_range: float, *,
     return float(np.sqrt(num / den)) if den > 0 else float("nan")
 
 
-def hertz_errors(x, p, length, *, P: float, R: float, E_star: float, x0: float = 0.0,
-                 thickness: float = 1.0) -> dict:
+def hertz_errors(x: ArrayLike, p: ArrayLike, length: ArrayLike, *, P: float, R: float,
+                 E_star: float, x0: float = 0.0, thickness: float = 1.0) -> dict:
     """Compare a computed pressure p(x) (traction, per pair) with Hertz.
 
     Half-width: the contact edges are the midpoints between the last loaded and the
@@ -154,7 +160,8 @@ def hertz_errors(x, p, length, *, P: float, R: float, E_star: float, x0: float =
                 INTERPOLATED_L2_RANGE * a)}
 
 
-def cattaneo_errors(x, p, q, length, stick, *, P: float, Q: float, mu: float, R: float,
+def cattaneo_errors(x: ArrayLike, p: ArrayLike, q: ArrayLike, length: ArrayLike,
+                    stick: ArrayLike, *, P: float, Q: float, mu: float, R: float,
                     E_star: float, x0: float = 0.0, thickness: float = 1.0) -> dict:
     """Compare the stick zone and q(x) with Cattaneo-Mindlin (|q| is compared).
 

@@ -102,6 +102,7 @@ class Expression:
     where: str
 
     def fail(self, why: str) -> InputError:
+        """The InputError naming the expression's config entry and text, with `why`."""
         return InputError(f"{self.where}: expression {_show(self.text)} {why}")
 
     def evaluate(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:

@@ -6,7 +6,7 @@ from __future__ import annotations
 import resource
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Any
@@ -29,7 +29,10 @@ class Timer:
     _stages: dict = field(default_factory=dict)
 
     @contextmanager
-    def phase(self, name: str):
+    def phase(self, name: str) -> Iterator[None]:
+        """Time the block as phase `name` (wall seconds, added up; barriers on entry and
+        exit, so the slowest rank counts) in its own PETSc log stage; records the peak
+        memory at its end and prints a progress line unless quiet."""
         t0 = time.perf_counter()  # the barriers count too: all of a run is in some phase
         comm = PETSc.COMM_WORLD
         if name not in self._stages:
@@ -59,6 +62,7 @@ class Timer:
         self.peak_mb[name] = peak_rss_mb()
 
     def reduced(self) -> dict[str, float]:
+        """Seconds per phase, the maximum over the ranks (collective), sorted by name."""
         comm = PETSc.COMM_WORLD.tompi4py()
         out = {}
         for k in sorted(self.seconds):

@@ -36,6 +36,8 @@ from app.output.xdmf import atomic_write_bytes
 from app.plotting import pyplot
 from app.references import REFERENCES
 from app.run import RunOptions, run
+from app.study_mesh import build_level_mesh
+from app.study_missing import missing_runs, planned_runs
 from app.study_reference import (
     add_reference_errors,
     energy_bracket,
@@ -47,8 +49,8 @@ from app.study_reference import (
 from app.study_richardson import (
     REFERENCE_MODES,
     add_limit_spread,
-    constructed_orders,
     method_limits,
+    order_marks,
     order_summary,
     reference_scalars,
     tables,
@@ -115,18 +117,26 @@ def run_study(cfg: Config, out: Path, levels: int, methods: list[tuple[str, int]
         if not done:  # (a row without its profile: stopped while it was recorded)
             return f"study: no run completed in {out}"
         plots = PETSc.COMM_WORLD.getSize() == 1  # several ranks: mpiexec kills in 1 s
+        plan = planned_runs(first_level, last, reference_levels,
+                            [label(m, sd) for m, sd in methods], ref_label)
+        missing = missing_runs(out, plan, {(r["level"], r["method"]) for r in done},
+                               failures, last)
         finish_study(cfg, out, done, dict(profiles), ref_label, reference_mode, True,
-                     failures, plots=plots)
+                     failures + missing, plots=plots)
         return (f"study: interrupted; the {len(done)} completed runs are in study.csv and "
                 f"study_tables.md" + (", and the plots" if plots else
-                                      " (no plots on several ranks)") + f", in {out}")
+                                      " (no plots on several ranks)") + f", in {out}; "
+                f"study_tables.md lists the {len(missing)} runs that did not complete")
 
     with BatchGuard(write_completed):
         for level in range(first_level, last + 1):
+            scale = base_scale * 2.0**-level if remesh else base_scale
+            shown = not quiet and (remesh or level == first_level)  # split: level 0's mesh
+            gmsh_s = build_level_mesh(cfg, scale, out / "mesh_cache",  # no run pays gmsh
+                                      f"level {level}/{last}" if shown else None)
             for method, sd in methods:
                 if level > last - reference_levels and label(method, sd) != ref_label:
                     continue  # finer levels: the reference method only
-                scale = base_scale * 2.0**-level if remesh else base_scale
                 opts = RunOptions(out=out / f"L{level}_{label(method, sd)}", method=method,
                                   sd=sd, mesh_scale=scale, quiet=quiet,
                                   mesh_cache=out / "mesh_cache",
@@ -138,7 +148,8 @@ def run_study(cfg: Config, out: Path, levels: int, methods: list[tuple[str, int]
                     continue
                 step_writing(True)  # an interrupt waits for the row to be recorded
                 try:
-                    rows.append(study_row(s, level, label(method, sd), columns))
+                    rows.append(study_row(s, level, label(method, sd), columns)
+                                | {"t_level_gmsh": gmsh_s})
                     if rank == 0:
                         _record_row(out, rows, profiles, s, opts, t0)
                         _refresh_tables(cfg, out, rows, profiles, ref_label,
@@ -218,7 +229,8 @@ def study_row(s: dict, level: int, method: str, columns) -> dict:
     row = {"level": level, "method": method, "n_dofs": s["n_dofs"],
            "n_elements": s["n_elements"], "n_pairs": s.get("n_pairs", 0),
            "ranks": s["ranks"], "strain_energy": s["strain_energy"]}
-    for ph in PHASES:
+    for ph in dict.fromkeys([*PHASES[:-1], *s["timings"], "total"]):  # every phase, e.g. 1SD's
+        # floating_modes (its eigen-solve), so that the phases add up to t_total
         row[f"t_{ph}"] = s["timings"].get(ph, 0.0)
     if "steps" in s and s["steps"] and "lemke_pivots" in s["steps"][-1]:
         row["lemke_pivots"] = sum(st["lemke_pivots"] for st in s["steps"])
@@ -253,12 +265,12 @@ def finish_study(cfg: Config, out: Path, rows: list[dict], profiles: dict, ref_l
     write_csv(out / "study.csv", rows)
     if bracket:
         write_csv(out / "energy_bracket.csv", bracket)
-    table = write_tables(rows, bracket, out, note)
+    marks = order_marks(rows, limits, ref_label, extrapolated=scalars is not None)
+    table = write_tables(rows, bracket, out, note, marks)
     if limits:
         add_limit_spread(limits, ref_label)
         write_csv(out / "richardson.csv", limits)
-        table += tables(limits, order_summary(rows, constructed=constructed_orders(
-            limits, ref_label)))
+        table += tables(limits, order_summary(rows, marks=marks))
     if failures:
         table += "\nfailed runs (no row in study.csv; see their summary.json)\n\n" + "".join(
             f"- {f.splitlines()[0]}\n" for f in failures)
@@ -271,7 +283,7 @@ def finish_study(cfg: Config, out: Path, rows: list[dict], profiles: dict, ref_l
     floors = {f"ref_{r['quantity']}": r["uncertainty_rel"] for r in limits
               if r["method"] == ref_label}
     plot_study(rows, out, title=f"{cfg.path.stem} ({cfg.reference['type']})", note=note,
-               floors=floors, constructed=constructed_orders(limits, ref_label))
+               floors=floors, constructed=marks)
     if bracket:
         plot_bracket(bracket, out)
 
@@ -288,11 +300,13 @@ def write_csv(path: Path, rows: list[dict]) -> None:
 
 def plot_study(rows: list[dict], out: Path, title: str = "", note: str = "",
                floors: dict[str, float] | None = None,
-               constructed: dict[tuple[str, str], set[int]] | None = None) -> list[Path]:
+               constructed: dict[tuple[str, str], set[int] | dict[int, str]] | None = None
+               ) -> list[Path]:
     """error_vs_dofs.png, error_vs_time.png (closed-form errors err_* and errors against
     the model reference ref_*, one panel each) and energy_vs_sd.png in OUT; floors
     {column: relative uncertainty of the reference} are drawn as dotted lines;
-    constructed: the orders the legend's "last order" skips (`constructed_orders`)."""
+    constructed: the orders the legend's "last order" skips (`order_marks`, see
+    `_error_panel`)."""
     plt = pyplot()
 
     methods = list(dict.fromkeys(r["method"] for r in rows))
@@ -319,11 +333,13 @@ def plot_study(rows: list[dict], out: Path, title: str = "", note: str = "",
 
 def _error_panel(ax: Any, rows: list[dict], methods: list[str], ek: str, xkey: str, xlabel: str,
                  floors: dict[str, float] | None,
-                 constructed: dict[tuple[str, str], set[int]] | None = None) -> None:
+                 constructed: dict[tuple[str, str], set[int] | dict[int, str]] | None = None
+                 ) -> None:
     """One log-log panel of plot_study: column ek against xkey ("n_dofs": the legend
-    gives the fitted rate and the last observed order, not one fixed by the reference's
-    own limit, `constructed`), one line per method, and the reference's uncertainty
-    floors[ek] dotted if > 0."""
+    gives the fitted rate and the last observed order, not one of the levels in
+    `constructed`, e.g. the `order_marks` {level: mark}; the rate leaves out the levels
+    marked "=" and the errors at most floors[ek]), one line per method, and the
+    reference's uncertainty floors[ek] dotted if > 0."""
     import matplotlib.ticker
 
     for m in methods:
@@ -336,8 +352,17 @@ def _error_panel(ax: Any, rows: list[dict], methods: list[str], ek: str, xkey: s
             orders = [r.get(f"order_{ek}", math.nan) if r["level"] not in fixed else math.nan
                       for r in rr]
             last = next((o for o in reversed(orders) if math.isfinite(o)), math.nan)
-            lab += f" (rate {fitted_rate(x, y):.2f}, last order {last:.2f})"
+            # the fit leaves out errors that are no error against a finer solution ("="
+            # marks of order_marks) or within the reference's uncertainty (floors)
+            kinds = fixed if isinstance(fixed, dict) else {}
+            fit = np.array([kinds.get(r["level"]) != "=" for r in rr], dtype=bool)
+            fit &= ~(y <= (floors or {}).get(ek, 0.0))
+            lab += (f" (rate {_figure(fitted_rate(x[fit], y[fit]))}, "
+                    f"last order {_figure(last)})")
         ax.loglog(x, y, "o-", label=lab, ms=3)
+    if not any(np.isfinite(line.get_ydata()).any() for line in ax.lines):
+        ax.text(0.5, 0.5, "no finite error in any run\n(e.g. a reference value of 0)",
+                ha="center", va="center", transform=ax.transAxes, fontsize=8)
     if (floors or {}).get(ek, 0) > 0:
         ax.axhline(floors[ek], color="grey", ls=":", lw=1,
                    label="uncertainty of the Richardson limit")
@@ -348,6 +373,11 @@ def _error_panel(ax: Any, rows: list[dict], methods: list[str], ek: str, xkey: s
                  + ek[4:], fontsize=9)
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=7)
+
+
+def _figure(v: float) -> str:
+    """A legend's rate or order: two decimals, or "-" when there is none (NaN)."""
+    return f"{v:.2f}" if math.isfinite(v) else "-"
 
 
 def energy_title(rows: list[dict]) -> str:
@@ -365,17 +395,24 @@ def energy_title(rows: list[dict]) -> str:
     return "strain energy against smoothing domains"
 
 
+def sd_series(by_method: dict[str, dict], methods: list[str]) -> tuple[list[int], list[float]]:
+    """(smoothing domains, strain energies) of one level's CS-FEM runs (`by_method`: label
+    -> row), in increasing SD count whatever the order of --methods (in that order,
+    `--methods 16,1,4` drew a line 16 -> 1 -> 4 that doubled back)."""
+    sds = sorted((m for m in methods if m.endswith("SD") and m in by_method),
+                 key=lambda m: int(m[:-2]))
+    return [int(m[:-2]) for m in sds], [by_method[m]["strain_energy"] for m in sds]
+
+
 def _plot_energy_vs_sd(rows: list[dict], methods: list[str], out: Path) -> Path:
     """OUT/energy_vs_sd.png: strain energy against the smoothing domains per element, one
     line per level, FEM-Q4 dashed; returns its path."""
     plt = pyplot()
 
     fig, ax = plt.subplots(figsize=(5, 3.8))
-    sds = [m for m in methods if m.endswith("SD")]
     for level in sorted({r["level"] for r in rows}):
         rr = {r["method"]: r for r in rows if r["level"] == level}
-        xs = [int(m[:-2]) for m in sds if m in rr]
-        ys = [rr[m]["strain_energy"] for m in sds if m in rr]
+        xs, ys = sd_series(rr, methods)
         line = ax.semilogx(xs, ys, "o-", label=f"level {level}", base=2)[0]
         if "FEM-Q4" in rr:
             ax.axhline(rr["FEM-Q4"]["strain_energy"], color=line.get_color(), ls="--", lw=0.8)

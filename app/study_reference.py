@@ -86,17 +86,20 @@ def add_reference_errors(rows: list[dict], profiles: dict, ref_label: str,
     if scalars:
         ref |= {k: scalars[k] for k in ("energy", "p_max") if k in scalars}
         ref["points"] = {k: scalars.get(k, v) for k, v in ref["points"].items()}
-        note = (f"reference: Richardson limits of {ref_label} for energy, p_max and points; "
-                f"level {max(levels)} of {ref_label} ({ref['n_dofs']} DOFs) for p(x), q(x)")
+        names = [k for k in ("energy", "p_max") if k in scalars] + [
+            f"u_y({k})" for k in ref["points"] if k in scalars]  # what this scene has
+        note = (f"reference: Richardson limits of {ref_label} for {', '.join(names)}" + (
+            f"; level {max(levels)} of {ref_label} ({ref['n_dofs']} DOFs) for p(x), q(x)"
+            if "x" in ref else ""))
     win = contact_window(ref["x"], ref["p"]) if "x" in ref else None
     core = contact_window(ref["x"], ref["p"], CORE) if "x" in ref else None
     has_q = "q" in ref and np.abs(ref["q"]).max(initial=0.0) > 1e-12 * ref.get("p_max", 1)
     for r in rows:
         pr = profiles[(r["level"], r["method"])]
         is_ref = r["level"] == max(levels) and r["method"] == ref_label
-        vals = {"ref_energy": abs(pr["energy"] - ref["energy"]) / abs(ref["energy"])}
+        vals = {"ref_energy": relative_error(pr["energy"], ref["energy"])}
         if win is not None and "x" in pr:
-            vals["ref_p_max"] = abs(pr["p_max"] - ref["p_max"]) / ref["p_max"]
+            vals["ref_p_max"] = relative_error(pr["p_max"], ref["p_max"])
             vals["ref_pressure_l2"] = l2_against(pr["x"], pr["p"], ref["x"], ref["p"], win)
             vals["ref_pressure_l2_core"] = l2_against(pr["x"], pr["p"], ref["x"], ref["p"],
                                                       core)
@@ -104,12 +107,18 @@ def add_reference_errors(rows: list[dict], profiles: dict, ref_label: str,
                 vals["ref_traction_l2"] = l2_against(pr["x"], pr["q"], ref["x"], ref["q"], win)
         for name, uy in ref["points"].items():
             if name in pr["points"] and uy != 0:
-                vals[f"ref_{name}"] = abs(pr["points"][name] - uy) / abs(uy)
+                vals[f"ref_{name}"] = relative_error(pr["points"][name], uy)
         fields = ("ref_pressure_l2", "ref_pressure_l2_core", "ref_traction_l2")
         r.update({k: (math.nan if is_ref and (k in fields or not scalars) else v)
                   for k, v in vals.items()})
     add_orders(rows)
     return note
+
+
+def relative_error(value: float, ref: float) -> float:
+    """|value - ref| / |ref|; NaN when ref is 0 (e.g. the energy or peak pressure of a
+    scene whose load is zero or whose contact never closes: no relative error to give)."""
+    return abs(value - ref) / abs(ref) if ref != 0 else math.nan
 
 
 def observed_order(coarse: float, fine: float) -> float:
@@ -145,7 +154,8 @@ def energy_bracket(rows: list[dict]) -> list[dict]:
         row = {"level": level, "n_dofs": by["1SD"]["n_dofs"], "U_1SD": u1,
                f"U_{low}": ul, "lower_method": low,
                "one_sd_is_upper": bool(u1 >= ul),
-               "width_rel": abs(u1 - ul) / abs(0.5 * (u1 + ul))}
+               "width_rel": relative_error(u1, ul) if u1 + ul == 0
+               else abs(u1 - ul) / abs(0.5 * (u1 + ul))}
         for m, r in by.items():
             row[f"ref_energy_{m}"] = r.get("ref_energy", math.nan)
         out.append(row)
@@ -162,19 +172,26 @@ def _fmt(v) -> str:
     return str(v)
 
 
-def write_tables(rows: list[dict], bracket: list[dict], out: Path, note: str) -> str:
+def write_tables(rows: list[dict], bracket: list[dict], out: Path, note: str,
+                 marks: dict[tuple[str, str], dict[int, str]] | None = None) -> str:
     """Markdown tables (errors with observed orders per method; the energy bracket) in
-    OUT/study_tables.md; returns the text."""
+    OUT/study_tables.md; returns the text. marks: {(method, column): {level: mark}} put
+    after an order (app/study_richardson.order_marks: * fixed by the reference's own
+    limit, ~ within its uncertainty, = against the reference at the same level)."""
     cols = [k for k in dict.fromkeys(k for r in rows for k in r)
             if k.startswith(("err_", "ref_"))]
-    lines = [f"errors (observed order in parentheses); {note}", "",
+    lines = [f"errors (observed order in parentheses; *: fixed by the reference's own "
+             f"Richardson limit, ~: an error within that limit's uncertainty, =: an error "
+             f"against the reference run at the same level); {note}", "",
              "| method | level | DOFs | time [s] | " + " | ".join(c for c in cols) + " |",
              "|---" * (4 + len(cols)) + "|"]
     for r in sorted(rows, key=lambda r: (r["method"], r["level"])):
         cells = []
         for c in cols:
             o = r.get(f"order_{c}", math.nan)
-            cells.append(_fmt(r.get(c, math.nan)) + (f" ({o:.2f})" if math.isfinite(o) else ""))
+            mark = (marks or {}).get((r["method"], c), {}).get(r["level"], "")
+            cells.append(_fmt(r.get(c, math.nan))
+                         + (f" ({o:.2f}{mark})" if math.isfinite(o) else ""))
         lines.append(f"| {r['method']} | {r['level']} | {r['n_dofs']} | {r['t_total']:.2f} | "
                      + " | ".join(cells) + " |")
     if bracket:
@@ -191,9 +208,9 @@ def write_tables(rows: list[dict], bracket: list[dict], out: Path, note: str) ->
 def plot_bracket(bracket: list[dict], out: Path) -> Path:
     """energy_bracket.png: the bracket width and each bound's energy error against the
     reference, against DOFs."""
+    import matplotlib.ticker
+
     plt = pyplot()
-
-
     x = np.array([b["n_dofs"] for b in bracket], dtype=float)
     fig, ax = plt.subplots(figsize=(5.2, 3.8))
     w = np.array([b["width_rel"] for b in bracket])
@@ -204,6 +221,7 @@ def plot_bracket(bracket: list[dict], out: Path) -> Path:
             if np.isfinite(y).sum() >= 1:
                 ax.loglog(x, y, "o--", ms=3, label=f"|U-U_ref|/U_ref {k[11:]} "
                           f"(rate {fitted_rate(x, y):.2f})")
+    ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())  # (they overlapped)
     ax.set_xlabel("DOFs")
     ax.set_ylabel("relative energy")
     ax.set_title("energy bracket U(1SD) / U(" + bracket[0]["lower_method"] + ")", fontsize=9)

@@ -93,25 +93,97 @@ def constructed_orders(limits: list[dict], ref_label: str) -> dict[tuple[str, st
     return out
 
 
+def unresolved_orders(rows: list[dict], limits: list[dict], ref_label: str
+                      ) -> dict[tuple[str, str], set[int]]:
+    """{(method, ref_ column): levels} of the observed orders log2(e_{l-1} / e_l) whose
+    e_{l-1} or e_l is at most the relative uncertainty of the reference's Richardson limit
+    (uncertainty_rel): the reference may account for all of such an error, so its order
+    measures the reference, not the method (e.g. 1SD's energy on Hertz, below 4SD's
+    limit's uncertainty at every level). Only limits that are the reference (three or
+    more levels, `reference_scalars`)."""
+    floors = {f"ref_{r['quantity']}": r["uncertainty_rel"] for r in limits
+              if r["method"] == ref_label and r["n_levels"] >= 3}
+    out: dict[tuple[str, str], set[int]] = {}
+    for m in dict.fromkeys(r["method"] for r in rows):
+        rr = sorted((r for r in rows if r["method"] == m), key=lambda r: r["level"])
+        for col, floor in floors.items():
+            levels = {cur["level"] for prev, cur in zip(rr, rr[1:], strict=False)
+                      if min(prev.get(col, math.inf), cur.get(col, math.inf)) <= floor}
+            if levels:
+                out[(m, col)] = levels
+    return out
+
+
+FIELDS = ("ref_pressure_l2", "ref_pressure_l2_core", "ref_traction_l2")
+"""The ref_ columns compared with the finest level of the reference method in every mode."""
+
+
+def same_level_orders(rows: list[dict], ref_label: str, extrapolated: bool
+                      ) -> dict[tuple[str, str], set[int]]:
+    """{(method, ref_ column): levels} of the other methods' orders whose finer error is
+    against the reference run at the same level (or a coarser one): a difference between
+    two methods on one mesh, not an error against a finer solution, so log2(e_{l-1} / e_l)
+    is no order of convergence (e.g. FEM-Q4's L2(p) "3.66" at 4SD's finest level of
+    hertz.toml, levels 0-2). The fields always (they use the finest level), the scalars
+    too unless `extrapolated` (Richardson limits)."""
+    finest = max((r["level"] for r in rows if r["method"] == ref_label), default=None)
+    if finest is None:
+        return {}
+    cols = [k for k in dict.fromkeys(k for r in rows for k in r) if k.startswith("ref_")
+            and (k in FIELDS or not extrapolated)]
+    out: dict[tuple[str, str], set[int]] = {}
+    for r in rows:
+        if r["method"] != ref_label and r["level"] >= finest:
+            for c in cols:
+                out.setdefault((r["method"], c), set()).add(r["level"])
+    return out
+
+
+def order_marks(rows: list[dict], limits: list[dict], ref_label: str,
+                extrapolated: bool = True) -> dict[tuple[str, str], dict[int, str]]:
+    """{(method, ref_ column): {level: mark}} of the orders that measure no convergence of
+    the method: "*" fixed by the reference's own Richardson limit (`constructed_orders`),
+    "~" an error within that limit's uncertainty (`unresolved_orders`), "=" an error
+    against the reference at the same level (`same_level_orders`; extrapolated: the
+    scalars' reference is a Richardson limit). Shown after the orders in the tables and
+    left out of the spreads, the windows and the plots' "last order"."""
+    out: dict[tuple[str, str], dict[int, str]] = {}
+    for mark, found in (("=", same_level_orders(rows, ref_label, extrapolated)),
+                        ("~", unresolved_orders(rows, limits, ref_label)),
+                        ("*", constructed_orders(limits, ref_label))):
+        for key, levels in found.items():
+            out.setdefault(key, {}).update(dict.fromkeys(levels, mark))
+    return out
+
+
 def order_summary(rows: list[dict], last: int = 3,
-                  constructed: dict[tuple[str, str], set[int]] | None = None) -> list[dict]:
+                  constructed: dict[tuple[str, str], set[int]] | None = None,
+                  unresolved: dict[tuple[str, str], set[int]] | None = None,
+                  marks: dict[tuple[str, str], dict[int, str]] | None = None) -> list[dict]:
     """Per method and ref_ column: the observed orders (levels 1..finest), the
     min/max/spread of its `last` finest finite orders (last + 1 levels; the reference
     method's own finest level has no order), and the steadiest window: the `last`
     successive orders with the smallest spread (`window`: its levels, `window_spread`).
     constructed: {(method, column): levels} whose orders are fixed by the reference's own
     Richardson limit (`constructed_orders`): shown with a `*` and left out of the spread
-    and the windows."""
+    and the windows. unresolved: {(method, column): levels} whose errors are within the
+    reference's uncertainty (`unresolved_orders`): shown with a `~` and left out too.
+    marks: {(method, column): {level: mark}} (`order_marks`), shown and left out too."""
     cols = [k for k in dict.fromkeys(k for r in rows for k in r) if k.startswith("ref_")]
+    every: dict[tuple[str, str], dict[int, str]] = {}
+    for found in ({k: dict.fromkeys(v, "~") for k, v in (unresolved or {}).items()},
+                  marks or {}, {k: dict.fromkeys(v, "*") for k, v in (constructed or {}).items()}):
+        for key, by_level in found.items():
+            every.setdefault(key, {}).update(by_level)
     out = []
     for m in dict.fromkeys(r["method"] for r in rows):
         rr = sorted((r for r in rows if r["method"] == m), key=lambda r: r["level"])
         for c in cols:
-            fixed = (constructed or {}).get((m, c), set())
+            mark = every.get((m, c), {})
             orders = [r.get(f"order_{c}", math.nan) for r in rr[1:]]
-            text = [(f"{o:.2f}" + ("*" if r["level"] in fixed else ""))
-                    if math.isfinite(o) else "-" for o, r in zip(orders, rr[1:], strict=True)]
-            orders = [math.nan if r["level"] in fixed else o
+            text = [f"{o:.2f}{mark.get(r['level'], '')}" if math.isfinite(o) else "-"
+                    for o, r in zip(orders, rr[1:], strict=True)]
+            orders = [math.nan if r["level"] in mark else o
                       for o, r in zip(orders, rr[1:], strict=True)]
             row = {"method": m, "error": c, "orders": " ".join(text)}
             tail = [o for o in orders if math.isfinite(o)][-last:]
@@ -152,7 +224,11 @@ def tables(limits: list[dict], summary: list[dict]) -> str:
     lines += ["| " + " | ".join(_g(r.get(k, math.nan)) for k in keys) + " |" for r in limits]
     keys = ["method", "error", "orders", "min", "max", "spread", "window", "window_spread"]
     lines += ["", "observed orders against the reference (levels 1..finest; *: fixed by the "
-              "reference's own Richardson limit, not measured, and left out of the rest; "
+              "reference's own Richardson limit, not measured, and left out of the rest; ~: "
+              "an error of the two levels is within the uncertainty of that limit, so the "
+              "order is not resolved, and left out of the rest too; =: the finer error is "
+              "against the reference run at its own level (a difference of two methods on "
+              "one mesh), left out too; "
               "min/max/spread of the last three finite orders; window: the four successive "
               "levels whose three orders have the smallest spread, window_spread)", "",
               "| " + " | ".join(keys) + " |", "|---" * len(keys) + "|"]

@@ -24,6 +24,7 @@ from app.output.status import step_writing
 from app.plotting import pyplot
 from app.run import RunOptions, run
 from app.study import write_csv
+from app.study_missing import missing_combinations
 
 ZONES = ("contact", "stick", "slip", "open", "bonded")
 
@@ -106,7 +107,8 @@ def summarize(steps: list[dict], at_step: int) -> dict:
         return {}
     k = at_step - 1 if at_step > 0 else len(steps) + at_step - 1
     row = steps[min(max(k, 0), len(steps) - 1)]
-    out = {f"{q}": row[q] for q in ("normal_force", "tangential_force", "max_pressure")}
+    out = {"step": row["step"]}  # the step the figures below are at (--at-step)
+    out |= {f"{q}": row[q] for q in ("normal_force", "tangential_force", "max_pressure")}
     out |= {f"{z}_length": row[f"{z}_length"] for z in ZONES}
     out["peak_normal_force"] = max(abs(s["normal_force"]) for s in steps)
     out["peak_tangential_force"] = max(abs(s["tangential_force"]) for s in steps)
@@ -133,11 +135,14 @@ def run_sweep(config: Path, sets: list[str], sweeps: list[tuple[str, list[str]]]
         if not rows:
             return f"sweep: no run completed in {out}"
         plots = PETSc.COMM_WORLD.getSize() == 1  # several ranks: mpiexec kills in 1 s
+        missing = missing_combinations(out, keys, combos, rows, _value)
+        write_csv(out / "sweep.csv", rows + missing)  # with a row for each missing run
         if plots:
             plot_sweep([dict(r) for r in rows], keys, out, at_step)
         return (f"sweep: interrupted; its {len(rows)} rows are in sweep.csv" +
                 (" and the plots" if plots else " (no plots on several ranks)") +
-                f", in {out}")
+                f", in {out}, with a row for each of the {len(missing)} runs that did not "
+                "complete")
 
     with BatchGuard(write_completed):
         for i, combo in enumerate(combos):
@@ -210,17 +215,28 @@ PANELS = [
 STYLES = ("-", "--", ":", "-.")
 
 
+def report_label(rows: list[dict], at_step: int) -> str:
+    """Which step the plots' figures are at: "the last step", "step N" (for --at-step < 0
+    the step it names when all rows agree, before: "step -3"), or "K steps before the last"."""
+    if at_step >= 0:
+        return "the last step" if at_step == 0 else f"step {at_step}"
+    steps = {r.get("step") for r in rows}
+    if len(steps) == 1 and isinstance(step := steps.pop(), int):
+        return f"step {step}"
+    return f"{-at_step} steps before the last"
+
+
 def plot_sweep(rows: list[dict], keys: list[str], out: Path, at_step: int = 0) -> list[Path]:
     """sweep_<key>.png per swept key: the contact's figures against the key's value; colour
     = quantity, line style = interface and combination of the other keys."""
     plt = pyplot()
 
     ok = [r for r in rows if r.get("status") == "completed"]
-    when = "the last step" if at_step == 0 else f"step {at_step}"
+    when = report_label(ok, at_step)
     paths = []
     for key in keys:
-        if not ok or not all(isinstance(r[key], float) for r in ok):
-            continue
+        if not ok or len({type(r[key]) for r in ok}) > 1:
+            continue  # (values all numbers, or all text: then the axis is categorical)
         others = [k for k in keys if k != key]
         groups: dict[tuple, list[dict]] = {}
         for r in ok:

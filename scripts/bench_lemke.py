@@ -114,10 +114,10 @@ def run(n: int, reference: bool = False, seed: int = 0, siconos: bool = False,
         # identical outcome: both solved, the same active set
         out["same_active_set_as_siconos"] = bool(np.array_equal(z > 0, res.z > 0))
     if reference:
-        from app.lcp.lemke import _lemke_tableau
+        from app.lcp.lemke import lemke_tableau
 
         t0 = time.perf_counter()
-        ref = _lemke_tableau(M, q)
+        ref = lemke_tableau(M, q)
         out["reference_seconds"] = round(time.perf_counter() - t0, 4)
         out["reference_pivots"] = ref.pivots
         out["max_abs_z_diff"] = float(np.abs(ref.z - res.z).max())

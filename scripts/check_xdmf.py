@@ -63,7 +63,6 @@ def check_file(out: Path, name: str, reader_name: str) -> dict:
     times = [float(t) for t in (tv if hasattr(tv, "__len__") else [tv])]
     if [round(t) for t in times] != steps or any(t != round(t) for t in times):
         problems.append(f"times {times} but step files {steps}")
-    expected = BULK if name == "results.xdmf" else CONTACT
     for t, step in zip(times, steps, strict=False):  # a mismatch is reported above
         r.UpdatePipeline(t)
         data = pvs.servermanager.Fetch(r)
@@ -76,39 +75,57 @@ def check_file(out: Path, name: str, reader_name: str) -> dict:
                 group = f
             else:
                 pts, n_cells, group = f["contact/position"][()], None, f["contact"]
-            if data.GetNumberOfPoints() != len(pts):
-                problems.append(f"t={t}: {data.GetNumberOfPoints()} points, not {len(pts)}")
-            if n_cells is not None and data.GetNumberOfCells() != n_cells:
-                problems.append(f"t={t}: {data.GetNumberOfCells()} cells, not {n_cells}")
-            b = data.GetBounds()
-            want = (pts[:, 0].min(), pts[:, 0].max(), pts[:, 1].min(), pts[:, 1].max())
-            if len(pts) and not np.allclose(b[:4], want, rtol=0, atol=1e-12 * np.abs(want).max()):
-                problems.append(f"t={t}: bounds {b[:4]} not {want}")
-            attrs = {}
-            for fd in (data.GetPointData(), data.GetCellData()):
-                for i in range(fd.GetNumberOfArrays()):
-                    a = fd.GetArray(i)
-                    attrs[a.GetName()] = a
-            for arr, comps in expected.items():
-                if arr not in attrs:
-                    if arr in group or H5_NAME.get(arr, arr) in group:
-                        problems.append(f"t={t}: array {arr} missing")
-                    continue
-                a = attrs[arr]
-                if a.GetNumberOfComponents() != comps:
-                    problems.append(f"t={t}: {arr} has {a.GetNumberOfComponents()} "
-                                    f"components, not {comps}")
-                    continue
-                h5 = group[H5_NAME.get(arr, arr) if name == "contact.xdmf" else arr][()]
-                if len(h5) == 0:
-                    continue
-                pv_range = tuple(a.GetRange(0 if comps == 1 else -1))
-                if not _close(pv_range, _range(h5, comps)):
-                    problems.append(f"t={t}: {arr} range {pv_range} vs HDF5 "
-                                    f"{_range(h5, comps)}")
+            problems += geometry_problems(data, pts, n_cells, t)
+            problems += array_problems(data, group, name, t)
     pvs.Delete(r)
     return {"out": str(out), "file": name, "reader": reader_name, "times": times,
             "problems": problems}
+
+
+def geometry_problems(data, pts: np.ndarray, n_cells: int | None, t: float) -> list[str]:
+    """Differences of a ParaView dataset at time t from the HDF5 points (p, 2) and cell
+    count (None: not checked): number of points and cells, bounds."""
+    problems = []
+    if data.GetNumberOfPoints() != len(pts):
+        problems.append(f"t={t}: {data.GetNumberOfPoints()} points, not {len(pts)}")
+    if n_cells is not None and data.GetNumberOfCells() != n_cells:
+        problems.append(f"t={t}: {data.GetNumberOfCells()} cells, not {n_cells}")
+    b = data.GetBounds()
+    want = (pts[:, 0].min(), pts[:, 0].max(), pts[:, 1].min(), pts[:, 1].max())
+    if len(pts) and not np.allclose(b[:4], want, rtol=0, atol=1e-12 * np.abs(want).max()):
+        problems.append(f"t={t}: bounds {b[:4]} not {want}")
+    return problems
+
+
+def array_problems(data, group, name: str, t: float) -> list[str]:
+    """Differences of the arrays of a ParaView dataset at time t from the HDF5 group of
+    that step: every array of BULK (results.xdmf) or CONTACT that the group holds is
+    there, with its number of components and the range of its HDF5 dataset."""
+    expected = BULK if name == "results.xdmf" else CONTACT
+    attrs = {}
+    for fd in (data.GetPointData(), data.GetCellData()):
+        for i in range(fd.GetNumberOfArrays()):
+            a = fd.GetArray(i)
+            attrs[a.GetName()] = a
+    problems = []
+    for arr, comps in expected.items():
+        if arr not in attrs:
+            if arr in group or H5_NAME.get(arr, arr) in group:
+                problems.append(f"t={t}: array {arr} missing")
+            continue
+        a = attrs[arr]
+        if a.GetNumberOfComponents() != comps:
+            problems.append(f"t={t}: {arr} has {a.GetNumberOfComponents()} "
+                            f"components, not {comps}")
+            continue
+        h5 = group[H5_NAME.get(arr, arr) if name == "contact.xdmf" else arr][()]
+        if len(h5) == 0:
+            continue
+        pv_range = tuple(a.GetRange(0 if comps == 1 else -1))
+        if not _close(pv_range, _range(h5, comps)):
+            problems.append(f"t={t}: {arr} range {pv_range} vs HDF5 "
+                            f"{_range(h5, comps)}")
+    return problems
 
 
 def check(out: Path):

@@ -38,6 +38,7 @@ import sys
 import tempfile
 import time
 import tomllib
+from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -231,6 +232,150 @@ def absolute_mesh_file(raw: dict, config: Path) -> None:
         mesh["file"] = str((config.parent / mesh["file"]).resolve())
 
 
+# --- structural edits of a config (the `structure` family): each edits the parsed file
+# raw in place and returns (must_fail, description or None for the edit's name)
+
+
+def _dup_body(rng: random.Random, raw: dict) -> tuple[bool | None, str | None]:
+    raw["body"].append(copy.deepcopy(rng.choice(raw["body"])))
+    return True, None
+
+
+def _dup_interface(rng: random.Random, raw: dict) -> tuple[bool | None, str | None]:
+    if not raw.get("interface"):
+        return _dup_support(rng, raw)[0], None  # no interface to repeat: a support
+    raw["interface"].append(copy.deepcopy(rng.choice(raw["interface"])))
+    return True, None
+
+
+def _unknown_key(rng: random.Random, raw: dict) -> tuple[bool | None, str | None]:
+    tables = [raw] + [t for _, _, _, v in leaves(raw) if isinstance(v, dict)
+                      for t in [v]] + [t for k in ("body", "support", "load", "interface")
+                                       for t in raw.get(k, [])]
+    t = rng.choice(tables)
+    fail = True
+    if t is raw.get("parameters") or t is raw.get("points") or \
+            any(t is b.get("curves") for b in raw["body"]):
+        fail = None  # user names: any key is allowed there
+    name = rng.choice(["younng", "sizee", "Nu", "\u00fcber", "x" * 300, "steps "])
+    t[name] = 1.0
+    return fail, f"unknown key {name[:20]!r}"
+
+
+def _dangling(rng: random.Random, raw: dict) -> tuple[bool | None, str | None]:
+    refs = [(t, k) for s in ("support", "load", "interface") for t in raw.get(s, [])
+            for k in ("on", "slave", "master") if k in t]
+    refs += [(r, "curves") for r in raw.get("mesh", {}).get("refine", []) if r.get("curves")]
+    t, k = rng.choice(refs)
+    bad = rng.choice(["nowhere", "", "\u00fcnknown", "x" * 2000, "block top"])
+    t[k] = [bad] if k == "curves" else bad
+    return True, f"dangling {k} -> {bad[:20]!r}"
+
+
+def _empty_array(rng: random.Random, raw: dict) -> tuple[bool | None, str | None]:
+    k = rng.choice(["body", "support", "load", "interface"])
+    raw[k] = []
+    return (True if k == "body" else None), f"{k} = []"
+
+
+def _table_scalar(rng: random.Random, raw: dict) -> tuple[bool | None, str | None]:
+    k = rng.choice([k for k in raw if k != "title"])
+    raw[k] = rng.choice([1.0, "text", [1, 2], True])
+    return True, f"{k} = scalar"
+
+
+def _swap_ref(rng: random.Random, raw: dict) -> tuple[bool | None, str | None]:
+    curves = sorted({c for b in raw["body"] for c in b.get("curves", {}).values()})
+    refs = [t for s in ("support", "load") for t in raw.get(s, [])]
+    if not (curves and refs):
+        return None, None
+    t = rng.choice(refs)
+    t["on"] = rng.choice(curves)
+    return None, f"on -> {t['on']}"
+
+
+def _dup_support(rng: random.Random, raw: dict) -> tuple[bool | None, str | None]:
+    if raw.get("support"):
+        raw["support"].append(copy.deepcopy(rng.choice(raw["support"])))
+    return None, None
+
+
+STRUCTURE_EDITS: dict[str, Callable[[random.Random, dict], tuple[bool | None, str | None]]] = {
+    "dup_body": _dup_body, "dup_interface": _dup_interface, "unknown_key": _unknown_key,
+    "dangling": _dangling, "empty_array": _empty_array, "table_scalar": _table_scalar,
+    "swap_ref": _swap_ref, "dup_support": _dup_support,
+}
+"""The `structure` family's edits by name (the order is the random choice's)."""
+
+
+# --- command-line edits (the `cli_run` family): each edits case.argv (and the case's
+# expectations) for option opt and returns whether argparse must refuse it (usage error)
+
+
+def _cli_mesh_size(rng: random.Random, case: Case, opt: str) -> bool:
+    v = rng.choice(["0", "-1", "nan", "inf", "1e-9", "abc", "", "-0", "1e-300"])
+    case.argv = without_mesh_size(case.argv) + [opt, v]
+    return v in ("abc", "")
+
+
+def _cli_sd(rng: random.Random, case: Case, opt: str) -> bool:
+    v = rng.choice(["0", "5", "-1", "100", "abc", "1.5", "99999999999999999999"])
+    case.argv += [opt, v]
+    return v in ("abc", "1.5")
+
+
+def _cli_method(rng: random.Random, case: Case, opt: str) -> bool:
+    case.argv += [opt, rng.choice(["fem", "", "CS-FEM", "q4"])]
+    return True
+
+
+def _cli_refine(rng: random.Random, case: Case, opt: str) -> bool:
+    v = rng.choice(["-1", "9", "100", "1.5", "abc", "99999999999999999999"])
+    case.argv += [opt, v]
+    return v in ("1.5", "abc")
+
+
+def _cli_path(rng: random.Random, case: Case, opt: str) -> bool:
+    v = rng.choice(["", " ", "/proc/fuzz_out", "/dev/null", "{CASE}/afile",
+                    "{CASE}/afile/sub", "{CASE}/" + "n" * 300])
+    if opt == "--out":
+        case.argv[case.argv.index("--out") + 1] = v
+    else:
+        case.argv += [opt, v]
+    case.expect_summary = opt == "--mesh-cache"
+    case.extra["afile"] = True
+    return False
+
+
+def _cli_petsc(rng: random.Random, case: Case, opt: str) -> bool:
+    v = rng.choice([["-ksp_type", "bogus"], ["-pc_type", "bogus"],
+                    ["-pc_factor_mat_solver_type", "bogus"], ["-ksp_type"],
+                    ["-ksp_rtol", "-1"], ["-ksp_rtol", "nan"],
+                    ["-ksp_max_it", "-5"], ["-mat_mumps_icntl_14", "abc"],
+                    ["-log_view", ":/proc/nope/log.txt"],
+                    ["-options_file", "/nonexistent/opts"],
+                    ["-ksp_type", "cg", "-pc_type", "none"],
+                    ["-pc_type", "gamg"], ["-mat_mumps_icntl_24", "x"]])
+    case.argv += v
+    case.desc = " ".join(v)
+    case.must_fail = None
+    return False
+
+
+def _cli_flag(rng: random.Random, case: Case, opt: str) -> bool:
+    case.must_fail = None
+    case.argv += [opt]
+    return False
+
+
+CLI_EDITS: dict[str, Callable[[random.Random, Case, str], bool]] = {
+    "--mesh-size": _cli_mesh_size, "--sd": _cli_sd, "--method": _cli_method,
+    "--refine": _cli_refine, "--out": _cli_path, "--mesh-cache": _cli_path,
+    "petsc": _cli_petsc,
+}
+"""The `cli_run` family's edits by option (any other option: `_cli_flag`, a bare flag)."""
+
+
 class Generator:
     """Random cases from a list of shipped configs (deterministic for a seed)."""
 
@@ -358,58 +503,11 @@ class Generator:
                          must_fail=fail or None)
 
     def structure(self, cfg: str) -> Case:
+        """A structural edit of the file (`STRUCTURE_EDITS`, one picked at random)."""
         raw = copy.deepcopy(self.raw[cfg])
-        kinds = ["dup_body", "dup_interface", "unknown_key", "dangling", "empty_array",
-                 "table_scalar", "swap_ref", "dup_support"]
-        kind = self.rng.choice(kinds)
-        fail: bool | None = True
-        desc = kind
-        if kind == "dup_body":
-            raw["body"].append(copy.deepcopy(self.rng.choice(raw["body"])))
-        elif kind == "dup_interface" and raw.get("interface"):
-            raw["interface"].append(copy.deepcopy(self.rng.choice(raw["interface"])))
-        elif kind == "unknown_key":
-            tables = [raw] + [t for _, _, _, v in leaves(raw) if isinstance(v, dict)
-                              for t in [v]] + [t for k in ("body", "support", "load",
-                                                           "interface") for t in raw.get(k, [])]
-            t = self.rng.choice(tables)
-            if t is raw.get("parameters") or t is raw.get("points") or \
-                    any(t is b.get("curves") for b in raw["body"]):
-                fail = None  # user names: any key is allowed there
-            name = self.rng.choice(["younng", "sizee", "Nu", "\u00fcber", "x" * 300, "steps "])
-            t[name] = 1.0
-            desc = f"unknown key {name[:20]!r}"
-        elif kind == "dangling":
-            refs = [(t, k) for s in ("support", "load", "interface") for t in raw.get(s, [])
-                    for k in ("on", "slave", "master") if k in t]
-            refs += [(r, "curves") for r in raw.get("mesh", {}).get("refine", [])
-                     if r.get("curves")]
-            t, k = self.rng.choice(refs)
-            bad = self.rng.choice(["nowhere", "", "\u00fcnknown", "x" * 2000, "block top"])
-            t[k] = [bad] if k == "curves" else bad
-            desc = f"dangling {k} -> {bad[:20]!r}"
-        elif kind == "empty_array":
-            k = self.rng.choice(["body", "support", "load", "interface"])
-            raw[k] = []
-            fail = True if k == "body" else None
-            desc = f"{k} = []"
-        elif kind == "table_scalar":
-            k = self.rng.choice([k for k in raw if k != "title"])
-            raw[k] = self.rng.choice([1.0, "text", [1, 2], True])
-            desc = f"{k} = scalar"
-        elif kind == "swap_ref":
-            fail = None
-            curves = sorted({c for b in raw["body"] for c in b.get("curves", {}).values()})
-            refs = [t for s in ("support", "load") for t in raw.get(s, [])]
-            if curves and refs:
-                t = self.rng.choice(refs)
-                t["on"] = self.rng.choice(curves)
-                desc = f"on -> {t['on']}"
-        else:
-            fail = None
-            if raw.get("support"):
-                raw["support"].append(copy.deepcopy(self.rng.choice(raw["support"])))
-        return self.base(cfg, "structure", desc, toml=self.text_of(cfg, raw),
+        kind = self.rng.choice(list(STRUCTURE_EDITS))
+        fail, desc = STRUCTURE_EDITS[kind](self.rng, raw)
+        return self.base(cfg, "structure", desc or kind, toml=self.text_of(cfg, raw),
                          config_kind="text", must_fail=fail)
 
     def broken_file(self, cfg: str) -> Case:
@@ -460,55 +558,17 @@ class Generator:
         return case
 
     def cli_run(self, cfg: str) -> Case:
+        """A bad command-line option or PETSc option (`CLI_EDITS`, one picked at random)."""
         opt = self.rng.choice(["--mesh-size", "--sd", "--method", "--refine", "--out",
                                "--mesh-cache", "petsc", "petsc", "--energy-bracket"])
         case = self.base(cfg, "cli_run", opt, must_fail=True)
-        usage = False
-        if opt == "--mesh-size":
-            v = self.rng.choice(["0", "-1", "nan", "inf", "1e-9", "abc", "", "-0", "1e-300"])
-            usage = v in ("abc", "")
-            case.argv = without_mesh_size(case.argv) + [opt, v]
-        elif opt == "--sd":
-            v = self.rng.choice(["0", "5", "-1", "100", "abc", "1.5", "99999999999999999999"])
-            usage = v in ("abc", "1.5")
-            case.argv += [opt, v]
-        elif opt == "--method":
-            v = self.rng.choice(["fem", "", "CS-FEM", "q4"])
-            usage = True
-            case.argv += [opt, v]
-        elif opt == "--refine":
-            v = self.rng.choice(["-1", "9", "100", "1.5", "abc", "99999999999999999999"])
-            usage = v in ("1.5", "abc")
-            case.argv += [opt, v]
-        elif opt in ("--out", "--mesh-cache"):
-            v = self.rng.choice(["", " ", "/proc/fuzz_out", "/dev/null", "{CASE}/afile",
-                                 "{CASE}/afile/sub", "{CASE}/" + "n" * 300])
-            if opt == "--out":
-                i = case.argv.index("--out")
-                case.argv[i + 1] = v
-            else:
-                case.argv += [opt, v]
-            case.expect_summary = opt == "--mesh-cache"
-            case.extra["afile"] = True
-        elif opt == "petsc":
-            v = self.rng.choice([["-ksp_type", "bogus"], ["-pc_type", "bogus"],
-                                 ["-pc_factor_mat_solver_type", "bogus"], ["-ksp_type"],
-                                 ["-ksp_rtol", "-1"], ["-ksp_rtol", "nan"],
-                                 ["-ksp_max_it", "-5"], ["-mat_mumps_icntl_14", "abc"],
-                                 ["-log_view", ":/proc/nope/log.txt"],
-                                 ["-options_file", "/nonexistent/opts"],
-                                 ["-ksp_type", "cg", "-pc_type", "none"],
-                                 ["-pc_type", "gamg"], ["-mat_mumps_icntl_24", "x"]])
-            case.argv += v
-            case.desc = " ".join(v)
-            case.must_fail = None
-        else:
-            case.must_fail = None
-            case.argv += [opt]
+        usage = CLI_EDITS.get(opt, _cli_flag)(self.rng, case, opt)
         if usage:  # argparse's error: OUT/summary.json says failed too
             case.extra["usage"] = True
-        if opt != "petsc":
-            case.desc = f"{opt} {case.argv[-1] if opt not in ('--out',) else v!r}"
+        if opt == "--out":
+            case.desc = f"{opt} {case.argv[case.argv.index('--out') + 1]!r}"
+        elif opt != "petsc":
+            case.desc = f"{opt} {case.argv[-1]!r}"
         return case
 
     def add_entry(self, cfg: str) -> Case:

@@ -140,3 +140,24 @@ def test_summary_names_the_curve_with_the_pairs(tmp_path):
     assert res.returncode == 0, res.stderr
     d = read_summary(out)["contact_interfaces"]["indent"]
     assert d["pairs_on"] == "cyl_arc" and d["discretisation"] == DISC
+
+
+@pytest.mark.parametrize("n_low, n_up", [(5, 7), (4, 16), (16, 4)])
+def test_the_ratio_comes_from_the_geometry_and_the_rows_are_built_once(n_low, n_up,
+                                                                        monkeypatch):
+    """`size_ratio` is the ratio the rows' master-basis factory sees, and a swapping or
+    keeping interface integrates its rows once."""
+    import app.contact.mortar as mortar
+    from app.contact.mortar import slave_geometry
+    from app.contact.mortar_coarse_slave import size_ratio
+
+    mesh = stacked(n_low, n_up, gap=0.01)
+    seen: list[float] = []
+    mortar_constraints(mesh, itf(), 0, master_basis=size_ratio_probe(seen))
+    assert size_ratio(slave_geometry(mesh, itf())) == seen[0]
+    calls = []
+    real = mortar._covered_weights
+    monkeypatch.setattr(mortar, "_covered_weights",
+                        lambda *a, **k: calls.append(1) or real(*a, **k))
+    mortar_coarse_slave_constraints(mesh, itf(), 0)
+    assert len(calls) == 1

@@ -101,5 +101,8 @@ def test_a_sweep_interrupted_on_one_rank_draws_its_plots(tmp_path):
                          timeout=300)
     assert res.returncode == 130, res.stderr
     assert "sweep: interrupted; its 1 rows are in sweep.csv and the plots" in res.stderr
-    assert len(read_csv(out / "sweep.csv")) == 1
+    assert "with a row for each of the 2 runs that did not complete" in res.stderr
+    rows = read_csv(out / "sweep.csv")  # (before: the completed row alone)
+    assert [(r["interface.interface.mu"], r["status"]) for r in rows] == [
+        ("0.2", "completed"), ("0.4", "not run"), ("0.6", "not run")]
     assert list(out.glob("*.png"))

@@ -5,10 +5,19 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 
 from app.richardson import extrapolate, observed_order, richardson
-from app.study_richardson import consecutive_levels, method_limits, order_summary
+from app.study_reference import add_orders
+from app.study_richardson import (
+    consecutive_levels,
+    method_limits,
+    order_marks,
+    order_summary,
+    same_level_orders,
+    unresolved_orders,
+)
 
 
 def seq(limit, terms, levels):
@@ -101,3 +110,97 @@ def test_order_summary_skips_the_reference_level_and_finds_the_steadiest_window(
     (s,) = order_summary(rows)
     assert s["spread"] == pytest.approx(0.8) and s["window"] == "0-3"  # first of the ties
     assert s["window_spread"] == pytest.approx(1.0 - math.log2(0.5 / 0.3))
+
+
+def test_orders_within_the_reference_uncertainty_are_marked_and_left_out():
+    """1SD's energy on hertz.toml (levels 0-2) is 1.6e-4, 3.6e-4, 2.1e-4 from 4SD's limit,
+    whose uncertainty is 1.3e-3: its orders -1.12, 0.76 measured the reference, unmarked."""
+    limits = [{"method": "4SD", "quantity": "energy", "n_levels": 4, "levels": "0-3",
+               "order_source": "observed", "uncertainty_rel": 1e-3}]
+    errs = {"1SD": [1.6e-4, 3.6e-4, 2.1e-4, 1.9e-4], "FEM-Q4": [4e-2, 1e-2, 2.5e-3, 8e-4]}
+    rows = [{"level": lv, "method": m, "ref_energy": e}
+            for m, es in errs.items() for lv, e in enumerate(es)]
+    add_orders(rows)
+    vague = unresolved_orders(rows, limits, "4SD")
+    assert vague == {("1SD", "ref_energy"): {1, 2, 3}, ("FEM-Q4", "ref_energy"): {3}}
+    got = {s["method"]: s for s in order_summary(rows, unresolved=vague)}
+    assert got["1SD"]["orders"] == "-1.17~ 0.78~ 0.14~" and "spread" not in got["1SD"]
+    assert got["FEM-Q4"]["orders"] == "2.00 2.00 1.64~" and "spread" not in got["FEM-Q4"]
+    # without the mark, the unresolved orders entered the spread
+    assert order_summary(rows)[0]["spread"] == pytest.approx(0.78 + 1.17, abs=0.01)
+    # every mark together (the plots' "last order" leaves out all of them)
+    limits[0]["method"] = "FEM-Q4"
+    assert order_marks(rows, limits, "FEM-Q4")[("FEM-Q4", "ref_energy")] == {2: "*",
+                                                                             3: "*"}
+
+
+def test_the_errors_table_marks_the_same_orders(tmp_path):
+    from app.study_reference import write_tables
+
+    limits = [{"method": "4SD", "quantity": "energy", "n_levels": 3, "levels": "0-2",
+               "order_source": "observed", "uncertainty_rel": 1e-3}]
+    errs = {"1SD": [1.6e-4, 3.6e-4, 2.1e-4], "4SD": [4e-2, 1e-2, 2.5e-3]}
+    rows = [{"level": lv, "method": m, "ref_energy": e, "n_dofs": 10, "t_total": 1.0}
+            for m, es in errs.items() for lv, e in enumerate(es)]
+    add_orders(rows)
+    marks = order_marks(rows, limits, "4SD")
+    assert marks == {("1SD", "ref_energy"): {1: "~", 2: "~"},
+                     ("4SD", "ref_energy"): {1: "*", 2: "*"}}
+    text = write_tables(rows, [], tmp_path, "note", marks)
+    assert "| 1SD | 1 | 10 | 1.00 | 0.00036 (-1.17~) |" in text
+    assert "| 4SD | 2 | 10 | 1.00 | 0.0025 (2.00*) |" in text
+
+
+def test_orders_against_the_reference_at_its_own_level_are_marked():
+    """hertz.toml, levels 0-2, 1SD/4SD/FEM-Q4: FEM-Q4's L2(p) against level 2 of 4SD reads
+    0.0193, 0.0116, 0.00092: "3.66" at level 2 is the FEM-Q4 - 4SD difference on one mesh."""
+    errs = {"4SD": [0.0192, 0.0118, math.nan], "FEM-Q4": [0.0193, 0.0116, 0.000919]}
+    rows = [{"level": lv, "method": m, "ref_pressure_l2": e, "ref_energy": e}
+            for m, es in errs.items() for lv, e in enumerate(es)]
+    add_orders(rows)
+    assert same_level_orders(rows, "4SD", extrapolated=True) == {
+        ("FEM-Q4", "ref_pressure_l2"): {2}}
+    assert same_level_orders(rows, "4SD", extrapolated=False) == {
+        ("FEM-Q4", "ref_pressure_l2"): {2}, ("FEM-Q4", "ref_energy"): {2}}
+    marks = order_marks(rows, [], "4SD")
+    got = {(s["method"], s["error"]): s for s in order_summary(rows, marks=marks)}
+    assert got[("FEM-Q4", "ref_pressure_l2")]["orders"] == "0.73 3.66="
+    assert got[("FEM-Q4", "ref_energy")]["orders"] == "0.73 3.66"  # against a limit
+
+
+def test_the_plot_rate_leaves_out_same_level_and_unresolved_errors():
+    """FEM-Q4's L2(p) on hertz.toml, levels 0-2, against level 2 of 4SD: the legend's
+    rate 2.24 was the fit through the same-mesh difference at level 2 (0.73 without it)."""
+    from app.plotting import pyplot
+    from app.study import _error_panel
+
+    errs = {"4SD": [0.0192, 0.0118, math.nan], "FEM-Q4": [0.0193, 0.0116, 0.000919]}
+    rows = [{"level": lv, "method": m, "ref_pressure_l2": e, "n_dofs": 2532 * 4**lv}
+            for m, es in errs.items() for lv, e in enumerate(es)]
+    add_orders(rows)
+    fig, ax = pyplot().subplots()
+    _error_panel(ax, rows, ["FEM-Q4"], "ref_pressure_l2", "n_dofs", "DOFs", None,
+                 order_marks(rows, [], "4SD"))
+    (label,) = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert label == "FEM-Q4 (rate 0.73, last order 0.73)"
+    fig, ax = pyplot().subplots()  # an error at most the floor is left out of the fit too
+    _error_panel(ax, rows, ["FEM-Q4"], "ref_pressure_l2", "n_dofs", "DOFs",
+                 {"ref_pressure_l2": 0.001}, None)
+    assert ax.get_legend().get_texts()[0].get_text() == "FEM-Q4 (rate 0.73, last order 3.66)"
+
+
+def test_the_reference_note_names_what_the_scene_has():
+    """cantilever.toml's tables and plot titles read "Richardson limits of 4SD for energy,
+    p_max and points; ... for p(x), q(x)": a scene with no contact and one point."""
+    from app.study_reference import add_reference_errors
+
+    rows = [{"level": lv, "method": "4SD"} for lv in range(3)]
+    profiles = {(lv, "4SD"): {"energy": 1.0 + 4.0**-lv, "n_dofs": 4**lv,
+                              "points": {"tip": -1.0 - 4.0**-lv}} for lv in range(3)}
+    note = add_reference_errors(rows, profiles, "4SD", {"energy": 1.0, "tip": -1.0})
+    assert note == "reference: Richardson limits of 4SD for energy, u_y(tip)"
+    x = np.linspace(-1, 1, 5)
+    for p in profiles.values():
+        p |= {"x": x, "p": 1 - x**2, "q": 0 * x, "p_max": 1.0}
+    note = add_reference_errors(rows, profiles, "4SD", {"energy": 1.0, "p_max": 1.0})
+    assert note.startswith("reference: Richardson limits of 4SD for energy, p_max; level 2")

@@ -168,3 +168,13 @@ def test_a_failing_table_refresh_between_runs_is_a_warning(tmp_path):
     assert res.stderr.count("warning: the study's tables could not be refreshed") == 2
     assert len(read_csv(out / "study.csv")) == 2
     assert (out / "study_tables.md").exists()
+
+
+def test_energy_vs_sd_runs_in_increasing_sd_whatever_the_methods_order():
+    from app.study import sd_series
+
+    rows = {"16SD": {"strain_energy": 1.82}, "1SD": {"strain_energy": 1.86},
+            "4SD": {"strain_energy": 1.83}, "FEM-Q4": {"strain_energy": 1.81}}
+    assert sd_series(rows, ["FEM-Q4", "16SD", "1SD", "4SD"]) == ([1, 4, 16],
+                                                                [1.86, 1.83, 1.82])
+    assert sd_series(rows, ["2SD", "16SD"]) == ([16], [1.82])  # a level without 2SD

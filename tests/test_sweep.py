@@ -155,3 +155,35 @@ def test_contact_length_counts_no_round_off_forces_and_not_the_ranks(tmp_path):
         assert any(float(r["contact_length"]) == 2.0 for r in steps)  # pressed: all of it
         lengths.append([float(r["contact_length"]) for r in steps])
     assert lengths[0] == lengths[1]
+
+
+def test_a_sweep_over_text_values_is_plotted_on_a_categorical_axis(tmp_path):
+    """`--sweep 'interface.bond.discretisation="mortar","node-to-segment"'` wrote no plot
+    for the key, silently."""
+    from app.sweep import plot_sweep
+
+    key = "interface.bond.discretisation"
+    rows = [{key: v, "interface.bond.c": c, "status": "completed", "interface": "bond",
+             "normal_force": 2.0, "tangential_force": c, "dissipation": 0.02}
+            for v in ('"mortar"', '"node-to-segment"') for c in (2.0, 6.0)]
+    paths = plot_sweep(rows, [key, "interface.bond.c"], tmp_path)
+    assert [p.name for p in paths] == ["sweep_interface_bond_discretisation.png",
+                                       "sweep_interface_bond_c.png"]
+    rows[0][key] = 1.0  # numbers and text mixed: no axis for that key
+    assert [p.name for p in plot_sweep(rows, [key], tmp_path)] == []
+
+
+def test_a_negative_at_step_is_named_by_the_step_it_reports():
+    """The plots' titles read "at step -3", and sweep.csv did not say which step."""
+    from app.sweep import report_label, summarize
+
+    steps = [{"step": k, "normal_force": 1.0, "tangential_force": 0.1 * k,
+              "max_pressure": 2.0, "debonded_pairs": 0, "n_pairs": 4, "dissipation": 0.0,
+              **{f"{z}_length": 0.0 for z in ("contact", "stick", "slip", "open", "bonded")}}
+             for k in range(1, 21)]
+    row = summarize(steps, -3)
+    assert row["step"] == 17 and row["tangential_force"] == pytest.approx(1.7)
+    assert summarize(steps, 0)["step"] == 20 and summarize(steps, 5)["step"] == 5
+    assert report_label([row, dict(row)], -3) == "step 17"
+    assert report_label([row, row | {"step": 9}], -3) == "3 steps before the last"
+    assert report_label([row], 0) == "the last step" and report_label([row], 4) == "step 4"

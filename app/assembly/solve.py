@@ -147,13 +147,28 @@ class LinearSolver:
             raise SolveError("the load vector of a linear solve is not finite (inf or NaN): "
                              "a load, body force or prescribed value exceeds the range of "
                              "float64; check their values and units")
+        self._check_reason(self._apply(b, x))
+        bn, rn = self._residual_norms(b, x)
+        if np.isnan(x.norm()):
+            self._check_overflow(b)
+            raise SingularStiffnessError("linear solve produced NaN: the stiffness is "
+                                         "probably singular")
+        if bn > 0 and rn > ACCEPTED_RESIDUAL * bn and not np.isnan(bn):
+            raise self._inaccurate(rn / bn)
+        return x
+
+    def _apply(self, b: PETSc.Vec, x: PETSc.Vec) -> int:
+        """x = K^-1 b by the block solver or the KSP; the KSP's converged reason (0 for
+        the block solver)."""
         with hard_stop.armed():  # one C call that holds the GIL
             if self.block is not None:
                 self.block.solve(b, x)
-                reason = 0
-            else:
-                self.ksp.solve(b, x)
-                reason = self.ksp.getConvergedReason()
+                return 0
+            self.ksp.solve(b, x)
+            return self.ksp.getConvergedReason()
+
+    def _check_reason(self, reason: int) -> None:
+        """SolveError for a negative KSP converged reason (diverged or stopped short)."""
         if reason < 0 and self.iterative:
             raise SolveError(
                 f"iterative linear solve did not converge (KSP reason {reason}, "
@@ -162,30 +177,33 @@ class LinearSolver:
         if reason < 0:
             raise SolveError(f"linear solver diverged (KSP reason {reason}): try other "
                              "PETSc options or the default MUMPS LU")
+
+    def _residual_norms(self, b: PETSc.Vec, x: PETSc.Vec) -> tuple[float, float]:
+        """(|b|, |b - K x|), 2-norms."""
         r = b.duplicate()
         self.k.mult(x, r)
         r.aypx(-1.0, b)
         bn, rn = b.norm(), r.norm()
         r.destroy()
-        if np.isnan(x.norm()):
-            self._check_overflow(b)
-            raise SingularStiffnessError("linear solve produced NaN: the stiffness is "
-                                         "probably singular")
-        if bn > 0 and rn > ACCEPTED_RESIDUAL * bn and not np.isnan(bn):
-            if self.iterative:
-                raise SolveError(
-                    f"iterative linear solve is inaccurate (relative residual "
-                    f"{rn / bn:.2e} > {ACCEPTED_RESIDUAL:g}, -ksp_rtol "
-                    f"{self.ksp.getTolerances()[0]:g}): lower -ksp_rtol or use the default "
-                    "MUMPS LU")
-            if self.pc_type not in DIRECT_PCS:
-                raise SolveError(
-                    f"linear solve is inaccurate (relative residual {rn / bn:.2e}): "
-                    f"-ksp_type preonly applies -pc_type {self.pc_type} once, which solves "
-                    "only if it is a full factorization: use -pc_type lu (or cholesky), or "
-                    "an iterative -ksp_type such as cg")
-            raise SingularStiffnessError(
-                f"linear solve is inaccurate (relative residual {rn / bn:.2e}): the "
-                "stiffness is probably singular"
-            )
-        return x
+        return bn, rn
+
+    def _inaccurate(self, rel: float) -> SolveError:
+        """The error of a solve whose relative residual rel exceeds ACCEPTED_RESIDUAL:
+        an iterative KSP's tolerance, a preconditioner that is no full factorization, or
+        (a direct solve) a singular stiffness."""
+        if self.iterative:
+            return SolveError(
+                f"iterative linear solve is inaccurate (relative residual "
+                f"{rel:.2e} > {ACCEPTED_RESIDUAL:g}, -ksp_rtol "
+                f"{self.ksp.getTolerances()[0]:g}): lower -ksp_rtol or use the default "
+                "MUMPS LU")
+        if self.pc_type not in DIRECT_PCS:
+            return SolveError(
+                f"linear solve is inaccurate (relative residual {rel:.2e}): "
+                f"-ksp_type preonly applies -pc_type {self.pc_type} once, which solves "
+                "only if it is a full factorization: use -pc_type lu (or cholesky), or "
+                "an iterative -ksp_type such as cg")
+        return SingularStiffnessError(
+            f"linear solve is inaccurate (relative residual {rel:.2e}): the "
+            "stiffness is probably singular"
+        )

@@ -17,6 +17,8 @@ stored factorization per load step (never a refactorization).
 from __future__ import annotations
 
 import ctypes
+from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 import numpy as np
 import scipy.sparse as sp
@@ -25,6 +27,9 @@ from petsc4py import PETSc
 from app import hard_stop
 from app.condensation.schur_solver import petsc_call, read_dense_symmetric, schur_lib
 from app.errors import InputError, SolveError
+
+if TYPE_CHECKING:
+    from app.assembly.solve import LinearSolver
 
 
 def schur_complement(k: PETSc.Mat, dofs: np.ndarray) -> np.ndarray | None:
@@ -94,7 +99,7 @@ def compliance_schur(k: PETSc.Mat, g: sp.csr_matrix, fixed: np.ndarray) -> np.nd
     return 0.5 * (c + c.T)
 
 
-def request_schur(solver, g: sp.csr_matrix, fixed: np.ndarray) -> np.ndarray:
+def request_schur(solver: LinearSolver, g: sp.csr_matrix, fixed: np.ndarray) -> np.ndarray:
     """Before `solver.factor()`: ask its MUMPS LU for the Schur set of the contact DOFs.
 
     Returns those DOFs (sorted global indices)."""
@@ -106,7 +111,7 @@ def request_schur(solver, g: sp.csr_matrix, fixed: np.ndarray) -> np.ndarray:
     return dofs
 
 
-def attach_schur(solver, k: PETSc.Mat, dofs: np.ndarray) -> None:
+def attach_schur(solver: LinearSolver, k: PETSc.Mat, dofs: np.ndarray) -> None:
     """After `solver.factor()`: take S from the factor, factorize it densely on rank 0, and
     route every later `solver.solve` through the block elimination on that factor."""
     from app.condensation.schur_solver import SchurFactorization
@@ -115,7 +120,8 @@ def attach_schur(solver, k: PETSc.Mat, dofs: np.ndarray) -> None:
         solver.block = SchurFactorization(k, solver.ksp.getPC().getFactorMatrix(), dofs)
 
 
-def compliance_from_factor(solver, g: sp.csr_matrix, fixed: np.ndarray) -> np.ndarray | None:
+def compliance_from_factor(solver: LinearSolver, g: sp.csr_matrix, fixed: np.ndarray
+                           ) -> np.ndarray | None:
     """C = G_c S^-1 G_c^T with the S of `attach_schur`; dense (2m, 2m) on rank 0."""
     dofs, gc = contact_dofs(g, fixed)
     block = solver.block
@@ -129,12 +135,13 @@ def compliance_from_factor(solver, g: sp.csr_matrix, fixed: np.ndarray) -> np.nd
     return 0.5 * (c + c.T)
 
 
-def k_rank(solver) -> int:
+def k_rank(solver: LinearSolver) -> int:
+    """The MPI rank of this process on the stiffness's communicator."""
     return solver.k.getComm().getRank()
 
 
-def compliance_solve(solver, k: PETSc.Mat, g: sp.csr_matrix, fixed: np.ndarray,
-                     to_numpy_all) -> np.ndarray | None:
+def compliance_solve(solver: LinearSolver, k: PETSc.Mat, g: sp.csr_matrix, fixed: np.ndarray,
+                     to_numpy_all: Callable[[PETSc.Vec], np.ndarray]) -> np.ndarray | None:
     """C = G K^-1 G^T by one solve per row of G with the stored factorization."""
     dofs, gc = contact_dofs(g, fixed)
     rank = k.getComm().getRank()
@@ -160,7 +167,7 @@ def compliance_solve(solver, k: PETSc.Mat, g: sp.csr_matrix, fixed: np.ndarray,
 COMPLIANCE_ROUTES = ("auto", "schur", "solve")
 
 
-def compliance_route(configured: str, solver) -> str:
+def compliance_route(configured: str, solver: LinearSolver) -> str:
     """The route of C = G K^-1 G^T: the option -contact_compliance, else `configured`
     (analysis.compliance); auto is schur with MUMPS LU and solve otherwise."""
     route = PETSc.Options().getString("contact_compliance", configured)

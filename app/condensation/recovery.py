@@ -3,13 +3,20 @@ consistency with the compliance the LCP used."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from typing import TYPE_CHECKING
+
 import numpy as np
 import scipy.sparse as sp
 from petsc4py import PETSc
 
+if TYPE_CHECKING:
+    from app.assembly.solve import LinearSolver
 
-def contact_displacement(g: sp.csr_matrix, lam: np.ndarray, solver, k: PETSc.Mat,
-                         fixed: np.ndarray, to_numpy_all) -> np.ndarray:
+
+def contact_displacement(g: sp.csr_matrix, lam: np.ndarray, solver: LinearSolver,
+                         k: PETSc.Mat, fixed: np.ndarray,
+                         to_numpy_all: Callable[[PETSc.Vec], np.ndarray]) -> np.ndarray:
     """K^-1 G^T lambda (2n,) with the stored factorization (one solve, no refactorization);
     lam (2m,) the pair forces (normal rows, then tangential)."""
     b = g.T @ lam

@@ -50,6 +50,7 @@ class ContactConstraints:
 
     @classmethod
     def empty(cls) -> ContactConstraints:
+        """No pairs and no rows (shapes (0, 1))."""
         z = np.zeros((0, 1))
         return cls(ContactPairs.empty(), np.zeros((0, 1), dtype=np.int64), z, z.copy())
 

@@ -30,6 +30,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 import scipy.sparse as sp
@@ -47,6 +48,9 @@ from app.contact.pairs import (
 )
 from app.errors import InputError
 from app.mesh.model import Mesh, orient_boundary_edges
+
+if TYPE_CHECKING:  # app.contact.discretisation imports this module
+    from app.contact.discretisation import InterfaceSpec
 
 _GAUSS_S, _GAUSS_W = np.polynomial.legendre.leggauss(4)
 NEAR_BAND = 0.1
@@ -141,6 +145,11 @@ MasterBasis = Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]
 """The master-side interpolation: (f (p,) master segments, eta (p, g) parameters on them)
 -> (nodes (p, k) master node ids, -1 for none; weights (k, p, g), summing to 1). An
 attribute `label` names it in the summary (none: "linear")."""
+BasisFactory = Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray], MasterBasis]
+"""(pts, m_edges, facing, slave_length) -> MasterBasis (see `linear_master`)."""
+NormalRule = Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray], np.ndarray]
+"""(nu_s, k_s, nu_m, k_m) -> (p, 2) unit contact normals, master -> slave (see
+`contact_normal`)."""
 
 
 def linear_master(pts: np.ndarray, m_edges: np.ndarray, facing: np.ndarray,
@@ -178,7 +187,9 @@ class Multipliers:
 DUAL = Multipliers("dual", dual_multipliers, slave_mass=False)
 
 
-def segment_overlaps(xs1, xs2, ns1, ns2, xa, xb, e, f):
+def segment_overlaps(xs1: np.ndarray, xs2: np.ndarray, ns1: np.ndarray, ns2: np.ndarray,
+                     xa: np.ndarray, xb: np.ndarray, e: np.ndarray, f: np.ndarray
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Gauss points of the overlaps of candidate pairs (slave segment e, master segment f).
 
     xs1, xs2, ns1, ns2: (S, 2) slave segment ends and their contact normals; xa, xb:
@@ -205,8 +216,9 @@ def segment_overlaps(xs1, xs2, ns1, ns2, xa, xb, e, f):
     return k, s, w, np.nan_to_num(eta, nan=0.5)
 
 
-def segment_integrals(xs1, xs2, ns1, ns2, xa, xb, e, f, basis: MasterBasis,
-                      multipliers: Multipliers = DUAL):
+def segment_integrals(xs1: np.ndarray, xs2: np.ndarray, ns1: np.ndarray, ns2: np.ndarray,
+                      xa: np.ndarray, xb: np.ndarray, e: np.ndarray, f: np.ndarray,
+                      basis: MasterBasis, multipliers: Multipliers = DUAL) -> tuple:
     """Mortar integrals of candidate pairs (slave segment e, master segment f).
 
     Arguments as `segment_overlaps`; basis: the master interpolation (`linear_master` or
@@ -239,9 +251,59 @@ def _rows(nodes: np.ndarray, n_nodes: int, s_edges: np.ndarray, pair, jj, node, 
     return sp.csr_matrix((val[ok], (r[ok], node[ok])), shape=(nodes.size, n_nodes))
 
 
-def mortar_constraints(mesh: Mesh, itf, index: int, normal_rule=None,
-                       master_basis=None, multipliers: Multipliers = DUAL
-                       ) -> ContactConstraints:
+@dataclass(frozen=True)
+class SlaveGeometry:
+    """The geometry the mortar rows of one interface start from, before any integral.
+
+    pts (n, 2) mesh points; s_edges (k, 2), m_edges (F, 2) slave and master edges, each
+    oriented with its body on the left; tol the penetration tolerance (length); per slave
+    node (q,): nodes its id, d_len its tributary length D_j, found (a master segment
+    within search_distance), sg that segment's index (0 if not found), xi its parameter
+    in [0, 1], g_node the nodal gap (length, open > 0), near (`nearest_slave_nodes`);
+    normal (n, 2) the contact normals (master -> slave) at the slave nodes, zero elsewhere.
+    """
+
+    pts: np.ndarray
+    s_edges: np.ndarray
+    m_edges: np.ndarray
+    tol: float
+    nodes: np.ndarray
+    d_len: np.ndarray
+    found: np.ndarray
+    sg: np.ndarray
+    xi: np.ndarray
+    normal: np.ndarray
+    g_node: np.ndarray
+    near: np.ndarray
+
+    def master_basis_args(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(pts, m_edges, facing, slave_length): the arguments of a master-basis factory
+        (`linear_master`), over the slave nodes nearest the master."""
+        return self.pts, self.m_edges, self.sg[self.near], self.d_len[self.near]
+
+
+def slave_geometry(mesh: Mesh, itf: InterfaceSpec, normal_rule: NormalRule | None = None
+                   ) -> SlaveGeometry:
+    """The `SlaveGeometry` of one interface (itf and normal_rule as `mortar_constraints`):
+    its edges (InputError for an unknown curve or a zero-length master edge), the slave
+    nodes' closest master points, contact normals and nodal gaps."""
+    sd = float(itf.search_distance)
+    pts = np.asarray(mesh.points, dtype=float)
+    s_edges, m_edges, tol = _interface_edges(mesh, itf, pts)
+    nodes, d_len = tributary_length(pts, s_edges)
+    rule = contact_normal if normal_rule is None else normal_rule
+    found, sg, xi, normal = _slave_normals(pts, s_edges, m_edges, nodes, sd, rule)
+    xa, xb = pts[m_edges[:, 0]], pts[m_edges[:, 1]]
+    g_node = _nodal_gap(pts[nodes], xa[sg], xb[sg], xi)
+    near = nearest_slave_nodes(found, g_node, sd)
+    return SlaveGeometry(pts, s_edges, m_edges, tol, nodes, d_len, found, sg, xi, normal,
+                         g_node, near)
+
+
+def mortar_constraints(mesh: Mesh, itf: InterfaceSpec, index: int,
+                       normal_rule: NormalRule | None = None,
+                       master_basis: BasisFactory | None = None,
+                       multipliers: Multipliers = DUAL) -> ContactConstraints:
     """Mortar rows of one interface (see the module docstring).
 
     normal_rule: (nu_s, k_s, nu_m, k_m) -> (p, 2) unit contact normals (master -> slave);
@@ -260,40 +322,59 @@ def mortar_constraints(mesh: Mesh, itf, index: int, normal_rule=None,
     convex master is slightly negative (dual shape functions are negative in part), an
     O(h^2 / R) property of the discretisation, not an overlap.
     """
+    return mortar_rows(slave_geometry(mesh, itf, normal_rule), itf, index, master_basis,
+                       multipliers)
+
+
+def mortar_rows(geo: SlaveGeometry, itf: InterfaceSpec, index: int,
+                master_basis: BasisFactory | None = None,
+                multipliers: Multipliers = DUAL) -> ContactConstraints:
+    """`mortar_constraints` from the interface's geometry (`slave_geometry`)."""
     sd = float(itf.search_distance)
-    pts = np.asarray(mesh.points, dtype=float)
-    s_edges, m_edges, tol = _interface_edges(mesh, itf, pts)
-    nodes, d_len = tributary_length(pts, s_edges)
-    rule = contact_normal if normal_rule is None else normal_rule
-    found, sg, xi, normal = _slave_normals(pts, s_edges, m_edges, nodes, sd, rule)
-    xa, xb = pts[m_edges[:, 0]], pts[m_edges[:, 1]]
-    g_node = _nodal_gap(pts[nodes], xa[sg], xb[sg], xi)
-    near = nearest_slave_nodes(found, g_node, sd)
     factory = linear_master if master_basis is None else master_basis
-    basis = factory(pts, m_edges, sg[near], d_len[near])
-    w, cover = _covered_weights(pts, nodes, s_edges, m_edges, found, normal, itf, sd, basis,
-                                multipliers)
-    nrm = normal[nodes]
-    g0 = np.einsum("ij,ij->i", nrm, pts[nodes] - w @ pts)
-    if getattr(basis, "label", "linear") != "linear" and not itf.interference:
-        w_lin, _ = _covered_weights(pts, nodes, s_edges, m_edges, found, normal, itf, sd,
-                                    linear_master(pts, m_edges, sg[near], d_len[near]),
-                                    multipliers)
-        g0 = no_made_overlap(g0, np.einsum("ij,ij->i", nrm, pts[nodes] - w_lin @ pts))
-    covered = cover >= MIN_COVER * (1 - COVER_RTOL) * d_len
-    keep = found & covered & (g0 <= sd)
+    basis = factory(*geo.master_basis_args())
+    w, cover = _covered_weights(geo.pts, geo.nodes, geo.s_edges, geo.m_edges, geo.found,
+                                geo.normal, itf, sd, basis, multipliers)
+    g0 = _initial_gaps(geo, itf, sd, w, basis, multipliers)
+    covered = cover >= MIN_COVER * (1 - COVER_RTOL) * geo.d_len
+    keep = geo.found & covered & (g0 <= sd)
     if not keep.any():
-        raise _none_kept_error(itf, sd, found, covered)
+        raise _none_kept_error(itf, sd, geo.found, covered)
     if not itf.interference:
-        refuse_penetration(itf.name, pts[nodes[keep]], g_node[keep], g_node[keep] < -tol, tol)
-    k = np.flatnonzero(keep)
+        g_kept = geo.g_node[keep]
+        refuse_penetration(itf.name, geo.pts[geo.nodes[keep]], g_kept, g_kept < -geo.tol,
+                           geo.tol)
+    return _kept_rows(geo, np.flatnonzero(keep), w, g0, index,
+                      getattr(basis, "label", "linear"))
+
+
+def _initial_gaps(geo: SlaveGeometry, itf, sd: float, w: sp.csr_matrix, basis: MasterBasis,
+                  multipliers: Multipliers) -> np.ndarray:
+    """Initial weighted gaps g0 (q,) (length) of the rows w (q, n); with a master basis
+    other than the linear trace and no `interference`, no overlap that the linear trace
+    does not have (`no_made_overlap`)."""
+    nrm = geo.normal[geo.nodes]
+    g0 = np.einsum("ij,ij->i", nrm, geo.pts[geo.nodes] - w @ geo.pts)
+    if getattr(basis, "label", "linear") != "linear" and not itf.interference:
+        w_lin, _ = _covered_weights(geo.pts, geo.nodes, geo.s_edges, geo.m_edges, geo.found,
+                                    geo.normal, itf, sd,
+                                    linear_master(*geo.master_basis_args()), multipliers)
+        g0 = no_made_overlap(g0, np.einsum("ij,ij->i", nrm, geo.pts[geo.nodes] - w_lin @ geo.pts))
+    return g0
+
+
+def _kept_rows(geo: SlaveGeometry, k: np.ndarray, w: sp.csr_matrix, g0: np.ndarray,
+               index: int, label: str) -> ContactConstraints:
+    """The pairs and padded rows of the kept slave nodes k (positions in geo.nodes)."""
+    nrm = geo.normal[geo.nodes]
     tan = np.column_stack([-nrm[:, 1], nrm[:, 0]])
     pairs = ContactPairs(
-        interface=np.full(k.size, int(index), dtype=np.int64), slave=nodes[k].astype(np.int64),
-        master=m_edges[sg[k]].copy(), xi=xi[k], normal=nrm[k], tangent=tan[k], g0=g0[k],
-        position=pts[nodes[k]].copy(), length=d_len[k])
+        interface=np.full(k.size, int(index), dtype=np.int64),
+        slave=geo.nodes[k].astype(np.int64), master=geo.m_edges[geo.sg[k]].copy(),
+        xi=geo.xi[k], normal=nrm[k], tangent=tan[k], g0=g0[k],
+        position=geo.pts[geo.nodes[k]].copy(), length=geo.d_len[k])
     return ContactConstraints(pairs, *_padded_rows(w[k].tocsr(), pairs),
-                              master_interpolation=getattr(basis, "label", "linear"))
+                              master_interpolation=label)
 
 
 def no_made_overlap(g0: np.ndarray, g0_linear: np.ndarray) -> np.ndarray:

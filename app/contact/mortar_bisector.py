@@ -19,11 +19,16 @@ contact of a cylinder on a flat cannot. Opt in per interface; `mortar` stays the
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from app.contact.constraints import ContactConstraints
 from app.contact.mortar import mortar_constraints
 from app.mesh.model import Mesh
+
+if TYPE_CHECKING:  # app.contact.discretisation imports this module
+    from app.contact.discretisation import InterfaceSpec
 
 
 def bisector_normal(nu_s: np.ndarray, kappa_s: np.ndarray, nu_m: np.ndarray,
@@ -34,6 +39,7 @@ def bisector_normal(nu_s: np.ndarray, kappa_s: np.ndarray, nu_m: np.ndarray,
     return v / np.linalg.norm(v, axis=1, keepdims=True)
 
 
-def mortar_bisector_constraints(mesh: Mesh, itf, index: int) -> ContactConstraints:
+def mortar_bisector_constraints(mesh: Mesh, itf: InterfaceSpec,
+                                index: int) -> ContactConstraints:
     """Dual mortar rows of one interface with `bisector_normal`."""
     return mortar_constraints(mesh, itf, index, normal_rule=bisector_normal)

@@ -33,7 +33,14 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from app.contact.constraints import ContactConstraints
-from app.contact.mortar import MasterBasis, linear_master, mortar_constraints
+from app.contact.mortar import (
+    MasterBasis,
+    SlaveGeometry,
+    linear_master,
+    mortar_constraints,
+    mortar_rows,
+    slave_geometry,
+)
 from app.contact.mortar_smooth import master_slave_ratio
 from app.contact.resolution import SIZE_RATIO_WARN
 from app.mesh.model import Mesh
@@ -68,12 +75,19 @@ def size_ratio_probe(seen: list[float]) -> Callable[..., MasterBasis]:
     return factory
 
 
+def size_ratio(geo: SlaveGeometry) -> float:
+    """The interface's master / slave element-size ratio (`master_slave_ratio` over the
+    slave nodes nearest the master), from its geometry alone: what `size_ratio_probe`
+    records while the rows are built."""
+    return master_slave_ratio(*geo.master_basis_args())
+
+
 def mortar_coarse_slave_constraints(mesh: Mesh, itf: InterfaceSpec,
                                     index: int) -> ContactConstraints:
     """`mortar` rows of one interface, with slave and master swapped when the master is
-    more than SWAP_RATIO x coarser than the slave (see the module docstring)."""
-    seen: list[float] = []
-    rows = mortar_constraints(mesh, itf, index, master_basis=size_ratio_probe(seen))
-    if seen and seen[0] > SWAP_RATIO:
+    more than SWAP_RATIO x coarser than the slave (see the module docstring). The ratio
+    comes from the interface's geometry (`size_ratio`), so the rows are built once."""
+    geo = slave_geometry(mesh, itf)
+    if size_ratio(geo) > SWAP_RATIO:
         return mortar_constraints(mesh, swapped(itf), index)
-    return rows
+    return mortar_rows(geo, itf, index)

@@ -33,12 +33,17 @@ ends (and corners). Opt in per interface; `mortar` stays the default.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from app.contact.constraints import ContactConstraints
 from app.contact.mortar import MasterBasis, linear_master, mortar_constraints
 from app.contact.resolution import SIZE_RATIO_WARN, median_size_ratio
 from app.mesh.model import Mesh
+
+if TYPE_CHECKING:  # app.contact.discretisation imports this module
+    from app.contact.discretisation import InterfaceSpec
 
 COARSE_RATIO = SIZE_RATIO_WARN
 """The whole master curve is smoothed when its segments facing the slave are longer
@@ -120,6 +125,7 @@ def bspline_master(pts: np.ndarray, m_edges: np.ndarray, facing: np.ndarray,
     return basis
 
 
-def mortar_smooth_constraints(mesh: Mesh, itf, index: int) -> ContactConstraints:
+def mortar_smooth_constraints(mesh: Mesh, itf: InterfaceSpec,
+                              index: int) -> ContactConstraints:
     """Dual mortar rows of one interface with the smoothed master `bspline_master`."""
     return mortar_constraints(mesh, itf, index, master_basis=bspline_master)

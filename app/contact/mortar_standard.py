@@ -25,11 +25,16 @@ also couples three slave nodes instead of one.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from app.contact.constraints import ContactConstraints
 from app.contact.mortar import Multipliers, mortar_constraints
 from app.mesh.model import Mesh
+
+if TYPE_CHECKING:  # app.contact.discretisation imports this module
+    from app.contact.discretisation import InterfaceSpec
 
 
 def standard_multipliers(s: np.ndarray) -> np.ndarray:
@@ -41,6 +46,7 @@ def standard_multipliers(s: np.ndarray) -> np.ndarray:
 STANDARD = Multipliers("standard", standard_multipliers, slave_mass=True)
 
 
-def mortar_standard_constraints(mesh: Mesh, itf, index: int) -> ContactConstraints:
+def mortar_standard_constraints(mesh: Mesh, itf: InterfaceSpec,
+                                index: int) -> ContactConstraints:
     """Mortar rows of one interface with the standard multipliers `STANDARD`."""
     return mortar_constraints(mesh, itf, index, multipliers=STANDARD)

@@ -64,7 +64,8 @@ def check_elements(mesh: Mesh) -> None:
         )
 
 
-def element_blocks(mesh: Mesh, disc: Discretisation, elements: np.ndarray):
+def element_blocks(mesh: Mesh, disc: Discretisation, elements: np.ndarray
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Element stiffness of the given elements as (K_uu, K_uv, K_vu, K_vv), each (n, 4, 4)."""
     xe = mesh.points[mesh.quads[elements]]
     bx, by, w = cell_gradients(xe, disc.method, disc.sd)

@@ -18,6 +18,7 @@ Smoothing-cell layouts in the parent square [-1, 1]^2 (xi along edge 1->2, eta a
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from app.errors import InputError
 from app.mesh.model import polygon_areas
@@ -82,7 +83,8 @@ def gauss_points() -> list[tuple[float, float]]:
     return [(a, b) for b in (-g, g) for a in (-g, g)]
 
 
-def gauss_gradients(xe: np.ndarray, xi: float, eta: float):
+def gauss_gradients(xe: np.ndarray, xi: float, eta: float
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """FEM-Q4 shape-function gradients at one parent point: (bx (n, 4), by (n, 4), detJ)."""
     dn_dxi, dn_deta = parent_derivatives(xi, eta)
     j11 = xe[..., 0] @ dn_dxi
@@ -131,7 +133,8 @@ def smoothed_gradients(xe: np.ndarray, cells: list) -> tuple:
 
 
 def stiffness_blocks(bx: np.ndarray, by: np.ndarray, w: np.ndarray, d: np.ndarray,
-                     thickness: float = 1.0):
+                     thickness: float = 1.0
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Element stiffness as four (n, 4, 4) node blocks (K_uu, K_uv, K_vu, K_vv).
 
     bx, by: (n, nc, 4) cell gradients; w: (n, nc) weights; d: (n, 3, 3) elasticity with
@@ -151,7 +154,7 @@ def stiffness_blocks(bx: np.ndarray, by: np.ndarray, w: np.ndarray, d: np.ndarra
             d22 * yy + d33 * xx)
 
 
-def elasticity_matrix(E, nu, plane: str = "strain") -> np.ndarray:
+def elasticity_matrix(E: ArrayLike, nu: ArrayLike, plane: str = "strain") -> np.ndarray:
     """Isotropic elasticity matrices D, shape (..., 3, 3), for arrays of E and nu."""
     E = np.asarray(E, dtype=float)
     nu = np.asarray(nu, dtype=float)

@@ -69,7 +69,8 @@ def bulk_method(name: str, where: str = "analysis.method") -> BulkMethod:
         raise InputError(f"{where}{sep}{name!r}: use one of {names}") from None
 
 
-def cell_gradients(xe: np.ndarray, method: str, sd: int = 4):
+def cell_gradients(xe: np.ndarray, method: str, sd: int = 4
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Gradients and weights of every cell of every element (see `BulkMethod`).
 
     Gradients and weights do not change under a translation, so the corners are taken
@@ -79,7 +80,8 @@ def cell_gradients(xe: np.ndarray, method: str, sd: int = 4):
     return bulk_method(method, "method").cell_gradients(xe - xe[:, :1, :], sd)
 
 
-def strain_matrices(xe: np.ndarray, method: str, sd: int = 4):
+def strain_matrices(xe: np.ndarray, method: str, sd: int = 4
+                    ) -> tuple[np.ndarray, np.ndarray]:
     """Strain matrices and weights of every cell of every element.
 
     Returns (B (n, n_cells, 3, 8), weights (n, n_cells)).

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import sys
+from contextlib import AbstractContextManager
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -66,7 +67,7 @@ class RunContext:
     def out(self) -> Path:
         return Path(self.opts.out)
 
-    def phase(self, name: str):
+    def phase(self, name: str) -> AbstractContextManager[None]:
         """A named phase (seconds in summary.json timings, a PETSc log stage)."""
         return self.timer.phase(name)
 

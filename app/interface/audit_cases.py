@@ -172,23 +172,8 @@ def contact_case(rng: np.random.Generator, m: int, mu: float, floating: bool = F
     f[2 * top + 1] = (1.0 if lift else -1.0) * rng.uniform(0.5, 1.5, nx)
     f[2 * top] = push
     R = rigid_modes(nx, ny)
-    if floating:
-        Kr = K + R @ R.T
-        u0 = np.linalg.solve(Kr, f - R @ (R.T @ f))
-    else:
-        free = np.ones(2 * N, dtype=bool)
-        free[np.concatenate([2 * top, 2 * top + 1])] = False
-        Kr = K.copy()
-        Kr[~free] = 0.0
-        Kr[:, ~free] = 0.0
-        Kr[~free, ~free] = 1.0
-        u0 = np.linalg.solve(Kr, np.where(free, f + rng.uniform(-1, 0, 2 * N) * free, 0.0))
-    slaves = np.arange(m) % nx
-    if duplicate and m > 1:
-        slaves[-1] = slaves[0]
-    G = np.zeros((2 * m, 2 * N))
-    G[np.arange(m), 2 * slaves + 1] = 1.0
-    G[m + np.arange(m), 2 * slaves] = 1.0
+    Kr, u0 = _regular_and_free(rng, K, R, f, top, floating)
+    G = _pair_rows(m, nx, N, duplicate)
     C = G @ np.linalg.solve(Kr, G.T)
     C = 0.5 * (C + C.T)
     g0 = rng.uniform(0.0, 0.3, m)
@@ -203,6 +188,37 @@ def contact_case(rng: np.random.Generator, m: int, mu: float, floating: bool = F
     q = lcp.constant(gap_free, tau_free, np.zeros(m), a, c, mus, e0)
     qs = lcp.scaling * lcp.row_scale * q
     return lcp.M_scaled.copy(), qs, 0 if nm is None else 3
+
+
+def _regular_and_free(rng: np.random.Generator, K: np.ndarray, R: np.ndarray, f: np.ndarray,
+                      top: np.ndarray, floating: bool) -> tuple[np.ndarray, np.ndarray]:
+    """(Kr, u0): the regular stiffness (2N, 2N) and the displacement without contact (2N,)
+    under the loads f. Floating: Kr = K + R R^T and f less its rigid-mode part; else the
+    top row held (its rows and columns replaced by the identity) and a random body load
+    in [-1, 0) added at the free DOFs."""
+    if floating:
+        Kr = K + R @ R.T
+        return Kr, np.linalg.solve(Kr, f - R @ (R.T @ f))
+    free = np.ones(K.shape[0], dtype=bool)
+    free[np.concatenate([2 * top, 2 * top + 1])] = False
+    Kr = K.copy()
+    Kr[~free] = 0.0
+    Kr[:, ~free] = 0.0
+    Kr[~free, ~free] = 1.0
+    u0 = np.linalg.solve(Kr, np.where(free, f + rng.uniform(-1, 0, K.shape[0]) * free, 0.0))
+    return Kr, u0
+
+
+def _pair_rows(m: int, nx: int, N: int, duplicate: bool) -> np.ndarray:
+    """G (2m, 2N): the normal (uy) rows of the m slave nodes of the bottom row, then their
+    tangential (ux) rows; with duplicate, the last pair repeats the first's node."""
+    slaves = np.arange(m) % nx
+    if duplicate and m > 1:
+        slaves[-1] = slaves[0]
+    G = np.zeros((2 * m, 2 * N))
+    G[np.arange(m), 2 * slaves + 1] = 1.0
+    G[m + np.arange(m), 2 * slaves] = 1.0
+    return G
 
 
 def contact_cases(rng: np.random.Generator) -> list[Case]:

@@ -100,8 +100,10 @@ class CandidateLCP:
         return self.cand | (a != 0) | (c != 0) | (gap_free <= MARGIN * depth)
 
     # ---- solve --------------------------------------------------------------------------
-    def solve(self, gap_free, tau_free, tau_prev, a, c, mu, e0, *, basis=None,
-              max_pivots=None) -> ContactSolution:
+    def solve(self, gap_free: np.ndarray, tau_free: np.ndarray, tau_prev: np.ndarray,
+              a: np.ndarray, c: np.ndarray, mu: np.ndarray, e0: np.ndarray, *,
+              basis: np.ndarray | list[np.ndarray] | None = None,
+              max_pivots: int | None = None) -> ContactSolution:
         """As `ContactLCP.solve` (bases in the full layout), over the candidate pairs."""
         cand = self.predict(gap_free, a, c)
         bases = [b for b in (basis if isinstance(basis, list) else [basis]) if b is not None]

@@ -38,6 +38,9 @@ class ContactSetup:
 
     @classmethod
     def build(cls, mesh: Mesh, cfg: Config) -> ContactSetup:
+        """The contact rows of every `[[interface]]` of cfg on the mesh (each by its
+        discretisation's builder) and what the summary records of each interface;
+        InputError when a node is the slave of two pairs."""
         found, described = [], {}
         for i, itf in enumerate(cfg.interfaces):  # the builders check the curves exist
             build = contact_discretisation(itf.discretisation, f"interface '{itf.name}'")
@@ -54,11 +57,14 @@ class ContactSetup:
         return cls(cfg, pairs, rows.matrix(mesh.n_nodes), rows, described)
 
     def bodies(self, mesh: Mesh) -> set[int]:
+        """Ids of the bodies that own a slave or master node of some pair."""
         nb = mesh.node_body()
         return set(nb[self.pairs.slave].tolist()) | set(nb[self.pairs.master.ravel()].tolist())
 
     def stepper(self, c_mat: np.ndarray, cases, unit, rhs,
                 floating: FloatingModes | None) -> ContactStepper:
+        """The rank-0 `ContactStepper` of these pairs over the load steps (c_mat: the
+        (2m, 2m) compliance; see `ContactStepper`)."""
         return ContactStepper(self, c_mat, cases, unit, rhs, floating)
 
 

@@ -132,8 +132,10 @@ class ContactLCP:
         out[np.abs(d * out) < 1e-14 * big] = 0.0
         return out
 
-    def solve(self, gap_free, tau_free, tau_prev, a, c, mu, e0, *, basis=None,
-              max_pivots=None) -> ContactSolution:
+    def solve(self, gap_free: np.ndarray, tau_free: np.ndarray, tau_prev: np.ndarray,
+              a: np.ndarray, c: np.ndarray, mu: np.ndarray, e0: np.ndarray, *,
+              basis: np.ndarray | list[np.ndarray] | None = None,
+              max_pivots: int | None = None) -> ContactSolution:
         """Solve the LCP and recover p, q, gap, tau and alpha. basis: a warm-start basis,
         or a list of them tried in order (newest first); when none solves it, Lemke starts
         from its crash basis, then cold."""

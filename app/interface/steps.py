@@ -129,18 +129,19 @@ def solve_step(lcp: ContactLCP, hist: InterfaceHistory, step: int, gap_free: np.
     basis = hist.warm.candidates()
     frictionless = np.ones(lcp.m, dtype=bool)
     frictionless[lcp.fric] = False
+
+    def ended(sol: ContactSolution, iterations: int, status: str) -> StepResult:
+        """The result of a step that stops without an answer (the history kept)."""
+        return StepResult(sol, classify(sol, bonded, tol_gap, tol_slip, frictionless,
+                                        hist.tau_prev), debonded_step, iterations, pivots,
+                          time.perf_counter() - t0, 0.0, status)
+
     for it in range(1, max_iterations + 1):
         sol = lcp.solve(gap_free, tau_free, hist.tau_prev, a, c, mu, e0, basis=basis)
         pivots += sol.pivots
         if sol.status != "solved":
-            return StepResult(sol, classify(sol, bonded, tol_gap, tol_slip, frictionless,
-                                            hist.tau_prev), debonded_step,
-                              it, pivots, time.perf_counter() - t0, 0.0, sol.status)
-        slipped = (sol.slip_plus + sol.slip_minus) > tol_slip
-        # pairs without tangential unknowns (mu = c = 0: an adhesive bond with no shear
-        # strength) slip whenever they move tangentially
-        slipped |= frictionless & (np.abs(sol.tau - hist.tau_prev) > tol_slip)
-        new = bonded & ((sol.gap > tol_gap) | slipped)
+            return ended(sol, it, sol.status)
+        new = _newly_debonded(sol, bonded, frictionless, hist.tau_prev, tol_gap, tol_slip)
         if not new.any():
             break
         bonded &= ~new
@@ -152,17 +153,33 @@ def solve_step(lcp: ContactLCP, hist: InterfaceHistory, step: int, gap_free: np.
     else:
         sol.message = (f"{max_iterations} solves left pairs to debond (the last solve's "
                        "newly debonded pairs still carried their bond)")
-        return StepResult(sol, classify(sol, bonded, tol_gap, tol_slip, frictionless,
-                                        hist.tau_prev), debonded_step, max_iterations, pivots,
-                          time.perf_counter() - t0, 0.0, "debonding did not settle")
+        return ended(sol, max_iterations, "debonding did not settle")
     state = classify(sol, bonded, tol_gap, tol_slip, frictionless, hist.tau_prev)
     dissipation = float(pair_dissipation(sol).sum())
+    _commit(hist, sol, a, c, bonded, debonded_step)
+    return StepResult(sol, state, debonded_step, it, pivots, time.perf_counter() - t0,
+                      dissipation, "solved")
+
+
+def _commit(hist: InterfaceHistory, sol: ContactSolution, a: np.ndarray, c: np.ndarray,
+            bonded: np.ndarray, debonded_step: np.ndarray) -> None:
+    """The solved step's bonds, its tangential motion and its basis become the history."""
     hist.a, hist.c, hist.bonded = a, c, bonded
     hist.debonded_step = debonded_step
     hist.tau_prev = sol.tau.copy()
     hist.warm.record(sol.basis)
-    return StepResult(sol, state, debonded_step, it, pivots, time.perf_counter() - t0,
-                      dissipation, "solved")
+
+
+def _newly_debonded(sol: ContactSolution, bonded: np.ndarray, frictionless: np.ndarray,
+                    tau_prev: np.ndarray, tol_gap: float, tol_slip: float) -> np.ndarray:
+    """(m,) bool: the bonded pairs that the solution opens (gap > tol_gap) or slides (slip
+    variables, or for pairs without tangential unknowns the tangential motion since
+    tau_prev, above tol_slip)."""
+    slipped = (sol.slip_plus + sol.slip_minus) > tol_slip
+    # pairs without tangential unknowns (mu = c = 0: an adhesive bond with no shear
+    # strength) slip whenever they move tangentially
+    slipped |= frictionless & (np.abs(sol.tau - tau_prev) > tol_slip)
+    return bonded & ((sol.gap > tol_gap) | slipped)
 
 
 @dataclass

@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from app.lcp import exact
-from app.lcp.lemke import _lemke_tableau
+from app.lcp.lemke import lemke_tableau
 from app.lcp.solvers import LCP_SOLVERS
 
 WRONG_REL = 1e-6
@@ -61,7 +61,7 @@ def solvers() -> dict[str, Callable]:
     out = dict(LCP_SOLVERS)
     lem = LCP_SOLVERS["lemke"]
     out["lemke(crash=False)"] = lambda M, q, **kw: lem(M, q, crash=False, **kw)
-    out["lemke_tableau"] = _lemke_tableau
+    out["lemke_tableau"] = lemke_tableau
     return out
 
 

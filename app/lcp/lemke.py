@@ -12,7 +12,7 @@ and check). The package is split by concern:
 - `app.lcp.scaling`: the symmetric scaling and the dense helpers;
 - `app.lcp.pivoting`: the pivoting rules shared by the two cores;
 - `app.lcp.revised`: the revised core (the one `lemke` runs);
-- `app.lcp.tableau`: the textbook full-tableau core (`_lemke_tableau`, a slow reference);
+- `app.lcp.tableau`: the textbook full-tableau core (`lemke_tableau`, a slow reference);
 - `app.lcp.crash`: the crash basis (block principal pivoting) for cold starts;
 - `app.lcp.recovery`: the one recovery step after a run that ended "inaccurate" or on a
   secondary ray (restart from the final basis, `app.lcp.balance`, `app.lcp.repair`).
@@ -71,7 +71,7 @@ from app.lcp.scaling import row_blocks as _row_blocks
 from app.lcp.scaling import scaling as _scaling
 from app.lcp.tableau import _core_tableau
 
-__all__ = ["LCPResult", "lemke", "default_max_pivots", "STATUSES"]
+__all__ = ["LCPResult", "lemke", "lemke_tableau", "default_max_pivots", "STATUSES"]
 
 _CHECK_ROWS = 32
 """Rows of M per block in the final check (a buffer that stays in cache)."""
@@ -294,17 +294,12 @@ def _run(
         basis = None
     M, q, probe, deferred = _validate(M, q, sample=basis is None and crash)
     n = q.size
-    tol = DEFAULT_TOL if tol is None else float(tol)
-    if not tol > 0 or not np.isfinite(tol):
-        raise ValueError(f"tol must be a positive finite number, got {tol!r}")
-    max_pivots = default_max_pivots(n) if max_pivots is None else int(max_pivots)
-    zero = np.zeros(n)
+    tol, max_pivots = _checked_knobs(tol, max_pivots, n)
     if basis is not None:
         _given_basis(basis, n)  # a wrong shape is an error whatever q (q >= 0 ignored it)
     if (q >= 0).all():  # M was checked whole by _validate (no sampling when q >= 0)
-        return LCPResult(
-            zero, q.copy(), 0, "solved", 0.0, np.zeros(n, dtype=bool), "q >= 0: z = 0 solves it"
-        )
+        return LCPResult(np.zeros(n), q.copy(), 0, "solved", 0.0, np.zeros(n, dtype=bool),
+                         "q >= 0: z = 0 solves it")
     P = _Problem(M, q, tol)
     given = basis is not None
     start = None
@@ -320,6 +315,15 @@ def _run(
         return out
     pivots, refacts, note = out
     return _cold(core, P, M, q, tol, max_pivots, pivots, refacts, note, "cold")
+
+
+def _checked_knobs(tol: float | None, max_pivots: int | None, n: int) -> tuple[float, int]:
+    """(tol, max_pivots) with their defaults (DEFAULT_TOL, `default_max_pivots(n)`);
+    ValueError for a tol that is not positive and finite."""
+    tol = DEFAULT_TOL if tol is None else float(tol)
+    if not tol > 0 or not np.isfinite(tol):
+        raise ValueError(f"tol must be a positive finite number, got {tol!r}")
+    return tol, default_max_pivots(n) if max_pivots is None else int(max_pivots)
 
 
 def _given_basis(basis, n: int) -> np.ndarray:
@@ -514,7 +518,7 @@ def lemke(
     return _solve(_core_revised, M, q, max_pivots, tol, basis, cold_start, crash)
 
 
-def _lemke_tableau(
+def lemke_tableau(
     M: np.ndarray,
     q: np.ndarray,
     *,
@@ -524,5 +528,9 @@ def _lemke_tableau(
     cold_start: bool = True,
     crash: bool = True,
 ) -> LCPResult:
-    """Reference: `lemke` with the full-tableau core (O(n^2) per pivot; for tests)."""
+    """Reference: `lemke` with the textbook full-tableau core (O(n^2) per pivot; the same
+    arguments, starts, check and recovery; for tests, the checker and benchmarks)."""
     return _solve(_core_tableau, M, q, max_pivots, tol, basis, cold_start, crash)
+
+
+_lemke_tableau = lemke_tableau  # the former private name (tests and scripts use it)

@@ -82,29 +82,48 @@ def recover(run: Run, check: Check, M: np.ndarray, q: np.ndarray, res: LCPResult
     if rc is not None:
         r, c = rc
         Mc, qc, colf = r[:, None] * M * c, r * q, c
-        again = budget.charge(run(Mc, qc, budget.left, None, True, crash))
-        if not again.ok and again.status == "inaccurate":
-            again = _restarts(run, Mc, qc, again, budget, crash) or again
-        if again.ok:
-            out = _unbalanced(check, M, q, again, c)
-            if out is not None:
-                return _solved(out, res, budget, "then, on the balanced LCP (rows and "
-                               "columns in units of their largest entry): ")
+        out = _balanced(run, check, M, q, Mc, qc, c, budget, crash)
+        if out is not None:
+            return _solved(out, res, budget, "then, on the balanced LCP (rows and "
+                           "columns in units of their largest entry): ")
     if is_symmetric(Mc):
-        B = qp_basis(Mc, qc)
-        if B is not None:
-            again = budget.charge(run(Mc, qc, budget.left, B, False, False))
-            if again.ok and colf is not None:
-                again = _unbalanced(check, M, q, again, colf)
-            if again is not None and again.ok:
-                again.warm_start = "qp"
-                again.message = (f"{res.message}; then solved from the positive set of the "
-                                 f"convex QP (non-negative least squares) in {again.pivots} "
-                                 "pivots")
-                again.pivots = budget.spent
-                return again
+        again = _repaired(run, check, M, q, Mc, qc, colf, budget)
+        if again is not None:
+            again.warm_start = "qp"
+            again.message = (f"{res.message}; then solved from the positive set of the "
+                             f"convex QP (non-negative least squares) in {again.pivots} "
+                             "pivots")
+            again.pivots = budget.spent
+            return again
     res.pivots = budget.spent
     return res
+
+
+def _balanced(run: Run, check: Check, M: np.ndarray, q: np.ndarray, Mc: np.ndarray,
+              qc: np.ndarray, c: np.ndarray, budget: _Budget, crash: bool
+              ) -> LCPResult | None:
+    """Step 2: the balanced LCP (Mc = R M C, qc = R q) solved afresh, then step 1 on it
+    after "inaccurate"; its answer in the caller's units (z = C z'), or None when it
+    fails there."""
+    again = budget.charge(run(Mc, qc, budget.left, None, True, crash))
+    if not again.ok and again.status == "inaccurate":
+        again = _restarts(run, Mc, qc, again, budget, crash) or again
+    if not again.ok:
+        return None
+    return _unbalanced(check, M, q, again, c)
+
+
+def _repaired(run: Run, check: Check, M: np.ndarray, q: np.ndarray, Mc: np.ndarray,
+              qc: np.ndarray, colf: np.ndarray | None, budget: _Budget) -> LCPResult | None:
+    """Step 3: a warm start (no crash, no cold start) on (Mc, qc) from the positive set of
+    the convex QP; its answer in the caller's units (z = colf z' when balanced), or None."""
+    B = qp_basis(Mc, qc)
+    if B is None:
+        return None
+    again = budget.charge(run(Mc, qc, budget.left, B, False, False))
+    if again.ok and colf is not None:
+        again = _unbalanced(check, M, q, again, colf)
+    return again if again is not None and again.ok else None
 
 
 def _restarts(run: Run, M: np.ndarray, q: np.ndarray, res: LCPResult, budget: _Budget,

@@ -9,6 +9,7 @@ z = (nu / mu) D z~, w = nu D^-1 w~. M~ is never formed (`ScaledM`).
 from __future__ import annotations
 
 import warnings
+from collections.abc import Iterator
 
 import numpy as np
 import scipy.linalg as sla
@@ -28,12 +29,12 @@ def pow2(x: np.ndarray) -> np.ndarray:
     return np.exp2(np.round(np.log2(x)))
 
 
-def absmax(a: np.ndarray, axis: int | None = None):
+def absmax(a: np.ndarray, axis: int | None = None) -> np.ndarray | np.floating:
     """max |a| (along axis) without an |a| temporary."""
     return np.maximum(a.max(axis=axis), -a.min(axis=axis))
 
 
-def row_blocks(n: int):
+def row_blocks(n: int) -> Iterator[tuple[int, int]]:
     """(start, stop) row ranges of BLOCK_ROWS rows covering 0..n."""
     return ((i, min(i + BLOCK_ROWS, n)) for i in range(0, n, BLOCK_ROWS))
 
@@ -60,6 +61,7 @@ class ScaledM:
         self.absmax = 1.0  # max |M~| by the choice of mu
 
     def col(self, j: int) -> np.ndarray:
+        """Column j of M~ = D M D / mu, (n,)."""
         return self.M[:, j] * (self.D * (self.D[j] / self.mu))
 
     def cols(self, idx: np.ndarray) -> np.ndarray:
@@ -100,6 +102,7 @@ class ScaledM:
         return self.D * ((self.D * v) @ self.M) / self.mu
 
     def dense(self) -> np.ndarray:
+        """M~ = D M D / mu as a dense (n, n) array (a new copy)."""
         return self.D[:, None] * self.M * (self.D / self.mu)
 
 
@@ -153,7 +156,7 @@ def diagonal_scaling(M: np.ndarray, q: np.ndarray) -> tuple[ScaledM, np.ndarray,
     return ScaledM(M, D, 1.0), D * q / nu, D * nu
 
 
-def lu_or_none(A: np.ndarray):
+def lu_or_none(A: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
     """LU factors of square A (scipy lu_factor), or None when A is numerically singular."""
     if A.shape[0] == 0:
         return None

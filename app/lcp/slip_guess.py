@@ -49,21 +49,46 @@ def slip_guess(Ms: ScaledM, qt: np.ndarray, twin: np.ndarray, tpart: slice,
     sweeps = SWEEPS if sweeps is None else sweeps
     if sweeps <= 0:
         return None
-    T = np.arange(tpart.start, tpart.stop)
-    b = twin[T]
-    if (b < tpart.start).any() or (b >= tpart.stop).any():
+    pairs = _twin_pairs(twin, tpart)
+    if pairs is None:
         return None
-    a = T[b > T]
-    b = twin[a]
+    a, b = pairs
     d = Ms.D[a]
     Ha = _pair_block(Ms, a)
     hd = d * d * np.diagonal(Ha) / Ms.mu
     if not (hd > 0).all():
         return None
+    signs = _jacobi_signs(Ha, d, hd, Ms.mu, -qt[a] / hd, qt[b] / hd, sweeps)
+    if signs is None:  # not finite from the first sweep
+        return None
+    pos, neg = signs
+    Z = np.zeros(qt.size, dtype=bool)
+    Z[a[pos]] = True
+    Z[b[neg]] = True
+    return Z
+
+
+def _twin_pairs(twin: np.ndarray, tpart: slice) -> tuple[np.ndarray, np.ndarray] | None:
+    """The pairs (a, b) (both (p,) int, a_k < b_k = twin a_k) of the twins in tpart; None
+    when one of them has its twin outside tpart."""
+    T = np.arange(tpart.start, tpart.stop)
+    b = twin[T]
+    if (b < tpart.start).any() or (b >= tpart.stop).any():
+        return None
+    a = T[b > T]
+    return a, twin[a]
+
+
+def _jacobi_signs(Ha: np.ndarray, d: np.ndarray, hd: np.ndarray, mu: float, ca: np.ndarray,
+                  cb: np.ndarray, sweeps: int) -> tuple[np.ndarray, np.ndarray] | None:
+    """(x > 0, x < 0) (p,) bool after up to `sweeps` projected Jacobi sweeps from x = 0 on
+    the pairs' box problem (stopping rules of `slip_guess`); None when the first sweep is
+    not finite. Ha: M[a, a] (unscaled), d: D[a], hd: the scaled diagonal of H, mu: the
+    scaling's mu; ca = -q~_a / hd, cb = q~_b / hd."""
     # x_k = max(ca - t, 0) + min(cb - t, 0) with t = (H x)_k / H_kk - x_k; H x = d (M[a, a]
     # (d x)) / mu: a product with the unscaled block, no scaled copy of it
-    ca, cb, g = -qt[a] / hd, qt[b] / hd, d / (Ms.mu * hd)
-    x = np.zeros(a.size)
+    g = d / (mu * hd)
+    x = np.zeros(ca.size)
     pos = neg = None
     steady, last_step = 0, np.inf
     with np.errstate(all="ignore"):
@@ -80,9 +105,4 @@ def slip_guess(Ms: ScaledM, qt: np.ndarray, twin: np.ndarray, tpart: slice,
             pos, neg = p, m
             if steady >= STEADY:
                 break
-    if pos is None:  # not finite from the first sweep
-        return None
-    Z = np.zeros(qt.size, dtype=bool)
-    Z[a[pos]] = True
-    Z[b[neg]] = True
-    return Z
+    return None if pos is None else (pos, neg)

@@ -39,6 +39,7 @@ class SizeEstimate:
     memory: float
 
     def text(self) -> str:
+        """The estimate in words (elements, DOFs, memory in GB) for a message."""
         if not math.isfinite(self.memory):
             return "an unbounded number of elements (the element sizes underflow)"
         return (f"about {self.elements:.2g} elements, {self.dofs:.2g} DOFs and "

@@ -61,7 +61,9 @@ def contact_arrays(setup, result: StepSolution, u: np.ndarray,
 
 
 
-def kkt_check(gap, tau, tau_prev, p, q, mu, a, c, frictional, *, u_scale: float = 0.0,
+def kkt_check(gap: np.ndarray, tau: np.ndarray, tau_prev: np.ndarray, p: np.ndarray,
+              q: np.ndarray, mu: np.ndarray, a: np.ndarray, c: np.ndarray,
+              frictional: np.ndarray, *, u_scale: float = 0.0,
               f_scale: float = 0.0) -> dict:
     """Largest violations of METHOD section 4, relative to the data's scales.
 

@@ -8,6 +8,7 @@ import platform
 import subprocess
 import sys
 from pathlib import Path
+from typing import Any
 
 from petsc4py import PETSc
 
@@ -48,7 +49,7 @@ def app_version(root: Path = ROOT) -> str | None:
         return None
 
 
-def jsonable(value):
+def jsonable(value: Any) -> Any:
     """A copy that json can write (TOML dates and times become ISO strings)."""
     return json.loads(json.dumps(value, default=str))
 

@@ -18,6 +18,7 @@ import sys
 import threading
 from collections.abc import Callable
 from pathlib import Path
+from typing import TextIO
 
 import numpy as np
 from petsc4py import PETSc
@@ -176,7 +177,7 @@ def release_signals() -> None:
         raise RunInterrupted(name)
 
 
-def lock_folder(out: Path):
+def lock_folder(out: Path) -> TextIO:
     """Create OUT, take its lock (non-blocking); returns the open lock file."""
     try:
         out.mkdir(parents=True, exist_ok=True)
@@ -316,6 +317,7 @@ class StopWatchdog:
                 self.guard.stop_now(signal.Signals(signum).name)
 
     def close(self) -> None:
+        """Stop watching: restore the previous signal wake-up fd and end the thread."""
         self.handled.set()
         try:
             signal.set_wakeup_fd(self._old_fd)

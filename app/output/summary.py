@@ -59,6 +59,8 @@ class SummaryWriter:
         return self.doc.tail_patch(self._tail_text(summary, TRAILING + extra))
 
     def write(self, summary: dict) -> None:
+        """Write the summary: append the new steps' entries when the head is unchanged
+        since the last write of the same run, else rewrite the whole file."""
         steps = summary.get("steps", [])
         head_text = self._head_text(summary)
         tail = self._tail_text(summary)

@@ -82,7 +82,8 @@ VECTORS_3D = ("normal", "tangent")
 as /contact/<name>_3d, so that ParaView's Glyph filter can orient them."""
 
 
-def paraview_extras(point_data: dict, cell_data: dict, contact: dict | None):
+def paraview_extras(point_data: dict, cell_data: dict, contact: dict | None
+                    ) -> tuple[dict, dict, dict]:
     """Derived arrays for ParaView: named stress components; the contact points' slave
     displacement (m, 3) so that contact.xdmf warps with the mesh; 3-component normal and
     tangent. Returns (cell_data additions, contact additions, contact XDMF renames)."""

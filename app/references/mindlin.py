@@ -28,6 +28,7 @@ import math
 from collections.abc import Callable
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from app.closed_form import (
     INTERPOLATED_L2_RANGE,
@@ -48,7 +49,8 @@ Terms = tuple[tuple[float, float], ...]
 """A traction as a sum of Cattaneo terms: q(x) = sum over (k, Q) of k q_L(x; Q)."""
 
 
-def virgin_dissipation(Q, mu_P: float, E_star: float, thickness: float = 1.0) -> np.ndarray:
+def virgin_dissipation(Q: ArrayLike, mu_P: float, E_star: float,
+                       thickness: float = 1.0) -> np.ndarray:
     """D_v: frictional work of loading from 0 to |Q| <= mu P on the virgin branch (force x
     length; P, Q total forces over `thickness`). nan beyond mu P (gross slip)."""
     r = np.abs(np.asarray(Q, dtype=float)) / mu_P
@@ -65,6 +67,68 @@ def cycle_dissipation(Q_amplitude: float, mu_P: float, E_star: float,
     return float(4.0 * virgin_dissipation(Q_amplitude, mu_P, E_star, thickness))
 
 
+class _MasingMemory:
+    """The state of Masing's rules along a tangential load path: the turning points
+    (Q_r, traction there; oldest first), the load now, its direction of travel and the
+    work dissipated so far; dv: the virgin dissipation D_v(|Q|)."""
+
+    def __init__(self, dv: Callable[[float], float], tol: float):
+        self.dv, self.tol = dv, tol
+        self.turns: list[tuple[float, Terms]] = []
+        self.direction, self.q_now, self.work = 0.0, 0.0, 0.0
+
+    def terms_at(self, x: float) -> Terms:
+        """The traction at load x on the current branch."""
+        if not self.turns:
+            return ((math.copysign(1.0, x), abs(x)),) if x != 0.0 else ()
+        q_r, t_r = self.turns[-1]
+        return t_r + ((2.0 * math.copysign(1.0, x - q_r), abs(x - q_r) / 2.0),)
+
+    def branch_load(self, x: float) -> float:
+        """Q' of the current branch at load x (|x| virgin, |x - Q_r| / 2 after Q_r)."""
+        return abs(x) if not self.turns else abs(x - self.turns[-1][0]) / 2.0
+
+    def branch_work(self, x0: float, x1: float) -> float:
+        """Work dissipated on the current branch from load x0 to x1."""
+        if not self.turns:
+            return abs(self.dv(abs(x1)) - self.dv(abs(x0)))
+        q_r = self.turns[-1][0]
+        return 2.0 * abs(self.dv(abs(x1 - q_r) / 2.0) - self.dv(abs(x0 - q_r) / 2.0))
+
+    def _meets(self, target: float, d: float) -> float | None:
+        """The load where the current branch meets its origin's branch (the previous
+        turning point; -Q_r of the first one, on the virgin branch) when the move to
+        target in direction d reaches it; else None."""
+        if not self.turns:
+            return None
+        meet = self.turns[-2][0] if len(self.turns) >= 2 else -self.turns[0][0]
+        if (target - meet) * d >= -self.tol and (meet - self.q_now) * d >= -self.tol:
+            return meet
+        return None
+
+    def move_to(self, target: float) -> float:
+        """Load from q_now to target (adding the work); returns the load Q' of the branch
+        that slid at the end of the move (0 without change; see `masing_path`)."""
+        d = float(np.sign(target - self.q_now))
+        if d == 0.0:
+            return 0.0
+        if self.direction != 0.0 and d != self.direction:
+            self.turns.append((self.q_now, self.terms_at(self.q_now)))
+        self.direction = d
+        slip = 0.0
+        # the memory rule: a branch that meets its origin's branch joins it
+        while (meet := self._meets(target, d)) is not None:
+            self.work += self.branch_work(self.q_now, meet)
+            slip = self.branch_load(meet)
+            self.q_now = meet
+            del self.turns[-2 if len(self.turns) >= 2 else -1:]
+        self.work += self.branch_work(self.q_now, target)
+        if abs(target - self.q_now) > self.tol:
+            slip = self.branch_load(target)
+        self.q_now = target
+        return slip
+
+
 def masing_path(Q: np.ndarray, dv: Callable[[float], float]
                 ) -> tuple[list[Terms], np.ndarray, np.ndarray]:
     """Tractions and cumulative dissipation along a tangential load path (Masing's rules).
@@ -77,54 +141,18 @@ def masing_path(Q: np.ndarray, dv: Callable[[float], float]
     in |x| > a sqrt(1 - Q' / (mu P)) slip. A step that ends where a branch meets its
     origin's branch slid on the younger one, though the traction is the older one's.
     """
-    turns: list[tuple[float, Terms]] = []  # turning points (Q_r, traction there), oldest first
-    direction, q_now, work = 0.0, 0.0, 0.0
+    tol = 1e-9 * float(np.abs(Q).max(initial=0.0))  # a load back at a turning point meets it
+    memory = _MasingMemory(dv, tol)
     out_terms: list[Terms] = []
     out_work, out_slip = np.zeros(len(Q)), np.zeros(len(Q))
-
-    def terms_at(x: float) -> Terms:
-        if not turns:
-            return ((math.copysign(1.0, x), abs(x)),) if x != 0.0 else ()
-        q_r, t_r = turns[-1]
-        return t_r + ((2.0 * math.copysign(1.0, x - q_r), abs(x - q_r) / 2.0),)
-
-    def branch_load(x: float) -> float:
-        return abs(x) if not turns else abs(x - turns[-1][0]) / 2.0
-
-    def branch_work(x0: float, x1: float) -> float:
-        if not turns:
-            return abs(dv(abs(x1)) - dv(abs(x0)))
-        q_r = turns[-1][0]
-        return 2.0 * abs(dv(abs(x1 - q_r) / 2.0) - dv(abs(x0 - q_r) / 2.0))
-
-    tol = 1e-9 * float(np.abs(Q).max(initial=0.0))  # a load back at a turning point meets it
     for k, target in enumerate(map(float, Q)):
-        d = float(np.sign(target - q_now))
-        slip = 0.0
-        if d != 0.0:
-            if direction != 0.0 and d != direction:
-                turns.append((q_now, terms_at(q_now)))
-            direction = d
-            while True:  # the memory rule: a branch that meets its origin's branch joins it
-                meet = (turns[-2][0] if len(turns) >= 2 else -turns[0][0]) if turns else None
-                if meet is not None and (target - meet) * d >= -tol and \
-                        (meet - q_now) * d >= -tol:
-                    work += branch_work(q_now, meet)
-                    slip = branch_load(meet)
-                    q_now = meet
-                    del turns[-2 if len(turns) >= 2 else -1:]
-                    continue
-                work += branch_work(q_now, target)
-                if abs(target - q_now) > tol:
-                    slip = branch_load(target)
-                q_now = target
-                break
-        out_terms.append(terms_at(q_now))
-        out_work[k], out_slip[k] = work, slip
+        out_slip[k] = memory.move_to(target)
+        out_terms.append(memory.terms_at(memory.q_now))
+        out_work[k] = memory.work
     return out_terms, out_work, out_slip
 
 
-def masing_traction(x, terms: Terms, a: float, p0: float, mu: float,
+def masing_traction(x: ArrayLike, terms: Terms, a: float, p0: float, mu: float,
                     mu_P: float) -> np.ndarray:
     """q(x) of a traction given as Cattaneo terms (signed, along the interface's t)."""
     x = np.asarray(x, dtype=float)
@@ -144,8 +172,9 @@ def _path(run: RunFigures, name: str) -> tuple[np.ndarray, np.ndarray, np.ndarra
     return q, p, d
 
 
-def mindlin_errors(x, q, length, *, Q_path: np.ndarray, P: float, mu: float, R: float,
-                   E_star: float, thickness: float = 1.0, stick=None, x0: float = 0.0) -> dict:
+def mindlin_errors(x: ArrayLike, q: ArrayLike, length: ArrayLike, *, Q_path: np.ndarray,
+                   P: float, mu: float, R: float, E_star: float, thickness: float = 1.0,
+                   stick: ArrayLike | None = None, x0: float = 0.0) -> dict:
     """q(x) at the last entry of Q_path against Masing's traction (x relative to the centre,
     sorted, q signed along t), the closed-form dissipation along the path and, with
     `stick` ((m,) bool: pairs in contact that did not slip in the last step), the stick

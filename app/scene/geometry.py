@@ -29,10 +29,12 @@ class Piece:
 
     @staticmethod
     def line(p0: Any, p1: Any) -> Piece:
+        """The straight piece from p0 to p1 (points [x, y])."""
         return Piece("line", np.asarray(p0, float), np.asarray(p1, float))
 
     @staticmethod
     def arc(center: Any, radius: float, a0: float, a1: float) -> Piece:
+        """The arc of the circle (center, radius) from angle a0 to a1 (radians)."""
         c = np.asarray(center, float)
         return Piece("arc", _polar(c, radius, a0), _polar(c, radius, a1), c, radius, a0, a1)
 
@@ -75,12 +77,14 @@ def _polar(c: np.ndarray, r: float, a: float) -> np.ndarray:
 
 
 def arc_pieces(center: Any, radius: float, a0: float, a1: float) -> list[Piece]:
+    """The arc from angle a0 to a1 (radians) as equal pieces of at most MAX_ARC each."""
     n = max(1, math.ceil((a1 - a0) / MAX_ARC - 1e-9))
     a = np.linspace(a0, a1, n + 1)
     return [Piece.arc(center, radius, a[i], a[i + 1]) for i in range(n)]
 
 
 def is_number(v: Any) -> bool:
+    """True for a finite int or float (not a bool)."""
     return isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
 
 
@@ -104,6 +108,8 @@ MAX_COORDINATE = 1e30
 
 
 def xy_point(v: Any, what: str) -> np.ndarray:
+    """v as a point (2,) float; InputError naming `what` unless it is two finite
+    numbers within +-MAX_COORDINATE."""
     if not (isinstance(v, list | tuple) and len(v) == 2 and all(is_number(c) for c in v)):
         raise InputError(f"{what} must be a point [x, y] (got {v!r})")
     if max(abs(c) for c in v) > MAX_COORDINATE:

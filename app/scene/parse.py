@@ -47,6 +47,7 @@ class BodySpec:
     interior_points: list[np.ndarray] = field(default_factory=list)  # to embed
 
     def curve_pieces(self, curve: str) -> list[Piece]:
+        """The geometry pieces of the named curve, in side order."""
         return [p for s in self.sides if s.curve == curve for p in s.pieces]
 
     def contains(self, xy: np.ndarray, tol: float) -> bool:

@@ -19,6 +19,7 @@ def center_radius(shape: dict, where: str) -> tuple[np.ndarray, float]:
 
 
 def inside_circle(shape: dict, xy: np.ndarray, tol: float) -> bool:
+    """True if xy lies inside the shape's circle, further than tol from it."""
     c, r = np.asarray(shape["center"], float), shape["radius"]
     return bool(np.hypot(xy[0] - c[0], xy[1] - c[1]) < r - tol)
 

@@ -1,0 +1,63 @@
+"""Which runs of a convergence study have no row: what an interrupted study's tables list.
+
+A study interrupted by SIGINT / SIGTERM writes the tables and plots of the runs that
+completed (app/study.py). Without this list, study_tables.md read like a study planned
+that way: nothing said that the run in progress stopped and the later ones never ran.
+Plain Python; no MPI.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+
+def planned_runs(first_level: int, last: int, reference_levels: int, labels: list[str],
+                 ref_label: str) -> list[tuple[int, str]]:
+    """(level, method label) of every run the study plans, in its order: every method at
+    levels first_level..last - reference_levels, the reference method alone beyond."""
+    return [(level, lab) for level in range(first_level, last + 1) for lab in labels
+            if level <= last - reference_levels or lab == ref_label]
+
+
+def missing_runs(out: Path, planned: list[tuple[int, str]], done: set[tuple[int, str]],
+                 failures: list[str], last: int) -> list[str]:
+    """One line per planned run with no row (`done`: (level, label) of the rows) and not
+    already among `failures` (lines "level l/last LABEL: ..."): "interrupted" (or the
+    status of its OUT/L<l>_<label>/summary.json) for a run that started, "not run" for
+    one that did not."""
+    out_lines = []
+    for level, lab in planned:
+        tag = f"level {level}/{last} {lab}"
+        if (level, lab) in done or any(f.startswith(tag + ":") for f in failures):
+            continue
+        summary = Path(out) / f"L{level}_{lab}" / "summary.json"
+        try:
+            status = json.loads(summary.read_text()).get("status", "interrupted")
+        except (OSError, ValueError):
+            status = None
+        out_lines.append(f"{tag}: " + (f"{status} (see {summary.parent.name}/summary.json)"
+                                       if status else "not run (the study was interrupted)"))
+    return out_lines
+
+
+def missing_combinations(out: Path, keys: list[str], combos: list[tuple[str, ...]],
+                         rows: list[dict], value) -> list[dict]:
+    """The sweep.csv rows of the combinations an interrupted sweep has no row for: their
+    swept values (`value`: text -> the rows' value, app.sweep._value) and status
+    "interrupted" (or the status of OUT/run_<i>/summary.json) for the run it stopped,
+    "not run" for the ones it never started."""
+    have = [tuple(r.get(k) for k in keys) for r in rows]
+    out_rows = []
+    for i, combo in enumerate(combos):
+        params = {k: value(v) for k, v in zip(keys, combo, strict=True)}
+        if tuple(params.values()) in have:
+            continue
+        summary = Path(out) / f"run_{i:03d}" / "summary.json"
+        try:
+            status = json.loads(summary.read_text()).get("status", "interrupted")
+        except (OSError, ValueError):
+            status = "not run"
+        out_rows.append({**params, "status": status,
+                         "error": "the sweep was interrupted"})
+    return out_rows

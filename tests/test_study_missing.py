@@ -1,0 +1,73 @@
+"""An interrupted study's tables list the runs that did not complete (app/study_missing.py)."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+from support import CONFIGS, ROOT, mpi_env, read_csv
+
+from app.study_missing import missing_combinations, missing_runs, planned_runs
+
+STOP_IN_THIRD_RUN = """
+import sys
+import app.study
+real = app.study.run
+calls = []
+
+def run(cfg, opts):
+    calls.append(opts)
+    if len(calls) == 3:
+        raise KeyboardInterrupt  # Ctrl-C inside the third run
+    return real(cfg, opts)
+
+app.study.run = run
+from app.cli import main
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+def test_planned_runs_follow_the_study_loop():
+    assert planned_runs(1, 3, 1, ["2SD", "4SD"], "4SD") == [
+        (1, "2SD"), (1, "4SD"), (2, "2SD"), (2, "4SD"), (3, "4SD")]
+
+
+def test_missing_runs_name_the_interrupted_and_the_unstarted(tmp_path):
+    (tmp_path / "L1_4SD").mkdir()
+    (tmp_path / "L1_4SD" / "summary.json").write_text(json.dumps({"status": "interrupted"}))
+    plan = planned_runs(0, 1, 0, ["4SD", "FEM-Q4"], "4SD")
+    lines = missing_runs(tmp_path, plan, {(0, "4SD")},
+                         ["level 0/1 FEM-Q4: no static equilibrium"], 1)
+    assert lines == ["level 1/1 4SD: interrupted (see L1_4SD/summary.json)",
+                     "level 1/1 FEM-Q4: not run (the study was interrupted)"]
+
+
+def test_an_interrupted_study_lists_what_did_not_complete(tmp_path):
+    """The tables of the completed runs read like a study planned that way: nothing said
+    that level 1 never ran."""
+    out = tmp_path / "s"
+    cmd = [sys.executable, "-c", STOP_IN_THIRD_RUN, "study",
+           str(CONFIGS / "cantilever.toml"), "--levels", "2", "--methods", "4,q4", "--out",
+           str(out), "--quiet"]
+    res = subprocess.run(cmd, cwd=ROOT, env=mpi_env(), capture_output=True, text=True,
+                         timeout=300)
+    assert res.returncode == 130, res.stderr
+    assert "study_tables.md lists the 2 runs that did not complete" in res.stderr
+    assert len(read_csv(out / "study.csv")) == 2
+    tables = (out / "study_tables.md").read_text()
+    assert "- level 1/1 4SD: not run (the study was interrupted)" in tables
+    assert "- level 1/1 FEM-Q4: not run (the study was interrupted)" in tables
+
+
+def test_missing_combinations_of_a_sweep(tmp_path):
+    from app.sweep import _value
+
+    (tmp_path / "run_001").mkdir()
+    (tmp_path / "run_001" / "summary.json").write_text(json.dumps({"status": "interrupted"}))
+    combos = [("0.2", "1"), ("0.4", "1"), ("0.6", "1")]
+    rows = [{"mu": 0.2, "c": 1.0, "status": "completed", "interface": "a"},
+            {"mu": 0.2, "c": 1.0, "status": "completed", "interface": "b"}]
+    got = missing_combinations(tmp_path, ["mu", "c"], combos, rows, _value)
+    assert [(r["mu"], r["c"], r["status"]) for r in got] == [(0.4, 1.0, "interrupted"),
+                                                            (0.6, 1.0, "not run")]
