@@ -4,8 +4,9 @@
  * forwards). While armed, the handler writes the prepared summary, prints the prepared
  * line on stderr and exits with 130 (SIGINT) or 143 (SIGTERM). The summary is either the
  * whole file (through a temporary file and a rename) or, for a summary that grows step by
- * step (app/output/append.py), its new tail written in place at a byte offset. Only
- * async-signal-safe calls. Loaded through ctypes (app/hard_stop.py).
+ * step (app/output/append.py), its new tail written in place at a byte offset. An
+ * optional second file (a study's own summary.json, app/study_status.py) is written whole
+ * after it. Only async-signal-safe calls. Loaded through ctypes (app/hard_stop.py).
  */
 #include <fcntl.h>
 #include <signal.h>
@@ -20,6 +21,8 @@ static char *g_text[SLOTS], *g_line[SLOTS];
 static size_t g_text_len[SLOTS], g_line_len[SLOTS];
 static char *g_tmp, *g_path;
 static long long g_offset = -1; /* >= 0: write the text in place at this offset */
+static char *g_xtext[SLOTS], *g_xtmp, *g_xpath; /* the second file, if any */
+static size_t g_xtext_len[SLOTS];
 static struct sigaction g_old[SLOTS];
 static volatile sig_atomic_t g_armed = 0;
 
@@ -46,18 +49,19 @@ static void patch_in_place(int slot) {
     close(fd);
 }
 
-static void replace_whole(int slot) {
-    int fd = open(g_tmp, O_WRONLY | O_CREAT | O_TRUNC, 0644);
+static void replace_whole(const char *tmp, const char *path, const char *text, size_t n) {
+    int fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC, 0644);
     if (fd < 0) return;
-    write_all(fd, g_text[slot], g_text_len[slot]);
-    if (fsync(fd) == 0 && close(fd) == 0) rename(g_tmp, g_path);
-    else unlink(g_tmp);
+    write_all(fd, text, n);
+    if (fsync(fd) == 0 && close(fd) == 0) rename(tmp, path);
+    else unlink(tmp);
 }
 
 static void on_signal(int sig) {
     int slot = sig == SIGTERM ? 1 : 0;
     if (g_offset >= 0) patch_in_place(slot);
-    else replace_whole(slot);
+    else replace_whole(g_tmp, g_path, g_text[slot], g_text_len[slot]);
+    if (g_xpath) replace_whole(g_xtmp, g_xpath, g_xtext[slot], g_xtext_len[slot]);
     write_all(2, g_line[slot], g_line_len[slot]);
     _exit(sig == SIGTERM ? 143 : 130);
 }
@@ -71,6 +75,16 @@ static char *copy(const char *s, size_t n) {
     return p;
 }
 
+static void release_extra(void) {
+    for (int i = 0; i < SLOTS; i++) {
+        free(g_xtext[i]);
+        g_xtext[i] = NULL;
+    }
+    free(g_xtmp);
+    free(g_xpath);
+    g_xtmp = g_xpath = NULL;
+}
+
 static void release(void) {
     for (int i = 0; i < SLOTS; i++) {
         free(g_text[i]);
@@ -80,6 +94,26 @@ static void release(void) {
     free(g_tmp);
     free(g_path);
     g_tmp = g_path = NULL;
+    release_extra();
+}
+
+/* Before hard_stop_arm: a second file the handler writes whole (texts for SIGINT and
+ * SIGTERM); disarming forgets it. Returns 0, or -1 (none) if armed or out of memory. */
+int hard_stop_extra(const char *tmp, const char *path, const char *text_int, size_t n_int,
+                    const char *text_term, size_t n_term) {
+    if (g_armed) return -1;
+    release_extra();
+    g_xtmp = copy(tmp, strlen(tmp));
+    g_xpath = copy(path, strlen(path));
+    g_xtext[0] = copy(text_int, n_int);
+    g_xtext[1] = copy(text_term, n_term);
+    if (!g_xtmp || !g_xpath || !g_xtext[0] || !g_xtext[1]) {
+        release_extra();
+        return -1;
+    }
+    g_xtext_len[0] = n_int;
+    g_xtext_len[1] = n_term;
+    return 0;
 }
 
 /* Arm: texts[i]/lines[i] for SIGINT (0) and SIGTERM (1), the summary's path, its

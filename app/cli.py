@@ -40,8 +40,10 @@ ALLOW_LARGE_HELP = ("run even when the mesh estimated from the geometry and elem
 
 def _parser() -> argparse.ArgumentParser:
     """The `python -m app` parser: subcommands run and study."""
-    p = argparse.ArgumentParser(prog="python -m app", description=DESCRIPTION,
-                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    from app.early_failure import Parser  # (its errors raise: recorded in OUT too)
+
+    p = Parser(prog="python -m app", description=DESCRIPTION,
+               formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = p.add_subparsers(dest="command", required=True)
     _run_parser(sub)
     _study_parser(sub)
@@ -151,23 +153,30 @@ def main(argv: list[str] | None = None) -> int:
     parser = _parser()
     # PETSc options that begin with -h (-help) would be taken as argparse's -h with a value
     petsc_h = [a for a in argv if a.startswith("-h") and a != "-h"]
-    args, petsc_args = parser.parse_known_args([a for a in argv if a not in petsc_h])
-    petsc_args = petsc_h + petsc_args
-    bad = [a for a in petsc_args if a.startswith("--")]
-    if bad:
-        parser.error(f"unknown option {bad[0]} (PETSc options take a single dash)")
+    from app.early_failure import UsageError, record, study_head, usage_failure
+
+    try:
+        args, petsc_args = parser.parse_known_args([a for a in argv if a not in petsc_h])
+        petsc_args = petsc_h + petsc_args
+        bad = [a for a in petsc_args if a.startswith("--")]
+        if bad:
+            parser.error(f"unknown option {bad[0]} (PETSc options take a single dash)")
+    except UsageError as exc:  # argparse's lines, and OUT/summary.json says failed
+        return usage_failure(exc, _parser, [a for a in argv if a not in petsc_h], _out_folder)
 
     from app.output import startup_signals
     from app.petsc_start import start_petsc
 
-    run_out = None if args.command != "run" else Path(args.out or Path("out") / args.config.stem)
-    startup_signals.arm(run_out, str(args.config), act=args.command == "run")
+    stem = args.config.stem if args.command == "run" else f"study_{args.config.stem}"
+    startup_signals.arm(Path(args.out or Path("out") / stem), str(args.config),
+                        head=None if args.command == "run" else study_head(
+                            "sweep" if args.sweep else "convergence", args.config))
 
     refused = start_petsc(petsc_args)
-    if refused:  # PETSc did not start: no summary.json, as for a command line error
+    if refused:  # PETSc did not start: OUT/summary.json says failed (rank 0)
         startup_signals.restore()
         if startup_signals.launcher_rank() == 0:
-            print(f"error: {refused}", file=sys.stderr)
+            print(f"error: {record(args, refused, _out_folder)}", file=sys.stderr)
         return 2
     args.started = time.perf_counter()  # a run's `startup` phase counts from here
     from petsc4py import PETSc
@@ -185,8 +194,9 @@ def main(argv: list[str] | None = None) -> int:
     except RunInterrupted as exc:
         message, code = f"error: {exc}", exc.exit_code
     except KeyboardInterrupt:  # outside a run's guard (between a study's runs): no traceback
-        message, code = ("error: interrupted by SIGINT outside a load step; what completed "
-                         "before it is written"), 130
+        from app.study_status import OUTSIDE_A_STEP
+
+        message, code = f"error: {OUTSIDE_A_STEP}", 130
     except PETSc.Error as exc:
         message, code = f"error: PETSc: {petsc_error_line(exc)}", 2
     finally:
@@ -197,7 +207,30 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _study_command(args, petsc_args: list[str], rank: int) -> int:
-    """`study`: a convergence study, or a parameter study with --sweep."""
+    """`study`: a convergence study, or a parameter study with --sweep; OUT/summary.json
+    says completed, failed or interrupted (app/study_status.py)."""
+    from app.study_status import BatchStatus
+
+    with BatchStatus("sweep" if args.sweep else "convergence", args.config, list(args.set),
+                     _out_folder(args, Path("out") / f"study_{args.config.stem}")) as batch:
+        rows, out = _study_rows(args, batch)
+        batch.completed(len(rows), "sweep.csv" if args.sweep else "study.csv")
+    if rank == 0 and not args.quiet:
+        print(f"{len(rows)} {'rows' if args.sweep else 'runs'} -> "
+              f"{out / ('sweep.csv' if args.sweep else 'study.csv')}", file=sys.stderr)
+    return 0
+
+
+def _out_folder(args, default: Path):
+    """A function that gives --out (or `default`) created and checked, to record bad input
+    in; None when there is nothing to write (no --out and a config that is no file)."""
+    if args.out is None and not os.path.isfile(args.config):
+        return None
+    return lambda: output_folder(args.out, default)
+
+
+def _study_rows(args, batch) -> tuple[list[dict], Path]:
+    """The checks of the study's options, then its runs; the rows and OUT."""
     from app.config import load_config
     from app.errors import InputError
     from app.study import parse_methods, run_study
@@ -218,29 +251,27 @@ def _study_command(args, petsc_args: list[str], rank: int) -> int:
     finest = (args.refine if args.sweep
               else args.first_level + args.levels - 1 + args.reference_levels)
     scale = check_run_input(cfg, args, finest)
-    out = output_folder(args.out, Path("out") / f"study_{args.config.stem}")
     if args.sweep:
         from app.sweep import parse_sweeps, run_sweep
 
         if not 0 <= args.refine <= 8:
             raise InputError(f"--refine must be 0..8 (got {args.refine})")
-        rows = run_sweep(args.config, args.set, parse_sweeps(args.sweep), out,
+        sweeps = parse_sweeps(args.sweep)
+        out = batch.open(cfg)
+        return run_sweep(args.config, args.set, sweeps, out,
                          {"mesh_scale": scale, "mesh_cache": out / "mesh_cache",
                           "refine": args.refine, "allow_large": args.allow_large},
-                         args.at_step, args.quiet)
-        if rank == 0 and not args.quiet:
-            print(f"{len(rows)} rows -> {out / 'sweep.csv'}", file=sys.stderr)
-        return 0
-    rows = run_study(cfg, out, args.levels, parse_methods(args.methods), scale,
+                         args.at_step, args.quiet), out
+    methods = parse_methods(args.methods)
+    out = batch.open(cfg)
+    rows = run_study(cfg, out, args.levels, methods, scale,
                      args.quiet, args.first_level, args.remesh, args.reference_method,
                      args.reference, args.reference_levels, tuple(args.set),
                      allow_large=args.allow_large)
     if not rows:
         raise InputError(f"every run of the study failed (see the lines above and "
                          f"{out}/*/summary.json)")
-    if rank == 0 and not args.quiet:
-        print(f"{len(rows)} runs -> {out / 'study.csv'}", file=sys.stderr)
-    return 0
+    return rows, out
 
 
 def _run_command(args, petsc_args: list[str], rank: int) -> int:
@@ -271,9 +302,7 @@ def _run_command(args, petsc_args: list[str], rank: int) -> int:
     except InputError as exc:
         from app.input_failure import record_input_failure
 
-        folder = None if args.out is None and not os.path.isfile(args.config) else \
-            (lambda: output_folder(args.out, default_out))
-        record_input_failure(exc, folder, args.config, list(args.set))
+        record_input_failure(exc, _out_folder(args, default_out), args.config, list(args.set))
     try:
         summary = run(cfg, opts)
     except RunInterrupted as exc:  # the closing line, then the one-line error in main

@@ -27,7 +27,12 @@ Provider = Callable[[str], tuple[Path, int, bytes, str]]
 an in-place write of its new tail (-1: the whole file through a rename), the bytes, the
 stderr line."""
 
+Extra = Callable[[str, str], tuple[Path, bytes]]
+"""(signal name, the stderr line) -> a second file the handler writes whole: its path and
+bytes (a study's own summary.json, app/study_status.py)."""
+
 _PROVIDER: list[Provider] = []
+_EXTRA: list[Extra] = []
 _PENDING: list[Callable[[], str | None]] = []
 _DEPTH = [0]
 _LIB: list[ctypes.CDLL | None] = []
@@ -51,6 +56,14 @@ def _library() -> ctypes.CDLL | None:
                 lib.hard_stop_disarm.restype = None
         except AttributeError:  # an older build without these functions
             lib = None
+        try:
+            if lib is not None:
+                lib.hard_stop_extra.argtypes = [ctypes.c_char_p, ctypes.c_char_p,
+                                                ctypes.c_char_p, ctypes.c_size_t,
+                                                ctypes.c_char_p, ctypes.c_size_t]
+                lib.hard_stop_extra.restype = ctypes.c_int
+        except AttributeError:  # built before it: the second file is not written
+            pass
         _LIB.append(lib)
     return _LIB[0]
 
@@ -70,6 +83,14 @@ def set_provider(provider: Provider | None,
         _PROVIDER.append(provider)
         if pending is not None:
             _PENDING.append(pending)
+
+
+def set_extra(extra: Extra | None) -> None:
+    """Register (or with None remove) a second file an armed signal writes (a study's
+    summary.json while its runs run); kept across runs, unlike `set_provider`."""
+    _EXTRA.clear()
+    if extra is not None:
+        _EXTRA.append(extra)
 
 
 @contextmanager
@@ -97,6 +118,11 @@ def _arm(lib: ctypes.CDLL) -> bool:
     _, offset_term, text_term, line_term = _PROVIDER[0]("SIGTERM")
     if offset_term != offset:  # the two must be alike; the whole file otherwise
         raise ValueError("hard_stop provider: one offset for both signals")
+    if _EXTRA and getattr(lib, "hard_stop_extra", None) is not None:
+        xpath, xint = _EXTRA[0]("SIGINT", line_int)
+        _, xterm = _EXTRA[0]("SIGTERM", line_term)
+        lib.hard_stop_extra(str(xpath.with_name(xpath.name + ".tmp")).encode(),
+                            str(xpath).encode(), xint, len(xint), xterm, len(xterm))
     tmp = path.with_name(path.name + ".tmp")
     return lib.hard_stop_arm(str(tmp).encode(), str(path).encode(), offset, text_int,
                              len(text_int), text_term, len(text_term), line_int.encode(),

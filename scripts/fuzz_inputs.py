@@ -563,9 +563,8 @@ class Generator:
                                "--mesh-cache", "petsc", "petsc", "--energy-bracket"])
         case = self.base(cfg, "cli_run", opt, must_fail=True)
         usage = CLI_EDITS.get(opt, _cli_flag)(self.rng, case, opt)
-        if usage:
+        if usage:  # argparse's error: OUT/summary.json says failed too
             case.extra["usage"] = True
-            case.expect_summary = False
         if opt == "--out":
             case.desc = f"{opt} {case.argv[case.argv.index('--out') + 1]!r}"
         elif opt != "petsc":
@@ -686,8 +685,7 @@ class Generator:
                                  ["--reference-levels", "9"],
                                  ["--reference-method", "BOGUS", "--levels", "1"],
                                  ["--levels", "1", "--methods", "4", "--refine", "2"]])
-        case = Case(0, "study", " ".join(v)[:60], cfg, base + v, config_kind="copy",
-                    expect_summary=False)
+        case = Case(0, "study", " ".join(v)[:60], cfg, base + v, config_kind="copy")
         # a sweep goes on after a run that fails: it fails only when every run does
         some_valid = v[1].endswith(("=nan,1", "=0,1")) or v[-2:] == ["--at-step", "-99"]
         case.must_fail = None if some_valid else True
@@ -710,10 +708,9 @@ def regression_cases() -> list[Case]:
              "configs/patch.toml", ["run", "{CASE}/" + long_name + ".toml", "--out", "{OUT}",
                                     "--quiet"], must_fail=True),
         Case(0, "regression", "-options_file that does not exist (PETSc start traceback)",
-             "configs/patch.toml", run + ["-options_file", "/nonexistent/opts"],
-             expect_summary=False),
+             "configs/patch.toml", run + ["-options_file", "/nonexistent/opts"]),
         Case(0, "regression", "-history in a folder that does not exist (segfault)",
-             "configs/patch.toml", run + ["-history", "/proc/x/y"], expect_summary=False),
+             "configs/patch.toml", run + ["-history", "/proc/x/y"]),
         Case(0, "regression", "no load at all (kkt.complementarity NaN)",
              "configs/two_blocks.toml", run + ["--mesh-size", "1.0", "--set", "load=[]"]),
         Case(0, "regression", "reference.point a list (TypeError traceback after the run)",
@@ -820,13 +817,13 @@ def classify(case: Case, rc: int | None, stderr: str, out: Path) -> tuple[str, s
     if rc == 0:
         if case.must_fail:
             return "BUG", "accepted an invalid value (exit 0)"
-        if case.argv[0] != "run":
-            return "OK", ""
         summary, bad = read_summary(out)
         if summary is None:
             return "BUG", bad or "exit 0 without summary.json"
         if summary.get("status") != "completed":
             return "BUG", f"exit 0 with status {summary.get('status')!r}"
+        if case.argv[0] != "run":  # a study's own summary.json: no figures
+            return "OK", ""
         where = finite_numbers(summary)
         if where:
             return "BUG", f"exit 0 with a non-finite number at {where}"
@@ -834,6 +831,9 @@ def classify(case: Case, rc: int | None, stderr: str, out: Path) -> tuple[str, s
     if rc != 2:
         return "BUG", f"exit status {rc}: " + (lines[-1][:200] if lines else "")
     if lines and USAGE_LINE.match(lines[-1]):
+        bad = failed_summary_problem(case, out)
+        if bad:
+            return "BUG", bad
         return ("CLEAN_ERROR", "usage") if case.extra.get("usage") or not case.expect_summary \
             else ("CLEAN_ERROR", "usage (unexpected)")
     errors = [ln for ln in lines if ln.startswith("error: ")]
@@ -844,14 +844,24 @@ def classify(case: Case, rc: int | None, stderr: str, out: Path) -> tuple[str, s
             + " | ".join(lines)[:300]
     if len(errors[0]) > len("error: ") + MAX_MESSAGE:  # app/errors.py cuts longer ones
         return "BUG", f"error line of {len(errors[0])} characters"
-    if case.expect_summary and case.argv[0] == "run" and out.is_dir() \
-            and not case.config_kind == "missing":
-        summary, bad = read_summary(out)
-        if summary is None:
-            return "BUG", bad or "exit 2 without OUT/summary.json"
-        if summary.get("status") != "failed" or not summary.get("error"):
-            return "BUG", f"exit 2 with status {summary.get('status')!r}"
+    bad = failed_summary_problem(case, out)
+    if bad:
+        return "BUG", bad
     return "CLEAN_ERROR", errors[0][7:120]
+
+
+def failed_summary_problem(case: Case, out: Path) -> str | None:
+    """After exit 2: why OUT/summary.json does not say `failed` with an `error` (a run's
+    or a study's; also after argparse's usage error), or None."""
+    if not (case.expect_summary and case.argv[0] in ("run", "study") and out.is_dir()
+            and not case.config_kind == "missing"):
+        return None
+    summary, bad = read_summary(out)
+    if summary is None:
+        return bad or "exit 2 without OUT/summary.json"
+    if summary.get("status") != "failed" or not summary.get("error"):
+        return f"exit 2 with status {summary.get('status')!r}"
+    return None
 
 
 BIG_MODEL = 1e5

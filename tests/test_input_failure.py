@@ -64,3 +64,33 @@ def test_input_error_on_two_ranks(tmp_path):
     s = read_summary(out)
     assert s["status"] == "failed" and "mu must be a finite number" in s["error"]
     assert s["provenance"]["ranks"] == 2
+
+
+@pytest.mark.parametrize("args, reason", [
+    (["--sd", "x"], "argument --sd: invalid int value: 'x'"),
+    (["--method", "nope"], "argument --method: invalid choice: 'nope'"),
+    (["-options_file", "/nonexistent/opts"], "PETSc cannot start with the options"),
+])
+def test_a_refused_command_line_replaces_an_earlier_completed_summary(tmp_path, args, reason):
+    """Refused before PETSc starts (argparse, or PETSc's own start): summary.json says
+    failed with the printed line (before: the earlier run's `completed` one stayed), and
+    the earlier run's files are gone as for any new run."""
+    out = tmp_path / "o"
+    first = run_cli(["run", PATCH, "--out", str(out), "--quiet"])
+    assert first.returncode == 0, first.stderr
+    res = run_cli(["run", PATCH, "--out", str(out), "--quiet", *args])
+    assert res.returncode == 2
+    line = res.stderr.strip().splitlines()[-1]
+    assert reason in line and line.endswith(read_summary(out)["error"])
+    s = read_summary(out)
+    assert s["status"] == "failed" and s["steps"] == [] and s["config"] == PATCH
+    assert not (out / "step_0001.h5").exists() and not (out / "results.xdmf").exists()
+
+
+def test_an_out_under_a_file_is_named_with_the_config_error(tmp_path):
+    (tmp_path / "f").write_text("")
+    res = run_cli(["run", PATCH, "--out", str(tmp_path / "f" / "o"), "--quiet", "--set",
+                   "interface.interface.mu='x'"])
+    line = _one_line_error(res)
+    assert "mu must be a finite number" in line
+    assert f"no summary.json written: --out {tmp_path / 'f' / 'o'}: cannot write there" in line

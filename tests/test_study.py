@@ -6,7 +6,7 @@ import subprocess
 import sys
 
 import numpy as np
-from support import CONFIGS, ROOT, read_csv, run_cli
+from support import CONFIGS, ROOT, read_csv, read_summary, run_cli
 
 from app.study import energy_title, fitted_rate, parse_methods
 
@@ -43,6 +43,9 @@ def test_study_writes_csv_and_plots_and_reuses_meshes(tmp_path):
     assert all(b["one_sd_is_upper"] == "True" for b in bracket)
     assert "observed order" in (out / "study_tables.md").read_text()
     assert (out / "energy_bracket.png").stat().st_size > 5000
+    s = read_summary(out)  # the study's own summary.json (before: none in OUT)
+    assert (s["status"], s["study"], s["rows"], s["results"]) == ("completed", "convergence",
+                                                                   9, "study.csv")
     meshes = sorted((out / "mesh_cache").iterdir())
     assert len(meshes) == 1  # level 0 only (levels split it), shared by the methods
     stamps = [p.stat().st_mtime_ns for p in meshes]
@@ -52,7 +55,8 @@ def test_study_writes_csv_and_plots_and_reuses_meshes(tmp_path):
 
 
 def test_study_rejects_bad_methods_and_configs(tmp_path):
-    res = run_cli(["study", str(CONFIGS / "cantilever.toml"), "--methods", "5"])
+    res = run_cli(["study", str(CONFIGS / "cantilever.toml"), "--methods", "5", "--out",
+                   str(tmp_path / "m")])  # (without --out: a failed summary in out/)
     assert res.returncode == 2 and "--methods" in res.stderr
     res = run_cli(["study", str(CONFIGS / "patch.toml"), "--out", str(tmp_path)])
     assert res.returncode == 2 and "[reference]" in res.stderr

@@ -4,7 +4,7 @@ contact's physics (balance, friction + bond bound, sliding at mu P)."""
 from __future__ import annotations
 
 import pytest
-from support import CONFIGS, read_csv, run_cli
+from support import CONFIGS, read_csv, read_summary, run_cli
 
 from app.errors import InputError
 from app.sweep import parse_sweeps, report_step, split_values
@@ -94,12 +94,19 @@ def test_sweep_and_study_exit_nonzero_when_every_run_fails(tmp_path):
     args = [str(CONFIGS / "cattaneo.toml"), "--mesh-size", "1.0", "--out", str(tmp_path)]
     res = run_cli(["study", *args, "--sweep", "interface.contact.mu=0,0.0"])
     assert res.returncode == 2
-    assert res.stderr.strip().splitlines()[-1].startswith("error: every run of the sweep")
+    line = res.stderr.strip().splitlines()[-1]
+    assert line.startswith("error: every run of the sweep")
+    s = read_summary(tmp_path)  # the sweep's own summary.json says so (before: none)
+    assert (s["status"], s["study"], "error: " + s["error"]) == ("failed", "sweep", line)
     res = run_cli(["study", *args, "--set", "interface.contact.mu=0", "--levels", "1",
                    "--methods", "4", "--quiet"])
     assert res.returncode == 2
     lines = res.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("error: every run of the study failed")
+    s = read_summary(tmp_path)
+    assert (s["status"], s["study"], "error: " + s["error"]) == ("failed", "convergence",
+                                                                  lines[0])
+    assert read_summary(tmp_path / "L0_4SD")["status"] == "failed"
 
 
 def test_sweep_combination_rejected_by_the_config_checks_fails_alone(tmp_path):

@@ -55,11 +55,13 @@ class BatchGuard:
             print(line, file=sys.stderr, flush=True)
 
     def stop_now(self, name: str) -> None:
-        """From the watchdog thread (between runs, several ranks): write, report, exit."""
-        self.finish()
+        """From the watchdog thread (between runs, several ranks): write, report, exit.
+        Every stop hook runs: this guard's `finish` and the study's summary.json
+        (app/study_status.py)."""
+        reason = f"interrupted by {name} between the runs; what completed before it is written"
+        status._run_stop_hooks(reason)
         if self.rank == 0:
-            print(f"error: interrupted by {name} between the runs; what completed before "
-                  "it is written", file=sys.stderr, flush=True)
+            print(f"error: {reason}", file=sys.stderr, flush=True)
         os._exit(EXIT_SIGNAL.get(name, 130))
 
     def __exit__(self, exc_type, exc, tb) -> bool:

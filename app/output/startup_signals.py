@@ -29,7 +29,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from app.output.out_owner import foreign_files
+from app.output.out_owner import foreign_files, foreign_message
 
 STALE = re.compile(r"^(step_\d{4,}\.h5|results\.xdmf|contact\.xdmf|mesh\.h5|summary\.json)"
                    r"(\.tmp)?$")
@@ -38,7 +38,7 @@ EXIT_SIGNAL = {"SIGINT": 130, "SIGTERM": 143}
 LOCK_NAME = ".lock"
 
 _STATE: dict = {"mode": "off", "pending": None, "originals": None, "out": None,
-                "config": None}
+                "config": None, "head": None}
 """mode: off (pass signals on), record, act (stop at once) or stopping."""
 
 
@@ -53,11 +53,13 @@ def launcher_rank() -> int:
     return 0
 
 
-def arm(out: Path | None, config: str, act: bool = True) -> None:
-    """Install the start-up handler for SIGINT and SIGTERM. out: the run's folder (None:
-    write nothing); act False: only record (a study, whose runs' guards act on it)."""
+def arm(out: Path | None, config: str, act: bool = True, head: dict | None = None) -> None:
+    """Install the start-up handler for SIGINT and SIGTERM. out: the run's or study's
+    folder (None: write nothing); act False: only record; head: the summary's first keys
+    (default a run's; a study's, app/study_status.py, which defers once it takes OUT)."""
     pending = _STATE["pending"] if _STATE["mode"] == "record" else None
-    _STATE.update(mode="act" if act else "record", pending=pending, out=out, config=config)
+    _STATE.update(mode="act" if act else "record", pending=pending, out=out, config=config,
+                  head=head)
     try:
         current = (signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM))
         if current != (_handler, _handler):  # (since app/__main__.py: keep the first ones)
@@ -127,30 +129,44 @@ def _stop(name: str) -> None:
     reason = f"interrupted by {name} during start-up; no step completed"
     if launcher_rank() == 0:
         if _STATE["out"] is not None:
-            _record(Path(_STATE["out"]), reason)
+            _record(Path(_STATE["out"]), reason, head=_STATE["head"])
         print(f"error: {reason}", file=sys.stderr, flush=True)
     os._exit(EXIT_SIGNAL[name])
 
 
-def _record(out: Path, reason: str) -> None:
+def _record(out: Path, reason: str, status: str = "interrupted",
+            head: dict | None = None) -> str | None:
     """With OUT's lock (skipped when another run holds it or OUT is not there): remove the
-    earlier run's files of this tool, write the `interrupted` summary.json."""
+    earlier run's files of this tool, write a summary.json with `status` and `reason`
+    (head: its first keys, default a run's). Returns None, or why nothing was written."""
     try:
         out.mkdir(parents=True, exist_ok=True)  # as the run would have
         fh = open(out / LOCK_NAME, "a")
-    except OSError:  # not usable: the run would have stopped there too
-        return
+    except OSError as exc:  # not usable: the run would have stopped there too
+        return f"--out {out}: cannot write there ({exc.strerror or exc})"
     try:
         fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
-        if foreign_files(out, STALE):  # the user's files under this tool's names: untouched
-            return
+        foreign = foreign_files(out, STALE)
+        if foreign:  # the user's files under this tool's names: untouched
+            return foreign_message(out, foreign)
         for p in out.iterdir():
             if STALE.match(p.name) and p.is_file():
                 p.unlink(missing_ok=True)
-        text = json.dumps({"config": _STATE["config"], "n_steps": None, "steps": [],
-                           "status": "interrupted", "error": reason}, indent=2) + "\n"
+        text = json.dumps({**(head or {"config": _STATE["config"], "n_steps": None,
+                                       "steps": []}),
+                           "status": status, "error": reason}, indent=2) + "\n"
         tmp = out / "summary.json.tmp"
         tmp.write_text(text)
         os.replace(tmp, out / "summary.json")
-    except OSError:  # another run writes there, or a full disk: leave the folder alone
-        pass
+    except OSError as exc:  # another run writes there, or a full disk: leave it alone
+        return (f"--out {out}: another run is writing into this folder" if
+                isinstance(exc, BlockingIOError) else f"--out {out}: {exc.strerror or exc}")
+    finally:
+        fh.close()
+    return None
+
+
+def record_failure(out: Path, reason: str, head: dict) -> str | None:
+    """A `failed` summary.json in OUT for bad input found before PETSc starts (rank 0 of
+    the launcher; app/early_failure.py); None, or why nothing was written."""
+    return _record(out, reason, "failed", head)

@@ -109,7 +109,18 @@ def remove_on_stop(fn: Callable[[], None]) -> None:
         _ON_STOP.remove(fn)
 
 
-def _run_stop_hooks() -> None:
+_STOP_REASON: list[str] = []
+"""The `error` line of the signal a watchdog ends the job on (for the stop hooks)."""
+
+
+def stop_reason() -> str | None:
+    """In a stop hook: the reason the job ends (the `error:` line), else None."""
+    return _STOP_REASON[-1] if _STOP_REASON else None
+
+
+def _run_stop_hooks(reason: str | None = None) -> None:
+    if reason is not None:
+        _STOP_REASON.append(reason)
     for fn in list(_ON_STOP):
         try:
             fn()
@@ -428,7 +439,7 @@ class RunGuard:
                 except OSError:
                     pass
             print(f"error: {self.summary['error']}", file=sys.stderr, flush=True)
-        _run_stop_hooks()
+        _run_stop_hooks(self.summary["error"])
         os._exit(EXIT_SIGNAL.get(name, 130))
 
     def __exit__(self, exc_type, exc, tb) -> bool:

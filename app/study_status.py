@@ -1,0 +1,171 @@
+"""OUT/summary.json of a study or a sweep: `completed`, `failed` or `interrupted`, and why.
+
+Each run of a study writes its own summary.json in its folder (OUT/L<level>_<label>,
+OUT/run_NNN); this is the study's own, in OUT. Before, a study or sweep that stopped on
+bad input (a config or option error, every run failed) left no summary.json in OUT, so an
+unattended one could not be checked afterwards (README "Exit status").
+
+`BatchStatus` wraps the command. Bad input found before OUT is taken is recorded as `run`
+records it (app/input_failure.py: OUT's lock, another program's summary.json left
+alone). `open(cfg)` takes OUT as a run does (lock held until the end, another program's
+files refused, an earlier summary.json removed) and writes nothing yet: while the study
+runs, OUT has no summary.json, so a job killed outright (SIGKILL) leaves none rather than
+a false `running`. On exit the summary says `completed`, `failed` (InputError,
+SolveError, PETSc error, write error) or `interrupted` (SIGINT / SIGTERM; on several ranks
+through the stop hooks of app/output/status.py, since no rank stops by itself there, and
+inside a MUMPS factorization or solve through the C handler of app/hard_stop.py, which
+writes this summary after the run's), with `error` = the `error:` line app/cli.py prints.
+Until `open`, a signal is the start-up handler's (app/output/startup_signals.py, armed by
+app/cli.py with this summary's first keys): it writes `interrupted` and stops at once.
+"""
+
+from __future__ import annotations
+
+import datetime
+import json
+import sys
+from collections.abc import Callable
+from pathlib import Path
+
+from petsc4py import PETSc
+
+from app import hard_stop
+from app.early_failure import study_head
+from app.errors import InputError, SolveError
+from app.output import startup_signals, status
+from app.output.out_owner import foreign_files, foreign_message
+
+OUTSIDE_A_STEP = ("interrupted by SIGINT outside a load step; what completed before it is "
+                  "written")
+"""The error of SIGINT on one rank between a study's runs (app/cli.py prints it too)."""
+
+
+class BatchStatus:
+    """Context manager around a `study` command: its summary.json in OUT on every exit.
+
+    kind: "convergence" or "sweep"; folder(): OUT created and checked (InputError if not
+    usable), None when there is no folder to write (a mistyped config without --out)."""
+
+    def __init__(self, kind: str, config: Path, overrides: list[str],
+                 folder: Callable[[], Path] | None):
+        self.kind = kind
+        self.config = Path(config)
+        self.overrides = list(overrides)
+        self.folder = folder
+        self.out: Path | None = None
+        self.rank = PETSc.COMM_WORLD.getRank()
+        self.summary: dict = {}
+        self._lock = None
+
+    def head(self) -> dict:
+        """The keys every study summary starts with (without provenance)."""
+        return {**study_head(self.kind, self.config), "status": "running"}
+
+    def open(self, cfg) -> Path:
+        """OUT, created, checked and locked (collective): refused when another run writes
+        there or it holds another program's summary.json; this tool's earlier files
+        removed. cfg: the loaded config (its resolved text goes into the provenance)."""
+        from app.output.provenance import provenance
+        from app.parallel import collective
+
+        out = self.folder()
+        startup_signals.defer()  # a signal from now on: acted on by the runs' guards
+
+        def take() -> None:
+            lock = status.lock_folder(out)
+            foreign = foreign_files(out, status.STALE)
+            if foreign:
+                lock.close()
+                raise InputError(foreign_message(out, foreign))
+            status.clear_files(out)
+            self._lock = lock
+
+        collective(take)
+        self.summary = {**self.head(), "provenance": provenance(
+            cfg.raw, self.overrides, PETSc.COMM_WORLD.getSize())}
+        self.out = out
+        status.on_stop(self._stopped)
+        hard_stop.set_extra(self._hard_stop_text)
+        return out
+
+    def completed(self, rows: int, table: str) -> None:
+        """The study ended with `rows` rows in OUT/`table` (study.csv or sweep.csv)."""
+        self.summary.update(rows=rows, results=table)
+
+    def __enter__(self) -> BatchStatus:
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> bool:
+        if self.out is None:  # before OUT was taken: as a run's bad input
+            if isinstance(exc, InputError | SolveError):
+                from app.input_failure import record_input_failure
+
+                record_input_failure(exc, self.folder, self.config, self.overrides,
+                                     head={**self.head()})
+            return False
+        status.remove_on_stop(self._stopped)
+        hard_stop.set_extra(None)
+        try:
+            error = self._record(exc)
+        finally:
+            if self._lock is not None:
+                self._lock.close()
+        if error is not None:
+            raise error from None
+        return False
+
+    def _record(self, exc: BaseException | None) -> InputError | None:
+        """Write the final summary (rank 0); an InputError to raise instead of `exc`."""
+        s, raised = self.summary, None
+        if exc is None:
+            s["status"] = "completed"
+        elif isinstance(exc, KeyboardInterrupt | status.RunInterrupted):
+            s["status"] = "interrupted"
+            s["error"] = OUTSIDE_A_STEP if isinstance(exc, KeyboardInterrupt) else str(exc)
+        else:
+            s["status"], s["error"] = "failed", reason(exc, self.out)
+            if isinstance(exc, OSError):
+                raised = InputError(s["error"])
+        self._write()
+        return raised
+
+    def _stopped(self) -> None:
+        """A stop hook (several ranks: the job ends on a signal without raising here)."""
+        self.summary["status"] = "interrupted"
+        self.summary["error"] = status.stop_reason() or (
+            "interrupted by SIGINT or SIGTERM; what completed before it is written")
+        self._write()
+
+    def _hard_stop_text(self, name: str, line: str) -> tuple[Path, bytes]:
+        """What app/_hard_stop.c writes into OUT/summary.json on `name` inside a long PETSc
+        call of a run (rank 0 of several), after the run's own summary: `interrupted`,
+        with the run's line (`line`, "error: ...\\n") as the error (no end_time: it is
+        prepared when the call starts)."""
+        reason = line.removeprefix("error: ").rstrip("\n")
+        summary = {**self.summary, "status": "interrupted", "error": reason, "steps": []}
+        return self.out / "summary.json", (json.dumps(summary, indent=2) + "\n").encode()
+
+    def _write(self) -> None:
+        from app.output.summary import write_summary
+
+        if self.rank != 0:
+            return
+        self.summary["end_time"] = datetime.datetime.now(datetime.UTC).isoformat(
+            timespec="seconds")
+        if not status.write_summary_robust(lambda out, s: write_summary(out / "summary.json",
+                                                                        s), self.out,
+                                           self.summary):
+            print(f"warning: could not update {self.out / 'summary.json'}", file=sys.stderr)
+
+
+def reason(exc: BaseException, out: Path) -> str:
+    """The one line of a study's failure (as app/cli.py prints it, without `error: `)."""
+    if isinstance(exc, PETSc.Error):
+        from app.petsc_options import petsc_error_line
+
+        return f"PETSc: {petsc_error_line(exc)}"
+    if isinstance(exc, OSError):
+        return f"cannot write the study's results into {out}: {status._os_reason(exc)}"
+    if isinstance(exc, InputError | SolveError):
+        return str(exc)
+    return f"{type(exc).__name__}: {exc}"
