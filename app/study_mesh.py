@@ -27,8 +27,9 @@ def build_level_mesh(cfg: Config, scale: float, cache_dir: Path,
     """Seconds (rank 0, broadcast) to build the gmsh mesh of cfg's scene at element-size
     scale `scale` into cache_dir, or to read it from there if an earlier study built it;
     0 for a scene read from mesh.file (no gmsh, no cache). NaN if the mesh cannot be
-    built: the runs then report the error themselves, as without this step. progress:
-    the prefix of a line printed on rank 0 when the mesh is ready (None: no line)."""
+    built: the runs then report the error themselves, as without this step (no line
+    then). progress: the prefix of a line printed on rank 0 when the mesh is ready (None:
+    no line)."""
     if cfg.scene.file is not None:
         return 0.0
 
@@ -43,7 +44,8 @@ def build_level_mesh(cfg: Config, scale: float, cache_dir: Path,
         return time.perf_counter() - started
 
     seconds = float(collective(build))
-    if progress is not None and PETSc.COMM_WORLD.getRank() == 0:
+    shown = progress is not None and math.isfinite(seconds)  # (NaN: no mesh is ready)
+    if shown and PETSc.COMM_WORLD.getRank() == 0:
         print(f"{progress}: gmsh mesh ready in {seconds:.2f} s (every method reads it from "
               f"{cache_dir.name})", flush=True)
     return seconds

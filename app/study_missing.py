@@ -9,6 +9,7 @@ Plain Python; no MPI.
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 
@@ -21,43 +22,49 @@ def planned_runs(first_level: int, last: int, reference_levels: int, labels: lis
 
 
 def missing_runs(out: Path, planned: list[tuple[int, str]], done: set[tuple[int, str]],
-                 failures: list[str], last: int) -> list[str]:
+                 failures: list[str], last: int, since: float = -math.inf) -> list[str]:
     """One line per planned run with no row (`done`: (level, label) of the rows) and not
     already among `failures` (lines "level l/last LABEL: ..."): "interrupted" (or the
     status of its OUT/L<l>_<label>/summary.json) for a run that started, "not run" for
-    one that did not."""
+    one that did not. since: the study's start (time.time()); an older summary.json is
+    an earlier study's (same --out), not this run's."""
     out_lines = []
     for level, lab in planned:
         tag = f"level {level}/{last} {lab}"
         if (level, lab) in done or any(f.startswith(tag + ":") for f in failures):
             continue
         summary = Path(out) / f"L{level}_{lab}" / "summary.json"
-        try:
-            status = json.loads(summary.read_text()).get("status", "interrupted")
-        except (OSError, ValueError):
-            status = None
+        status = _status(summary, since)
         out_lines.append(f"{tag}: " + (f"{status} (see {summary.parent.name}/summary.json)"
                                        if status else "not run (the study was interrupted)"))
     return out_lines
 
 
 def missing_combinations(out: Path, keys: list[str], combos: list[tuple[str, ...]],
-                         rows: list[dict], value) -> list[dict]:
+                         rows: list[dict], value, since: float = -math.inf) -> list[dict]:
     """The sweep.csv rows of the combinations an interrupted sweep has no row for: their
     swept values (`value`: text -> the rows' value, app.sweep._value) and status
     "interrupted" (or the status of OUT/run_<i>/summary.json) for the run it stopped,
-    "not run" for the ones it never started."""
+    "not run" for the ones it never started (since: as `missing_runs`)."""
     have = [tuple(r.get(k) for k in keys) for r in rows]
     out_rows = []
     for i, combo in enumerate(combos):
         params = {k: value(v) for k, v in zip(keys, combo, strict=True)}
         if tuple(params.values()) in have:
             continue
-        summary = Path(out) / f"run_{i:03d}" / "summary.json"
-        try:
-            status = json.loads(summary.read_text()).get("status", "interrupted")
-        except (OSError, ValueError):
-            status = "not run"
+        status = _status(Path(out) / f"run_{i:03d}" / "summary.json", since) or "not run"
         out_rows.append({**params, "status": status,
                          "error": "the sweep was interrupted"})
     return out_rows
+
+
+def _status(summary: Path, since: float) -> str | None:
+    """The status of a run's summary.json ("interrupted" if it has none), or None when
+    there is no such file or it was written before `since` (time.time() seconds: an
+    earlier batch's run in the same folder, which this batch never started)."""
+    try:
+        if summary.stat().st_mtime < since:
+            return None
+        return json.loads(summary.read_text()).get("status", "interrupted")
+    except (OSError, ValueError):
+        return None

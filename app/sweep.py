@@ -129,13 +129,13 @@ def run_sweep(config: Path, sets: list[str], sweeps: list[tuple[str, list[str]]]
     keys = [k for k, _ in sweeps]
     combos = list(itertools.product(*[v for _, v in sweeps]))
     rows, all_steps, failed = [], [], []
-    t0 = time.perf_counter()
+    t0, started = time.perf_counter(), time.time() - 0.1  # (file times: a coarse clock)
 
     def write_completed() -> str:  # on SIGINT / SIGTERM: the plots of what completed
         if not rows:
             return f"sweep: no run completed in {out}"
         plots = PETSc.COMM_WORLD.getSize() == 1  # several ranks: mpiexec kills in 1 s
-        missing = missing_combinations(out, keys, combos, rows, _value)
+        missing = missing_combinations(out, keys, combos, rows, _value, since=started)
         write_csv(out / "sweep.csv", rows + missing)  # with a row for each missing run
         if plots:
             plot_sweep([dict(r) for r in rows], keys, out, at_step)

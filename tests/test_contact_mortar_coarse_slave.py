@@ -142,11 +142,12 @@ def test_summary_names_the_curve_with_the_pairs(tmp_path):
     assert d["pairs_on"] == "cyl_arc" and d["discretisation"] == DISC
 
 
-@pytest.mark.parametrize("n_low, n_up", [(5, 7), (4, 16), (16, 4)])
-def test_the_ratio_comes_from_the_geometry_and_the_rows_are_built_once(n_low, n_up,
+@pytest.mark.parametrize("n_low, n_up, builds", [(5, 7, 1), (4, 16, 2), (16, 4, 1)])
+def test_the_ratio_comes_from_the_geometry_and_the_rows_are_built_once(n_low, n_up, builds,
                                                                         monkeypatch):
-    """`size_ratio` is the ratio the rows' master-basis factory sees, and a swapping or
-    keeping interface integrates its rows once."""
+    """`size_ratio` is the ratio the rows' master-basis factory sees, and a keeping
+    interface integrates its rows once (a swapping one twice: the configured rows for their
+    checks, then the swapped ones)."""
     import app.contact.mortar as mortar
     from app.contact.mortar import slave_geometry
     from app.contact.mortar_coarse_slave import size_ratio
@@ -160,4 +161,26 @@ def test_the_ratio_comes_from_the_geometry_and_the_rows_are_built_once(n_low, n_
     monkeypatch.setattr(mortar, "_covered_weights",
                         lambda *a, **k: calls.append(1) or real(*a, **k))
     mortar_coarse_slave_constraints(mesh, itf(), 0)
-    assert len(calls) == 1
+    assert len(calls) == builds
+
+
+def test_a_swapping_interface_still_refuses_the_configured_slaves_penetration():
+    """A fine slave node pushed 0.05 into the coarse master midway between two of its nodes:
+    the coarse nodes do not penetrate the fine curve, so the swapped rows alone accepted
+    the overlap silently (g0 -0.005); mortar's check of the configured rows refuses it, as
+    before the ratio came from the geometry."""
+    from app.errors import InputError
+    from app.mesh.model import Mesh
+
+    mesh = stacked(4, 16, gap=0.01)
+    pts = mesh.points.copy()
+    j = np.flatnonzero((mesh.node_body() == 1) & np.isclose(pts[:, 1], 0.01)
+                       & np.isclose(pts[:, 0], 0.125))
+    assert j.size == 1
+    pts[j, 1] = -0.05
+    bumped = Mesh(pts, mesh.quads, mesh.body, mesh.body_names, mesh.curves)
+    mortar_constraints(bumped, swapped(itf()), 0)  # the swapped rows see no penetration
+    with pytest.raises(InputError, match="1 slave nodes penetrate the master"):
+        mortar_coarse_slave_constraints(bumped, itf(), 0)
+    rows = mortar_coarse_slave_constraints(bumped, itf(interference=True), 0)
+    assert rows.n_pairs == 5  # an intended interference fit swaps as before

@@ -71,3 +71,45 @@ def test_missing_combinations_of_a_sweep(tmp_path):
     got = missing_combinations(tmp_path, ["mu", "c"], combos, rows, _value)
     assert [(r["mu"], r["c"], r["status"]) for r in got] == [(0.4, 1.0, "interrupted"),
                                                             (0.6, 1.0, "not run")]
+
+
+def test_a_study_rerun_into_the_same_folder_ignores_the_earlier_studys_summaries(tmp_path):
+    """A second study into the same --out (which reuses its mesh cache) found the first
+    study's L1_* summary.json files and listed the runs it never started as "completed"."""
+    import os
+    import time
+
+    out = tmp_path / "s"
+    for name in ("L1_4SD", "L1_FEM-Q4"):
+        (out / name).mkdir(parents=True)
+        summary = out / name / "summary.json"
+        summary.write_text(json.dumps({"status": "completed"}))
+        old = time.time() - 3600.0  # written by a study an hour ago
+        os.utime(summary, (old, old))
+    cmd = [sys.executable, "-c", STOP_IN_THIRD_RUN, "study",
+           str(CONFIGS / "cantilever.toml"), "--levels", "2", "--methods", "4,q4", "--out",
+           str(out), "--quiet"]
+    res = subprocess.run(cmd, cwd=ROOT, env=mpi_env(), capture_output=True, text=True,
+                         timeout=300)
+    assert res.returncode == 130, res.stderr
+    tables = (out / "study_tables.md").read_text()
+    assert "- level 1/1 4SD: not run (the study was interrupted)" in tables
+    assert "- level 1/1 FEM-Q4: not run (the study was interrupted)" in tables
+    assert "completed (see" not in tables
+
+
+def test_a_sweeps_missing_combinations_ignore_an_earlier_sweeps_summary(tmp_path):
+    import os
+    import time
+
+    from app.sweep import _value
+
+    (tmp_path / "run_001").mkdir()
+    summary = tmp_path / "run_001" / "summary.json"
+    summary.write_text(json.dumps({"status": "completed"}))
+    old = time.time() - 3600.0
+    os.utime(summary, (old, old))
+    rows = [{"mu": 0.2, "status": "completed", "interface": "a"}]
+    got = missing_combinations(tmp_path, ["mu"], [("0.2",), ("0.4",)], rows, _value,
+                               since=time.time() - 60.0)
+    assert [(r["mu"], r["status"]) for r in got] == [(0.4, "not run")]

@@ -86,8 +86,12 @@ def mortar_coarse_slave_constraints(mesh: Mesh, itf: InterfaceSpec,
                                     index: int) -> ContactConstraints:
     """`mortar` rows of one interface, with slave and master swapped when the master is
     more than SWAP_RATIO x coarser than the slave (see the module docstring). The ratio
-    comes from the interface's geometry (`size_ratio`), so the rows are built once."""
+    comes from the interface's geometry (`size_ratio`): an interface that keeps its roles
+    builds its rows once; one that swaps also builds the configured rows first, for their
+    checks (a fine slave node penetrating the coarse master between two of its nodes is
+    no penetration of the coarse nodes into the fine curve; no pair kept)."""
     geo = slave_geometry(mesh, itf)
+    rows = mortar_rows(geo, itf, index)  # InputError: penetration, or no pair kept
     if size_ratio(geo) > SWAP_RATIO:
         return mortar_constraints(mesh, swapped(itf), index)
-    return mortar_rows(geo, itf, index)
+    return rows
