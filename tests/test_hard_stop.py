@@ -33,10 +33,18 @@ print("not stopped", flush=True)
 """
 
 
-def _signal_when_ready(cmd: list[str], sig: int, env=None) -> subprocess.CompletedProcess:
+def _signal_when_ready(cmd: list[str], sig: int, env=None,
+                       readies: int = 1) -> subprocess.CompletedProcess:
+    """Send sig once `readies` processes have printed "ready" (mpiexec may forward two
+    ranks' lines interleaved: "readyready" then an empty line)."""
     proc = subprocess.Popen(cmd, cwd=ROOT, env=env or mpi_env(), stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True)
-    assert proc.stdout.readline().strip() == "ready"
+    seen = ""
+    while seen.count("ready") < readies:
+        line = proc.stdout.readline()
+        assert line, f"ended before {readies} x ready: {seen!r}"
+        seen += line
+    assert seen.replace("ready", "").strip() == "", seen
     time.sleep(0.2)
     t0 = time.time()
     proc.send_signal(sig)
@@ -103,7 +111,7 @@ def test_sigterm_to_mpiexec_inside_the_factorization_records_interrupted(tmp_pat
     cmd = [shutil.which("mpiexec"), "-n", "2", sys.executable, "-c", ANNOUNCE_FACTORIZATION,
            "run", str(CONFIGS / "hertz.toml"), "--refine", "4", "--out", str(out),
            "--quiet"]
-    res = _signal_when_ready(cmd, signal.SIGTERM)
+    res = _signal_when_ready(cmd, signal.SIGTERM, readies=2)
     assert "Traceback" not in res.stderr, res.stderr
     s = read_summary(out)
     assert s["status"] == "interrupted", res.stderr
@@ -141,7 +149,7 @@ def test_a_signal_in_a_later_steps_solve_keeps_the_written_steps(tmp_path):
     out = tmp_path / "o"
     cmd = [shutil.which("mpiexec"), "-n", "2", sys.executable, "-c", STOP_IN_STEP_FOUR,
            "run", str(CONFIGS / "cattaneo.toml"), "--out", str(out), "--quiet"]
-    res = _signal_when_ready(cmd, signal.SIGINT)
+    res = _signal_when_ready(cmd, signal.SIGINT, readies=2)
     s = read_summary(out)
     assert s["status"] == "interrupted", res.stderr
     assert [st["step"] for st in s["steps"]] == [1, 2, 3]
