@@ -93,6 +93,15 @@ def unwrap(signum: int, handler: Any) -> Any:
     return handler
 
 
+def set_original(signum: int, handler: Any) -> None:
+    """Pass `signum` on to `handler` instead of the handler from before `arm` (what the
+    guards put back when they end: app/output/late_signals.py)."""
+    if _STATE["originals"] is not None:
+        originals = list(_STATE["originals"])
+        originals[0 if signum == signal.SIGINT else 1] = handler
+        _STATE["originals"] = tuple(originals)
+
+
 def restore() -> None:
     """Put back the handlers from before `arm` where the start-up one is still installed
     (the command ended, with or without a run)."""
