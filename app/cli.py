@@ -163,7 +163,7 @@ def main(argv: list[str] | None = None) -> int:
     from app.petsc_start import start_petsc
 
     run_out = None if args.command != "run" else Path(args.out or Path("out") / args.config.stem)
-    startup_signals.arm(run_out, str(args.config), act=args.command == "run")
+    startup_signals.arm(run_out, str(args.config))  # (a study: no summary, the line)
 
     refused = start_petsc(petsc_args)
     if refused:  # PETSc did not start: no summary.json, as for a command line error

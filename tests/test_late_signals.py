@@ -88,3 +88,34 @@ def test_sigterm_while_rank_0_draws_a_sweeps_plots_is_an_interrupt(tmp_path, ran
     assert proc.returncode == (143 if ranks == 1 else 1), stderr
     assert stderr.splitlines()[-1] == "error: " + OUTSIDE.format("SIGTERM"), stderr
     assert [r["status"] for r in read_csv(out / "sweep.csv")] == ["completed"] * 2
+
+
+# a study whose config checks take long (the start-up, before the study's guard)
+SLOW_START = """
+import sys, time
+import app.config
+real = app.config.load_config
+def load_config(*args, **kwargs):
+    print("loading", flush=True)
+    time.sleep(30)
+    return real(*args, **kwargs)
+app.config.load_config = load_config
+from app.cli import main
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+@pytest.mark.mpi
+def test_ctrl_c_in_a_studys_start_up_on_two_ranks_prints_the_line(tmp_path):
+    """A study only recorded a start-up signal for its first run's guard: when the
+    start-up took more than mpiexec's 1 s from SIGTERM to SIGKILL, the job ended with no
+    line (and a rank 1 that exited at once got rank 0 killed before it printed)."""
+    proc = _start(SLOW_START, ["study", str(CONFIGS / "patch.toml"), "--sweep",
+                               "interface.interface.mu=0.2,0.4", "--out",
+                               str(tmp_path / "w"), "--quiet"], 2)
+    assert proc.stdout.readline().strip() == "loading"
+    proc.send_signal(signal.SIGINT)
+    _, stderr = proc.communicate(timeout=60)
+    assert proc.returncode == 1, stderr
+    assert stderr.splitlines()[-1] == ("error: interrupted by SIGTERM during start-up; no "
+                                       "step completed"), stderr

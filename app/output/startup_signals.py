@@ -14,8 +14,9 @@ OUT's lock (when no other run holds it), removes this tool's files of an earlier
 writes an `interrupted` summary.json (temporary file and rename) and prints the line;
 every rank exits with 130 / 143.
 `defer()` (the guard's entry) turns it into a recorder, and `finish()` (once the guard's
-own handlers are armed) hands the recorded signal to the guard; from then on it passes
-signals on to the handlers from before `arm` (a study's guard may have saved it).
+own handlers are armed: a run's, or a study's BatchGuard) hands the recorded signal to
+the guard; from then on it passes signals on to the handlers from before `arm` (a study's
+guard may have saved it).
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ import os
 import re
 import signal
 import sys
+import time
 from pathlib import Path
 from typing import Any
 
@@ -42,6 +44,20 @@ _STATE: dict = {"mode": "off", "pending": None, "originals": None, "out": None,
 """mode: off (pass signals on), record, act (stop at once) or stopping."""
 
 
+RANK0_FIRST_SECONDS = 2.0
+"""How long a rank other than 0 waits before it exits on a signal: Open MPI's mpiexec
+kills every rank as soon as one has ended, and a rank 1 that ended first got rank 0
+killed while it wrote its summary or before it printed its line (mpiexec sends the
+SIGTERM 1 s after a Ctrl-C and SIGKILL 1 s after that in any case)."""
+
+
+def exit_after_rank0(code: int) -> None:
+    """os._exit(code); on a rank other than 0 after RANK0_FIRST_SECONDS (see there)."""
+    if launcher_rank() != 0:
+        time.sleep(RANK0_FIRST_SECONDS)
+    os._exit(code)
+
+
 def launcher_rank() -> int:
     """This process's rank as the MPI launcher set it (before MPI is started); 0 alone."""
     for key in ("OMPI_COMM_WORLD_RANK", "PMIX_RANK", "PMI_RANK"):
@@ -55,7 +71,8 @@ def launcher_rank() -> int:
 
 def arm(out: Path | None, config: str, act: bool = True) -> None:
     """Install the start-up handler for SIGINT and SIGTERM. out: the run's folder (None:
-    write nothing); act False: only record (a study, whose runs' guards act on it)."""
+    write nothing: a study, which only prints the line); act False: only record (the
+    imports, app/__main__.py)."""
     pending = _STATE["pending"] if _STATE["mode"] == "record" else None
     _STATE.update(mode="act" if act else "record", pending=pending, out=out, config=config)
     try:
@@ -138,7 +155,7 @@ def _stop(name: str) -> None:
         if _STATE["out"] is not None:
             _record(Path(_STATE["out"]), reason)
         print(f"error: {reason}", file=sys.stderr, flush=True)
-    os._exit(EXIT_SIGNAL[name])
+    exit_after_rank0(EXIT_SIGNAL[name])
 
 
 def _record(out: Path, reason: str) -> None:

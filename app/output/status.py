@@ -427,7 +427,7 @@ class RunGuard:
                     pass
             print(f"error: {self.summary['error']}", file=sys.stderr, flush=True)
         _run_stop_hooks()
-        os._exit(EXIT_SIGNAL.get(name, 130))
+        startup_signals.exit_after_rank0(EXIT_SIGNAL.get(name, 130))
 
     def __exit__(self, exc_type, exc, tb) -> bool:
         hard_stop.set_provider(None)
