@@ -119,3 +119,32 @@ def test_ctrl_c_in_a_studys_start_up_on_two_ranks_prints_the_line(tmp_path):
     assert proc.returncode == 1, stderr
     assert stderr.splitlines()[-1] == ("error: interrupted by SIGTERM during start-up; no "
                                        "step completed"), stderr
+
+
+# PETSc's start (its stderr is captured for its error report) takes long
+SLOW_PETSC_START = """
+import sys, time
+import petsc4py
+real = petsc4py.init
+def init(*args, **kwargs):
+    print("starting", flush=True)
+    time.sleep(3)
+    return real(*args, **kwargs)
+petsc4py.init = init
+from app.cli import main
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+def test_a_signal_during_petscs_start_prints_its_line(tmp_path):
+    """The start-up handler printed its line into the capture of PETSc's start: lost."""
+    out = tmp_path / "o"
+    proc = _start(SLOW_PETSC_START, ["run", str(CONFIGS / "patch.toml"), "--out", str(out),
+                                     "--quiet"], 1)
+    assert proc.stdout.readline().strip() == "starting"
+    proc.send_signal(signal.SIGTERM)
+    _, stderr = proc.communicate(timeout=60)
+    assert proc.returncode == 143, stderr
+    assert stderr.splitlines()[-1] == ("error: interrupted by SIGTERM during start-up; no "
+                                       "step completed"), stderr
+    assert read_summary(out)["status"] == "interrupted"

@@ -28,6 +28,8 @@ import re
 import signal
 import sys
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -86,6 +88,22 @@ def arm(out: Path | None, config: str, act: bool = True) -> None:
         return
     if act and pending is not None:
         _stop(pending)
+
+
+@contextmanager
+def held() -> Iterator[None]:
+    """Record a signal in this block and act on it after (PETSc's start, whose stderr is
+    captured: the line printed there was lost and the job ended with no line)."""
+    acting = _STATE["mode"] == "act"
+    if acting:
+        _STATE["mode"] = "record"
+    try:
+        yield
+    finally:
+        if acting and _STATE["mode"] == "record":
+            _STATE["mode"] = "act"
+            if _STATE["pending"] is not None:
+                _stop(_STATE["pending"])
 
 
 def defer() -> None:
