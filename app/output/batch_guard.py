@@ -71,6 +71,10 @@ class BatchGuard:
     def __exit__(self, exc_type, exc, tb) -> bool:
         if self._watchdog is not None:
             self._watchdog.handled.set()  # the main thread stops here, in Python code
+        if exc is None and PETSc.COMM_WORLD.getSize() > 1 and status.unacted_signal():
+            # it came while the last run's rows were recorded: the watchdog waited for
+            # them, then saw the guard ending and left it; the plots would be killed
+            self.stop_now(status.unacted_signal())
         status.end_watchdog(self._watchdog)
         status.remove_on_stop(self.finish)
         for sig, old in zip((signal.SIGINT, signal.SIGTERM), self._old, strict=True):

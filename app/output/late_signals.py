@@ -33,7 +33,7 @@ from petsc4py import PETSc
 
 from app import hard_stop
 from app.output import startup_signals
-from app.output.status import EXIT_SIGNAL, RunInterrupted
+from app.output.status import EXIT_SIGNAL, RunInterrupted, unacted_signal
 
 OUTSIDE = "interrupted by {} outside a load step; what completed before it is written"
 """The line of a signal between or after a command's runs (cli.main prints it)."""
@@ -79,6 +79,9 @@ def arm_end(code: int) -> None:
 
         signal.signal(signal.SIGINT, stop)
         signal.signal(signal.SIGTERM, stop)
+    pending = unacted_signal()
+    if code == 0 and pending is not None:  # noted inside a guard, never acted on (the
+        signal.raise_signal(getattr(signal, pending))  # last step's write): act now
 
 
 def _rearm_in_petsc_finalize() -> None:

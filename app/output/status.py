@@ -132,6 +132,12 @@ def _hand_off_pending() -> str | None:
     return _PENDING[0]
 
 
+def unacted_signal() -> str | None:
+    """The first signal recorded while a guard only noted signals (several ranks, or a
+    step being written) that nobody acted on; None if none."""
+    return _PENDING[0] if _PENDING else None
+
+
 def _record_signal(signum, frame):
     _PENDING.append(signal.Signals(signum).name)
 
