@@ -42,14 +42,26 @@ ENDING = ("error: interrupted by {} as the job was ending, after its work comple
 """Rank 0's line for a signal after the command returned 0."""
 
 
-def _term_outside(signum, frame):
-    raise RunInterrupted("SIGTERM", OUTSIDE.format("SIGTERM"))
+_SEEN: list[str] = []
+"""Signals the handlers below raised for: an exception raised inside a weakref callback
+or a __del__ (a garbage collection while matplotlib draws) is printed as `Exception
+ignored` and lost, and the job went on to its end, where mpiexec killed it silently."""
+
+
+def _outside(signum, frame):
+    name = signal.Signals(signum).name
+    _SEEN.append(name)
+    if name == "SIGINT":
+        raise KeyboardInterrupt
+    raise RunInterrupted(name, OUTSIDE.format(name))
 
 
 def arm_outside() -> None:
-    """SIGTERM outside every guard raises RunInterrupted (the handler the guards and the
-    start-up handler pass signals on to once a run's guard has ended)."""
-    startup_signals.set_original(signal.SIGTERM, _term_outside)
+    """SIGTERM outside every guard raises RunInterrupted, SIGINT KeyboardInterrupt (the
+    handlers the guards and the start-up handler pass signals on to once a run's guard has
+    ended), and both are noted for `arm_end`."""
+    startup_signals.set_original(signal.SIGINT, _outside)
+    startup_signals.set_original(signal.SIGTERM, _outside)
 
 
 def arm_end(code: int) -> None:
@@ -79,9 +91,11 @@ def arm_end(code: int) -> None:
 
         signal.signal(signal.SIGINT, stop)
         signal.signal(signal.SIGTERM, stop)
-    pending = unacted_signal()
-    if code == 0 and pending is not None:  # noted inside a guard, never acted on (the
-        signal.raise_signal(getattr(signal, pending))  # last step's write): act now
+    # a signal noted inside a guard and never acted on (it came while the last step was
+    # written), or whose exception was lost (_SEEN): act on it now
+    pending = unacted_signal() or (_SEEN[0] if _SEEN else None)
+    if code == 0 and pending is not None:
+        signal.raise_signal(getattr(signal, pending))
 
 
 def _rearm_in_petsc_finalize() -> None:
