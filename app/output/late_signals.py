@@ -115,11 +115,16 @@ def _rearm_in_petsc_finalize() -> None:
 
 
 def leave(code: int) -> None:
-    """On several ranks rank 0 stopped by a signal (code 130 / 143, its line printed)
-    exits here: mpiexec is ending the job and MPI_Finalize would only wait for its
-    SIGKILL (the other ranks wait for it: mpiexec ends them once rank 0 has ended)."""
-    comm = PETSc.COMM_WORLD
-    if code in EXIT_SIGNAL.values() and comm.getSize() > 1 and comm.getRank() == 0:
+    """Rank 0 stopped by a signal (code 130 / 143, its line printed) exits here: on
+    several ranks mpiexec is ending the job and MPI_Finalize would only wait for its
+    SIGKILL (the other ranks wait for it: mpiexec ends them once rank 0 has ended); on
+    one, Python ended some of these with -2 (SIGINT) instead of 130 (2 of 40 trials at
+    the end of a sweep), the line printed."""
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        return
+    if code in EXIT_SIGNAL.values() and PETSc.COMM_WORLD.getRank() == 0:
         sys.stdout.flush()
         sys.stderr.flush()
         os._exit(code)
