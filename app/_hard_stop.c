@@ -7,6 +7,9 @@
  * step (app/output/append.py), its new tail written in place at a byte offset. An
  * optional second file (a study's own summary.json, app/study_status.py) is written whole
  * after it. Only async-signal-safe calls. Loaded through ctypes (app/hard_stop.py).
+ * `hard_stop_arm_exit` arms it with no file to write: the job's end, once every output is
+ * written (app/output/late_signals.py), where the ranks wait in MPI_Finalize;
+ * `hard_stop_rearm` installs it again after PetscFinalize reset SIGTERM.
  */
 #include <fcntl.h>
 #include <signal.h>
@@ -25,6 +28,7 @@ static char *g_xtext[SLOTS], *g_xtmp, *g_xpath; /* the second file, if any */
 static size_t g_xtext_len[SLOTS];
 static struct sigaction g_old[SLOTS];
 static volatile sig_atomic_t g_armed = 0;
+static int g_stay = 0; /* hard_stop_arm_exit on a rank other than 0: return, do not exit */
 
 static void write_all(int fd, const char *p, size_t n) {
     while (n > 0) {
@@ -59,7 +63,10 @@ static void replace_whole(const char *tmp, const char *path, const char *text, s
 
 static void on_signal(int sig) {
     int slot = sig == SIGTERM ? 1 : 0;
-    if (g_offset >= 0) patch_in_place(slot);
+    if (g_stay) return;
+    if (!g_path) {
+        /* armed by hard_stop_arm_exit: no file */
+    } else if (g_offset >= 0) patch_in_place(slot);
     else replace_whole(g_tmp, g_path, g_text[slot], g_text_len[slot]);
     if (g_xpath) replace_whole(g_xtmp, g_xpath, g_xtext[slot], g_xtext_len[slot]);
     write_all(2, g_line[slot], g_line_len[slot]);
@@ -156,11 +163,64 @@ int hard_stop_arm(const char *tmp, const char *path, long long offset,
     return 0;
 }
 
+/* Arm with no file: on SIGINT / SIGTERM print line_int / line_term (either may be empty)
+ * and exit with 130 / 143; with stay, do nothing: a rank other than 0 waits for mpiexec's
+ * SIGKILL, which it sends every rank as soon as one rank has ended, so that rank 0 has
+ * printed its line first. Returns 0, or -1 (nothing armed). */
+int hard_stop_arm_exit(const char *line_int, const char *line_term, int stay) {
+    struct sigaction sa;
+    if (g_armed) return -1;
+    release_extra(); /* the job's end: a study's summary is written, never overwritten */
+    g_line[0] = copy(line_int, strlen(line_int));
+    g_line[1] = copy(line_term, strlen(line_term));
+    g_text[0] = copy("", 0);
+    g_text[1] = copy("", 0);
+    if (!g_line[0] || !g_line[1] || !g_text[0] || !g_text[1]) {
+        release();
+        return -1;
+    }
+    g_tmp = g_path = NULL;
+    g_offset = -1;
+    g_stay = stay;
+    g_text_len[0] = g_text_len[1] = 0;
+    g_line_len[0] = strlen(line_int);
+    g_line_len[1] = strlen(line_term);
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_signal;
+    sigfillset(&sa.sa_mask);
+    if (sigaction(SIGINT, &sa, &g_old[0]) != 0) {
+        release();
+        return -1;
+    }
+    if (sigaction(SIGTERM, &sa, &g_old[1]) != 0) {
+        sigaction(SIGINT, &g_old[0], NULL);
+        release();
+        return -1;
+    }
+    g_armed = 1;
+    return 0;
+}
+
+/* Install the handler armed before again (PetscFinalize puts SIGTERM back to its default
+ * before it calls MPI_Finalize: registered with PetscRegisterFinalize, which it calls in
+ * between). Returns 0 (a PetscErrorCode). */
+int hard_stop_rearm(void) {
+    struct sigaction sa;
+    if (!g_armed) return 0;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_signal;
+    sigfillset(&sa.sa_mask);
+    sigaction(SIGINT, &sa, NULL);
+    sigaction(SIGTERM, &sa, NULL);
+    return 0;
+}
+
 /* Disarm: put back the handlers found at arm time (Python's), free the texts. */
 void hard_stop_disarm(void) {
     if (!g_armed) return;
     sigaction(SIGINT, &g_old[0], NULL);
     sigaction(SIGTERM, &g_old[1], NULL);
     g_armed = 0;
+    g_stay = 0;
     release();
 }

@@ -148,7 +148,9 @@ def _sweep_arguments(s: argparse.ArgumentParser) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """`python -m app run|study ...`; returns the exit status (0, 2, 130 or 143)."""
+    """`python -m app run|study ...`; returns the exit status (0, 2, 130 or 143). The
+    process's end follows: from the return on, a signal exits at once (on several ranks an
+    interrupted rank exits here), see app/output/late_signals.py."""
     argv = list(sys.argv[1:] if argv is None else argv)
     parser = _parser()
     # PETSc options that begin with -h (-help) would be taken as argparse's -h with a value
@@ -182,13 +184,16 @@ def main(argv: list[str] | None = None) -> int:
     from petsc4py import PETSc
 
     from app.errors import InputError, SolveError
+    from app.output import late_signals
     from app.output.status import RunInterrupted
     from app.petsc_options import petsc_error_line
 
     rank = PETSc.COMM_WORLD.getRank()
     command = _study_command if args.command == "study" else _run_command
+    late_signals.arm_outside()  # SIGTERM outside the runs' guards: as SIGINT
+    message, code = None, 1
     try:
-        return command(args, petsc_args, rank)
+        code = command(args, petsc_args, rank)
     except (InputError, SolveError) as exc:
         message, code = f"error: {exc}", 2
     except RunInterrupted as exc:
@@ -201,8 +206,10 @@ def main(argv: list[str] | None = None) -> int:
         message, code = f"error: PETSc: {petsc_error_line(exc)}", 2
     finally:
         startup_signals.restore()  # when no run's guard took the signals over
-    if rank == 0:
+        late_signals.arm_end(code)  # the job's end: Python's, PETSc's and MPI's shutdown
+    if rank == 0 and message is not None:
         print(message, file=sys.stderr)
+    late_signals.leave(code)
     return code
 
 

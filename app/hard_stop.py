@@ -112,6 +112,27 @@ def armed() -> Iterator[None]:
             lib.hard_stop_disarm()
 
 
+def arm_exit(line_int: str, line_term: str, stay: bool = False) -> bool:
+    """Arm the C handler with no file to write, for good (the job's end: see
+    app/output/late_signals.py): SIGINT / SIGTERM print the line (may be empty) and exit
+    with 130 / 143; with `stay` they do nothing (a rank other than 0). Whether it is
+    armed (False: not built, or armed already)."""
+    lib = _library()
+    arm = getattr(lib, "hard_stop_arm_exit", None)  # (absent from a build before it)
+    if arm is None or _DEPTH[0]:
+        return False
+    arm.argtypes = [ctypes.c_char_p, ctypes.c_char_p, ctypes.c_int]
+    arm.restype = ctypes.c_int
+    return arm(line_int.encode(), line_term.encode(), int(stay)) == 0
+
+
+def rearm_address() -> int | None:
+    """The address of the C function that installs the armed handler again (for
+    PetscRegisterFinalize), or None (not built)."""
+    fn = getattr(_library(), "hard_stop_rearm", None)
+    return None if fn is None else ctypes.cast(fn, ctypes.c_void_p).value
+
+
 def _arm(lib: ctypes.CDLL) -> bool:
     """Install the C handler with the provider's texts; whether it is armed."""
     path, offset, text_int, line_int = _PROVIDER[0]("SIGINT")

@@ -60,6 +60,14 @@ def start_petsc(petsc_args: list[str]) -> str | None:
 
     sys.stdout.flush()
     sys.stderr.flush()
+    from app.output import startup_signals
+
+    with startup_signals.held():  # its line is not to go into the capture below
+        return _start_captured(petsc4py, petsc_args)
+
+
+def _start_captured(petsc4py, petsc_args: list[str]) -> str | None:
+    """start_petsc with PETSc's error output during the start captured."""
     saved = os.dup(2)
     failed: Exception | None = None
     with tempfile.TemporaryFile() as capture:

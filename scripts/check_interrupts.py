@@ -11,6 +11,15 @@ pvpython). One JSON line per trial; exit 1 if any trial has a problem.
     .venv/bin/python scripts/check_interrupts.py configs/cattaneo.toml --trials 6 --paraview
     .venv/bin/python scripts/check_interrupts.py configs/hertz.toml --earlier --max-delay 1.5
     .venv/bin/python scripts/check_interrupts.py --audit OUT [OUT ...]   # folders only
+
+`--sweep KEY=V1,V2` runs `study CONFIG --sweep ...` instead, `--delays 1.0,1.5 --repeat 10`
+signals at those seconds (SIGINT unless `--signal`), and each trial is judged as a whole:
+`completed` (exit 0, every output there), `interrupted` (an `error: interrupted ...` line;
+exit 130 / 143, or mpiexec's 1 on several ranks) or `silent` (no line, exit not 0: a
+problem). The counts per delay close the output:
+
+    .venv/bin/python scripts/check_interrupts.py configs/hertz.toml --ranks 2 \
+        --sweep interface.contact.mu=0.0,0.1 --delays 1.0,1.5,2.0 --repeat 10
 """
 
 from __future__ import annotations
@@ -123,6 +132,74 @@ def audit(out: Path, config: Path | None = None) -> tuple[dict, list[str]]:
     return facts, problems
 
 
+def sweep_audit(out: Path, config: Path, n_runs: int) -> tuple[dict, list[str]]:
+    """(facts, problems) of a sweep's folder: each run's folder as `audit`, sweep.csv's rows
+    and statuses, the plots."""
+    facts: dict = {"runs": {}, "rows": None, "plots": len(list(out.glob("sweep_*.png")))}
+    problems: list[str] = []
+    for k in range(n_runs):
+        run_dir = out / f"run_{k:03d}"
+        if not run_dir.is_dir():
+            continue
+        f, p = audit(run_dir, config)
+        facts["runs"][run_dir.name] = f.get("status")
+        problems += [f"{run_dir.name}: {x}" for x in p]
+    if (out / "sweep.csv").exists():
+        rows = (out / "sweep.csv").read_text().splitlines()[1:]
+        facts["rows"] = len(rows)
+        if any(",completed," not in r and ",failed," not in r for r in rows):
+            problems.append("sweep.csv: a row of neither status")
+    return facts, problems
+
+
+def verdict(code: int, ranks: int, line: str | None, complete: bool) -> str:
+    """completed / interrupted / silent (see the module)."""
+    if code == 0:
+        return "completed" if complete else "silent"
+    codes = (130, 143) if ranks == 1 else (1, 130, 143)
+    if line and line.startswith("error: interrupted") and code in codes:
+        return "interrupted"
+    return "silent"
+
+
+def sweep_trial(config: Path, ranks: int, delay: float, sig: signal.Signals, out: Path,
+                sweep: str, log: bool = True) -> dict:
+    """`study CONFIG --sweep SWEEP` stopped by `sig` after `delay` s; with several ranks
+    each rank's stderr goes to OUT_log (mpiexec --output-filename)."""
+    shutil.rmtree(out, ignore_errors=True)
+    cmd = [sys.executable, "-m", "app", "study", str(config), "--sweep", sweep, "--out",
+           str(out)]
+    if ranks > 1:
+        logs = out.with_name(out.name + "_log")
+        shutil.rmtree(logs, ignore_errors=True)
+        cmd = [shutil.which("mpiexec") or "mpiexec", "--oversubscribe", "-n", str(ranks),
+               *(["--output-filename", str(logs)] if log else []), *cmd]
+    t0 = time.monotonic()
+    proc = subprocess.Popen(cmd, cwd=ROOT, env=dict(ENV, PYTHONPATH=str(ROOT)),
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    time.sleep(delay)
+    proc.send_signal(sig)
+    try:
+        _, err = proc.communicate(timeout=120)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.communicate()
+        return {"delay": delay, "signal": sig.name, "verdict": "hung", "problems": ["hung"]}
+    n_runs = len(sweep.partition("=")[2].split(","))
+    facts, problems = sweep_audit(out, config, n_runs)
+    lines = [x for x in err.splitlines() if x.startswith(("error:", "sweep:"))
+             or "rows ->" in x]
+    line = next((x for x in reversed(lines) if x.startswith("error:")), None)
+    complete = (len(facts["runs"]) == n_runs and facts["plots"] > 0 and
+                set(facts["runs"].values()) == {"completed"})
+    v = verdict(proc.returncode, ranks, line, complete)
+    if v == "silent":
+        problems.append("a nonzero exit with no line" if proc.returncode else "incomplete")
+    return {"delay": round(delay, 2), "signal": sig.name, "exit": proc.returncode,
+            "seconds": round(time.monotonic() - t0, 2), "verdict": v, **facts,
+            "lines": lines[-3:], "problems": problems}
+
+
 def trial(config: Path, ranks: int, delay: float, sig: signal.Signals, out: Path,
           extra: list[str], earlier: bool = False) -> dict:
     """One run stopped by `sig` after `delay` seconds (seconds after mpiexec starts);
@@ -164,7 +241,13 @@ def main() -> None:
                     help="run into a folder that holds an earlier, completed run")
     ap.add_argument("--audit", type=Path, nargs="+",
                     help="only check these existing output folders (no runs)")
+    ap.add_argument("--sweep", help="KEY=V1,V2,...: signal `study CONFIG --sweep` instead")
+    ap.add_argument("--delays", help="with --sweep: comma list of seconds")
+    ap.add_argument("--repeat", type=int, default=10, help="with --delays: trials each")
+    ap.add_argument("--signal", default="SIGINT", choices=("SIGINT", "SIGTERM"))
     a, extra = ap.parse_known_args()
+    if a.sweep:
+        sys.exit(sweep_trials(a))
     if a.audit:
         bad = 0
         for out in a.audit:
@@ -194,6 +277,24 @@ def main() -> None:
         bad += bool(row["problems"])
         print(json.dumps(row), flush=True)
     sys.exit(1 if bad else 0)
+
+
+def sweep_trials(a) -> int:
+    """--sweep: the trials over --delays (or --trials random delays), with counts."""
+    rng = random.Random(a.seed)
+    delays = ([float(x) for x in a.delays.split(",") for _ in range(a.repeat)] if a.delays
+              else [rng.uniform(0.3, a.max_delay or 3.0) for _ in range(a.trials)])
+    counts: dict[float, dict[str, int]] = {}
+    bad = 0
+    for i, d in enumerate(delays):
+        row = sweep_trial(a.config, a.ranks, d, signal.Signals[a.signal], a.out / f"t{i}",
+                          a.sweep)
+        counts.setdefault(round(d, 2), {}).setdefault(row["verdict"], 0)
+        counts[round(d, 2)][row["verdict"]] += 1
+        bad += bool(row["problems"])
+        print(json.dumps({"trial": i, **row}), flush=True)
+    print(json.dumps({"counts": {str(k): v for k, v in counts.items()}}), flush=True)
+    return 1 if bad else 0
 
 
 if __name__ == "__main__":

@@ -10,7 +10,6 @@ before it exits; between runs, this guard's own watchdog does.
 
 from __future__ import annotations
 
-import os
 import signal
 import sys
 import threading
@@ -18,7 +17,7 @@ from collections.abc import Callable
 
 from petsc4py import PETSc
 
-from app.output import status
+from app.output import startup_signals, status
 from app.output.status import EXIT_SIGNAL, RunInterrupted, StopWatchdog
 
 
@@ -40,6 +39,13 @@ class BatchGuard:
         status.arm_signals()
         status.on_stop(self.finish)
         self._watchdog = status.start_watchdog(self)
+        early = startup_signals.finish()  # a signal of the study's start-up: stop now
+        if early is not None:
+            if PETSc.COMM_WORLD.getSize() > 1:
+                self.stop_now(early)
+            stop = KeyboardInterrupt() if early == "SIGINT" else RunInterrupted(early)
+            self.__exit__(type(stop), stop, None)
+            raise stop
         return self
 
     def finish(self) -> None:
@@ -62,11 +68,15 @@ class BatchGuard:
         status._run_stop_hooks(reason)
         if self.rank == 0:
             print(f"error: {reason}", file=sys.stderr, flush=True)
-        os._exit(EXIT_SIGNAL.get(name, 130))
+        startup_signals.exit_after_rank0(EXIT_SIGNAL.get(name, 130))
 
     def __exit__(self, exc_type, exc, tb) -> bool:
         if self._watchdog is not None:
             self._watchdog.handled.set()  # the main thread stops here, in Python code
+        if exc is None and PETSc.COMM_WORLD.getSize() > 1 and status.unacted_signal():
+            # it came while the last run's rows were recorded: the watchdog waited for
+            # them, then saw the guard ending and left it; the plots would be killed
+            self.stop_now(status.unacted_signal())
         status.end_watchdog(self._watchdog)
         status.remove_on_stop(self.finish)
         for sig, old in zip((signal.SIGINT, signal.SIGTERM), self._old, strict=True):

@@ -14,8 +14,9 @@ OUT's lock (when no other run holds it), removes this tool's files of an earlier
 writes an `interrupted` summary.json (temporary file and rename) and prints the line;
 every rank exits with 130 / 143.
 `defer()` (the guard's entry) turns it into a recorder, and `finish()` (once the guard's
-own handlers are armed) hands the recorded signal to the guard; from then on it passes
-signals on to the handlers from before `arm` (a study's guard may have saved it).
+own handlers are armed: a run's, or a study's BatchGuard) hands the recorded signal to
+the guard; from then on it passes signals on to the handlers from before `arm` (a study's
+guard may have saved it).
 """
 
 from __future__ import annotations
@@ -26,6 +27,9 @@ import os
 import re
 import signal
 import sys
+import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -42,6 +46,20 @@ _STATE: dict = {"mode": "off", "pending": None, "originals": None, "out": None,
 """mode: off (pass signals on), record, act (stop at once) or stopping."""
 
 
+RANK0_FIRST_SECONDS = 2.0
+"""How long a rank other than 0 waits before it exits on a signal: Open MPI's mpiexec
+kills every rank as soon as one has ended, and a rank 1 that ended first got rank 0
+killed while it wrote its summary or before it printed its line (mpiexec sends the
+SIGTERM 1 s after a Ctrl-C and SIGKILL 1 s after that in any case)."""
+
+
+def exit_after_rank0(code: int) -> None:
+    """os._exit(code); on a rank other than 0 after RANK0_FIRST_SECONDS (see there)."""
+    if launcher_rank() != 0:
+        time.sleep(RANK0_FIRST_SECONDS)
+    os._exit(code)
+
+
 def launcher_rank() -> int:
     """This process's rank as the MPI launcher set it (before MPI is started); 0 alone."""
     for key in ("OMPI_COMM_WORLD_RANK", "PMIX_RANK", "PMI_RANK"):
@@ -55,8 +73,9 @@ def launcher_rank() -> int:
 
 def arm(out: Path | None, config: str, act: bool = True, head: dict | None = None) -> None:
     """Install the start-up handler for SIGINT and SIGTERM. out: the run's or study's
-    folder (None: write nothing); act False: only record; head: the summary's first keys
-    (default a run's; a study's, app/study_status.py, which defers once it takes OUT)."""
+    folder (None: write nothing); act False: only record (the imports, app/__main__.py);
+    head: the summary's first keys (default a run's; a study's, app/study_status.py, which
+    defers once it takes OUT)."""
     pending = _STATE["pending"] if _STATE["mode"] == "record" else None
     _STATE.update(mode="act" if act else "record", pending=pending, out=out, config=config,
                   head=head)
@@ -71,6 +90,22 @@ def arm(out: Path | None, config: str, act: bool = True, head: dict | None = Non
         return
     if act and pending is not None:
         _stop(pending)
+
+
+@contextmanager
+def held() -> Iterator[None]:
+    """Record a signal in this block and act on it after (PETSc's start, whose stderr is
+    captured: the line printed there was lost and the job ended with no line)."""
+    acting = _STATE["mode"] == "act"
+    if acting:
+        _STATE["mode"] = "record"
+    try:
+        yield
+    finally:
+        if acting and _STATE["mode"] == "record":
+            _STATE["mode"] = "act"
+            if _STATE["pending"] is not None:
+                _stop(_STATE["pending"])
 
 
 def defer() -> None:
@@ -93,6 +128,15 @@ def unwrap(signum: int, handler: Any) -> Any:
     if handler is _handler and _STATE["originals"] is not None:
         return _STATE["originals"][0 if signum == signal.SIGINT else 1]
     return handler
+
+
+def set_original(signum: int, handler: Any) -> None:
+    """Pass `signum` on to `handler` instead of the handler from before `arm` (what the
+    guards put back when they end: app/output/late_signals.py)."""
+    if _STATE["originals"] is not None:
+        originals = list(_STATE["originals"])
+        originals[0 if signum == signal.SIGINT else 1] = handler
+        _STATE["originals"] = tuple(originals)
 
 
 def restore() -> None:
@@ -131,7 +175,7 @@ def _stop(name: str) -> None:
         if _STATE["out"] is not None:
             _record(Path(_STATE["out"]), reason, head=_STATE["head"])
         print(f"error: {reason}", file=sys.stderr, flush=True)
-    os._exit(EXIT_SIGNAL[name])
+    exit_after_rank0(EXIT_SIGNAL[name])
 
 
 def _record(out: Path, reason: str, status: str = "interrupted",

@@ -144,6 +144,12 @@ def _hand_off_pending() -> str | None:
     return _PENDING[0]
 
 
+def unacted_signal() -> str | None:
+    """The first signal recorded while a guard only noted signals (several ranks, or a
+    step being written) that nobody acted on; None if none."""
+    return _PENDING[0] if _PENDING else None
+
+
 def _record_signal(signum, frame):
     _PENDING.append(signal.Signals(signum).name)
 
@@ -440,7 +446,7 @@ class RunGuard:
                     pass
             print(f"error: {self.summary['error']}", file=sys.stderr, flush=True)
         _run_stop_hooks(self.summary["error"])
-        os._exit(EXIT_SIGNAL.get(name, 130))
+        startup_signals.exit_after_rank0(EXIT_SIGNAL.get(name, 130))
 
     def __exit__(self, exc_type, exc, tb) -> bool:
         hard_stop.set_provider(None)
