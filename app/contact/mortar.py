@@ -390,7 +390,7 @@ def _kept_rows(geo: SlaveGeometry, k: np.ndarray, w: sp.csr_matrix, g0: np.ndarr
     cover (q,): each slave node's covered weight (length)."""
     nrm = geo.normal[geo.nodes]
     tan = np.column_stack([-nrm[:, 1], nrm[:, 0]])
-    # length: the covered part of D_j (the lengths add up to the covered length), so that a
+    # length: the covered part of D_j where it is below D_j (`covered_length`), so that a
     # slave node facing a master's end over half its support gets p = force / that half
     # and c, a over that half (its whole D_j doubled the bond strength at a bond's edge)
     pairs = ContactPairs(
