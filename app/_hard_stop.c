@@ -104,6 +104,26 @@ static void release(void) {
     release_extra();
 }
 
+/* Install on_signal for SIGINT and SIGTERM, keeping the handlers found (g_old), and mark
+ * armed. Returns 0, or -1 (nothing armed, the texts freed) if sigaction failed. */
+static int install(void) {
+    struct sigaction sa;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_signal;
+    sigfillset(&sa.sa_mask);
+    if (sigaction(SIGINT, &sa, &g_old[0]) != 0) {
+        release();
+        return -1;
+    }
+    if (sigaction(SIGTERM, &sa, &g_old[1]) != 0) {
+        sigaction(SIGINT, &g_old[0], NULL);
+        release();
+        return -1;
+    }
+    g_armed = 1;
+    return 0;
+}
+
 /* Before hard_stop_arm: a second file the handler writes whole (texts for SIGINT and
  * SIGTERM); disarming forgets it. Returns 0, or -1 (none) if armed or out of memory. */
 int hard_stop_extra(const char *tmp, const char *path, const char *text_int, size_t n_int,
@@ -130,7 +150,6 @@ int hard_stop_arm(const char *tmp, const char *path, long long offset,
                   const char *text_int, size_t n_int,
                   const char *text_term, size_t n_term, const char *line_int,
                   const char *line_term) {
-    struct sigaction sa;
     if (g_armed) return -1;
     g_tmp = copy(tmp, strlen(tmp));
     g_path = copy(path, strlen(path));
@@ -147,20 +166,7 @@ int hard_stop_arm(const char *tmp, const char *path, long long offset,
     g_text_len[1] = n_term;
     g_line_len[0] = strlen(line_int);
     g_line_len[1] = strlen(line_term);
-    memset(&sa, 0, sizeof sa);
-    sa.sa_handler = on_signal;
-    sigfillset(&sa.sa_mask);
-    if (sigaction(SIGINT, &sa, &g_old[0]) != 0) {
-        release();
-        return -1;
-    }
-    if (sigaction(SIGTERM, &sa, &g_old[1]) != 0) {
-        sigaction(SIGINT, &g_old[0], NULL);
-        release();
-        return -1;
-    }
-    g_armed = 1;
-    return 0;
+    return install();
 }
 
 /* Arm with no file: on SIGINT / SIGTERM print line_int / line_term (either may be empty)
@@ -168,7 +174,6 @@ int hard_stop_arm(const char *tmp, const char *path, long long offset,
  * SIGKILL, which it sends every rank as soon as one rank has ended, so that rank 0 has
  * printed its line first. Returns 0, or -1 (nothing armed). */
 int hard_stop_arm_exit(const char *line_int, const char *line_term, int stay) {
-    struct sigaction sa;
     if (g_armed) return -1;
     release_extra(); /* the job's end: a study's summary is written, never overwritten */
     g_line[0] = copy(line_int, strlen(line_int));
@@ -185,20 +190,7 @@ int hard_stop_arm_exit(const char *line_int, const char *line_term, int stay) {
     g_text_len[0] = g_text_len[1] = 0;
     g_line_len[0] = strlen(line_int);
     g_line_len[1] = strlen(line_term);
-    memset(&sa, 0, sizeof sa);
-    sa.sa_handler = on_signal;
-    sigfillset(&sa.sa_mask);
-    if (sigaction(SIGINT, &sa, &g_old[0]) != 0) {
-        release();
-        return -1;
-    }
-    if (sigaction(SIGTERM, &sa, &g_old[1]) != 0) {
-        sigaction(SIGINT, &g_old[0], NULL);
-        release();
-        return -1;
-    }
-    g_armed = 1;
-    return 0;
+    return install();
 }
 
 /* Install the handler armed before again (PetscFinalize puts SIGTERM back to its default

@@ -162,6 +162,19 @@ def verdict(code: int, ranks: int, line: str | None, complete: bool) -> str:
     return "silent"
 
 
+def signal_and_wait(proc: subprocess.Popen, delay: float, sig: signal.Signals) -> str | None:
+    """Send sig to proc after delay seconds and wait for it: its stderr, or None if it
+    hung (killed after 120 s)."""
+    time.sleep(delay)
+    proc.send_signal(sig)
+    try:
+        return proc.communicate(timeout=120)[1]
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.communicate()
+        return None
+
+
 def sweep_trial(config: Path, ranks: int, delay: float, sig: signal.Signals, out: Path,
                 sweep: str, log: bool = True) -> dict:
     """`study CONFIG --sweep SWEEP` stopped by `sig` after `delay` s; with several ranks
@@ -177,13 +190,8 @@ def sweep_trial(config: Path, ranks: int, delay: float, sig: signal.Signals, out
     t0 = time.monotonic()
     proc = subprocess.Popen(cmd, cwd=ROOT, env=dict(ENV, PYTHONPATH=str(ROOT)),
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    time.sleep(delay)
-    proc.send_signal(sig)
-    try:
-        _, err = proc.communicate(timeout=120)
-    except subprocess.TimeoutExpired:
-        proc.kill()
-        proc.communicate()
+    err = signal_and_wait(proc, delay, sig)
+    if err is None:
         return {"delay": delay, "signal": sig.name, "verdict": "hung", "problems": ["hung"]}
     n_runs = len(sweep.partition("=")[2].split(","))
     facts, problems = sweep_audit(out, config, n_runs)
@@ -214,13 +222,8 @@ def trial(config: Path, ranks: int, delay: float, sig: signal.Signals, out: Path
         cmd = [shutil.which("mpiexec") or "mpiexec", "--oversubscribe", "-n", str(ranks), *cmd]
     proc = subprocess.Popen(cmd, cwd=ROOT, env=dict(ENV, PYTHONPATH=str(ROOT)),
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    time.sleep(delay)
-    proc.send_signal(sig)
-    try:
-        _, err = proc.communicate(timeout=120)
-    except subprocess.TimeoutExpired:
-        proc.kill()
-        _, err = proc.communicate()
+    err = signal_and_wait(proc, delay, sig)
+    if err is None:
         return {"delay": delay, "signal": sig.name, "problems": ["hung after the signal"]}
     facts, problems = audit(out, config)
     line = [x for x in err.splitlines() if x.startswith("error:")]
