@@ -33,6 +33,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 from app.config import apply_overrides  # noqa: E402
+from app.errors import InputError  # noqa: E402
 from app.mesh.build import build_mesh  # noqa: E402
 from app.scene.parse import parse_scene  # noqa: E402
 
@@ -88,6 +89,13 @@ class Transform:
 
 
 def write_msh(mesh, tf: Transform, path: Path) -> None:
+    """The mesh moved by tf, as a gmsh 2.2 .msh (read back through mesh.file)."""
+    write_msh_points(mesh, tf.point(mesh.points), path)
+
+
+def write_msh_points(mesh, pts: np.ndarray, path: Path) -> None:
+    """mesh's bodies (quads) and curves (lines) as physical groups of their names, at the
+    node positions pts (n, 2), as a gmsh 2.2 .msh."""
     import meshio
 
     cells, phys, names = [], [], {}
@@ -99,7 +107,6 @@ def write_msh(mesh, tf: Transform, path: Path) -> None:
         cells.append(("line", e))
         names[name] = np.array([len(names) + 1, 1])
         phys.append(np.full(len(e), len(names)))
-    pts = tf.point(mesh.points)
     meshio.write(path, meshio.Mesh(np.column_stack([pts, np.zeros(len(pts))]), cells,
                                    cell_data={"gmsh:physical": phys,
                                               "gmsh:geometrical": phys}, field_data=names),
@@ -207,7 +214,9 @@ def compare(a: Path, b: Path, tf: Transform) -> dict:
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("config")
-    ap.add_argument("--interface", help="the [[interface]] whose discretisation is set")
+    ap.add_argument("--interface", default="0",
+                    help="the [[interface]] (name or index) whose discretisation is set "
+                         "(default: the first)")
     ap.add_argument("--discretisations", nargs="+", default=[None])
     ap.add_argument("--xf", nargs="+", default=["angle=30", "angle=90", "mirror=1"])
     ap.add_argument("--set", action="append", default=[])
@@ -218,7 +227,10 @@ def main() -> int:
         sets = list(a.set)
         if disc is not None:
             sets.append(f'interface.{a.interface}.discretisation="{disc}"')
-        raw = apply_overrides(base, sets)
+        try:
+            raw = apply_overrides(base, sets)
+        except InputError as exc:
+            ap.error(str(exc))
         mesh = build_mesh(parse_scene(raw), base_dir=Path(a.config).parent)
         folder = Path(a.out) / (disc or "default")
         ref = run(raw, mesh, Transform(""), folder / "identity")

@@ -12,16 +12,20 @@ penetrated by 5e-4, p off by 33%).
 from __future__ import annotations
 
 import math
+import sys
 import tomllib
 
 import h5py
 import numpy as np
 import pytest
-from support import read_summary, run_cli
+from support import ROOT, read_summary, run_cli
 
 from app.mesh.build import build_mesh
 from app.output.kkt_warning import kkt_warning
 from app.scene.parse import parse_scene
+
+sys.path.insert(0, str(ROOT / "scripts"))
+from check_invariance import write_msh_points  # noqa: E402
 
 FLOATING = """
 [analysis]
@@ -102,24 +106,9 @@ WEDGE_SHAPES = dict(
 
 def write_turned(mesh, deg: float, path) -> np.ndarray:
     """The mesh turned by deg about the origin, as a gmsh 2.2 .msh; returns the rotation."""
-    import meshio
-
     t = math.radians(deg)
     r = np.array([[math.cos(t), -math.sin(t)], [math.sin(t), math.cos(t)]])
-    pts = mesh.points @ r.T
-    cells, phys, names = [], [], {}
-    for b, name in enumerate(mesh.body_names):
-        cells.append(("quad", mesh.quads[mesh.body == b]))
-        names[name] = np.array([len(names) + 1, 2])
-        phys.append(np.full(len(cells[-1][1]), len(names)))
-    for name, e in mesh.curves.items():
-        cells.append(("line", e))
-        names[name] = np.array([len(names) + 1, 1])
-        phys.append(np.full(len(e), len(names)))
-    meshio.write(path, meshio.Mesh(np.column_stack([pts, np.zeros(len(pts))]), cells,
-                                   cell_data={"gmsh:physical": phys,
-                                              "gmsh:geometrical": phys},
-                                   field_data=names), file_format="gmsh22", binary=False)
+    write_msh_points(mesh, mesh.points @ r.T, path)
     return r
 
 
