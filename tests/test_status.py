@@ -396,3 +396,33 @@ def test_interrupt_after_the_last_step_says_so(tmp_path):
             raise KeyboardInterrupt
     assert info.value.summary["error"].startswith(
         "interrupted by SIGINT after the last step (1/1); steps 1..1 are written")
+
+
+def test_a_study_stop_before_the_runs_watchdog_records_interrupted(tmp_path):
+    """A sweep's watchdog that ends the job between this guard's `running` summary and its
+    own watchdog (1 of 50 trials on 2 ranks) ran only the study's hooks: the run's summary
+    stayed `running`. The guard's hook records `interrupted`, and is gone after the run."""
+    from app.output import status
+
+    summary = {"steps": [], "status": "running"}
+    with RunGuard(tmp_path, summary, write_summary, 2):
+        status._run_stop_hooks("interrupted by SIGTERM between the runs; what completed "
+                               "before it is written")
+        s = json.loads((tmp_path / "summary.json").read_text())
+        assert s["status"] == "interrupted", s
+        assert s["error"] == "interrupted by SIGTERM during step 1/2; no step completed"
+    other = tmp_path / "other"
+    with RunGuard(other, {"steps": [], "status": "running"}, write_summary, 1):
+        pass
+    status._run_stop_hooks("interrupted by SIGINT between the runs")
+    assert json.loads((other / "summary.json").read_text())["status"] == "running"
+
+
+def test_a_summary_with_only_steps_and_trailing_keys_is_json(tmp_path):
+    """With no head key the opening brace was cut off with the head's closing one."""
+    summary = {"steps": [], "status": "running"}
+    write_summary(tmp_path, summary)
+    assert json.loads((tmp_path / "summary.json").read_text()) == summary
+    summary["steps"].append({"step": 1})
+    write_summary(tmp_path, summary)
+    assert json.loads((tmp_path / "summary.json").read_text()) == summary

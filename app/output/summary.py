@@ -37,8 +37,8 @@ class SummaryWriter:
     def _head_text(summary: dict, skip: tuple[str, ...] = ()) -> str:
         head = {k: v for k, v in summary.items()
                 if k != "steps" and k not in TRAILING and k not in skip}
-        return json.dumps(head, indent=2)[:-2] + (",\n" if head else "\n") + \
-            '  "steps": [\n'
+        opening = json.dumps(head, indent=2)[:-2] + ",\n" if head else "{\n"
+        return opening + '  "steps": [\n'
 
     @staticmethod
     def _tail_text(summary: dict, keys: tuple[str, ...] = TRAILING) -> str:
