@@ -23,8 +23,8 @@ from app.output.batch_guard import BatchGuard
 from app.output.status import step_writing
 from app.plotting import pyplot
 from app.run import RunOptions, run
-from app.study import write_csv
-from app.study_missing import missing_combinations
+from app.studies.convergence import write_csv
+from app.studies.missing_runs import missing_combinations
 
 ZONES = ("contact", "stick", "slip", "open", "bonded")
 

@@ -7,12 +7,12 @@ with remesh=True gmsh meshes every level anew with every element size scaled by
 base_scale * 2**-l. Meshes are cached and reused across methods and reruns.
 
 Besides the errors against the closed form (`err_*`), every run is compared with a
-reference of the same model (`ref_*`, app/study_reference.py), so the comparison has no
-model error: by default the Richardson limits of the reference method's (default 4SD)
-energy, peak pressure and point displacements and its finest level for the fields
-(app/study_richardson.py); with reference_mode="finest" its finest level for all. Observed orders
-between successive levels (`order_*`), the energy bracket U(1SD) / U(FEM-Q4 or 16SD) per
-level and a markdown table are written next to study.csv.
+reference of the same model (`ref_*`, app/studies/reference_errors.py), so the comparison
+has no model error: by default the Richardson limits of the reference method's (default
+4SD) energy, peak pressure and point displacements and its finest level for the fields
+(app/studies/richardson_reference.py); with reference_mode="finest" its finest level for
+all. Observed orders between successive levels (`order_*`), the energy bracket U(1SD) /
+U(FEM-Q4 or 16SD) per level and a markdown table are written next to study.csv.
 """
 
 from __future__ import annotations
@@ -36,9 +36,9 @@ from app.output.xdmf import atomic_write_bytes
 from app.plotting import pyplot
 from app.references import REFERENCES
 from app.run import RunOptions, run
-from app.study_mesh import build_level_mesh
-from app.study_missing import missing_runs, planned_runs
-from app.study_reference import (
+from app.studies.level_mesh import build_level_mesh
+from app.studies.missing_runs import missing_runs, planned_runs
+from app.studies.reference_errors import (
     add_reference_errors,
     energy_bracket,
     fitted_rate,
@@ -46,7 +46,7 @@ from app.study_reference import (
     profile,
     write_tables,
 )
-from app.study_richardson import (
+from app.studies.richardson_reference import (
     REFERENCE_MODES,
     add_limit_spread,
     method_limits,
@@ -96,7 +96,7 @@ def run_study(cfg: Config, out: Path, levels: int, methods: list[tuple[str, int]
 
     reference: label of the reference method (default 4SD if run, else the last method).
     reference_mode: "richardson" (its scalars extrapolated over its levels,
-    app/study_richardson.py) or "finest" (its finest level). reference_levels: the
+    app/studies/richardson_reference.py) or "finest" (its finest level). reference_levels: the
     reference method alone also runs that many levels finer than the others, so that
     their finest levels are compared with a finer reference. overrides: the `--set`
     strings already in cfg, recorded in each run's provenance. allow_large: as run's
