@@ -25,6 +25,7 @@ problem). The counts per delay close the output:
 from __future__ import annotations
 
 import argparse
+import csv
 import json
 import random
 import re
@@ -145,17 +146,32 @@ def sweep_audit(out: Path, config: Path, n_runs: int) -> tuple[dict, list[str]]:
         facts["runs"][run_dir.name] = f.get("status")
         problems += [f"{run_dir.name}: {x}" for x in p]
     if (out / "sweep.csv").exists():
-        rows = (out / "sweep.csv").read_text().splitlines()[1:]
+        with open(out / "sweep.csv", newline="") as fh:
+            rows = list(csv.DictReader(fh))
         facts["rows"] = len(rows)
-        if any(",completed," not in r and ",failed," not in r for r in rows):
-            problems.append("sweep.csv: a row of neither status")
+        # (an interrupted sweep lists the run it stopped and those it never started)
+        odd = {r.get("status") for r in rows} - {"completed", "failed", "interrupted",
+                                                  "not run"}
+        if odd:
+            problems.append(f"sweep.csv: rows of status {sorted(map(str, odd))}")
     return facts, problems
 
 
-def verdict(code: int, ranks: int, line: str | None, complete: bool) -> str:
-    """completed / interrupted / silent (see the module)."""
+MPIEXEC_TERM_DELAY = 1.0
+"""Seconds from a Ctrl-C to the SIGTERM Open MPI's mpiexec sends the ranks (the first
+signal they see; README "Parallel consistency and readable output")."""
+
+
+def verdict(code: int, ranks: int, line: str | None, complete: bool,
+            after: float = float("inf")) -> str:
+    """completed / interrupted / silent (see the module). after: seconds from the signal
+    to mpiexec's end; a job that ended, complete, before mpiexec passed the signal on gets
+    mpiexec's own exit 1 with no line (no rank was signalled): completed."""
     if code == 0:
         return "completed" if complete else "silent"
+    if (ranks > 1 and code == 1 and line is None and complete
+            and after < MPIEXEC_TERM_DELAY):
+        return "completed"
     codes = (130, 143) if ranks == 1 else (1, 130, 143)
     if line and line.startswith("error: interrupted") and code in codes:
         return "interrupted"
@@ -200,7 +216,7 @@ def sweep_trial(config: Path, ranks: int, delay: float, sig: signal.Signals, out
     line = next((x for x in reversed(lines) if x.startswith("error:")), None)
     complete = (len(facts["runs"]) == n_runs and facts["plots"] > 0 and
                 set(facts["runs"].values()) == {"completed"})
-    v = verdict(proc.returncode, ranks, line, complete)
+    v = verdict(proc.returncode, ranks, line, complete, time.monotonic() - t0 - delay)
     if v == "silent":
         problems.append("a nonzero exit with no line" if proc.returncode else "incomplete")
     return {"delay": round(delay, 2), "signal": sig.name, "exit": proc.returncode,

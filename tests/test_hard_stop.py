@@ -11,6 +11,7 @@ import sys
 import time
 
 import pytest
+from signal_support import sleep_in_a_solve
 from support import CONFIGS, ROOT, mpi_env, read_summary
 
 from app import hard_stop
@@ -119,25 +120,8 @@ def test_sigterm_to_mpiexec_inside_the_factorization_records_interrupted(tmp_pat
     assert f"error: {s['error']}" in res.stderr
 
 
-STOP_IN_STEP_FOUR = """
-import ctypes, sys
-from pathlib import Path
-from app import hard_stop
-from app.assembly import solve
-real = solve.LinearSolver.solve
-out = Path(sys.argv[sys.argv.index("--out") + 1])
-
-def solve_(self, b, x=None):
-    if (out / "step_0003.h5").exists():  # step 4's recovery: a long call
-        with hard_stop.armed():
-            print("ready", flush=True)
-            ctypes.PyDLL(None).sleep(60)
-    return real(self, b, x)
-
-solve.LinearSolver.solve = solve_
-from app.cli import main
-sys.exit(main(sys.argv[1:]))
-"""
+# step 4's recovery (its solve: a long call) once step 3 is written
+STOP_IN_STEP_FOUR = sleep_in_a_solve('(out / "step_0003.h5").exists()')
 
 
 def test_a_signal_in_a_later_steps_solve_keeps_the_written_steps(tmp_path):

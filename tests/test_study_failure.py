@@ -12,6 +12,7 @@ import sys
 import time
 
 import pytest
+from signal_support import sleep_in_a_solve, start_script
 from support import CONFIGS, ROOT, mpi_env, read_summary, run_cli
 
 from app import hard_stop
@@ -199,22 +200,7 @@ def test_a_signal_before_the_first_run_completes_is_recorded(tmp_path, hook, sig
             "interrupted", reason)
 
 
-STOP_IN_THE_FIRST_SOLVE = """
-import ctypes, sys
-from app import hard_stop
-from app.assembly import solve
-real = solve.LinearSolver.solve
-
-def solve_(self, b, x=None):  # a long PETSc call of the first run, which keeps the GIL
-    with hard_stop.armed():
-        print("ready", flush=True)
-        ctypes.PyDLL(None).sleep(60)
-    return real(self, b, x)
-
-solve.LinearSolver.solve = solve_
-from app.cli import main
-sys.exit(main(sys.argv[1:]))
-"""
+STOP_IN_THE_FIRST_SOLVE = sleep_in_a_solve()  # a long PETSc call of the first run
 
 
 @pytest.mark.mpi
@@ -226,10 +212,8 @@ def test_a_signal_inside_the_first_runs_factorization_on_two_ranks(tmp_path):
     assert getattr(hard_stop._library(), "hard_stop_extra", None) is not None, (
         "app/_hard_stop.c was built before hard_stop_extra: rebuild it (pip install -e .)")
     out = tmp_path / "o"
-    cmd = [shutil.which("mpiexec"), "-n", "2", sys.executable, "-c", STOP_IN_THE_FIRST_SOLVE,
-           "study", HERTZ, "--out", str(out), *FAST, "--levels", "1", "--methods", "4"]
-    proc = subprocess.Popen(cmd, cwd=ROOT, env=mpi_env(), stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True)
+    proc = start_script(STOP_IN_THE_FIRST_SOLVE, ["study", HERTZ, "--out", str(out), *FAST,
+                                                  "--levels", "1", "--methods", "4"], ranks=2)
     assert "ready" in proc.stdout.readline()
     time.sleep(0.2)
     proc.send_signal(signal.SIGINT)

@@ -5,28 +5,20 @@ from __future__ import annotations
 
 import json
 import subprocess
-import sys
 
-from support import CONFIGS, ROOT, mpi_env, read_csv
+from signal_support import run_script, stop_in_run
+from support import CONFIGS, read_csv
 
 from app.studies.missing_runs import missing_combinations, missing_runs, planned_runs
 
-STOP_IN_THIRD_RUN = """
-import sys
-import app.studies.convergence
-real = app.studies.convergence.run
-calls = []
 
-def run(cfg, opts):
-    calls.append(opts)
-    if len(calls) == 3:
-        raise KeyboardInterrupt  # Ctrl-C inside the third run
-    return real(cfg, opts)
-
-app.studies.convergence.run = run
-from app.cli import main
-sys.exit(main(sys.argv[1:]))
-"""
+def _study_stopped_in_its_third_run(out) -> subprocess.CompletedProcess:
+    """cantilever.toml's study at levels 0 and 1 with 4SD and FEM-Q4, Ctrl-C in its third
+    run (level 1's first): exit 130."""
+    res = run_script(stop_in_run(3), ["study", str(CONFIGS / "cantilever.toml"), "--levels",
+                                      "2", "--methods", "4,q4", "--out", str(out), "--quiet"])
+    assert res.returncode == 130, res.stderr
+    return res
 
 
 def test_planned_runs_follow_the_study_loop():
@@ -48,12 +40,7 @@ def test_an_interrupted_study_lists_what_did_not_complete(tmp_path):
     """The tables of the completed runs read like a study planned that way: nothing said
     that level 1 never ran."""
     out = tmp_path / "s"
-    cmd = [sys.executable, "-c", STOP_IN_THIRD_RUN, "study",
-           str(CONFIGS / "cantilever.toml"), "--levels", "2", "--methods", "4,q4", "--out",
-           str(out), "--quiet"]
-    res = subprocess.run(cmd, cwd=ROOT, env=mpi_env(), capture_output=True, text=True,
-                         timeout=300)
-    assert res.returncode == 130, res.stderr
+    res = _study_stopped_in_its_third_run(out)
     assert "study_tables.md lists the 2 runs that did not complete" in res.stderr
     assert len(read_csv(out / "study.csv")) == 2
     tables = (out / "study_tables.md").read_text()
@@ -87,12 +74,7 @@ def test_a_study_rerun_into_the_same_folder_ignores_the_earlier_studys_summaries
         summary.write_text(json.dumps({"status": "completed"}))
         old = time.time() - 3600.0  # written by a study an hour ago
         os.utime(summary, (old, old))
-    cmd = [sys.executable, "-c", STOP_IN_THIRD_RUN, "study",
-           str(CONFIGS / "cantilever.toml"), "--levels", "2", "--methods", "4,q4", "--out",
-           str(out), "--quiet"]
-    res = subprocess.run(cmd, cwd=ROOT, env=mpi_env(), capture_output=True, text=True,
-                         timeout=300)
-    assert res.returncode == 130, res.stderr
+    _study_stopped_in_its_third_run(out)
     tables = (out / "study_tables.md").read_text()
     assert "- level 1/1 4SD: not run (the study was interrupted)" in tables
     assert "- level 1/1 FEM-Q4: not run (the study was interrupted)" in tables

@@ -19,6 +19,7 @@ from app.driver.rank0_solve import on_rank0_solve
 from app.errors import SolveError
 from app.interface.steps import ContactStepper, StepSolution
 from app.interface.weak_modes import slide_warning
+from app.output.status import writing
 from app.parallel import collective, to_numpy_all
 
 CONSISTENCY_TOL = 1e-9
@@ -172,5 +173,6 @@ def _fail(ctx: RunContext, model: Model, step: int, result: StepSolution) -> Non
     reason = f"{head} at step {step + 1}: {result.message}{held}; {done}"
     summary["error"] = reason
     if ctx.rank == 0:
-        write_summary(ctx.out, summary)
+        with writing():  # (a watchdog's stop waits for it)
+            write_summary(ctx.out, summary)
     raise SolveError(reason)

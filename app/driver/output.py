@@ -31,6 +31,7 @@ from app.output.status import (
     on_failure,
     release_signals,
     step_writing,
+    writing,
 )
 from app.output.xdmf import ResultWriter, restore_steps
 from app.parallel import collective, to_numpy_all
@@ -58,7 +59,8 @@ def open_output(ctx: RunContext, model: Model, system: LinearSystem) -> StepOutp
         own = node_ownership(mesh.n_nodes, ctx.size)
         first = mesh.quads[:, 0]
         my_elements = np.flatnonzero((first >= own[ctx.rank]) & (first < own[ctx.rank + 1]))
-        writer = on_rank0(ResultWriter, ctx.out, mesh.points, mesh.quads, mesh.body)
+        with writing():  # (mesh.h5: a watchdog's stop waits for it)
+            writer = on_rank0(ResultWriter, ctx.out, mesh.points, mesh.quads, mesh.body)
         if writer is not None:  # files and summary.json agree after any failure
             on_failure(lambda: restore_steps(writer, len(ctx.summary["steps"])))
     with ctx.phase("setup"):
@@ -163,7 +165,8 @@ def finish(ctx: RunContext, model: Model, output: StepOutput, u: np.ndarray) -> 
     summary["assembly_rate_elements_per_s"] = (model.mesh.n_elements
                                                / max(timings["assembly"], 1e-12))
     summary["peak_memory_mb"] = timer.memory()
-    on_rank0(write_summary, ctx.out, summary)
+    with writing():  # (a watchdog's stop waits for it)
+        on_rank0(write_summary, ctx.out, summary)
     return summary
 
 

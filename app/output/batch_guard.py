@@ -64,6 +64,7 @@ class BatchGuard:
         """From the watchdog thread (between runs, several ranks): write, report, exit.
         Every stop hook runs: this guard's `finish` and the study's summary.json
         (app/studies/batch_status.py)."""
+        status.begin_stop(name)  # one thread ends the job (a run's guard yields to it)
         reason = f"interrupted by {name} between the runs; what completed before it is written"
         status._run_stop_hooks(reason)
         if self.rank == 0:

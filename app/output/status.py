@@ -16,7 +16,8 @@ import re
 import signal
 import sys
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import TextIO
 
@@ -130,8 +131,36 @@ def _run_stop_hooks(reason: str | None = None) -> None:
 
 _STOP_LOCK = threading.Lock()
 """Taken, and never released (the process exits), by whoever ends the job on a signal:
-the watchdog's `RunGuard.stop_now`, or `_hand_off_pending` to the C handler. Both at once
-wrote summary.json over each other (a stray summary.json.tmp)."""
+the watchdog's `RunGuard.stop_now`, a study's `BatchGuard.stop_now` (`begin_stop`), or
+`_hand_off_pending` to the C handler. Both at once wrote summary.json over each other (a
+stray summary.json.tmp). `RunGuard.__exit__` holds it while it writes the run's end."""
+
+
+STOP_WAIT_SECONDS = 30.0
+"""How long the main thread waits for the thread that ends the job (`begin_stop`) before it
+exits by itself (that thread always exits within `RANK0_FIRST_SECONDS` and its writes)."""
+
+_STOP_CODE: list[int] = []
+
+
+def begin_stop(name: str) -> None:
+    """Take `_STOP_LOCK` for good: the caller (a watchdog's `stop_now`) ends the job on the
+    signal `name` and exits with its code; `RunGuard.__exit__` on the main thread then
+    leaves the run's files and summary to it (`wait_for_the_stop`)."""
+    _STOP_LOCK.acquire()
+    _STOP_CODE.append(EXIT_SIGNAL.get(name, 130))
+
+
+def wait_for_the_stop() -> None:
+    """The main thread while another thread ends the job: write nothing, wait for its exit.
+    Its clear_files removed the temporary file the main thread was writing (mesh.h5.tmp,
+    summary.json.tmp): the main thread's rename failed with `No such file or directory`,
+    and its `failed` summary (and error line) replaced the watchdog's `interrupted` before
+    the watchdog exited (2 of about 400 sweep trials on 2 ranks)."""
+    import time
+
+    time.sleep(STOP_WAIT_SECONDS)
+    os._exit(_STOP_CODE[0] if _STOP_CODE else 130)
 
 
 def _hand_off_pending() -> str | None:
@@ -371,6 +400,20 @@ def step_writing(active: bool) -> None:
             lock.release()
 
 
+@contextmanager
+def writing() -> Iterator[None]:
+    """`step_writing` around a write of the run's files outside a step's (mesh.h5, the
+    final or failed summary.json): a watchdog's stop waits for it, and one under way
+    holds the main thread here until it has ended the job (before, its clear_files removed
+    the file's .tmp under the main thread, and the main thread's `completed` or `failed`
+    replaced its `interrupted`)."""
+    step_writing(True)
+    try:
+        yield
+    finally:
+        step_writing(False)
+
+
 class RunGuard:
     """Context manager around a run: lock, stale files, signals, final status."""
 
@@ -422,17 +465,19 @@ class RunGuard:
         """From the watchdog thread: record `interrupted`, print it and exit at once."""
         import json
 
-        _STOP_LOCK.acquire()  # (a hand-off to the C handler took it first: it exits)
+        begin_stop(name)  # (a hand-off to the C handler took it first: it exits)
 
         where = ("" if PETSc.COMM_WORLD.getSize() > 1 else
                  " (stopped inside a long computation)")
+        reason = self._interrupted_reason(name, where)
         self.summary["status"] = "interrupted"
-        self.summary["error"] = self._interrupted_reason(name, where)
+        self.summary["error"] = reason
         if self.rank == 0:
             clear_files(self.out, TEMPORARY)
             for _ in range(5):  # the main thread may be changing the dict
-                try:
-                    text = json.dumps(self.summary, indent=2) + "\n"
+                try:  # (its status and error too: a `completed` with this error was seen)
+                    text = json.dumps({**self.summary, "status": "interrupted",
+                                       "error": reason}, indent=2) + "\n"
                     break
                 except RuntimeError:
                     continue
@@ -445,8 +490,8 @@ class RunGuard:
                     atomic_write_bytes(self.out / "summary.json", text.encode())
                 except OSError:
                     pass
-            print(f"error: {self.summary['error']}", file=sys.stderr, flush=True)
-        _run_stop_hooks(self.summary["error"])
+            print(f"error: {reason}", file=sys.stderr, flush=True)
+        _run_stop_hooks(reason)
         startup_signals.exit_after_rank0(EXIT_SIGNAL.get(name, 130))
 
     def __exit__(self, exc_type, exc, tb) -> bool:
@@ -455,7 +500,12 @@ class RunGuard:
         if watchdog is not None:
             watchdog.handled.set()  # the run reached Python code and stops here
         try:
-            return self._finish(exc)
+            if not _STOP_LOCK.acquire(blocking=False):
+                wait_for_the_stop()  # a watchdog is ending the job: its files, its line
+            try:  # (a watchdog's stop_now waits for these writes, then overwrites them)
+                return self._finish(exc)
+            finally:
+                _STOP_LOCK.release()
         finally:
             end_watchdog(watchdog)
             remove_on_stop(self._stopped_before_its_watchdog)
