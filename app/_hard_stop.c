@@ -5,7 +5,7 @@
  * line on stderr and exits with 130 (SIGINT) or 143 (SIGTERM). The summary is either the
  * whole file (through a temporary file and a rename) or, for a summary that grows step by
  * step (app/output/append.py), its new tail written in place at a byte offset. An
- * optional second file (a study's own summary.json, app/study_status.py) is written whole
+ * optional second file (a study's own summary.json, app/studies/batch_status.py) is written whole
  * after it. Only async-signal-safe calls. Loaded through ctypes (app/hard_stop.py).
  * `hard_stop_arm_exit` arms it with no file to write: the job's end, once every output is
  * written (app/output/late_signals.py), where the ranks wait in MPI_Finalize;

@@ -40,7 +40,7 @@ ALLOW_LARGE_HELP = ("run even when the mesh estimated from the geometry and elem
 
 def _parser() -> argparse.ArgumentParser:
     """The `python -m app` parser: subcommands run and study."""
-    from app.early_failure import Parser  # (its errors raise: recorded in OUT too)
+    from app.startup.early_failure import Parser  # (its errors raise: recorded in OUT too)
 
     p = Parser(prog="python -m app", description=DESCRIPTION,
                formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -155,7 +155,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = _parser()
     # PETSc options that begin with -h (-help) would be taken as argparse's -h with a value
     petsc_h = [a for a in argv if a.startswith("-h") and a != "-h"]
-    from app.early_failure import UsageError, record, study_head, usage_failure
+    from app.startup.early_failure import UsageError, record, study_head, usage_failure
 
     try:
         args, petsc_args = parser.parse_known_args([a for a in argv if a not in petsc_h])
@@ -167,7 +167,7 @@ def main(argv: list[str] | None = None) -> int:
         return usage_failure(exc, _parser, [a for a in argv if a not in petsc_h], _out_folder)
 
     from app.output import startup_signals
-    from app.petsc_start import start_petsc
+    from app.startup.petsc import start_petsc
 
     stem = args.config.stem if args.command == "run" else f"study_{args.config.stem}"
     startup_signals.arm(Path(args.out or Path("out") / stem), str(args.config),
@@ -199,7 +199,7 @@ def main(argv: list[str] | None = None) -> int:
     except RunInterrupted as exc:
         message, code = f"error: {exc}", exc.exit_code
     except KeyboardInterrupt:  # outside a run's guard (between a study's runs): no traceback
-        from app.study_status import OUTSIDE_A_STEP
+        from app.studies.batch_status import OUTSIDE_A_STEP
 
         message, code = f"error: {OUTSIDE_A_STEP}", 130
     except PETSc.Error as exc:
@@ -215,8 +215,8 @@ def main(argv: list[str] | None = None) -> int:
 
 def _study_command(args, petsc_args: list[str], rank: int) -> int:
     """`study`: a convergence study, or a parameter study with --sweep; OUT/summary.json
-    says completed, failed or interrupted (app/study_status.py)."""
-    from app.study_status import BatchStatus
+    says completed, failed or interrupted (app/studies/batch_status.py)."""
+    from app.studies.batch_status import BatchStatus
 
     with BatchStatus("sweep" if args.sweep else "convergence", args.config, list(args.set),
                      _out_folder(args, Path("out") / f"study_{args.config.stem}")) as batch:
@@ -240,7 +240,7 @@ def _study_rows(args, batch) -> tuple[list[dict], Path]:
     """The checks of the study's options, then its runs; the rows and OUT."""
     from app.config import load_config
     from app.errors import InputError
-    from app.study import parse_methods, run_study
+    from app.studies.convergence import parse_methods, run_study
 
     cfg = load_config(args.config, args.set)
     if args.levels < 1 or args.first_level < 0:
@@ -259,7 +259,7 @@ def _study_rows(args, batch) -> tuple[list[dict], Path]:
               else args.first_level + args.levels - 1 + args.reference_levels)
     scale = check_run_input(cfg, args, finest)
     if args.sweep:
-        from app.sweep import parse_sweeps, run_sweep
+        from app.studies.sweep import parse_sweeps, run_sweep
 
         if not 0 <= args.refine <= 8:
             raise InputError(f"--refine must be 0..8 (got {args.refine})")
@@ -307,7 +307,7 @@ def _run_command(args, petsc_args: list[str], rank: int) -> int:
             where = "--method" if opts.method else "analysis.method ="
             raise InputError(f"--sd does not apply to {where} {method}")
     except InputError as exc:
-        from app.input_failure import record_input_failure
+        from app.startup.input_failure import record_input_failure
 
         record_input_failure(exc, _out_folder(args, default_out), args.config, list(args.set))
     try:
@@ -317,7 +317,7 @@ def _run_command(args, petsc_args: list[str], rank: int) -> int:
             print(final_line(exc.summary, opts.out), file=sys.stderr)
         raise
     if args.energy_bracket:
-        from app.bracket import add_energy_bracket
+        from app.studies.energy_bracket import add_energy_bracket
 
         summary = add_energy_bracket(cfg, opts, summary)
     unused = warn_unused_options(cfg, petsc_args, rank)

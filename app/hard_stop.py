@@ -29,7 +29,7 @@ stderr line."""
 
 Extra = Callable[[str, str], tuple[Path, bytes]]
 """(signal name, the stderr line) -> a second file the handler writes whole: its path and
-bytes (a study's own summary.json, app/study_status.py)."""
+bytes (a study's own summary.json, app/studies/batch_status.py)."""
 
 _PROVIDER: list[Provider] = []
 _EXTRA: list[Extra] = []

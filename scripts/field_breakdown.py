@@ -5,11 +5,11 @@ the floor of that definition (JSON lines; README "Why L2(q) ... have no steady o
         [--reference 4SD] [--band 1.0]
 
 Per level: the error against the finest level of the reference method, recomputed as in
-app/study_reference.py and split (app/field_breakdown.py) into bands of +-BAND x the
-level's pair spacing around the contact edges +-a (`edge`), the stick/slip boundaries +-c
-(`stick`, q only) and the contact edges of the normal steps before the last one
+app/studies/reference_errors.py and split (app/studies/field_breakdown.py) into bands of
++-BAND x the level's pair spacing around the contact edges +-a (`edge`), the stick/slip
+boundaries +-c (`stick`, q only) and the contact edges of the normal steps before the last one
 (`lockin`: the level's own and the reference's), and the rest (`core`); `nodal`, the
-error at the level's own pairs only (app/field_breakdown.nodal_l2: no interpolation
+error at the level's own pairs only (app/studies/field_breakdown.nodal_l2: no interpolation
 between pairs, floor 0); `floor_ref`, the
 same error of the exact field (Hertz p or Cattaneo-Mindlin q, with a, p0, Q/(mu P) of the
 reference run) sampled at the level's pairs, and its parts `floor_<band>`; `floor_cf`, the
@@ -37,9 +37,9 @@ from app.closed_form import (  # noqa: E402
     hertz_pressure,
     interpolated_l2_rel_error,
 )
-from app.field_breakdown import field_breakdown, nodal_l2, orders  # noqa: E402
 from app.output.read import last_step_file, read_pairs  # noqa: E402
-from app.study_reference import contact_window  # noqa: E402
+from app.studies.field_breakdown import field_breakdown, nodal_l2, orders  # noqa: E402
+from app.studies.reference_errors import contact_window  # noqa: E402
 
 
 def runs_of(study: Path, method: str) -> dict[int, Path]:

@@ -10,7 +10,7 @@ spacing in the contact window (levels 1-4 of cattaneo_halfspace). The exact fiel
 a, p0 (and Q/(mu P)) from the finest run of the reference method. Per level: floor_cf (the
 closed-form interpolated L2 over |x| <= 1.5 a) and floor_ref (the ref_* definition against
 the pairs REF_LEVELS finer), and theta_a, theta_c: where x = +a and x = +c fall between
-the pairs (app/field_breakdown.edge_phase); a last line lists the floors' observed orders.
+the pairs (app/studies/field_breakdown.edge_phase); a last line lists the floors' observed orders.
 """
 
 from __future__ import annotations
@@ -24,8 +24,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # this checkout's 
 from field_breakdown import reference_run, runs_of  # noqa: E402  (scripts/field_breakdown.py)
 
 from app.closed_form import INTERPOLATED_L2_RANGE  # noqa: E402
-from app.field_breakdown import bisect_pairs, edge_phase, floor_sequence, orders  # noqa: E402
 from app.output.read import last_step_file, read_pairs  # noqa: E402
+from app.studies.field_breakdown import bisect_pairs, edge_phase, floor_sequence, orders  # noqa: E402
 
 
 def main() -> None:

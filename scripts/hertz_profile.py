@@ -10,7 +10,7 @@ Hertz figures, or of p0 for the wobble):
   pairs, what the definition cannot resolve at that pair spacing), l2 (tributary, |x| < a),
   p_max and half_width errors;
 - best: the smallest l2_interp that any non-negative pair values reach at these pair
-  positions (`app.l2_breakdown.interpolated_l2_best`), a bound no method can beat;
+  positions (`app.studies.l2_breakdown.interpolated_l2_best`), a bound no method can beat;
 - wobble_max, wobble_n: the largest second difference of (p - p_Hertz) / p0 over
   consecutive pairs with |x| < 0.8 a, and how many exceed 0.2% (of n_inner pairs);
 - with --reference (a finer run of the same scene): disc_l2, the tributary L2 over
@@ -36,12 +36,12 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from app.closed_form import hertz_pressure, interpolated_l2_rel_error  # noqa: E402
-from app.l2_breakdown import (  # noqa: E402
+from app.output.read import last_step_file, read_pairs  # noqa: E402
+from app.studies.l2_breakdown import (  # noqa: E402
     hertz_form_fit,
     interpolated_l2_best,
     tributary_l2,
 )
-from app.output.read import last_step_file, read_pairs  # noqa: E402
 
 WOBBLE = 0.002  # second difference of (p - p_H) / p0 counted as a jump
 

@@ -5,7 +5,7 @@ definition for tributary averages, and the interpolated L2 with its floor.
     .venv/bin/python scripts/l2_breakdown.py OUT/study_dir [--method 4SD] [--core 0.95]
 
 Reads OUT/L<level>_<method>/summary.json (the Hertz a, p0 and centre) and the last
-step's contact data; see app/l2_breakdown.py for the definitions.
+step's contact data; see app/studies/l2_breakdown.py for the definitions.
 """
 
 from __future__ import annotations
@@ -17,8 +17,8 @@ import sys
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # this checkout's app
-from app.l2_breakdown import pressure_breakdown  # noqa: E402
 from app.output.read import read_pairs  # noqa: E402
+from app.studies.l2_breakdown import pressure_breakdown  # noqa: E402
 
 
 def level_row(run: Path, core: float) -> dict:

@@ -11,10 +11,10 @@ import pytest
 from support import CONFIGS, read_summary, run_cli
 
 from app.closed_form import INTERPOLATED_L2_RANGE, cattaneo_traction, hertz_pressure
-from app.field_breakdown import floor_sequence, orders
 from app.mesh.build import build_mesh
 from app.mesh.refine import refine_mesh, scene_arcs
 from app.scene import parse_scene
+from app.studies.field_breakdown import floor_sequence, orders
 
 A, H0 = 0.01, 0.002  # the scenes' contact half-width and level-0 pair spacing
 

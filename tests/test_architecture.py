@@ -2,8 +2,10 @@
 
 Stages, in the direction of flow (README, Layout): mesh -> discretisation -> assembly ->
 contact -> condensation -> lcp -> interface -> output, with the foundations below them
-(errors, typed config, closed forms, PETSc library, MPI helpers) and the driver above
-(run, study, cli). A module may import its own stage, earlier stages and foundations.
+(errors, typed config, closed forms, PETSc library, MPI helpers) and the driver layers above:
+the run's phases (app/driver/) -> one run (app/run.py) -> a command's start and its
+failures (app/startup/) -> studies of many runs (app/studies/) -> the command line
+(app/cli.py, app/__main__.py). A module may import its own layer and the layers below it.
 """
 
 from __future__ import annotations
@@ -17,9 +19,10 @@ APP = Path(__file__).resolve().parents[1] / "app"
 
 FOUNDATIONS = ("errors", "config", "config_keys", "scene", "closed_form", "references",
                "petsc_lib", "parallel", "expressions", "petsc_options", "hard_stop",
-               "petsc_config_guard", "user_paths")
+               "petsc_config_guard", "user_paths", "plotting")
 STAGES = ("mesh", "discretisation", "assembly", "contact", "condensation", "lcp",
           "interface", "output")
+DRIVER = ("driver", "run", "startup", "studies", "cli", "__main__")
 NUMPY_ONLY = ("discretisation", "contact", "lcp")  # kernels testable without MPI or files
 
 
@@ -72,15 +75,24 @@ def _graph() -> dict[str, set[str]]:
 
 
 def _rank(module: str) -> int:
-    """0 foundations, 1.. the stages in order, len(STAGES) + 1 the driver."""
+    """0 foundations, 1.. the stages in order, then the driver layers in order; a module
+    in none of them ranks with the command line (test_every_module_has_a_layer names it)."""
     if module == "app":
         return 0  # the package itself: its version
-    parts = module.split(".")
-    if len(parts) == 1 or parts[1] in FOUNDATIONS or parts[1] == "__init__":
-        return 0 if len(parts) > 1 and parts[1] in FOUNDATIONS else len(STAGES) + 1
-    if parts[1] in STAGES:
-        return 1 + STAGES.index(parts[1])
-    return len(STAGES) + 1  # run, study, cli, __main__
+    layer = module.split(".")[1]
+    if layer in FOUNDATIONS:
+        return 0
+    if layer in STAGES:
+        return 1 + STAGES.index(layer)
+    return 1 + len(STAGES) + (DRIVER.index(layer) if layer in DRIVER else len(DRIVER) - 1)
+
+
+def test_every_module_has_a_layer():
+    """app/ holds the foundations and one folder or module per stage and driver layer:
+    a new top-level module is placed in its stage's folder or named here."""
+    known = {*FOUNDATIONS, *STAGES, *DRIVER, "__init__"}
+    stray = sorted({m.split(".")[1] for m in _graph() if m != "app"} - known)
+    assert not stray, f"app/ modules in no layer (README, Layout): {', '.join(stray)}"
 
 
 def test_no_import_against_the_stage_order():
@@ -124,3 +136,6 @@ def test_the_checker_sees_violations(tmp_path):
     assert _rank("app.config") < _rank("app.mesh.model") < _rank("app.lcp.lemke") \
         < _rank("app.output.xdmf") < _rank("app.run")
     assert _rank("app.interface.steps") > _rank("app.condensation.compliance")
+    assert _rank("app.output.status") < _rank("app.driver.model") < _rank("app.run") \
+        < _rank("app.startup.petsc") < _rank("app.studies.convergence") < _rank("app.cli")
+    assert _rank("app.studies.level_mesh") == _rank("app.studies.sweep")

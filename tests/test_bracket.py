@@ -1,4 +1,5 @@
-"""`run --energy-bracket` (app/bracket.py): U(1SD) >= U(4SD) >= U(FEM-Q4) under loads."""
+"""`run --energy-bracket` (app/studies/energy_bracket.py): U(1SD) >= U(4SD) >= U(FEM-Q4)
+under loads."""
 
 from __future__ import annotations
 

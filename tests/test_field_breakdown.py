@@ -1,5 +1,5 @@
 """Field-error breakdown by bands and the floor of the ref_* L2 definition
-(app/field_breakdown.py)."""
+(app/studies/field_breakdown.py)."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from app.closed_form import cattaneo_traction, interpolated_l2_rel_error
-from app.field_breakdown import (
+from app.studies.field_breakdown import (
     band_index,
     bisect_pairs,
     edge_phase,
@@ -20,7 +20,7 @@ from app.field_breakdown import (
     sampled_floor,
     trapezoid_weights,
 )
-from app.study_reference import l2_against
+from app.studies.reference_errors import l2_against
 
 A, P0, MU = 0.01, 549.4, 0.2
 

@@ -1,5 +1,5 @@
 """Bad input found before the run starts (config, --set, size checks) is recorded in
-OUT/summary.json as `failed` too (app/output/input_failure.py)."""
+OUT/summary.json as `failed` too (app/startup/input_failure.py)."""
 
 from __future__ import annotations
 

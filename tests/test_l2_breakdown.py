@@ -1,4 +1,4 @@
-"""The Hertz L2(p) breakdown (app/l2_breakdown.py): tributary averages, core and edge
+"""The Hertz L2(p) breakdown (app/studies/l2_breakdown.py): tributary averages, core and edge
 parts, the worst pair."""
 
 from __future__ import annotations
@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from app.closed_form import hertz_pressure, interpolated_l2_rel_error
-from app.l2_breakdown import (
+from app.studies.l2_breakdown import (
     hertz_form_fit,
     hertz_tributary_average,
     interpolated_l2_best,

@@ -33,11 +33,11 @@ sys.exit(code)
 # a sweep whose rank 0 is drawing its plots (after the sweep's guard) when the signal comes
 IN_THE_PLOTS = """
 import sys, time
-import app.sweep
+import app.studies.sweep
 def plot_sweep(*args, **kwargs):
     print("plotting", flush=True)
     time.sleep(60)
-app.sweep.plot_sweep = plot_sweep
+app.studies.sweep.plot_sweep = plot_sweep
 from app.cli import main
 sys.exit(main(sys.argv[1:]))
 """

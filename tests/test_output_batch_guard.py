@@ -13,8 +13,8 @@ from support import CONFIGS, ROOT, mpi_env, read_csv, read_summary
 
 STOP_IN_SECOND_RUN = """
 import sys
-import app.study
-real = app.study.run
+import app.studies.convergence
+real = app.studies.convergence.run
 calls = []
 
 def run(cfg, opts):
@@ -23,7 +23,7 @@ def run(cfg, opts):
         raise KeyboardInterrupt  # Ctrl-C inside the second run
     return real(cfg, opts)
 
-app.study.run = run
+app.studies.convergence.run = run
 from app.cli import main
 sys.exit(main(sys.argv[1:]))
 """
@@ -49,8 +49,8 @@ def test_a_study_interrupted_on_one_rank_writes_the_tables_and_plots(tmp_path):
 
 PAUSE_BEFORE_SECOND_RUN = """
 import sys, time
-import app.study
-real = app.study._try_run
+import app.studies.convergence
+real = app.studies.convergence._try_run
 calls = []
 
 def try_run(cfg, opts, failures, t0):
@@ -62,7 +62,7 @@ def try_run(cfg, opts, failures, t0):
         time.sleep(60)  # between the runs, in Python
     return real(cfg, opts, failures, t0)
 
-app.study._try_run = try_run
+app.studies.convergence._try_run = try_run
 from app.cli import main
 sys.exit(main(sys.argv[1:]))
 """
@@ -89,7 +89,8 @@ def test_a_study_signalled_between_runs_on_two_ranks_keeps_its_tables(tmp_path):
     assert "| 0 " in (out / "study_tables.md").read_text()
 
 
-STOP_IN_SECOND_SWEEP_RUN = STOP_IN_SECOND_RUN.replace("app.study", "app.sweep")
+STOP_IN_SECOND_SWEEP_RUN = STOP_IN_SECOND_RUN.replace("app.studies.convergence",
+                                                      "app.studies.sweep")
 
 
 def test_a_sweep_interrupted_on_one_rank_draws_its_plots(tmp_path):

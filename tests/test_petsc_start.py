@@ -1,4 +1,4 @@
-"""app/petsc_start.py: PETSc options that PETSc refuses while it starts are one line.
+"""app/startup/petsc.py: PETSc options that PETSc refuses while it starts are one line.
 
 Before: `-options_file /nonexistent` (and -options_file_yaml, -prefix_pop, -info FILE,
 -log_trace FILE with a folder that does not exist) ended in PETSc's 20-line report and a
@@ -10,7 +10,7 @@ from __future__ import annotations
 import pytest
 from support import CONFIGS, run_cli
 
-from app.petsc_start import _history_problem, _reason
+from app.startup.petsc import _history_problem, _reason
 
 
 def test_reason_is_the_first_line_that_says_what_went_wrong():

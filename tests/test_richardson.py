@@ -1,5 +1,5 @@
-"""Richardson extrapolation kernel (app/richardson.py) on synthetic sequences with a known
-limit and order, and the study's per-method limits (app/study_richardson.py)."""
+"""Richardson extrapolation kernel (app/studies/richardson.py) on synthetic sequences with a known
+limit and order, and the study's per-method limits (app/studies/richardson_reference.py)."""
 
 from __future__ import annotations
 
@@ -8,9 +8,9 @@ import math
 import numpy as np
 import pytest
 
-from app.richardson import extrapolate, observed_order, richardson
-from app.study_reference import add_orders
-from app.study_richardson import (
+from app.studies.reference_errors import add_orders
+from app.studies.richardson import extrapolate, observed_order, richardson
+from app.studies.richardson_reference import (
     consecutive_levels,
     method_limits,
     order_marks,
@@ -135,7 +135,7 @@ def test_orders_within_the_reference_uncertainty_are_marked_and_left_out():
 
 
 def test_the_errors_table_marks_the_same_orders(tmp_path):
-    from app.study_reference import write_tables
+    from app.studies.reference_errors import write_tables
 
     limits = [{"method": "4SD", "quantity": "energy", "n_levels": 3, "levels": "0-2",
                "order_source": "observed", "uncertainty_rel": 1e-3}]
@@ -172,7 +172,7 @@ def test_the_plot_rate_leaves_out_same_level_and_unresolved_errors():
     """FEM-Q4's L2(p) on hertz.toml, levels 0-2, against level 2 of 4SD: the legend's
     rate 2.24 was the fit through the same-mesh difference at level 2 (0.73 without it)."""
     from app.plotting import pyplot
-    from app.study import _error_panel
+    from app.studies.convergence import _error_panel
 
     errs = {"4SD": [0.0192, 0.0118, math.nan], "FEM-Q4": [0.0193, 0.0116, 0.000919]}
     rows = [{"level": lv, "method": m, "ref_pressure_l2": e, "n_dofs": 2532 * 4**lv}
@@ -192,7 +192,7 @@ def test_the_plot_rate_leaves_out_same_level_and_unresolved_errors():
 def test_the_reference_note_names_what_the_scene_has():
     """cantilever.toml's tables and plot titles read "Richardson limits of 4SD for energy,
     p_max and points; ... for p(x), q(x)": a scene with no contact and one point."""
-    from app.study_reference import add_reference_errors
+    from app.studies.reference_errors import add_reference_errors
 
     rows = [{"level": lv, "method": "4SD"} for lv in range(3)]
     profiles = {(lv, "4SD"): {"energy": 1.0 + 4.0**-lv, "n_dofs": 4**lv,

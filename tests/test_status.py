@@ -262,12 +262,12 @@ def test_sigterm_inside_a_long_gmsh_call_stops_within_seconds(tmp_path):
 
 BETWEEN_RUNS = """
 import sys
-import app.study
+import app.studies.convergence
 
 def stop(*args, **kwargs):
     raise KeyboardInterrupt
 
-app.study.{name} = stop
+app.studies.convergence.{name} = stop
 from app.cli import main
 sys.exit(main(sys.argv[1:]))
 """
@@ -291,16 +291,16 @@ def test_sigint_between_a_studys_runs_is_one_line_exit_130(tmp_path, name):
 
 ONE_FAILS = """
 import sys
-import app.study
+import app.studies.convergence
 from app.errors import SolveError
-real = app.study.run
+real = app.studies.convergence.run
 
 def run(cfg, opts):
     if "FEM-Q4" in opts.progress_prefix:
         raise SolveError("no static equilibrium at step 1: made up")
     return real(cfg, opts)
 
-app.study.run = run
+app.studies.convergence.run = run
 from app.cli import main
 sys.exit(main(sys.argv[1:]))
 """

@@ -8,7 +8,7 @@ import sys
 import numpy as np
 from support import CONFIGS, ROOT, read_csv, read_summary, run_cli
 
-from app.study import energy_title, fitted_rate, parse_methods
+from app.studies.convergence import energy_title, fitted_rate, parse_methods
 
 
 def test_study_writes_csv_and_plots_and_reuses_meshes(tmp_path):
@@ -142,15 +142,15 @@ def test_plots_import_matplotlib_without_a_warning():
 
 REFRESH_FAILS = """
 import sys
-import app.study
-real = app.study.finish_study
+import app.studies.convergence
+real = app.studies.convergence.finish_study
 
 def finish(*args, plots=True, **kwargs):
     if not plots:
         raise ValueError("made up")
     return real(*args, plots=plots, **kwargs)
 
-app.study.finish_study = finish
+app.studies.convergence.finish_study = finish
 from app.cli import main
 sys.exit(main(sys.argv[1:]))
 """
@@ -171,7 +171,7 @@ def test_a_failing_table_refresh_between_runs_is_a_warning(tmp_path):
 
 
 def test_energy_vs_sd_runs_in_increasing_sd_whatever_the_methods_order():
-    from app.study import sd_series
+    from app.studies.convergence import sd_series
 
     rows = {"16SD": {"strain_energy": 1.82}, "1SD": {"strain_energy": 1.86},
             "4SD": {"strain_energy": 1.83}, "FEM-Q4": {"strain_energy": 1.81}}

@@ -1,5 +1,5 @@
 """The reference method's orders that its own Richardson limit fixes are marked and left
-out of the order summary's spread and windows (app/study_richardson.constructed_orders).
+out of the order summary's spread and windows (app/studies/richardson_reference.constructed_orders).
 
 With Q* extrapolated from levels L-2..L at their observed order p, the reference's errors
 |Q_l - Q*| have the order p at levels L-1 and L whatever the data: a spread computed with
@@ -12,8 +12,8 @@ import math
 
 import pytest
 
-from app.study_reference import add_reference_errors
-from app.study_richardson import (
+from app.studies.reference_errors import add_reference_errors
+from app.studies.richardson_reference import (
     constructed_orders,
     method_limits,
     order_summary,
@@ -77,7 +77,7 @@ def test_other_methods_and_short_references_are_not_marked():
 
 def test_the_plot_legend_gives_the_last_measured_order():
     from app.plotting import pyplot
-    from app.study import _error_panel
+    from app.studies.convergence import _error_panel
 
     h = [2.0**-lv for lv in range(5)]
     rows, lims = _study([1.0 + x**2 + 3 * x**3 for x in h])

@@ -1,6 +1,6 @@
 """A study or sweep that stops on bad input, or on a signal before its first run completes,
 leaves OUT/summary.json with `failed` or `interrupted` and the `error:` line
-(app/study_status.py). Before, it left no summary.json in OUT."""
+(app/studies/batch_status.py). Before, it left no summary.json in OUT."""
 
 from __future__ import annotations
 
@@ -257,7 +257,7 @@ def _usage_error(res, command: str) -> str:
     (["--levels", "--out", "{OUT}"], "argument --levels: expected one argument"),
 ])
 def test_a_command_line_argparse_refuses_is_recorded_as_failed(tmp_path, args, reason):
-    """Before PETSc starts (app/early_failure.py): argparse's usage and line as before."""
+    """Before PETSc starts (app/startup/early_failure.py): argparse's usage and line as before."""
     out = tmp_path / "o"
     res = run_cli(["study", HERTZ, *[str(out) if a == "{OUT}" else a for a in args],
                    "--out", str(out)])

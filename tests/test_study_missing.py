@@ -1,4 +1,5 @@
-"""An interrupted study's tables list the runs that did not complete (app/study_missing.py)."""
+"""An interrupted study's tables list the runs that did not complete
+(app/studies/missing_runs.py)."""
 
 from __future__ import annotations
 
@@ -8,12 +9,12 @@ import sys
 
 from support import CONFIGS, ROOT, mpi_env, read_csv
 
-from app.study_missing import missing_combinations, missing_runs, planned_runs
+from app.studies.missing_runs import missing_combinations, missing_runs, planned_runs
 
 STOP_IN_THIRD_RUN = """
 import sys
-import app.study
-real = app.study.run
+import app.studies.convergence
+real = app.studies.convergence.run
 calls = []
 
 def run(cfg, opts):
@@ -22,7 +23,7 @@ def run(cfg, opts):
         raise KeyboardInterrupt  # Ctrl-C inside the third run
     return real(cfg, opts)
 
-app.study.run = run
+app.studies.convergence.run = run
 from app.cli import main
 sys.exit(main(sys.argv[1:]))
 """
@@ -61,7 +62,7 @@ def test_an_interrupted_study_lists_what_did_not_complete(tmp_path):
 
 
 def test_missing_combinations_of_a_sweep(tmp_path):
-    from app.sweep import _value
+    from app.studies.sweep import _value
 
     (tmp_path / "run_001").mkdir()
     (tmp_path / "run_001" / "summary.json").write_text(json.dumps({"status": "interrupted"}))
@@ -102,7 +103,7 @@ def test_a_sweeps_missing_combinations_ignore_an_earlier_sweeps_summary(tmp_path
     import os
     import time
 
-    from app.sweep import _value
+    from app.studies.sweep import _value
 
     (tmp_path / "run_001").mkdir()
     summary = tmp_path / "run_001" / "summary.json"

@@ -8,7 +8,7 @@ import math
 import numpy as np
 from support import CONFIGS, read_csv, run_cli
 
-from app.study_reference import add_reference_errors, energy_bracket, relative_error
+from app.studies.reference_errors import add_reference_errors, energy_bracket, relative_error
 
 
 def test_relative_errors_against_zero_are_nan():

@@ -1,4 +1,4 @@
-"""Parameter studies (`study --sweep`, app/sweep.py) on coarse meshes: CSV, plots and the
+"""Parameter studies (`study --sweep`, app/studies/sweep.py) on coarse meshes: CSV, plots and the
 contact's physics (balance, friction + bond bound, sliding at mu P)."""
 
 from __future__ import annotations
@@ -7,7 +7,7 @@ import pytest
 from support import CONFIGS, read_csv, read_summary, run_cli
 
 from app.errors import InputError
-from app.sweep import parse_sweeps, report_step, split_values
+from app.studies.sweep import parse_sweeps, report_step, split_values
 
 
 def test_split_and_parse_sweeps():
@@ -160,7 +160,7 @@ def test_contact_length_counts_no_round_off_forces_and_not_the_ranks(tmp_path):
 def test_a_sweep_over_text_values_is_plotted_on_a_categorical_axis(tmp_path):
     """`--sweep 'interface.bond.discretisation="mortar","node-to-segment"'` wrote no plot
     for the key, silently."""
-    from app.sweep import plot_sweep
+    from app.studies.sweep import plot_sweep
 
     key = "interface.bond.discretisation"
     rows = [{key: v, "interface.bond.c": c, "status": "completed", "interface": "bond",
@@ -175,7 +175,7 @@ def test_a_sweep_over_text_values_is_plotted_on_a_categorical_axis(tmp_path):
 
 def test_a_negative_at_step_is_named_by_the_step_it_reports():
     """The plots' titles read "at step -3", and sweep.csv did not say which step."""
-    from app.sweep import report_label, summarize
+    from app.studies.sweep import report_label, summarize
 
     steps = [{"step": k, "normal_force": 1.0, "tangential_force": 0.1 * k,
               "max_pressure": 2.0, "debonded_pairs": 0, "n_pairs": 4, "dissipation": 0.0,

@@ -63,7 +63,7 @@ class BatchGuard:
     def stop_now(self, name: str) -> None:
         """From the watchdog thread (between runs, several ranks): write, report, exit.
         Every stop hook runs: this guard's `finish` and the study's summary.json
-        (app/study_status.py)."""
+        (app/studies/batch_status.py)."""
         reason = f"interrupted by {name} between the runs; what completed before it is written"
         status._run_stop_hooks(reason)
         if self.rank == 0:

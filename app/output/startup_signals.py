@@ -74,7 +74,7 @@ def launcher_rank() -> int:
 def arm(out: Path | None, config: str, act: bool = True, head: dict | None = None) -> None:
     """Install the start-up handler for SIGINT and SIGTERM. out: the run's or study's
     folder (None: write nothing); act False: only record (the imports, app/__main__.py);
-    head: the summary's first keys (default a run's; a study's, app/study_status.py, which
+    head: the summary's first keys (default a run's; a study's, app/studies/batch_status.py, which
     defers once it takes OUT)."""
     pending = _STATE["pending"] if _STATE["mode"] == "record" else None
     _STATE.update(mode="act" if act else "record", pending=pending, out=out, config=config,
@@ -212,5 +212,5 @@ def _record(out: Path, reason: str, status: str = "interrupted",
 
 def record_failure(out: Path, reason: str, head: dict) -> str | None:
     """A `failed` summary.json in OUT for bad input found before PETSc starts (rank 0 of
-    the launcher; app/early_failure.py); None, or why nothing was written."""
+    the launcher; app/startup/early_failure.py); None, or why nothing was written."""
     return _record(out, reason, "failed", head)

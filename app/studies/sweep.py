@@ -12,6 +12,7 @@ import itertools
 import math
 import sys
 import time
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -23,8 +24,8 @@ from app.output.batch_guard import BatchGuard
 from app.output.status import step_writing
 from app.plotting import pyplot
 from app.run import RunOptions, run
-from app.study import write_csv
-from app.study_missing import missing_combinations
+from app.studies.convergence import write_csv
+from app.studies.missing_runs import missing_combinations
 
 ZONES = ("contact", "stick", "slip", "open", "bonded")
 
@@ -124,59 +125,96 @@ def summarize(steps: list[dict], at_step: int) -> dict:
 def run_sweep(config: Path, sets: list[str], sweeps: list[tuple[str, list[str]]], out: Path,
               opts: dict, at_step: int = 0, quiet: bool = False) -> list[dict]:
     """Run every combination; returns the sweep.csv rows. Raises SolveError if all fail."""
-    rank = PETSc.COMM_WORLD.getRank()
-    out = Path(out)
     keys = [k for k, _ in sweeps]
-    combos = list(itertools.product(*[v for _, v in sweeps]))
-    rows, all_steps, failed = [], [], []
-    t0, started = time.perf_counter(), time.time() - 0.1  # (file times: a coarse clock)
+    sweep = Sweep(config, sets, keys, list(itertools.product(*[v for _, v in sweeps])),
+                  Path(out), opts, at_step, quiet)
+    with BatchGuard(lambda: _write_completed(sweep)):
+        for i, combo in enumerate(sweep.combos):
+            _run_combination(sweep, i, combo)
+    if len(sweep.failed) == len(sweep.combos):
+        raise SolveError(f"every run of the sweep failed (first: {sweep.failed[0]})")
+    if PETSc.COMM_WORLD.getRank() == 0:
+        write_csv(sweep.out / "sweep.csv", sweep.rows)
+        plot_sweep(sweep.rows, keys, sweep.out, at_step)
+    return sweep.rows
 
-    def write_completed() -> str:  # on SIGINT / SIGTERM: the plots of what completed
-        if not rows:
-            return f"sweep: no run completed in {out}"
-        plots = PETSc.COMM_WORLD.getSize() == 1  # several ranks: mpiexec kills in 1 s
-        missing = missing_combinations(out, keys, combos, rows, _value, since=started)
-        write_csv(out / "sweep.csv", rows + missing)  # with a row for each missing run
-        if plots:
-            plot_sweep([dict(r) for r in rows], keys, out, at_step)
-        return (f"sweep: interrupted; its {len(rows)} rows are in sweep.csv" +
-                (" and the plots" if plots else " (no plots on several ranks)") +
-                f", in {out}, with a row for each of the {len(missing)} runs that did not "
-                "complete")
 
-    with BatchGuard(write_completed):
-        for i, combo in enumerate(combos):
-            tag = f"run {i + 1}/{len(combos)} " + " ".join(
-                f"{k}={v}" for k, v in zip(keys, combo, strict=True))
-            overrides = [*sets, *(f"{k}={v}" for k, v in zip(keys, combo, strict=True))]
-            ro = RunOptions(out=out / f"run_{i:03d}", quiet=quiet, progress_prefix=tag,
-                            overrides=overrides, **opts)
-            params = dict(zip(keys, map(_value, combo), strict=True))
-            try:  # a combination the config checks reject (e.g. c < mu a) fails alone
-                cfg = load_config(config, overrides)
-                report_step(at_step, cfg.n_steps)
-                s = run(cfg, ro)
-            except (InputError, SolveError) as exc:
-                failed.append(str(exc))
-                if rank == 0:
-                    print(f"[{time.perf_counter() - t0:8.2f} s] {tag}: failed: {exc}",
-                          file=sys.stderr, flush=True)
-                rows.append({**params, "status": "failed", "error": str(exc).splitlines()[0]})
-                continue
-            step_writing(True)  # an interrupt waits for the rows to be recorded
-            try:
-                _record_run(s, params, at_step, rows, all_steps, out if rank == 0 else None)
-            finally:
-                step_writing(False)
-            if rank == 0 and not quiet:
-                print(f"[{time.perf_counter() - t0:8.2f} s] {tag}: done", file=sys.stderr,
-                      flush=True)
-    if len(failed) == len(combos):
-        raise SolveError(f"every run of the sweep failed (first: {failed[0]})")
-    if rank == 0:
-        write_csv(out / "sweep.csv", rows)
-        plot_sweep(rows, keys, out, at_step)
-    return rows
+@dataclass
+class Sweep:
+    """One parameter sweep: the config, its `--set` overrides, the swept keys and their
+    combinations, the runs' options (`opts`: RunOptions fields) and, as it goes, the
+    sweep.csv rows, the sweep_steps.csv rows and the failed runs' messages."""
+
+    config: Path
+    sets: list[str]
+    keys: list[str]
+    combos: list[tuple[str, ...]]
+    out: Path
+    opts: dict
+    at_step: int
+    quiet: bool
+    rows: list[dict] = field(default_factory=list)
+    all_steps: list[dict] = field(default_factory=list)
+    failed: list[str] = field(default_factory=list)
+    t0: float = field(default_factory=time.perf_counter)  # progress lines' clock
+    started: float = field(default_factory=lambda: time.time() - 0.1)  # (file times: coarse)
+
+
+def _run_combination(sweep: Sweep, i: int, combo: tuple[str, ...]) -> None:
+    """Run combination i (its folder OUT/run_<i>) and record its rows, or its failure."""
+    rank = PETSc.COMM_WORLD.getRank()
+    pairs = list(zip(sweep.keys, combo, strict=True))
+    tag = f"run {i + 1}/{len(sweep.combos)} " + " ".join(f"{k}={v}" for k, v in pairs)
+    overrides = [*sweep.sets, *(f"{k}={v}" for k, v in pairs)]
+    ro = RunOptions(out=sweep.out / f"run_{i:03d}", quiet=sweep.quiet, progress_prefix=tag,
+                    overrides=overrides, **sweep.opts)
+    params = {k: _value(v) for k, v in pairs}
+    s = _try_combination(sweep, ro, params)
+    if s is None:
+        return
+    step_writing(True)  # an interrupt waits for the rows to be recorded
+    try:
+        _record_run(s, params, sweep.at_step, sweep.rows, sweep.all_steps,
+                    sweep.out if rank == 0 else None)
+    finally:
+        step_writing(False)
+    if rank == 0 and not sweep.quiet:
+        print(f"[{time.perf_counter() - sweep.t0:8.2f} s] {tag}: done", file=sys.stderr,
+              flush=True)
+
+
+def _try_combination(sweep: Sweep, ro: RunOptions, params: dict) -> dict | None:
+    """The run's summary, or None when its config or run failed: a combination the config
+    checks reject (e.g. c < mu a) fails alone, with a `failed` row and its error."""
+    try:
+        cfg = load_config(sweep.config, ro.overrides)
+        report_step(sweep.at_step, cfg.n_steps)
+        return run(cfg, ro)
+    except (InputError, SolveError) as exc:
+        sweep.failed.append(str(exc))
+        if PETSc.COMM_WORLD.getRank() == 0:
+            print(f"[{time.perf_counter() - sweep.t0:8.2f} s] {ro.progress_prefix}: failed: "
+                  f"{exc}", file=sys.stderr, flush=True)
+        sweep.rows.append({**params, "status": "failed", "error": str(exc).splitlines()[0]})
+        return None
+
+
+def _write_completed(sweep: Sweep) -> str:
+    """On SIGINT / SIGTERM (rank 0): sweep.csv with a row for each run that did not
+    complete and the plots of those that did; returns the one-line account."""
+    out = sweep.out
+    if not sweep.rows:
+        return f"sweep: no run completed in {out}"
+    plots = PETSc.COMM_WORLD.getSize() == 1  # several ranks: mpiexec kills in 1 s
+    missing = missing_combinations(out, sweep.keys, sweep.combos, sweep.rows, _value,
+                                   since=sweep.started)
+    write_csv(out / "sweep.csv", sweep.rows + missing)  # with a row for each missing run
+    if plots:
+        plot_sweep([dict(r) for r in sweep.rows], sweep.keys, out, sweep.at_step)
+    return (f"sweep: interrupted; its {len(sweep.rows)} rows are in sweep.csv" +
+            (" and the plots" if plots else " (no plots on several ranks)") +
+            f", in {out}, with a row for each of the {len(missing)} runs that did not "
+            "complete")
 
 
 def _record_run(s: dict, params: dict, at_step: int, rows: list[dict],

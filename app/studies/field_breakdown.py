@@ -1,7 +1,7 @@
 """Where a study's field error against the model-free reference sits, and the floor of its
 definition (README, issue 11, "Why L2(q), and L2(p) over 1.5 a, have no steady order").
 
-`ref_pressure_l2` / `ref_traction_l2` (app/study_reference.l2_against) interpolate a
+`ref_pressure_l2` / `ref_traction_l2` (app/studies/reference_errors.l2_against) interpolate a
 level's pair values f (m,) linearly onto the reference pairs xr (n,) and integrate
 (f_h - f_ref)^2 by the trapezoid rule over a window. The trapezoid rule is a weighted sum
 over the reference pairs, so the squared error splits exactly into the parts of the
@@ -20,7 +20,7 @@ from collections.abc import Callable
 import numpy as np
 
 from app.closed_form import interpolated_l2_rel_error
-from app.study_reference import contact_window, l2_against, observed_order
+from app.studies.reference_errors import contact_window, l2_against, observed_order
 
 
 def trapezoid_weights(x: np.ndarray) -> np.ndarray:

@@ -1,7 +1,7 @@
 """The study's Richardson-extrapolated reference (`study --reference richardson`).
 
 Scalars (strain energy, peak pressure p_max, named-point displacements u_y) are
-extrapolated per method from its finest consecutive levels (app/richardson.py: observed
+extrapolated per method from its finest consecutive levels (app/studies/richardson.py: observed
 order from the last three levels, theoretical order 2 from the last two as the fallback
 and the uncertainty). The reference method's limits replace the finest level's values in
 the ref_* errors of those scalars; every method's own limit is reported too, so the
@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import math
 
-from app.richardson import THEORETICAL_ORDER, richardson
+from app.studies.richardson import THEORETICAL_ORDER, richardson
 
 REFERENCE_MODES = ("richardson", "finest")
 """`study --reference`: Richardson limits for the scalars (default; needs three
@@ -44,7 +44,7 @@ def consecutive_levels(levels: list[int]) -> list[int]:
 
 def method_limits(rows: list[dict], profiles: dict) -> list[dict]:
     """Per method (with at least two consecutive levels) and scalar: the Richardson result
-    (app.richardson.richardson) with the method, quantity, the levels used and the finest
+    (app.studies.richardson.richardson) with the method, quantity, the levels used and the finest
     value; one dict per (method, quantity), the rows of richardson.csv."""
     out = []
     for m in dict.fromkeys(r["method"] for r in rows):

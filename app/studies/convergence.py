@@ -7,12 +7,12 @@ with remesh=True gmsh meshes every level anew with every element size scaled by
 base_scale * 2**-l. Meshes are cached and reused across methods and reruns.
 
 Besides the errors against the closed form (`err_*`), every run is compared with a
-reference of the same model (`ref_*`, app/study_reference.py), so the comparison has no
-model error: by default the Richardson limits of the reference method's (default 4SD)
-energy, peak pressure and point displacements and its finest level for the fields
-(app/study_richardson.py); with reference_mode="finest" its finest level for all. Observed orders
-between successive levels (`order_*`), the energy bracket U(1SD) / U(FEM-Q4 or 16SD) per
-level and a markdown table are written next to study.csv.
+reference of the same model (`ref_*`, app/studies/reference_errors.py), so the comparison
+has no model error: by default the Richardson limits of the reference method's (default
+4SD) energy, peak pressure and point displacements and its finest level for the fields
+(app/studies/richardson_reference.py); with reference_mode="finest" its finest level for
+all. Observed orders between successive levels (`order_*`), the energy bracket U(1SD) /
+U(FEM-Q4 or 16SD) per level and a markdown table are written next to study.csv.
 """
 
 from __future__ import annotations
@@ -21,6 +21,7 @@ import csv
 import math
 import sys
 import time
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -36,9 +37,9 @@ from app.output.xdmf import atomic_write_bytes
 from app.plotting import pyplot
 from app.references import REFERENCES
 from app.run import RunOptions, run
-from app.study_mesh import build_level_mesh
-from app.study_missing import missing_runs, planned_runs
-from app.study_reference import (
+from app.studies.level_mesh import build_level_mesh
+from app.studies.missing_runs import missing_runs, planned_runs
+from app.studies.reference_errors import (
     add_reference_errors,
     energy_bracket,
     fitted_rate,
@@ -46,7 +47,7 @@ from app.study_reference import (
     profile,
     write_tables,
 )
-from app.study_richardson import (
+from app.studies.richardson_reference import (
     REFERENCE_MODES,
     add_limit_spread,
     method_limits,
@@ -96,72 +97,119 @@ def run_study(cfg: Config, out: Path, levels: int, methods: list[tuple[str, int]
 
     reference: label of the reference method (default 4SD if run, else the last method).
     reference_mode: "richardson" (its scalars extrapolated over its levels,
-    app/study_richardson.py) or "finest" (its finest level). reference_levels: the
-    reference method alone also runs that many levels finer than the others, so that
+    app/studies/richardson_reference.py) or "finest" (its finest level). reference_levels:
+    the reference method alone also runs that many levels finer than the others, so that
     their finest levels are compared with a finer reference. overrides: the `--set`
     strings already in cfg, recorded in each run's provenance. allow_large: as run's
     --allow-large (the dense contact check of each run). Raises SolveError if every
     run fails.
     """
     columns, ref_label = _study_reference(cfg, methods, reference, reference_mode)
-    rank = PETSc.COMM_WORLD.getRank()
-    out = Path(out)
-    rows: list[dict] = []
-    profiles: dict[tuple[int, str], dict] = {}
-    failures: list[str] = []
-    t0, started = time.perf_counter(), time.time() - 0.1  # (file times: a coarse clock)
-    last = first_level + levels - 1 + reference_levels
+    study = ConvergenceStudy(cfg, Path(out), methods, columns, ref_label, reference_mode,
+                      first_level, first_level + levels - 1 + reference_levels,
+                      reference_levels, base_scale, remesh, quiet, list(overrides),
+                      allow_large)
+    with BatchGuard(lambda: _write_completed(study)):
+        for level in range(first_level, study.last + 1):
+            _run_level(study, level)
+    if not study.rows:
+        raise SolveError(f"every run of the study failed ({len(study.failures)} runs; first: "
+                         f"{study.failures[0].splitlines()[0] if study.failures else 'none'})")
+    if PETSc.COMM_WORLD.getRank() == 0:
+        finish_study(cfg, study.out, study.rows, study.profiles, ref_label, reference_mode,
+                     quiet, study.failures)
+    return study.rows
 
-    def write_completed() -> str:  # on SIGINT / SIGTERM: the plots of what completed
-        done = [dict(r) for r in rows if (r["level"], r["method"]) in profiles]
-        if not done:  # (a row without its profile: stopped while it was recorded)
-            return f"study: no run completed in {out}"
-        plots = PETSc.COMM_WORLD.getSize() == 1  # several ranks: mpiexec kills in 1 s
-        plan = planned_runs(first_level, last, reference_levels,
-                            [label(m, sd) for m, sd in methods], ref_label)
-        missing = missing_runs(out, plan, {(r["level"], r["method"]) for r in done},
-                               failures, last, since=started)
-        finish_study(cfg, out, done, dict(profiles), ref_label, reference_mode, True,
-                     failures + missing, plots=plots)
-        return (f"study: interrupted; the {len(done)} completed runs are in study.csv and "
-                f"study_tables.md" + (", and the plots" if plots else
-                                      " (no plots on several ranks)") + f", in {out}; "
-                f"study_tables.md lists the {len(missing)} runs that did not complete")
 
-    with BatchGuard(write_completed):
-        for level in range(first_level, last + 1):
-            scale = base_scale * 2.0**-level if remesh else base_scale
-            shown = not quiet and (remesh or level == first_level)  # split: level 0's mesh
-            gmsh_s = build_level_mesh(cfg, scale, out / "mesh_cache",  # no run pays gmsh
-                                      f"level {level}/{last}" if shown else None)
-            for method, sd in methods:
-                if level > last - reference_levels and label(method, sd) != ref_label:
-                    continue  # finer levels: the reference method only
-                opts = RunOptions(out=out / f"L{level}_{label(method, sd)}", method=method,
-                                  sd=sd, mesh_scale=scale, quiet=quiet,
-                                  mesh_cache=out / "mesh_cache",
-                                  progress_prefix=f"level {level}/{last} {label(method, sd)}",
-                                  refine=0 if remesh else level, overrides=list(overrides),
-                                  allow_large=allow_large)
-                s = _try_run(cfg, opts, failures, t0)
-                if s is None:
-                    continue
-                step_writing(True)  # an interrupt waits for the row to be recorded
-                try:
-                    rows.append(study_row(s, level, label(method, sd), columns)
-                                | {"t_level_gmsh": gmsh_s})
-                    if rank == 0:
-                        _record_row(out, rows, profiles, s, opts, t0)
-                        _refresh_tables(cfg, out, rows, profiles, ref_label,
-                                        reference_mode, failures)
-                finally:
-                    step_writing(False)
-    if not rows:
-        raise SolveError(f"every run of the study failed ({len(failures)} runs; first: "
-                         f"{failures[0].splitlines()[0] if failures else 'none'})")
-    if rank == 0:
-        finish_study(cfg, out, rows, profiles, ref_label, reference_mode, quiet, failures)
-    return rows
+@dataclass
+class ConvergenceStudy:
+    """One convergence study: what it runs (levels first_level..last; the levels above
+    last - reference_levels run the reference method only) and, as it goes, the rows, the
+    profiles of the runs recorded on rank 0 and the failed runs' messages."""
+
+    cfg: Config
+    out: Path
+    methods: list[tuple[str, int]]
+    columns: list  # the err_* columns of the reference type
+    ref_label: str
+    reference_mode: str
+    first_level: int
+    last: int
+    reference_levels: int
+    base_scale: float
+    remesh: bool
+    quiet: bool
+    overrides: list[str]
+    allow_large: bool
+    rows: list[dict] = field(default_factory=list)
+    profiles: dict[tuple[int, str], dict] = field(default_factory=dict)
+    failures: list[str] = field(default_factory=list)
+    t0: float = field(default_factory=time.perf_counter)  # progress lines' clock
+    started: float = field(default_factory=lambda: time.time() - 0.1)  # (file times: coarse)
+
+
+def _run_level(study: ConvergenceStudy, level: int) -> None:
+    """The level's mesh (built first, so that no run pays gmsh), then each of its runs."""
+    scale = study.base_scale * 2.0**-level if study.remesh else study.base_scale
+    # the mesh's progress line: every level's with remesh, else level 0's (the one meshed)
+    shown = not study.quiet and (study.remesh or level == study.first_level)
+    gmsh_s = build_level_mesh(study.cfg, scale, study.out / "mesh_cache",
+                              f"level {level}/{study.last}" if shown else None)
+    for method, sd in study.methods:
+        if level > study.last - study.reference_levels and label(method, sd) != study.ref_label:
+            continue  # finer levels: the reference method only
+        opts = _run_options(study, level, method, sd, scale)
+        s = _try_run(study.cfg, opts, study.failures, study.t0)
+        if s is not None:
+            _add_row(study, s, opts, level, label(method, sd), gmsh_s)
+
+
+def _run_options(study: ConvergenceStudy, level: int, method: str, sd: int,
+                 scale: float) -> RunOptions:
+    """The options of the run of (level, method): its folder OUT/L<level>_<label>, the
+    study's mesh cache and the level's refinement (or, with remesh, its mesh scale)."""
+    return RunOptions(out=study.out / f"L{level}_{label(method, sd)}", method=method,
+                      sd=sd, mesh_scale=scale, quiet=study.quiet,
+                      mesh_cache=study.out / "mesh_cache",
+                      progress_prefix=f"level {level}/{study.last} {label(method, sd)}",
+                      refine=0 if study.remesh else level, overrides=list(study.overrides),
+                      allow_large=study.allow_large)
+
+
+def _add_row(study: ConvergenceStudy, s: dict, opts: RunOptions, level: int, method: str,
+             gmsh_s: float) -> None:
+    """A completed run's row; on rank 0 also its profile, study.csv and the tables so
+    far. An interrupt waits until the row is recorded."""
+    step_writing(True)
+    try:
+        study.rows.append(study_row(s, level, method, study.columns)
+                          | {"t_level_gmsh": gmsh_s})
+        if PETSc.COMM_WORLD.getRank() == 0:
+            _record_row(study.out, study.rows, study.profiles, s, opts, study.t0)
+            _refresh_tables(study.cfg, study.out, study.rows, study.profiles, study.ref_label,
+                            study.reference_mode, study.failures)
+    finally:
+        step_writing(False)
+
+
+def _write_completed(study: ConvergenceStudy) -> str:
+    """On SIGINT / SIGTERM (rank 0): the tables and plots of the runs that completed, with
+    the runs that did not listed; returns the one-line account."""
+    out = study.out
+    done = [dict(r) for r in study.rows if (r["level"], r["method"]) in study.profiles]
+    if not done:  # (a row without its profile: stopped while it was recorded)
+        return f"study: no run completed in {out}"
+    plots = PETSc.COMM_WORLD.getSize() == 1  # several ranks: mpiexec kills in 1 s
+    plan = planned_runs(study.first_level, study.last, study.reference_levels,
+                        [label(m, sd) for m, sd in study.methods], study.ref_label)
+    missing = missing_runs(out, plan, {(r["level"], r["method"]) for r in done},
+                           study.failures, study.last, since=study.started)
+    finish_study(study.cfg, out, done, dict(study.profiles), study.ref_label,
+                 study.reference_mode, True, study.failures + missing, plots=plots)
+    return (f"study: interrupted; the {len(done)} completed runs are in study.csv and "
+            f"study_tables.md" + (", and the plots" if plots else
+                                  " (no plots on several ranks)") + f", in {out}; "
+            f"study_tables.md lists the {len(missing)} runs that did not complete")
 
 
 def _study_reference(cfg: Config, methods: list[tuple[str, int]], reference: str | None,

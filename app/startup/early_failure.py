@@ -1,9 +1,9 @@
 """Bad input found before PETSc starts: OUT/summary.json says `failed` with the error too.
 
-Two kinds stop a command before PETSc runs (so before app/input_failure.py, which needs
+Two kinds stop a command before PETSc runs (so before app/startup/input_failure.py, which needs
 it, can record them): a command line that argparse refuses (`--levels x`, `--reference
 bogus`, `--single-dash-option` ...) and PETSc options that PETSc refuses at its start
-(`-options_file /missing`, app/petsc_start.py). Before, both left no summary.json, or the
+(`-options_file /missing`, app/startup/petsc.py). Before, both left no summary.json, or the
 earlier run's `completed` one. Here the config and --out of such a command line are read
 without the type and choice checks (the same grammar), and rank 0 of the launcher writes
 the summary with OUT's lock, as the start-up signal handler does

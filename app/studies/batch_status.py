@@ -6,7 +6,7 @@ bad input (a config or option error, every run failed) left no summary.json in O
 unattended one could not be checked afterwards (README "Exit status").
 
 `BatchStatus` wraps the command. Bad input found before OUT is taken is recorded as `run`
-records it (app/input_failure.py: OUT's lock, another program's summary.json left
+records it (app/startup/input_failure.py: OUT's lock, another program's summary.json left
 alone). `open(cfg)` takes OUT as a run does (lock held until the end, another program's
 files refused, an earlier summary.json removed) and writes nothing yet: while the study
 runs, OUT has no summary.json, so a job killed outright (SIGKILL) leaves none rather than
@@ -30,10 +30,10 @@ from pathlib import Path
 from petsc4py import PETSc
 
 from app import hard_stop
-from app.early_failure import study_head
 from app.errors import InputError, SolveError
 from app.output import startup_signals, status
 from app.output.out_owner import foreign_files, foreign_message
+from app.startup.early_failure import study_head
 
 OUTSIDE_A_STEP = ("interrupted by SIGINT outside a load step; what completed before it is "
                   "written")
@@ -98,7 +98,7 @@ class BatchStatus:
     def __exit__(self, exc_type, exc, tb) -> bool:
         if self.out is None:  # before OUT was taken: as a run's bad input
             if isinstance(exc, InputError | SolveError):
-                from app.input_failure import record_input_failure
+                from app.startup.input_failure import record_input_failure
 
                 record_input_failure(exc, self.folder, self.config, self.overrides,
                                      head={**self.head()})

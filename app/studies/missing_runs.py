@@ -1,7 +1,7 @@
 """Which runs of a convergence study have no row: what an interrupted study's tables list.
 
 A study interrupted by SIGINT / SIGTERM writes the tables and plots of the runs that
-completed (app/study.py). Without this list, study_tables.md read like a study planned
+completed (app/studies/convergence.py). Without this list, study_tables.md read like a study planned
 that way: nothing said that the run in progress stopped and the later ones never ran.
 Plain Python; no MPI.
 """
@@ -43,7 +43,7 @@ def missing_runs(out: Path, planned: list[tuple[int, str]], done: set[tuple[int,
 def missing_combinations(out: Path, keys: list[str], combos: list[tuple[str, ...]],
                          rows: list[dict], value, since: float = -math.inf) -> list[dict]:
     """The sweep.csv rows of the combinations an interrupted sweep has no row for: their
-    swept values (`value`: text -> the rows' value, app.sweep._value) and status
+    swept values (`value`: text -> the rows' value, app.studies.sweep._value) and status
     "interrupted" (or the status of OUT/run_<i>/summary.json) for the run it stopped,
     "not run" for the ones it never started (since: as `missing_runs`)."""
     have = [tuple(r.get(k) for k in keys) for r in rows]

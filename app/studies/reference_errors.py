@@ -2,7 +2,7 @@
 observed orders of convergence and the CS-FEM energy bracket.
 
 Reference: the finest level of one method (default 4SD); with scalars given (study
---reference richardson, app/study_richardson.py) the Richardson limits of its energy,
+--reference richardson, app/studies/richardson_reference.py) the Richardson limits of its energy,
 peak pressure and point displacements replace its finest values. Its pair pressures p(x) and
 tractions q(x) (last step, first interface), strain energy, peak pressure and named-point
 displacement are compared with every other run:
@@ -76,7 +76,7 @@ def add_reference_errors(rows: list[dict], profiles: dict, ref_label: str,
     """Add ref_* and order_* columns to rows in place; returns a note naming the reference.
 
     scalars: {"energy": U*, "p_max": p*, <point>: u*} (e.g. Richardson limits,
-    app/study_richardson.py) replace the finest level's values for those errors; the
+    app/studies/richardson_reference.py) replace the finest level's values for those errors; the
     fields p(x), q(x) are always compared with the finest level of ref_label."""
     levels = [r["level"] for r in rows if r["method"] == ref_label]
     if not levels:
@@ -176,7 +176,7 @@ def write_tables(rows: list[dict], bracket: list[dict], out: Path, note: str,
                  marks: dict[tuple[str, str], dict[int, str]] | None = None) -> str:
     """Markdown tables (errors with observed orders per method; the energy bracket) in
     OUT/study_tables.md; returns the text. marks: {(method, column): {level: mark}} put
-    after an order (app/study_richardson.order_marks: * fixed by the reference's own
+    after an order (app/studies/richardson_reference.order_marks: * fixed by the reference's own
     limit, ~ within its uncertainty, = against the reference at the same level)."""
     cols = [k for k in dict.fromkeys(k for r in rows for k in r)
             if k.startswith(("err_", "ref_"))]

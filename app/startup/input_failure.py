@@ -26,7 +26,7 @@ def record_input_failure(exc: InputError, folder: Callable[[], Path] | None, con
     --out creates none). Nothing is written when the folder is not usable or another run
     holds it; `exc` is raised either way, with why nothing was written when OUT is not
     usable or another run or program holds it. head: the summary's first keys instead of
-    a run's (a study's, app/study_status.py: no steps, so no failed_step)."""
+    a run's (a study's, app/studies/batch_status.py: no steps, so no failed_step)."""
     from app.output.provenance import provenance
     from app.output.status import RunGuard
     from app.run import write_summary
