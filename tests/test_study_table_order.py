@@ -2,7 +2,7 @@
 default 1, 2, 3, 4, 8, 16 SD, FEM-Q4): before, it sorted their labels as text, so 16SD
 came first, before 1SD, and 8SD after 4SD."""
 
-from app.study_reference import write_tables
+from app.studies.reference_errors import write_tables
 
 
 def test_methods_in_the_order_of_the_runs(tmp_path):
