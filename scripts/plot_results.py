@@ -137,12 +137,15 @@ def check_step(out: Path, step: int | None) -> tuple[dict, int]:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=" ".join(__doc__.split("\n\n")[0].split()))
     ap.add_argument("out", type=Path)
     ap.add_argument("--step", type=int, default=None, help="default: the last step")
-    ap.add_argument("--zoom", type=float, nargs=4, default=None, metavar=("X0", "X1", "Y0", "Y1"))
-    ap.add_argument("--scale", type=float, default=None, help="displacement magnification")
-    ap.add_argument("--prefix", default="")
+    ap.add_argument("--zoom", type=float, nargs=4, default=None, metavar=("X0", "X1", "Y0", "Y1"),
+                    help="deformed mesh only: draw the elements whose centres lie in this box")
+    ap.add_argument("--scale", type=float, default=None,
+                    help="displacement magnification (default: the largest displacement "
+                         "drawn as 5%% of the model's size)")
+    ap.add_argument("--prefix", default="", help="put before every file name written")
     args = ap.parse_args()
     summary, step = check_step(args.out, args.step)
     try:

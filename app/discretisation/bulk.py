@@ -129,6 +129,11 @@ def element_fields(mesh: Mesh, disc: Discretisation, u: np.ndarray, elements: np
             for k, v in out.items()}
 
 
+# Free DOFs up to which a body's null space comes from a dense eigh (n^3: 0.1 s at 500,
+# 14 s at 3000 on one core here); above, shift-invert Lanczos (about 0.3 s at 3000).
+DENSE_EIG_MAX_DOFS = 500
+
+
 def zero_energy_modes(mesh: Mesh, disc, body: int, fixed: np.ndarray) -> np.ndarray:
     """Null space of one body's stiffness with its supports, (2 n_body_nodes, r).
 
@@ -137,7 +142,6 @@ def zero_energy_modes(mesh: Mesh, disc, body: int, fixed: np.ndarray) -> np.ndar
     order, x and y interleaved.
     """
     import scipy.sparse as sp
-    import scipy.sparse.linalg as sla_sparse
 
     el = np.flatnonzero(mesh.body == body)
     nodes = np.unique(mesh.quads[el])
@@ -156,14 +160,33 @@ def zero_energy_modes(mesh: Mesh, disc, body: int, fixed: np.ndarray) -> np.ndar
     if not (np.isfinite(kff.data).all() and np.isfinite(scale) and scale > 0):
         raise InputError(f"the stiffness of body '{mesh.body_names[body]}' is not finite or "
                          "zero (Young's modulus out of range?)")
-    if free.size <= 3000:
+    if free.size <= DENSE_EIG_MAX_DOFS:
         w, v = np.linalg.eigh(kff.toarray())
         keep = w < 1e-9 * w[-1]
         modes = v[:, keep]
     else:
-        kk = min(free.size - 2, 12)
-        w, v = sla_sparse.eigsh(kff, k=kk, sigma=-1e-8 * scale, which="LM")
-        modes = v[:, w < 1e-9 * scale]
+        modes = _null_space_lanczos(kff, scale)
     out = np.zeros((n, modes.shape[1]))
     out[free] = modes
     return out
+
+
+def _null_space_lanczos(kff, scale: float) -> np.ndarray:
+    """Eigenvectors of the sparse symmetric kff (n, n) with eigenvalues below 1e-9 scale,
+    (n, r), by shift-invert Lanczos about -1e-8 scale: one sparse LU (a symmetric
+    ordering: half the fill of SuperLU's default COLAMD on the Hertz cylinder, 2.7x
+    faster), more eigenpairs asked for while every one found is below the bound."""
+    import scipy.sparse as sp
+    import scipy.sparse.linalg as sla_sparse
+
+    n = kff.shape[0]
+    shift = -1e-8 * scale
+    lu = sla_sparse.splu((kff - shift * sp.identity(n)).tocsc(), permc_spec="MMD_AT_PLUS_A")
+    inv = sla_sparse.LinearOperator(kff.shape, matvec=lu.solve, dtype=float)
+    k = min(n - 2, 12)
+    while True:
+        w, v = sla_sparse.eigsh(kff, k=k, sigma=shift, which="LM", OPinv=inv)
+        modes = v[:, w < 1e-9 * scale]
+        if modes.shape[1] < k or k == n - 2:
+            return modes
+        k = min(n - 2, 2 * k)

@@ -185,7 +185,8 @@ def write_tables(rows: list[dict], bracket: list[dict], out: Path, note: str,
              f"against the reference run at the same level); {note}", "",
              "| method | level | DOFs | time [s] | " + " | ".join(c for c in cols) + " |",
              "|---" * (4 + len(cols)) + "|"]
-    for r in sorted(rows, key=lambda r: (r["method"], r["level"])):
+    runs = {m: i for i, m in enumerate(dict.fromkeys(r["method"] for r in rows))}
+    for r in sorted(rows, key=lambda r: (runs[r["method"]], r["level"])):  # --methods order
         cells = []
         for c in cols:
             o = r.get(f"order_{c}", math.nan)

@@ -1,0 +1,64 @@
+"""The null space of a body's stiffness (rigid and 1SD hourglass modes,
+`app.discretisation.bulk.zero_energy_modes`): a body of more than a few hundred free
+DOFs goes to shift-invert Lanczos, which finds the same modes as the dense
+eigen-decomposition, however many. Before, bodies up to 3000 free DOFs were decomposed
+densely: the 1SD run of hertz_halfspace.toml at level 1 (`--refine 1`, a cylinder of
+about 2,900 free DOFs) spent 11.0 of its 12.2 s there (0.5 s with Lanczos), and a
+study's 1SD times zigzagged (12.8 s at level 1, 2.8 s at level 2); and Lanczos asked for
+12 eigenpairs only, so a body with more zero-energy modes lost the rest."""
+
+import numpy as np
+from test_discretisation import distorted_grid
+
+import app.discretisation.bulk as bulk
+from app.discretisation.bulk import Discretisation, zero_energy_modes
+from app.mesh.model import Mesh
+
+ONE_SD = Discretisation("cs-fem", 1, "strain", 1.0, np.array([100.0]), np.array([0.25]))
+NO_SUPPORT = np.array([], dtype=np.int64)
+
+
+def projector(modes: np.ndarray) -> np.ndarray:
+    q, _ = np.linalg.qr(modes)
+    return q @ q.T
+
+
+def both_routes(monkeypatch, mesh: Mesh) -> tuple[np.ndarray, np.ndarray]:
+    monkeypatch.setattr(bulk, "DENSE_EIG_MAX_DOFS", 10_000)
+    dense = zero_energy_modes(mesh, ONE_SD, 0, NO_SUPPORT)
+    monkeypatch.setattr(bulk, "DENSE_EIG_MAX_DOFS", 10)
+    return dense, zero_energy_modes(mesh, ONE_SD, 0, NO_SUPPORT)
+
+
+def test_lanczos_finds_the_dense_null_space(monkeypatch):
+    dense, lanczos = both_routes(monkeypatch, distorted_grid(14, 12))  # 390 free DOFs
+    assert dense.shape == lanczos.shape == (390, 5)  # 3 rigid + 2 hourglass modes
+    np.testing.assert_allclose(projector(lanczos), projector(dense), atol=1e-8)
+
+
+def test_lanczos_finds_more_than_twelve_modes(monkeypatch):
+    """A plate and four loose quads in one body: 5 + 4 x 5 = 25 zero-energy modes."""
+    plate = distorted_grid(14, 12)
+    corners = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]) * 0.1
+    loose = np.vstack([corners + [2.0 + 0.2 * i, 0.0] for i in range(4)])
+    n0 = plate.n_nodes
+    quads = np.vstack([plate.quads, n0 + np.arange(16).reshape(4, 4)])
+    mesh = Mesh(np.vstack([plate.points, loose]), quads, np.zeros(len(quads), dtype=np.int64),
+                ["plate"])
+    dense, lanczos = both_routes(monkeypatch, mesh)
+    assert dense.shape == lanczos.shape == (2 * mesh.n_nodes, 25)
+    np.testing.assert_allclose(projector(lanczos), projector(dense), atol=1e-8)
+
+
+def test_a_body_of_a_thousand_dofs_is_not_decomposed_densely(monkeypatch):
+    sizes = []
+    eigh = np.linalg.eigh
+
+    def spy(a, *args, **kw):
+        sizes.append(len(a))
+        return eigh(a, *args, **kw)
+
+    monkeypatch.setattr(np.linalg, "eigh", spy)
+    mesh = distorted_grid(36, 20)  # 777 nodes, 1,554 free DOFs
+    assert zero_energy_modes(mesh, ONE_SD, 0, NO_SUPPORT).shape == (2 * mesh.n_nodes, 5)
+    assert max(sizes, default=0) <= 1000, sizes
