@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import importlib
 import itertools
+import warnings
 
 import numpy as np
 import pytest
@@ -614,3 +615,19 @@ def test_block_pivoting_from_a_warm_basis():
     assert res.warm_start == "crash" and res.pivots == 0
     ref = lemke(M, q2, crash=False)
     np.testing.assert_allclose(res.z, ref.z, rtol=0, atol=1e-9 * np.abs(ref.z).max())
+
+
+@pytest.mark.parametrize("M, q", [([[1e-310]], [-1.0]),
+                                  ([[1e-310, 0.0], [0.0, 1.0]], [-1.0, -1.0]),
+                                  ([[5e-324, 0.0], [0.0, 1e-300]], [-2.0, 1.0])])
+def test_a_solution_beyond_the_float_range_is_a_finite_inaccurate_answer(M, q):
+    """z = -q / M overflows (1e310): lemke promises finite z and w and no numpy warnings;
+    before, z = nan with the status 'secondary ray' ('no static equilibrium')."""
+    M, q = np.array(M), np.array(q)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        res = lemke(M, q)
+    assert res.status == "inaccurate" and "overflows the float range" in res.message
+    assert np.isfinite(res.z).all() and np.isfinite(res.w).all()
+    np.testing.assert_array_equal(res.w, M @ res.z + q)
+    assert res.residual == 1.0 and not res.basis.any()

@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import contextlib
 import math
+from dataclasses import replace
 from typing import NamedTuple
 
 import numpy as np
@@ -532,7 +533,24 @@ def lemke(
     count every attempt.
     q >= 0 returns z = 0 with 0 pivots.
     """
-    return _solve(_core_revised, M, q, max_pivots, tol, basis, cold_start, crash)
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        res = _solve(_core_revised, M, q, max_pivots, tol, basis, cold_start, crash)
+    return _finite(res, q)
+
+
+def _finite(res: LCPResult, q) -> LCPResult:
+    """`res`, or, when its z or w is not finite (a solution beyond the float range: M and q
+    finite but, e.g., M = [[1e-310]], q = [-1]), the pair z = 0, w = q with an empty basis
+    and status "inaccurate", its message saying why: `lemke` promises finite z and w."""
+    if np.isfinite(res.z).all() and np.isfinite(res.w).all():
+        return res
+    z = np.zeros_like(res.z)
+    w = np.array(q, dtype=float).reshape(z.shape)
+    msg = ("the answer overflows the float range (z or w not finite): rescale M and q "
+           "(their units) so that z stays below 1e308; " + res.message)
+    return replace(res, z=z, w=w, status="inaccurate", complementarity=0.0,
+                   basis=np.zeros(z.shape, dtype=bool),
+                   residual=float((w < 0).any()), message=msg)  # w_i = q_i < 0: 1
 
 
 def lemke_tableau(
