@@ -251,6 +251,7 @@ PANELS = [
 
 
 STYLES = ("-", "--", ":", "-.")
+MARKERS = ("o", "x", "+", "^", "s")  # per quantity: coinciding curves stay told apart
 
 
 def report_label(rows: list[dict], at_step: int) -> str:
@@ -302,9 +303,11 @@ def _sweep_panel(ax, title: str, cols: list[str], groups: list[list[dict]], key:
         for i, c in enumerate(cols):
             y = np.array([r.get(c, math.nan) for r in rr], dtype=float)
             if not np.all(np.isnan(y)):
-                ax.plot(x, y, marker="o", ms=3, color=f"C{i}", ls=STYLES[j % len(STYLES)])
-    handles = [Line2D([], [], color=f"C{i}", label=c.replace("_length", "")
-                      .replace("_", " ")) for i, c in enumerate(cols)]
+                ax.plot(x, y, marker=MARKERS[i % len(MARKERS)], ms=7 - 1.5 * i, mfc="none",
+                        color=f"C{i}", ls=STYLES[j % len(STYLES)], lw=2.2 - 0.5 * i)
+    handles = [Line2D([], [], color=f"C{i}", marker=MARKERS[i % len(MARKERS)], mfc="none",
+                      label=c.replace("_length", "").replace("_", " "))
+               for i, c in enumerate(cols)]
     if ax.lines:
         ax.legend(handles=handles, fontsize=7)
     else:
