@@ -186,6 +186,7 @@ def main(argv: list[str] | None = None) -> int:
     from app.errors import InputError, SolveError
     from app.output import late_signals
     from app.output.status import RunInterrupted
+    from app.parallel import PeerFailure
     from app.petsc_options import petsc_error_line
 
     rank = PETSc.COMM_WORLD.getRank()
@@ -204,6 +205,8 @@ def main(argv: list[str] | None = None) -> int:
         message, code = f"error: {OUTSIDE_A_STEP}", 130
     except PETSc.Error as exc:
         message, code = f"error: PETSc: {petsc_error_line(exc)}", 2
+    except PeerFailure as exc:  # rank 0 failed alone and says why (app/parallel.py)
+        code = exc.code
     finally:
         startup_signals.restore()  # when no run's guard took the signals over
         late_signals.arm_end(code)  # the job's end: Python's, PETSc's and MPI's shutdown

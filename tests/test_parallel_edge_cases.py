@@ -3,8 +3,13 @@
 from __future__ import annotations
 
 import json
+import shutil
+import subprocess
+import sys
 
-from tests.support import CONFIGS, run_cli
+import pytest
+
+from tests.support import CONFIGS, ROOT, mpi_env, run_cli
 
 HARD = CONFIGS / "hard"
 
@@ -27,3 +32,25 @@ def test_a_singular_stiffness_counts_its_modes_alike_on_any_rank_count(tmp_path)
         lines[ranks] = errors[0]
     assert "(2 zero-energy modes)" in lines[1] and "body 'block'" in lines[1]
     assert lines[1] == lines[3]
+
+
+@pytest.mark.parametrize("where, exc, code", [
+    ("mesh", "ValueError", 1), ("lcp", "IndexError", 1), ("lcp", "MemoryError", 2),
+    ("contact_output", "RuntimeError", 1), ("write", "ValueError", 1)])
+def test_a_failure_on_rank_0_alone_ends_the_job_as_on_one_rank(tmp_path, where, exc, code):
+    """An exception that is no user error, raised on rank 0 alone inside a rank-0 call (the
+    mesh, each step's LCP, the step's contact output or files): the other ranks waited in
+    the broadcast and the job hung (timeout) instead of ending as on 1 rank, exit 1 and
+    rank 0's traceback (a MemoryError: exit 2 and one line), summary.json `failed`."""
+    out = tmp_path / "o"
+    cmd = [sys.executable, str(ROOT / "tests" / "mpi_rank0_failure.py"), f"{where}:{exc}",
+           "run", str(CONFIGS / "patch.toml"), "--out", str(out), "--quiet"]
+    mpiexec = shutil.which("mpiexec")
+    res = subprocess.run([mpiexec, "-n", "3", *cmd], cwd=ROOT, env=mpi_env(),
+                         capture_output=True, text=True, timeout=90)
+    assert res.returncode == code, res.stderr
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "failed" and f"injected at {where}" in summary["error"]
+    assert res.stderr.count("Traceback") == (1 if code == 1 else 0), res.stderr
+    assert res.stderr.count("error:") == (1 if code == 2 else 0), res.stderr
+    assert "PeerFailure" not in res.stderr
