@@ -11,6 +11,9 @@ INJECT_AT = {  # where: (module, attribute) of a function that runs on rank 0 al
     "lcp": ("app.interface.steps", "ContactStepper.step"),  # rank0_call, each step
     "contact_output": ("app.driver.output", "contact_arrays"),  # rank 0's step output
     "write": ("app.driver.output", "_write_step"),  # on_rank0, the step files
+    "schur_factor": ("app.condensation.schur_solver", "DenseFactor"),  # S, dense
+    "compliance": ("app.condensation.compliance", "dense_compliance"),  # C, Schur route
+    "symmetrise": ("app.condensation.compliance", "symmetric_part"),  # C, solve route
 }
 EXCEPTIONS = {"ValueError": ValueError, "IndexError": IndexError,
               "MemoryError": MemoryError, "RuntimeError": RuntimeError}

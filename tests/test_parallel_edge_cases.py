@@ -34,17 +34,22 @@ def test_a_singular_stiffness_counts_its_modes_alike_on_any_rank_count(tmp_path)
     assert lines[1] == lines[3]
 
 
-@pytest.mark.parametrize("where, exc, code", [
-    ("mesh", "ValueError", 1), ("lcp", "IndexError", 1), ("lcp", "MemoryError", 2),
-    ("contact_output", "RuntimeError", 1), ("write", "ValueError", 1)])
-def test_a_failure_on_rank_0_alone_ends_the_job_as_on_one_rank(tmp_path, where, exc, code):
-    """An exception that is no user error, raised on rank 0 alone inside a rank-0 call (the
-    mesh, each step's LCP, the step's contact output or files): the other ranks waited in
-    the broadcast and the job hung (timeout) instead of ending as on 1 rank, exit 1 and
-    rank 0's traceback (a MemoryError: exit 2 and one line), summary.json `failed`."""
+@pytest.mark.parametrize("where, exc, code, extra", [
+    ("mesh", "ValueError", 1, []), ("lcp", "IndexError", 1, []),
+    ("lcp", "MemoryError", 2, []), ("contact_output", "RuntimeError", 1, []),
+    ("write", "ValueError", 1, []), ("schur_factor", "MemoryError", 2, []),
+    ("compliance", "MemoryError", 2, []),
+    ("symmetrise", "MemoryError", 2, ["-contact_compliance", "solve"])])
+def test_a_failure_on_rank_0_alone_ends_the_job_as_on_one_rank(tmp_path, where, exc, code,
+                                                                 extra):
+    """An exception that is no user error, raised on rank 0 alone (the mesh, the dense S
+    and C of the contact, which only rank 0 holds, each step's LCP, the step's contact
+    output or files): the other ranks waited in a collective and the job hung (timeout)
+    instead of ending as on 1 rank, exit 1 and rank 0's traceback (a MemoryError: exit 2
+    and one line), summary.json `failed`."""
     out = tmp_path / "o"
     cmd = [sys.executable, str(ROOT / "tests" / "mpi_rank0_failure.py"), f"{where}:{exc}",
-           "run", str(CONFIGS / "patch.toml"), "--out", str(out), "--quiet"]
+           "run", str(CONFIGS / "patch.toml"), "--out", str(out), "--quiet", *extra]
     mpiexec = shutil.which("mpiexec")
     res = subprocess.run([mpiexec, "-n", "3", *cmd], cwd=ROOT, env=mpi_env(),
                          capture_output=True, text=True, timeout=90)
