@@ -40,11 +40,14 @@ class Timer:
         stage = self._stages[name]
         stage.push()
         comm.barrier()  # a phase's time includes waiting for the slowest rank
+        failed = True
         try:
             yield
+            failed = False
         finally:
             self.peak_mb[name] = peak_rss_mb()
-            comm.barrier()
+            if not failed:  # a rank that failed alone must not wait for the others here
+                comm.barrier()
             stage.pop()
             dt = time.perf_counter() - t0
             self.seconds[name] = self.seconds.get(name, 0.0) + dt

@@ -1,6 +1,7 @@
 """Run under mpiexec by tests/test_parallel_edge_cases.py: `python -m app ARGS` with one
-function that only rank 0 calls made to raise, as a bug or a shortage on rank 0 alone
-would. argv[1] is WHERE:EXCEPTION (WHERE one of INJECT_AT), the rest the app's arguments."""
+function made to raise on one rank only, as a bug or a shortage on that rank alone would.
+argv[1] is WHERE:EXCEPTION[:RANK] (WHERE one of INJECT_AT, RANK 0 unless given), the rest
+the app's arguments."""
 
 from __future__ import annotations
 
@@ -14,13 +15,14 @@ INJECT_AT = {  # where: (module, attribute) of a function that runs on rank 0 al
     "schur_factor": ("app.condensation.schur_solver", "DenseFactor"),  # S, dense
     "compliance": ("app.condensation.compliance", "dense_compliance"),  # C, Schur route
     "symmetrise": ("app.condensation.compliance", "symmetric_part"),  # C, solve route
+    "fields": ("app.driver.output", "element_fields"),  # every rank, its own elements
 }
 EXCEPTIONS = {"ValueError": ValueError, "IndexError": IndexError,
               "MemoryError": MemoryError, "RuntimeError": RuntimeError}
 
 
-def inject(where: str, exc_name: str) -> None:
-    """Replace the function at `where` by one that raises on rank 0."""
+def inject(where: str, exc_name: str, rank: str = "0") -> None:
+    """Replace the function at `where` by one that raises on rank `rank`."""
     import importlib
 
     module_name, attr = INJECT_AT[where]
@@ -33,14 +35,14 @@ def inject(where: str, exc_name: str) -> None:
     def failing(*args, **kwargs):
         from petsc4py import PETSc
 
-        if PETSc.COMM_WORLD.getRank() == 0:
+        if PETSc.COMM_WORLD.getRank() == int(rank):
             raise EXCEPTIONS[exc_name](f"injected at {where}")
         return original(*args, **kwargs)
 
     setattr(owner, name, failing)
 
 
-def start_then_inject(where: str, exc_name: str) -> None:
+def start_then_inject(where: str, exc_name: str, rank: str = "0") -> None:
     """Inject once PETSc has started with the run's options (the modules patched import
     petsc4py's PETSc, which must not start before)."""
     import app.petsc_start as petsc_start
@@ -50,7 +52,7 @@ def start_then_inject(where: str, exc_name: str) -> None:
     def started(petsc_args):
         refused = start(petsc_args)
         if refused is None:
-            inject(where, exc_name)
+            inject(where, exc_name, rank)
         return refused
 
     petsc_start.start_petsc = started

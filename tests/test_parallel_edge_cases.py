@@ -59,3 +59,19 @@ def test_a_failure_on_rank_0_alone_ends_the_job_as_on_one_rank(tmp_path, where, 
     assert res.stderr.count("Traceback") == (1 if code == 1 else 0), res.stderr
     assert res.stderr.count("error:") == (1 if code == 2 else 0), res.stderr
     assert "PeerFailure" not in res.stderr
+
+
+@pytest.mark.slow
+def test_a_failure_on_another_rank_alone_ends_the_job(tmp_path):
+    """A MemoryError on rank 1 alone, in its share of the element fields: it waited in the
+    phase's closing barrier and rank 0 in the fields' gather, and the job hung. Now rank 1
+    skips the barrier of a failed phase, waits app/exit_sync.py's OTHER_SECONDS (20 s) for
+    the others at the end, prints its line and exits; mpiexec ends the rest (exit 2)."""
+    out = tmp_path / "o"
+    cmd = [sys.executable, str(ROOT / "tests" / "mpi_rank0_failure.py"), "fields:MemoryError:1",
+           "run", str(CONFIGS / "patch.toml"), "--out", str(out), "--quiet"]
+    res = subprocess.run([shutil.which("mpiexec"), "-n", "3", *cmd], cwd=ROOT, env=mpi_env(),
+                         capture_output=True, text=True, timeout=100)
+    assert res.returncode == 2, res.stderr
+    assert "error: out of memory (injected at fields)" in res.stderr
+    assert "(rank 1; the other ranks did not fail)" in res.stderr
