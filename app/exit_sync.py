@@ -22,8 +22,9 @@ RANK0_SECONDS = 10.0
 """How long rank 0 waits for the others at a failed end (it has printed its line and
 written summary.json: ending the others then loses nothing)."""
 
-OTHER_SECONDS = 20.0
-"""How long another rank waits for rank 0, which may still be writing summary.json."""
+OTHER_SECONDS = 30.0
+"""How long another rank waits for rank 0, which may still be writing summary.json or a
+study's tables."""
 
 _STATE: dict = {"comm": None}
 

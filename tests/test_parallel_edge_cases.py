@@ -65,7 +65,7 @@ def test_a_failure_on_rank_0_alone_ends_the_job_as_on_one_rank(tmp_path, where, 
 def test_a_failure_on_another_rank_alone_ends_the_job(tmp_path):
     """A MemoryError on rank 1 alone, in its share of the element fields: it waited in the
     phase's closing barrier and rank 0 in the fields' gather, and the job hung. Now rank 1
-    skips the barrier of a failed phase, waits app/exit_sync.py's OTHER_SECONDS (20 s) for
+    skips the barrier of a failed phase, waits app/exit_sync.py's OTHER_SECONDS (30 s) for
     the others at the end, prints its line and exits; mpiexec ends the rest (exit 2)."""
     out = tmp_path / "o"
     cmd = [sys.executable, str(ROOT / "tests" / "mpi_rank0_failure.py"), "fields:MemoryError:1",
