@@ -183,12 +183,15 @@ def main(argv: list[str] | None = None) -> int:
     args.started = time.perf_counter()  # a run's `startup` phase counts from here
     from petsc4py import PETSc
 
+    from app import exit_sync
     from app.errors import InputError, SolveError
     from app.output import late_signals
     from app.output.status import RunInterrupted
+    from app.parallel import PeerFailure
     from app.petsc_options import petsc_error_line
 
     rank = PETSc.COMM_WORLD.getRank()
+    exit_sync.arm()
     command = _study_command if args.command == "study" else _run_command
     late_signals.arm_outside()  # SIGTERM outside the runs' guards: as SIGINT
     message, code = None, 1
@@ -204,11 +207,18 @@ def main(argv: list[str] | None = None) -> int:
         message, code = f"error: {OUTSIDE_A_STEP}", 130
     except PETSc.Error as exc:
         message, code = f"error: PETSc: {petsc_error_line(exc)}", 2
+    except PeerFailure as exc:  # rank 0 failed alone and says why (app/parallel.py)
+        code = exc.code
+    except Exception:  # a traceback: on several ranks, not while waiting for the others
+        exit_sync.leave_if_alone(1, with_traceback=True)
+        raise
     finally:
         startup_signals.restore()  # when no run's guard took the signals over
         late_signals.arm_end(code)  # the job's end: Python's, PETSc's and MPI's shutdown
     if rank == 0 and message is not None:
         print(message, file=sys.stderr)
+    if code in (1, 2):  # a failure: do not wait in MPI_Finalize for a rank that never ends
+        exit_sync.leave_if_alone(code, message)
     late_signals.leave(code)
     return code
 

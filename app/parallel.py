@@ -40,11 +40,14 @@ class Timer:
         stage = self._stages[name]
         stage.push()
         comm.barrier()  # a phase's time includes waiting for the slowest rank
+        failed = True
         try:
             yield
+            failed = False
         finally:
             self.peak_mb[name] = peak_rss_mb()
-            comm.barrier()
+            if not failed:  # a rank that failed alone must not wait for the others here
+                comm.barrier()
             stage.pop()
             dt = time.perf_counter() - t0
             self.seconds[name] = self.seconds.get(name, 0.0) + dt
@@ -102,23 +105,53 @@ def _mpi_max():
     return MPI.MAX
 
 
+class PeerFailure(Exception):
+    """Raised on the other ranks when rank 0 failed alone in a rank-0 call with an error
+    that is no user error (a bug, MemoryError, ...): they leave the collective with it and
+    end quietly with `code`, the exit status rank 0 ends with (its traceback or line is
+    its own). Before, they waited in the broadcast and the job hung in MPI_Finalize."""
+
+    def __init__(self, code: int, text: str):
+        super().__init__(text)
+        self.code = code
+
+    def __reduce__(self):  # broadcast by pickling: keep the code
+        return (PeerFailure, (self.code, str(self)))
+
+
+ONE_LINE_FAILURES = (InputError, SolveError, OSError, MemoryError)
+"""What the run's guard (app/output/status.py) turns into a one-line error, exit 2;
+anything else ends rank 0 with its traceback, exit 1."""
+
+
+def peer_failure(exc: BaseException) -> PeerFailure:
+    """What the other ranks raise when rank 0 raised `exc` alone."""
+    return PeerFailure(2 if isinstance(exc, ONE_LINE_FAILURES) else 1,
+                       f"rank 0 failed: {type(exc).__name__}: {exc}")
+
+
 def rank0_call(fn: Callable[..., Any], *args: Any, share_result: bool = True,
              **kwargs: Any) -> Any:
     """fn(*args, **kwargs) on rank 0; an InputError or SolveError it raises is raised on
-    every rank. Its result on every rank (share_result), else on rank 0 (None elsewhere:
-    an object that stays on rank 0, e.g. the contact stepper)."""
+    every rank, any other exception on rank 0 and a PeerFailure on the others. Its result
+    on every rank (share_result), else on rank 0 (None elsewhere: an object that stays on
+    rank 0, e.g. the contact stepper)."""
     comm = PETSc.COMM_WORLD.tompi4py()
-    result, error = None, None
+    result, error, own = None, None, None
     if comm.rank == 0:
         try:
             result = fn(*args, **kwargs)
         except (InputError, SolveError) as exc:
             error = exc
+        except Exception as exc:  # noqa: BLE001 - shared so that no rank waits for it
+            own, error = exc, peer_failure(exc)
     if share_result:
         result, error = comm.bcast((result, error), root=0)
     elif comm.size > 1:
         shared = comm.bcast(error, root=0)
         error = error if error is not None else shared
+    if own is not None:
+        raise own
     if error is not None:
         raise error
     return result

@@ -19,14 +19,25 @@ are only required to stay below `--roundoff` (default 1e-7) on both runs.
 
     .venv/bin/python scripts/check_ranks.py                       # every shipped scene
     .venv/bin/python scripts/check_ranks.py configs/hertz.toml --ranks 1 2 --variants bulk
+    .venv/bin/python scripts/check_ranks.py configs/hertz.toml --ranks 1 3 4 --mesh-size 2.0 \
+        --command study --sweep interface.contact.mu=0.0,0.3     # a study: tables and runs
+    .venv/bin/python scripts/check_ranks.py --compare OUT_1 OUT_4  # two folders that exist
+
+A job must also end alike on every rank count: the same exit status, no traceback, one
+`error:` line when it fails, and no hang (`--timeout` seconds, then mpiexec's process group
+is killed and the row says so). Text that names the run's output folder (an error's `steps
+1..k are written in OUT`) is compared with the folder's name replaced by OUT.
 """
 
 from __future__ import annotations
 
 import argparse
+import io
 import json
+import os
 import re
 import shutil
+import signal
 import subprocess
 import sys
 import tempfile
@@ -42,7 +53,12 @@ from app_runner import ENV  # noqa: E402
 
 # summary keys that are not results (wall times, memory, where it ran)
 VOLATILE = {"provenance", "timings", "peak_memory_mb", "step_seconds", "elapsed_seconds",
-            "lcp_seconds", "assembly_rate_elements_per_s", "ranks", "energy_bracket"}
+            "lcp_seconds", "assembly_rate_elements_per_s", "ranks", "energy_bracket",
+            "end_time"}
+# columns of a study's or sweep's CSV that are wall times or the rank count
+CSV_VOLATILE = re.compile(r"^(t_.*|ranks|.*seconds.*)$")
+# a study's CSV tables; every subfolder with a summary.json is one of its runs
+STUDY_CSV = ("study.csv", "sweep.csv", "sweep_steps.csv", "richardson.csv")
 # figures that are round-off by nature: compared against --roundoff, not with each other
 ROUNDOFF = re.compile(r"(^|/)(kkt|lcp_residual|lcp_displacement_mismatch|residual|"
                       r"relative_residual|max_relative_residual)(/|$)")
@@ -66,14 +82,36 @@ BULK_VARIANTS = [["--sd", s] for s in ("1", "2", "3", "4", "8", "16")] + [
 
 
 def run(config: Path, args: list[str], ranks: int, out: Path,
-        timeout: float) -> subprocess.CompletedProcess:
-    """`python -m app run CONFIG --out OUT ARGS` on `ranks` ranks."""
-    cmd = [sys.executable, "-m", "app", "run", str(config), "--out", str(out), "--quiet", *args]
+        timeout: float, command: str = "run") -> subprocess.CompletedProcess:
+    """`python -m app COMMAND CONFIG --out OUT ARGS` on `ranks` ranks (run or study)."""
+    cmd = [sys.executable, "-m", "app", command, str(config), "--out", str(out), "--quiet",
+           *args]
     if ranks > 1:
         cmd = [shutil.which("mpiexec") or "mpiexec", "--oversubscribe", "-n", str(ranks), *cmd]
     env = dict(ENV, PYTHONPATH=str(ROOT))
-    return subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True,
-                          timeout=timeout)
+    proc = subprocess.Popen(cmd, cwd=ROOT, env=env, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, start_new_session=True)
+    try:
+        stdout, stderr = proc.communicate(timeout=timeout)
+    except subprocess.TimeoutExpired:  # a hang: end mpiexec and its ranks (its own group)
+        os.killpg(proc.pid, signal.SIGKILL)
+        stdout, stderr = proc.communicate()
+        return subprocess.CompletedProcess(cmd, None, stdout, stderr)
+    return subprocess.CompletedProcess(cmd, proc.returncode, stdout, stderr)
+
+
+def job_problems(res: subprocess.CompletedProcess) -> list[str]:
+    """What is wrong with how a job ended, whatever its results: a hang (no exit status),
+    a traceback, or a failure without exactly one `error:` line on stderr."""
+    if res.returncode is None:
+        return ["no exit within the timeout (hang)"]
+    out = []
+    if "Traceback" in res.stderr:
+        out.append("traceback on stderr")
+    errors = [x for x in res.stderr.splitlines() if x.startswith("error:")]
+    if res.returncode != 0 and len(errors) != 1:
+        out.append(f"exit {res.returncode} with {len(errors)} 'error:' lines")
+    return out
 
 
 def _field(path: str) -> str:
@@ -196,8 +234,7 @@ def compare_outputs(ref: Path, other: Path, roundoff: float = 1e-7) -> tuple[dic
     (step files grouped as `step:<dataset>`)."""
     diffs: dict[str, float] = {}
     mism: list[str] = []
-    sa = json.loads((ref / "summary.json").read_text())
-    sb = json.loads((other / "summary.json").read_text())
+    sa, sb = read_json(ref / "summary.json", ref), read_json(other / "summary.json", other)
     d, m = compare_summaries(sa, sb, roundoff)
     diffs.update({f"summary:{k}": v for k, v in d.items()})
     mism += m
@@ -208,6 +245,9 @@ def compare_outputs(ref: Path, other: Path, roundoff: float = 1e-7) -> tuple[dic
     for name in ("results.xdmf", "contact.xdmf"):
         if xdmf_steps(ref / name) != xdmf_steps(other / name):
             mism.append(f"{name} times {xdmf_steps(ref / name)} vs {xdmf_steps(other / name)}")
+        elif (ref / name).exists() != (other / name).exists() or ((ref / name).exists() and (
+                outless(ref / name, ref) != outless(other / name, other))):
+            mism.append(f"{name} differs in structure")  # the same XML text is expected
     delta: dict[str, list[float]] = {}  # field -> [max |a - b|, max |a|] over all steps
     for name in sorted(set(files_a) & set(files_b)):
         da, db = h5_datasets(ref / name), h5_datasets(other / name)
@@ -233,11 +273,94 @@ def compare_outputs(ref: Path, other: Path, roundoff: float = 1e-7) -> tuple[dic
     return diffs, mism
 
 
+def compare_csv(a: Path, b: Path, folder_a: Path, folder_b: Path) -> tuple[dict, list[str]]:
+    """Compare two CSV tables of a study: ({column: max rel. diff}, mismatches). Rows in
+    order; a number is judged against the column's largest |value|, text must be equal
+    (the output folder's name excepted), wall-time columns are left out."""
+    import csv
+
+    ra, rb = (list(csv.DictReader(io.StringIO(outless(p, f))))
+              for p, f in ((a, folder_a), (b, folder_b)))
+    if len(ra) != len(rb) or (ra and list(ra[0]) != list(rb[0])):
+        return {}, [f"{a.name}: {len(ra)} vs {len(rb)} rows or other columns"]
+    diffs: dict[str, float] = {}
+    mism: list[str] = []
+    cols = [c for c in (ra[0] if ra else {}) if not CSV_VOLATILE.match(c)]
+    for c in cols:
+        va, vb = [_number(r[c]) for r in ra], [_number(r[c]) for r in rb]
+        if any(isinstance(x, str) for x in va + vb):
+            ta, tb = [r[c] for r in ra], [r[c] for r in rb]
+            mism += [f"{a.name}:{c} row {i}: {x[:60]!r} vs {y[:60]!r}"
+                     for i, (x, y) in enumerate(zip(ta, tb, strict=True)) if x != y]
+            continue
+        fa, fb = np.array(va, dtype=float), np.array(vb, dtype=float)
+        if not np.array_equal(np.isfinite(fa), np.isfinite(fb)):
+            mism.append(f"{a.name}:{c}: non-finite entries differ")
+            continue
+        fin = np.isfinite(fa)
+        scale = max(np.abs(fa[fin]).max(initial=0.0), np.abs(fb[fin]).max(initial=0.0))
+        d = np.abs(fa[fin] - fb[fin]).max(initial=0.0)
+        diffs[f"{a.name}:{c}"] = float(d / scale) if scale > 0 else 0.0
+    return diffs, mism
+
+
+def _number(text: str) -> float | str:
+    """A CSV cell as a float ('' and 'nan' are NaN), else the text."""
+    try:
+        return float(text) if text != "" else float("nan")
+    except ValueError:
+        return text
+
+
+def outless(path: Path, folder: Path) -> str:
+    """The text of a file with its run's output folder named OUT (an error message says
+    where the completed steps are written)."""
+    text = path.read_text()
+    for name in sorted({str(folder), str(folder.resolve())}, key=len, reverse=True):
+        text = text.replace(name, "OUT")
+    return text
+
+
+def read_json(path: Path, folder: Path):
+    """A JSON file of an output folder, the folder's own name replaced by OUT."""
+    return json.loads(outless(path, folder))
+
+
+def compare_study(ref: Path, other: Path, roundoff: float = 1e-7) -> tuple[dict, list[str]]:
+    """Compare two `study` output folders: its summary.json, every CSV table and every run
+    folder (L0_4SD, run_000, ...) as compare_outputs does."""
+    diffs: dict[str, float] = {}
+    sa, sb = read_json(ref / "summary.json", ref), read_json(other / "summary.json", other)
+    d, mism = compare_summaries(sa, sb, roundoff)
+    diffs.update({f"summary:{k}": v for k, v in d.items()})
+    for name in STUDY_CSV:
+        if (ref / name).exists() != (other / name).exists():
+            mism.append(f"{name} only in one run")
+        elif (ref / name).exists():
+            d, m = compare_csv(ref / name, other / name, ref, other)
+            diffs.update(d)
+            mism += m
+    runs_a = sorted(p.name for p in ref.iterdir() if (p / "summary.json").exists())
+    runs_b = sorted(p.name for p in other.iterdir() if (p / "summary.json").exists())
+    if runs_a != runs_b:
+        mism.append(f"runs {runs_a} vs {runs_b}")
+    for name in sorted(set(runs_a) & set(runs_b)):
+        d, m = compare_outputs(ref / name, other / name, roundoff)
+        diffs.update({f"{name}/{k}": v for k, v in d.items()})
+        mism += [f"{name}: {x}" for x in m]
+    return diffs, mism
+
+
 def headline(diffs: dict[str, float]) -> dict[str, float]:
-    """Max relative difference by kind: summary, displacement, stress, contact, other."""
-    out = {"summary": 0.0, "displacement": 0.0, "stress": 0.0, "contact": 0.0, "other": 0.0}
+    """Max relative difference by kind: summary, displacement, stress, contact, other and
+    table (a study's CSV files)."""
+    out = {"summary": 0.0, "displacement": 0.0, "stress": 0.0, "contact": 0.0, "other": 0.0,
+           "table": 0.0}
     for k, v in diffs.items():
-        if k.startswith("summary:"):
+        k = re.sub(r"^[^:/]+/(?=(summary|step|mesh\.h5):)", "", k)  # a study's run folder
+        if ".csv:" in k:
+            kind = "table"
+        elif k.startswith("summary:"):
             kind = "summary"
         elif "contact/" in k:
             kind = "contact"
@@ -252,15 +375,17 @@ def headline(diffs: dict[str, float]) -> dict[str, float]:
 
 
 def check(config: Path, args: list[str], ranks: list[int], tol: float, roundoff: float,
-          timeout: float, keep: Path | None) -> list[dict]:
-    """Run one scene on every rank count and compare each with the first."""
+          timeout: float, keep: Path | None, command: str = "run") -> list[dict]:
+    """Run one scene on every rank count and compare each with the first; the exit
+    statuses must be equal too, and each job free of the problems of job_problems."""
     base = Path(tempfile.mkdtemp(prefix="check_ranks_", dir=keep))
+    compare = compare_study if command == "study" else compare_outputs
     rows = []
     try:
-        outs, status = {}, {}
+        outs, status, jobs = {}, {}, {}
         for n in ranks:
             out = base / f"n{n}"
-            res = run(config, args, n, out, timeout)
+            jobs[n] = res = run(config, args, n, out, timeout, command)
             outs[n] = out
             path = out / "summary.json"
             status[n] = (json.loads(path.read_text()).get("status") if path.exists()
@@ -268,12 +393,17 @@ def check(config: Path, args: list[str], ranks: list[int], tol: float, roundoff:
         n0 = ranks[0]
         for n in ranks[1:]:
             row = {"config": str(config.relative_to(ROOT)), "args": args, "ranks": n,
-                   "against": n0, "status": [status[n0], status[n]]}
+                   "against": n0, "status": [status[n0], status[n]],
+                   "exit": [jobs[n0].returncode, jobs[n].returncode]}
+            job = [f"{k} ranks: {p}" for k in (n0, n) for p in job_problems(jobs[k])]
+            if jobs[n0].returncode != jobs[n].returncode:
+                job.append(f"exit {jobs[n0].returncode} vs {jobs[n].returncode}")
             if not (outs[n0] / "summary.json").exists() or not (outs[n] / "summary.json").exists():
-                row.update(verdict="DIFFERENT", mismatches=["no summary.json"])
+                row.update(verdict="DIFFERENT", mismatches=job + ["no summary.json"])
                 rows.append(row)
                 continue
-            diffs, mism = compare_outputs(outs[n0], outs[n], roundoff)
+            diffs, mism = compare(outs[n0], outs[n], roundoff)
+            mism = job + mism
             worst = max(diffs.items(), key=lambda kv: kv[1], default=("", 0.0))
             row.update(max_rel_diff=headline(diffs), worst=[worst[0], float(f"{worst[1]:.3g}")],
                        mismatches=mism[:20], n_mismatches=len(mism))
@@ -285,6 +415,19 @@ def check(config: Path, args: list[str], ranks: list[int], tol: float, roundoff:
         if keep is None:
             shutil.rmtree(base, ignore_errors=True)
     return rows
+
+
+def compare_folders(ref: Path, other: Path, tol: float, roundoff: float) -> int:
+    """Print the comparison of two existing output folders as one JSON line; 1 if they
+    differ."""
+    study = (ref / "study.csv").exists() or (ref / "sweep.csv").exists()
+    diffs, mism = (compare_study if study else compare_outputs)(ref, other, roundoff)
+    worst = max(diffs.items(), key=lambda kv: kv[1], default=("", 0.0))
+    ok = not mism and worst[1] <= tol
+    print(json.dumps({"ref": str(ref), "other": str(other), "max_rel_diff": headline(diffs),
+                      "worst": [worst[0], float(f"{worst[1]:.3g}")], "mismatches": mism[:20],
+                      "n_mismatches": len(mism), "verdict": "ok" if ok else "DIFFERENT"}))
+    return 0 if ok else 1
 
 
 def main() -> None:
@@ -300,7 +443,14 @@ def main() -> None:
     ap.add_argument("--full", action="store_true", help=f"no cheap settings for {list(CHEAP)}")
     ap.add_argument("--keep", type=Path, help="keep the outputs under this folder")
     ap.add_argument("--skip", nargs="*", default=[], help="scene names to leave out")
+    ap.add_argument("--command", choices=["run", "study"], default="run",
+                    help="study: `python -m app study` (give its options, e.g. --levels 2 "
+                         "or --sweep KEY=V1,V2), its tables and every run folder compared")
+    ap.add_argument("--compare", type=Path, nargs=2, metavar=("REF", "OTHER"),
+                    help="only compare two output folders that exist (a run's or a study's)")
     a, extra = ap.parse_known_args()  # the rest goes to every run, e.g. --mesh-size 1.0
+    if a.compare:
+        sys.exit(compare_folders(*a.compare, a.tol, a.roundoff))
     configs = a.configs or sorted((ROOT / "configs").glob("*.toml")) + sorted(
         (ROOT / "configs" / "hard").glob("*.toml"))
     variants = BULK_VARIANTS if a.variants == "bulk" else [[]]
@@ -313,7 +463,8 @@ def main() -> None:
             continue
         for v in variants:
             args = (CHEAP.get(config.stem, []) if not a.full else []) + v + extra
-            for row in check(config, args, a.ranks, a.tol, a.roundoff, a.timeout, a.keep):
+            for row in check(config, args, a.ranks, a.tol, a.roundoff, a.timeout, a.keep,
+                             a.command):
                 bad += row["verdict"] != "ok"
                 print(json.dumps(row), flush=True)
     sys.exit(1 if bad else 0)

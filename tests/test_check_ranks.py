@@ -41,3 +41,44 @@ def test_round_off_agrees_and_real_differences_are_found(tmp_path):
     assert diffs["step:displacement"] > 9e-4
     assert any("contact/state" in m for m in mism)
     assert "summary:timings/total" not in diffs
+
+
+def _study(path, mu_rows: list[tuple[str, float, float]], run_fy: float):
+    """A sweep's output: summary.json, sweep.csv (status, a figure, a wall time) and one
+    run folder; an error message names the sweep's own folder."""
+    path.mkdir()
+    lines = ["mu,status,error,normal_force,t_total"]
+    lines += [f"{mu},{st},{'nan' if st == 'completed' else 'failed in ' + str(path)},{f},{t}"
+              for mu, (st, f, t) in zip(("0.0", "0.5"), mu_rows, strict=True)]
+    (path / "sweep.csv").write_text("\n".join(lines) + "\n")
+    (path / "summary.json").write_text(json.dumps(
+        {"status": "completed", "end_time": str(run_fy), "runs": 2}))
+    _folder(path / "run_000", run_fy, 0.0, 1.0, 1)
+
+
+def test_studies_compare_tables_runs_and_ignore_times_and_folders(tmp_path):
+    _study(tmp_path / "a", [("failed", 1.0, 0.1), ("completed", 2.0, 0.2)], 100.0)
+    _study(tmp_path / "b", [("failed", 1.0, 9.0), ("completed", 2.0 + 1e-14, 5.0)], 100.0)
+    diffs, mism = check_ranks.compare_study(tmp_path / "a", tmp_path / "b")
+    assert mism == [] and max(diffs.values()) < 1e-13  # t_total, end_time, OUT not compared
+    assert "sweep.csv:normal_force" in diffs and "sweep.csv:t_total" not in diffs
+    _study(tmp_path / "c", [("completed", 1.0, 0.1), ("completed", 2.5, 0.2)], 101.0)
+    diffs, mism = check_ranks.compare_study(tmp_path / "a", tmp_path / "c")
+    assert diffs["sweep.csv:normal_force"] == 0.2
+    assert diffs["run_000/summary:steps/reactions/base/Fy"] > 9e-3
+    assert any("sweep.csv:status row 0" in m for m in mism)
+    assert check_ranks.headline(diffs)["table"] == 0.2
+
+
+def test_a_job_that_hangs_or_fails_without_its_line_is_reported(tmp_path):
+    done = check_ranks.subprocess.CompletedProcess
+    assert check_ranks.job_problems(done([], 0, "", "")) == []
+    assert check_ranks.job_problems(done([], 2, "", "error: x\n")) == []
+    assert check_ranks.job_problems(done([], None, "", "")) == [
+        "no exit within the timeout (hang)"]
+    assert check_ranks.job_problems(done([], 1, "", "Traceback (most recent call last)\n")) \
+        == ["traceback on stderr", "exit 1 with 0 'error:' lines"]
+    assert check_ranks.job_problems(done([], 2, "", "error: x\nerror: x\n")) == [
+        "exit 2 with 2 'error:' lines"]
+    res = check_ranks.run(ROOT / "configs" / "patch.toml", [], 2, tmp_path / "o", 0.05)
+    assert res.returncode is None  # ended by the timeout: mpiexec's process group killed

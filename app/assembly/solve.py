@@ -12,6 +12,7 @@ import numpy as np
 from petsc4py import PETSc
 
 from app import hard_stop
+from app.assembly.parallel_pc import block_jacobi_for_sequential_pc
 from app.errors import SolveError
 
 DEFAULT_OPTIONS = {
@@ -68,6 +69,7 @@ def set_default_options(extra: dict[str, str] | None = None) -> None:
                 continue  # MUMPS is no solver type of ILU, ICC, ...: PETSc would refuse it
             if not opts.hasName(key):
                 opts.setValue(key, value)
+    block_jacobi_for_sequential_pc(opts, PETSc.COMM_WORLD.getSize())  # icc, ilu: sequential
     ksp_type = opts.getString("ksp_type", "preonly")
     if ksp_type != "preonly" and not opts.hasName("ksp_rtol"):
         opts.setValue("ksp_rtol", ITERATIVE_RTOL)

@@ -27,6 +27,7 @@ from petsc4py import PETSc
 from app import hard_stop
 from app.condensation.schur_solver import petsc_call, read_dense_symmetric, schur_lib
 from app.errors import InputError, SolveError
+from app.parallel import rank0_call
 
 if TYPE_CHECKING:
     from app.assembly.solve import LinearSolver
@@ -129,10 +130,12 @@ def compliance_from_factor(solver: LinearSolver, g: sp.csr_matrix, fixed: np.nda
         return np.zeros((g.shape[0], g.shape[0])) if k_rank(solver) == 0 else None
     if not np.array_equal(dofs, block.dofs):
         raise SolveError("the Schur set of the factorization is not the contact DOFs")
-    if block.rank != 0:
-        return None
-    c = gc @ block.dense_solve(gc.T.toarray())
-    return 0.5 * (c + c.T)
+    return rank0_call(dense_compliance, gc, block, share_result=False)  # failure shared
+
+
+def dense_compliance(gc: sp.csr_matrix, block) -> np.ndarray:
+    """Rank 0: G_c S^-1 G_c^T, symmetrised, with the dense factor of S in `block`."""
+    return symmetric_part(gc @ block.dense_solve(gc.T.toarray()))
 
 
 def k_rank(solver: LinearSolver) -> int:
@@ -147,7 +150,7 @@ def compliance_solve(solver: LinearSolver, k: PETSc.Mat, g: sp.csr_matrix, fixed
     rank = k.getComm().getRank()
     r0, r1 = k.getOwnershipRange()
     ncols = g.shape[0]
-    c = np.zeros((ncols, ncols)) if rank == 0 else None
+    c = rank0_call(np.zeros, (ncols, ncols), share_result=False)  # its MemoryError shared
     b = k.createVecLeft()
     gt = gc.T.tocsc()
     with hard_stop.armed():  # once for all the solves (each one C call)
@@ -159,9 +162,12 @@ def compliance_solve(solver: LinearSolver, k: PETSc.Mat, g: sp.csr_matrix, fixed
             x = to_numpy_all(solver.solve(b))
             if rank == 0:
                 c[:, j] = gc @ x[dofs]
-    if rank == 0:
-        c = 0.5 * (c + c.T)
-    return c
+    return rank0_call(symmetric_part, c, share_result=False)
+
+
+def symmetric_part(c: np.ndarray) -> np.ndarray:
+    """(C + C^T) / 2 of a dense compliance (rank 0)."""
+    return 0.5 * (c + c.T)
 
 
 COMPLIANCE_ROUTES = ("auto", "schur", "solve")

@@ -25,6 +25,7 @@ import scipy.linalg as sla
 from petsc4py import PETSc
 
 from app.errors import SolveError
+from app.parallel import rank0_call
 from app.petsc_lib import PETSC_INT, load_petsc
 
 
@@ -139,8 +140,8 @@ class SchurFactorization:
         self.rank = comm.getRank()
         n = self.dofs.size
         s = schur_from_factor(f, n)
-        self.factor = None if self.rank else DenseFactor(
-            s, overwrite=True, again=lambda: schur_from_factor(f, n))
+        self.factor = rank0_call(DenseFactor, s, share_result=False, overwrite=True,
+                                 again=lambda: schur_from_factor(f, n))  # failure shared
         f.setMumpsIcntl(26, 0)  # interior solves from now on
         r0, r1 = k.getOwnershipRange()
         self.r0 = r0

@@ -148,13 +148,15 @@ def _displacement(model: Model, system: LinearSystem, u_free: np.ndarray,
 def _consistency(ctx: RunContext, model: Model, u: np.ndarray, result: StepSolution,
                  refinements: int, previous: float):
     """(G u - LCP kinematics on rank 0, its size relative to max |u|, whether to re-solve)."""
-    miss = rel = again = None
-    if ctx.rank == 0:
+    def measure():
         miss = mismatch(model.contact.g, u, result)
         scale = max(np.abs(u).max(initial=0.0), 1e-300)
         rel = float(np.abs(miss).max(initial=0.0) / scale)
         again = (rel > CONSISTENCY_TOL and refinements < MAX_REFINEMENTS
                  and rel < 0.5 * previous)
+        return miss, rel, again
+
+    miss, rel, again = on_rank0_solve(measure) or (None, None, None)  # its failure shared
     again, rel = ctx.mpi.bcast((again, rel), root=0)
     return miss, rel, again
 

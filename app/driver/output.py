@@ -19,6 +19,7 @@ from app.driver.context import RunContext, write_summary
 from app.driver.linear import LinearSystem
 from app.driver.model import Model
 from app.driver.rank0_io import on_rank0
+from app.driver.rank0_solve import on_rank0_solve
 from app.mesh.model import Mesh
 from app.output.contact import contact_arrays
 from app.output.kkt_warning import kkt_warning
@@ -87,14 +88,7 @@ def write_step(ctx: RunContext, model: Model, output: StepOutput, step: int, u: 
     with ctx.phase("output"):
         if solved is not None:
             info.update(solved.result.info)
-            if ctx.rank == 0:
-                contact_data, info["kkt"] = contact_arrays(model.contact, solved.result, u,
-                                                           cfg.thickness)
-                law = kkt_warning(info["kkt"], step + 1)
-                if law is not None:
-                    ctx.warn(law, ("kkt",))
-                output.last_contact = contact_data
-                _add_interface_forces(info, contact_data, cfg, model.contact.described)
+            contact_data = on_rank0_solve(_contact_output, ctx, model, output, solved, u, info)
         info.update(output.reactions(step, u, None if solved is None else
                                      model.contact.g.T @ solved.result.lam))
         if model.floating is not None:  # the floating bodies' motion (rigid_modes is not)
@@ -117,6 +111,20 @@ def write_step(ctx: RunContext, model: Model, output: StepOutput, step: int, u: 
                                                   strict=True)), started)
     step_writing(False)
     release_signals()
+
+
+def _contact_output(ctx: RunContext, model: Model, output: StepOutput, solved: ContactStep,
+                    u: np.ndarray, info: dict) -> dict:
+    """Rank 0: the step's per-pair contact arrays, its KKT check (info) and interface
+    forces; the last step's arrays kept in `output`."""
+    contact_data, info["kkt"] = contact_arrays(model.contact, solved.result, u,
+                                               ctx.cfg.thickness)
+    law = kkt_warning(info["kkt"], info["step"])
+    if law is not None:
+        ctx.warn(law, ("kkt",))
+    output.last_contact = contact_data
+    _add_interface_forces(info, contact_data, ctx.cfg, model.contact.described)
+    return contact_data
 
 
 def _write_step(writer: ResultWriter, step: int, mesh, u: np.ndarray, gathered,
