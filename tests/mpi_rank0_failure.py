@@ -45,7 +45,7 @@ def inject(where: str, exc_name: str, rank: str = "0") -> None:
 def start_then_inject(where: str, exc_name: str, rank: str = "0") -> None:
     """Inject once PETSc has started with the run's options (the modules patched import
     petsc4py's PETSc, which must not start before)."""
-    import app.petsc_start as petsc_start
+    import app.startup.petsc as petsc_start
 
     start = petsc_start.start_petsc
 

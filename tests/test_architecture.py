@@ -18,7 +18,7 @@ import pytest
 APP = Path(__file__).resolve().parents[1] / "app"
 
 FOUNDATIONS = ("errors", "config", "config_keys", "scene", "closed_form", "references",
-               "petsc_lib", "parallel", "expressions", "petsc_options", "hard_stop",
+               "petsc_lib", "parallel", "exit_sync", "expressions", "petsc_options", "hard_stop",
                "petsc_config_guard", "user_paths", "plotting")
 STAGES = ("mesh", "discretisation", "assembly", "contact", "condensation", "lcp",
           "interface", "output")
