@@ -155,3 +155,20 @@ def test_incomplete_factorizations_do_not_get_the_mumps_default(tmp_path, option
     assert r.returncode == 0, r.stderr
     e1, e2 = read_summary(it)["strain_energy"], read_summary(direct)["strain_energy"]
     assert abs(e1 - e2) <= 1e-8 * abs(e2)
+
+
+def test_a_mumps_option_that_refuses_the_schur_set_says_to_use_the_solve_route(tmp_path):
+    """-mat_mumps_icntl_28 2 (parallel analysis) is incompatible with MUMPS's Schur
+    complement (INFOG(1) = -39): the error line names the way out; the solve route runs."""
+    out = tmp_path / "h"
+    res = run_cli(["run", str(CONFIGS / "hertz.toml"), "--mesh-size", "1.0", "--out", str(out),
+                   "-mat_mumps_icntl_28", "2"])
+    assert res.returncode == 2, res.stderr
+    lines = [ln for ln in res.stderr.splitlines() if ln.startswith("error:")]
+    assert len(lines) == 1 and "INFOG(1) = -39" in lines[0]
+    assert "-contact_compliance solve" in lines[0]
+    assert "-contact_compliance solve" in read_summary(out)["error"]
+    res = run_cli(["run", str(CONFIGS / "hertz.toml"), "--mesh-size", "1.0", "--out",
+                   str(tmp_path / "s"), "-mat_mumps_icntl_28", "2", "-contact_compliance",
+                   "solve"])
+    assert res.returncode == 0, res.stderr

@@ -82,6 +82,17 @@ def apply_dirichlet(k: PETSc.Mat, dofs: np.ndarray) -> None:
     k.zeroRowsColumns(own, diag=1.0)
 
 
+def _schur_hint(f: PETSc.Mat, info: int) -> str:
+    """What to try when MUMPS refused a factorization with a Schur set (ICNTL(19) on, the
+    default compliance route): some -mat_mumps_icntl_* values, e.g. ICNTL(28) = 2 (parallel
+    analysis, INFOG(1) = -39), are incompatible with it; the solve route needs no Schur set."""
+    if info == -10 or f.getMumpsIcntl(19) == 0:
+        return ""
+    return ("; MUMPS refuses this factorization with the Schur complement of the default "
+            "compliance route (ICNTL(19)): run with -contact_compliance solve, or leave out "
+            "the -mat_mumps_icntl_* option that conflicts with it")
+
+
 class LinearSolver:
     """One factorization of K (after Dirichlet elimination), reused for every solve."""
 
@@ -113,7 +124,8 @@ class LinearSolver:
             info = f.getMumpsInfog(1)
             if info < 0:
                 error = SingularStiffnessError if info == -10 else SolveError
-                raise error(f"MUMPS factorization failed (INFOG(1) = {info})")
+                raise error(f"MUMPS factorization failed (INFOG(1) = {info})"
+                            + _schur_hint(f, info))
 
     def _check_overflow(self, b: PETSc.Vec) -> None:
         """After a NaN solution: SolveError if the same solve with b scaled to a unit
