@@ -126,7 +126,7 @@ def _run_stop_hooks(reason: str | None = None) -> None:
         try:
             fn()
         except Exception as exc:  # the job ends anyway; say why the hook wrote nothing
-            print(f"warning: {exc}", file=sys.stderr, flush=True)
+            _say(f"warning: {exc}")
 
 
 _STOP_LOCK = threading.Lock()
@@ -156,11 +156,28 @@ def wait_for_the_stop() -> None:
     Its clear_files removed the temporary file the main thread was writing (mesh.h5.tmp,
     summary.json.tmp): the main thread's rename failed with `No such file or directory`,
     and its `failed` summary (and error line) replaced the watchdog's `interrupted` before
-    the watchdog exited (2 of about 400 sweep trials on 2 ranks)."""
+    the watchdog exited (2 of about 400 sweep trials on 2 ranks).
+    A further signal does not end the wait (on one rank Ctrl-C again raised
+    KeyboardInterrupt out of the sleep: the main thread went on to exit by itself while the
+    other thread was writing, `running` and a stray .tmp left)."""
     import time
 
-    time.sleep(STOP_WAIT_SECONDS)
+    end = time.monotonic() + STOP_WAIT_SECONDS
+    while (left := end - time.monotonic()) > 0:
+        try:
+            time.sleep(left)
+        except (KeyboardInterrupt, RunInterrupted):
+            continue
     os._exit(_STOP_CODE[0] if _STOP_CODE else 130)
+
+
+def _say(line: str) -> None:
+    """The stopping thread's line on stderr; a closed stderr (a pipe whose reader ended)
+    does not keep it from exiting."""
+    try:
+        print(line, file=sys.stderr, flush=True)
+    except (OSError, ValueError):
+        pass
 
 
 def _hand_off_pending() -> str | None:
@@ -463,9 +480,18 @@ class RunGuard:
 
     def stop_now(self, name: str) -> None:
         """From the watchdog thread: record `interrupted`, print it and exit at once."""
-        import json
-
         begin_stop(name)  # (a hand-off to the C handler took it first: it exits)
+        try:  # whatever fails below, this thread holds the stop lock: it must exit
+            self._record_stop(name)
+        finally:
+            startup_signals.exit_after_rank0(EXIT_SIGNAL.get(name, 130))
+
+    def _record_stop(self, name: str) -> None:
+        """stop_now's writes: summary.json `interrupted`, the error line, the stop hooks.
+        An OSError here (OUT gone, stderr a closed pipe) used to end the watchdog thread
+        with the stop lock held: the run went on, its steps' summaries replaced
+        `interrupted`, and its end waited STOP_WAIT_SECONDS and exited with no line."""
+        import json
 
         where = ("" if PETSc.COMM_WORLD.getSize() > 1 else
                  " (stopped inside a long computation)")
@@ -473,7 +499,10 @@ class RunGuard:
         self.summary["status"] = "interrupted"
         self.summary["error"] = reason
         if self.rank == 0:
-            clear_files(self.out, TEMPORARY)
+            try:
+                clear_files(self.out, TEMPORARY)
+            except OSError:  # (OUT unreadable or gone: the summary below fails alike)
+                pass
             for _ in range(5):  # the main thread may be changing the dict
                 try:  # (its status and error too: a `completed` with this error was seen)
                     text = json.dumps({**self.summary, "status": "interrupted",
@@ -490,9 +519,8 @@ class RunGuard:
                     atomic_write_bytes(self.out / "summary.json", text.encode())
                 except OSError:
                     pass
-            print(f"error: {reason}", file=sys.stderr, flush=True)
+            _say(f"error: {reason}")
         _run_stop_hooks(reason)
-        startup_signals.exit_after_rank0(EXIT_SIGNAL.get(name, 130))
 
     def __exit__(self, exc_type, exc, tb) -> bool:
         hard_stop.set_provider(None)
