@@ -143,3 +143,41 @@ def test_the_runs_writes_outside_the_steps_hold_the_watchdogs_lock(tmp_path):
     assert "mesh.h5 under the lock: True" in res.stdout, res.stdout
     assert "final summary under the lock: True" in res.stdout, res.stdout
     assert "under the lock: False" not in res.stdout, res.stdout
+
+
+def test_the_wait_for_the_stop_lasts_as_long_as_the_stopping_thread(monkeypatch):
+    """The thread that ends the job runs the stop hooks: a study's tables and, on one rank,
+    its plots. The main thread exited after a fixed STOP_WAIT_SECONDS, in the middle of
+    them; it now waits for that thread (which exits the process), then exits itself."""
+    seen: list[bool] = []
+
+    class _Exited(BaseException):
+        pass
+
+    def exit_(code: int) -> None:
+        seen.append(done.is_set())
+        raise _Exited
+
+    done = threading.Event()
+    began = threading.Event()
+
+    def stopper() -> None:  # a watchdog's stop whose hooks take longer than the wait
+        status.begin_stop("SIGINT")
+        began.set()
+        time.sleep(0.8)
+        done.set()  # (its exit_after_rank0 would end the process here)
+
+    monkeypatch.setattr(status, "STOP_WAIT_SECONDS", 0.2)
+    monkeypatch.setattr(os, "_exit", exit_)
+    t = threading.Thread(target=stopper)
+    t.start()
+    try:
+        assert began.wait(10)
+        with pytest.raises(_Exited):
+            status.wait_for_the_stop()
+    finally:
+        t.join(timeout=10)
+        status._STOP_LOCK.release()
+        status._STOP_CODE.clear()
+        status._STOPPER.clear()
+    assert seen == [True]  # before: [False] (exited 0.2 s in, the hooks still writing)

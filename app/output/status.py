@@ -137,10 +137,11 @@ stray summary.json.tmp). `RunGuard.__exit__` holds it while it writes the run's 
 
 
 STOP_WAIT_SECONDS = 30.0
-"""How long the main thread waits for the thread that ends the job (`begin_stop`) before it
-exits by itself (that thread always exits within `RANK0_FIRST_SECONDS` and its writes)."""
+"""How long the main thread waits for the job's end once the thread that ends it
+(`begin_stop`) is no longer running (or is not known) before it exits by itself."""
 
 _STOP_CODE: list[int] = []
+_STOPPER: list[threading.Thread] = []
 
 
 def begin_stop(name: str) -> None:
@@ -149,6 +150,7 @@ def begin_stop(name: str) -> None:
     leaves the run's files and summary to it (`wait_for_the_stop`)."""
     _STOP_LOCK.acquire()
     _STOP_CODE.append(EXIT_SIGNAL.get(name, 130))
+    _STOPPER.append(threading.current_thread())
 
 
 def wait_for_the_stop() -> None:
@@ -157,14 +159,23 @@ def wait_for_the_stop() -> None:
     summary.json.tmp): the main thread's rename failed with `No such file or directory`,
     and its `failed` summary (and error line) replaced the watchdog's `interrupted` before
     the watchdog exited (2 of about 400 sweep trials on 2 ranks).
-    A further signal does not end the wait (on one rank Ctrl-C again raised
-    KeyboardInterrupt out of the sleep: the main thread went on to exit by itself while the
-    other thread was writing, `running` and a stray .tmp left)."""
+    It waits as long as that thread runs (a study's stop hooks write its tables and, on one
+    rank, its plots: a fixed wait could end the job in the middle of them), then at most
+    STOP_WAIT_SECONDS. A further signal does not end the wait (on one rank Ctrl-C again
+    raised KeyboardInterrupt out of the sleep: the main thread went on to exit by itself
+    while the other thread was writing)."""
     import time
 
+    stopper = _STOPPER[-1] if _STOPPER else None
     end = time.monotonic() + STOP_WAIT_SECONDS
-    while (left := end - time.monotonic()) > 0:
+    while True:
         try:
+            if (stopper is not None and stopper is not threading.current_thread()
+                    and stopper.is_alive()):
+                stopper.join()  # (it exits the process: this returns only if it failed to)
+                end = time.monotonic()
+            if (left := end - time.monotonic()) <= 0:
+                break
             time.sleep(left)
         except (KeyboardInterrupt, RunInterrupted):
             continue
