@@ -181,3 +181,46 @@ def test_the_wait_for_the_stop_lasts_as_long_as_the_stopping_thread(monkeypatch)
         status._STOP_CODE.clear()
         status._STOPPER.clear()
     assert seen == [True]  # before: [False] (exited 0.2 s in, the hooks still writing)
+
+
+def test_a_hand_off_while_another_thread_stops_disarms_and_waits(monkeypatch,
+                                                                  fake_exit):  # noqa: F811
+    """app/hard_stop.py arms the C handler, then asks `_hand_off_pending`. With a watchdog
+    already ending the job it waited on the stop lock with the C handler armed (a second
+    signal then wrote from C over the watchdog's summary); now it disarms and waits for
+    the job's end (`wait_for_the_stop`, here raising _Waited)."""
+    from test_stop_race import _Waited
+
+    from app import hard_stop
+
+    disarmed: list[bool] = []
+    monkeypatch.setattr(hard_stop, "disarm", lambda: disarmed.append(True))
+    monkeypatch.setattr(status, "_PENDING", ["SIGINT"])
+    stopper = threading.Thread(target=status.begin_stop, args=("SIGTERM",))
+    stopper.start()
+    stopper.join(timeout=10)
+    result = []
+
+    def hand_off() -> None:
+        try:
+            result.append(status._hand_off_pending())
+        except _Waited:
+            result.append("waited")
+
+    t = threading.Thread(target=hand_off)
+    t.start()
+    t.join(timeout=2)
+    blocked = t.is_alive()
+    if blocked:  # (before: blocked on the stop lock, the C handler armed)
+        status._STOP_LOCK.release()
+        t.join(timeout=10)
+    assert not blocked and result == ["waited"] and disarmed == [True], (blocked, result)
+
+
+def test_a_hand_off_without_a_stop(monkeypatch, fake_exit):  # noqa: F811
+    """No stop under way: None and the lock free with nothing pending; the pending name
+    and the lock kept (for the C handler, which exits) with a signal pending."""
+    monkeypatch.setattr(status, "_PENDING", [])
+    assert status._hand_off_pending() is None and not status._STOP_LOCK.locked()
+    monkeypatch.setattr(status, "_PENDING", ["SIGTERM"])
+    assert status._hand_off_pending() == "SIGTERM" and status._STOP_LOCK.locked()

@@ -194,11 +194,18 @@ def _say(line: str) -> None:
 def _hand_off_pending() -> str | None:
     """The name of a signal recorded but not acted on, for app/hard_stop.py to raise into
     the C handler it has just armed (the watchdog thread would wait for the GIL through the
-    long call); None if there is none. Waits while the watchdog is ending the job."""
-    if not _PENDING:
-        return None
-    _STOP_LOCK.acquire()
-    return _PENDING[0]
+    long call); None if there is none. While another thread is ending the job it puts the
+    handlers back and waits for the job's end: before, it waited with the C handler armed,
+    and a second signal (Ctrl-C in a terminal: SIGINT, then mpiexec's SIGTERM) wrote the
+    summary from C over the other thread's (an in-place tail at an offset of the layout
+    the C handler was armed with, not the one that thread wrote)."""
+    if not _STOP_LOCK.acquire(blocking=False):
+        hard_stop.disarm()
+        wait_for_the_stop()
+    if _PENDING:
+        return _PENDING[0]  # (the lock kept: the C handler ends the job)
+    _STOP_LOCK.release()
+    return None
 
 
 def unacted_signal() -> str | None:
