@@ -112,6 +112,14 @@ def armed() -> Iterator[None]:
             lib.hard_stop_disarm()
 
 
+def disarm() -> None:
+    """Put back the handlers `armed` replaced now (another thread ends the job); a no-op
+    when nothing is armed. `armed` disarms again at its end (harmless)."""
+    lib = _library()
+    if lib is not None:
+        lib.hard_stop_disarm()
+
+
 def arm_exit(line_int: str, line_term: str, stay: bool = False) -> bool:
     """Arm the C handler with no file to write, for good (the job's end: see
     app/output/late_signals.py): SIGINT / SIGTERM print the line (may be empty) and exit

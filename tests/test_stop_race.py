@@ -46,6 +46,7 @@ def fake_exit(monkeypatch):
     if status._STOP_LOCK.locked():
         status._STOP_LOCK.release()
     status._STOP_CODE.clear()
+    status._STOPPER.clear()
 
 
 def _stop_inside_fsync(monkeypatch, guard_box: list, suffix: str) -> None:

@@ -65,11 +65,14 @@ class BatchGuard:
         Every stop hook runs: this guard's `finish` and the study's summary.json
         (app/studies/batch_status.py)."""
         status.begin_stop(name)  # one thread ends the job (a run's guard yields to it)
-        reason = f"interrupted by {name} between the runs; what completed before it is written"
-        status._run_stop_hooks(reason)
-        if self.rank == 0:
-            print(f"error: {reason}", file=sys.stderr, flush=True)
-        startup_signals.exit_after_rank0(EXIT_SIGNAL.get(name, 130))
+        try:  # (this thread holds the stop lock: it exits whatever fails here)
+            reason = (f"interrupted by {name} between the runs; what completed before it is "
+                      "written")
+            status._run_stop_hooks(reason)
+            if self.rank == 0:
+                status._say(f"error: {reason}")
+        finally:
+            startup_signals.exit_after_rank0(EXIT_SIGNAL.get(name, 130))
 
     def __exit__(self, exc_type, exc, tb) -> bool:
         if self._watchdog is not None:

@@ -126,7 +126,7 @@ def _run_stop_hooks(reason: str | None = None) -> None:
         try:
             fn()
         except Exception as exc:  # the job ends anyway; say why the hook wrote nothing
-            print(f"warning: {exc}", file=sys.stderr, flush=True)
+            _say(f"warning: {exc}")
 
 
 _STOP_LOCK = threading.Lock()
@@ -137,10 +137,11 @@ stray summary.json.tmp). `RunGuard.__exit__` holds it while it writes the run's 
 
 
 STOP_WAIT_SECONDS = 30.0
-"""How long the main thread waits for the thread that ends the job (`begin_stop`) before it
-exits by itself (that thread always exits within `RANK0_FIRST_SECONDS` and its writes)."""
+"""How long the main thread waits for the job's end once the thread that ends it
+(`begin_stop`) is no longer running (or is not known) before it exits by itself."""
 
 _STOP_CODE: list[int] = []
+_STOPPER: list[threading.Thread] = []
 
 
 def begin_stop(name: str) -> None:
@@ -149,6 +150,7 @@ def begin_stop(name: str) -> None:
     leaves the run's files and summary to it (`wait_for_the_stop`)."""
     _STOP_LOCK.acquire()
     _STOP_CODE.append(EXIT_SIGNAL.get(name, 130))
+    _STOPPER.append(threading.current_thread())
 
 
 def wait_for_the_stop() -> None:
@@ -156,21 +158,54 @@ def wait_for_the_stop() -> None:
     Its clear_files removed the temporary file the main thread was writing (mesh.h5.tmp,
     summary.json.tmp): the main thread's rename failed with `No such file or directory`,
     and its `failed` summary (and error line) replaced the watchdog's `interrupted` before
-    the watchdog exited (2 of about 400 sweep trials on 2 ranks)."""
+    the watchdog exited (2 of about 400 sweep trials on 2 ranks).
+    It waits as long as that thread runs (a study's stop hooks write its tables and, on one
+    rank, its plots: a fixed wait could end the job in the middle of them), then at most
+    STOP_WAIT_SECONDS. A further signal does not end the wait (on one rank Ctrl-C again
+    raised KeyboardInterrupt out of the sleep: the main thread went on to exit by itself
+    while the other thread was writing)."""
     import time
 
-    time.sleep(STOP_WAIT_SECONDS)
+    stopper = _STOPPER[-1] if _STOPPER else None
+    end = time.monotonic() + STOP_WAIT_SECONDS
+    while True:
+        try:
+            if (stopper is not None and stopper is not threading.current_thread()
+                    and stopper.is_alive()):
+                stopper.join()  # (it exits the process: this returns only if it failed to)
+                end = time.monotonic()
+            if (left := end - time.monotonic()) <= 0:
+                break
+            time.sleep(left)
+        except (KeyboardInterrupt, RunInterrupted):
+            continue
     os._exit(_STOP_CODE[0] if _STOP_CODE else 130)
+
+
+def _say(line: str) -> None:
+    """The stopping thread's line on stderr; a closed stderr (a pipe whose reader ended)
+    does not keep it from exiting."""
+    try:
+        print(line, file=sys.stderr, flush=True)
+    except (OSError, ValueError):
+        pass
 
 
 def _hand_off_pending() -> str | None:
     """The name of a signal recorded but not acted on, for app/hard_stop.py to raise into
     the C handler it has just armed (the watchdog thread would wait for the GIL through the
-    long call); None if there is none. Waits while the watchdog is ending the job."""
-    if not _PENDING:
-        return None
-    _STOP_LOCK.acquire()
-    return _PENDING[0]
+    long call); None if there is none. While another thread is ending the job it puts the
+    handlers back and waits for the job's end: before, it waited with the C handler armed,
+    and a second signal (Ctrl-C in a terminal: SIGINT, then mpiexec's SIGTERM) wrote the
+    summary from C over the other thread's (an in-place tail at an offset of the layout
+    the C handler was armed with, not the one that thread wrote)."""
+    if not _STOP_LOCK.acquire(blocking=False):
+        hard_stop.disarm()
+        wait_for_the_stop()
+    if _PENDING:
+        return _PENDING[0]  # (the lock kept: the C handler ends the job)
+    _STOP_LOCK.release()
+    return None
 
 
 def unacted_signal() -> str | None:
@@ -463,9 +498,18 @@ class RunGuard:
 
     def stop_now(self, name: str) -> None:
         """From the watchdog thread: record `interrupted`, print it and exit at once."""
-        import json
-
         begin_stop(name)  # (a hand-off to the C handler took it first: it exits)
+        try:  # whatever fails below, this thread holds the stop lock: it must exit
+            self._record_stop(name)
+        finally:
+            startup_signals.exit_after_rank0(EXIT_SIGNAL.get(name, 130))
+
+    def _record_stop(self, name: str) -> None:
+        """stop_now's writes: summary.json `interrupted`, the error line, the stop hooks.
+        An OSError here (OUT gone, stderr a closed pipe) used to end the watchdog thread
+        with the stop lock held: the run went on, its steps' summaries replaced
+        `interrupted`, and its end waited STOP_WAIT_SECONDS and exited with no line."""
+        import json
 
         where = ("" if PETSc.COMM_WORLD.getSize() > 1 else
                  " (stopped inside a long computation)")
@@ -473,7 +517,10 @@ class RunGuard:
         self.summary["status"] = "interrupted"
         self.summary["error"] = reason
         if self.rank == 0:
-            clear_files(self.out, TEMPORARY)
+            try:
+                clear_files(self.out, TEMPORARY)
+            except OSError:  # (OUT unreadable or gone: the summary below fails alike)
+                pass
             for _ in range(5):  # the main thread may be changing the dict
                 try:  # (its status and error too: a `completed` with this error was seen)
                     text = json.dumps({**self.summary, "status": "interrupted",
@@ -490,9 +537,8 @@ class RunGuard:
                     atomic_write_bytes(self.out / "summary.json", text.encode())
                 except OSError:
                     pass
-            print(f"error: {reason}", file=sys.stderr, flush=True)
+            _say(f"error: {reason}")
         _run_stop_hooks(reason)
-        startup_signals.exit_after_rank0(EXIT_SIGNAL.get(name, 130))
 
     def __exit__(self, exc_type, exc, tb) -> bool:
         hard_stop.set_provider(None)
