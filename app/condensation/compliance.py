@@ -120,9 +120,11 @@ def attach_schur(solver: LinearSolver, k: PETSc.Mat, dofs: np.ndarray) -> None:
         solver.block = SchurFactorization(k, solver.ksp.getPC().getFactorMatrix(), dofs)
 
 
-def compliance_from_factor(solver: LinearSolver, g: sp.csr_matrix, fixed: np.ndarray
-                           ) -> np.ndarray | None:
-    """C = G_c S^-1 G_c^T with the S of `attach_schur`; dense (2m, 2m) on rank 0."""
+def compliance_from_factor(solver: LinearSolver, g: sp.csr_matrix, fixed: np.ndarray,
+                           pairs_first: np.ndarray | None = None) -> np.ndarray | None:
+    """C = G_c S^-1 G_c^T with the S of `attach_schur`; dense (2m, 2m) on rank 0.
+    pairs_first: pair indices, the likeliest to carry a force first (their columns of
+    S^-1 G_c^T are kept for the steps' recoveries); None: pair order."""
     dofs, gc = contact_dofs(g, fixed)
     block = solver.block
     if not dofs.size:
@@ -131,8 +133,13 @@ def compliance_from_factor(solver: LinearSolver, g: sp.csr_matrix, fixed: np.nda
         raise SolveError("the Schur set of the factorization is not the contact DOFs")
     if block.rank != 0:
         return None
-    c = gc @ block.dense_solve(gc.T.toarray())
-    return 0.5 * (c + c.T)
+    from app.condensation.compliance_product import compliance_product
+    from app.condensation.contact_columns import ContactColumns
+
+    columns = block.columns = ContactColumns(gc, block.dense_solve)  # the recoveries
+    first = np.arange(g.shape[0] // 2) if pairs_first is None else pairs_first
+    return compliance_product(gc, lambda b: block.dense_solve(b, overwrite=True),
+                              keep=lambda y: columns.prefill(y, first))
 
 
 def k_rank(solver: LinearSolver) -> int:
