@@ -136,7 +136,9 @@ def compliance_from_factor(solver: LinearSolver, g: sp.csr_matrix, fixed: np.nda
     from app.condensation.compliance_product import compliance_product
     from app.condensation.contact_columns import ContactColumns
 
-    columns = block.columns = ContactColumns(gc, block.dense_solve)  # the recoveries
+    # block.factor.solve, not block.dense_solve: a cycle through the block would leave its
+    # MUMPS factor to the garbage collector on rank 0 alone (a collective destroy: a hang)
+    columns = block.columns = ContactColumns(gc, block.factor.solve)  # the recoveries
     first = np.arange(g.shape[0] // 2) if pairs_first is None else pairs_first
     return compliance_product(gc, lambda b: block.dense_solve(b, overwrite=True),
                               keep=lambda y: columns.prefill(y, first))
