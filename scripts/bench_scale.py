@@ -5,7 +5,9 @@ four N times, so the DOFs grow about 4x a level) and each contact discretisation
 interface), and prints one JSON line per run: DOFs, pairs, steps, the wall time seen from
 outside the process, the run's `total`, the sum of its phases, the time outside any phase
 (wall - total: the interpreter and imports before PETSc starts, and the exit), the peak
-resident memory (MB, summed over ranks) and the seconds of each phase. After the runs of a
+resident memory (MB, summed over ranks), the output's size (MB), with 10 steps or more the
+median step seconds of the first and the last tenth of the steps and the mean Lemke pivots
+after the first step, and the seconds of each phase. After the runs of a
 discretisation, one line `"fit"` per phase gives the growth exponent b of t ~ DOFs^b
 (least squares on the logs, and between the last two sizes); b > 1.15 flags a phase that
 grows faster than the DOFs.
@@ -60,12 +62,26 @@ def run(config: Path, args: list[str], ranks: int) -> dict:
     phases = {k: round(v, 4) for k, v in t.items() if k != "total"}
     total = t.get("total", float("nan"))
     mem = s.get("peak_memory_mb") or {}
+    steps = s.get("steps") or []
     return {"status": s.get("status"), "n_dofs": s.get("n_dofs"), "n_pairs": s.get("n_pairs"),
             "n_steps": s.get("n_steps"), "wall_s": round(wall, 3), "total_s": round(total, 3),
             "phases_over_total": round(sum(phases.values()) / total, 4),
             "outside_s": round(wall - total, 3),
             "peak_mb": max(mem.values()) if mem else None,
-            "output_mb": round(out_mb, 2), "phases": phases}
+            "output_mb": round(out_mb, 2), **step_figures(steps), "phases": phases}
+
+
+def step_figures(steps: list[dict]) -> dict:
+    """Over many steps: median step seconds of the first and the last tenth, and the mean
+    Lemke pivots of the steps after the first (warm starts)."""
+    if len(steps) < 10:
+        return {}
+    sec = [st.get("step_seconds", np.nan) for st in steps]
+    k = max(1, len(sec) // 10)
+    piv = [st.get("lemke_pivots", 0) or 0 for st in steps[1:]]
+    return {"step_s_first": round(float(np.median(sec[:k])), 4),
+            "step_s_last": round(float(np.median(sec[-k:])), 4),
+            "pivots_mean": round(float(np.mean(piv)), 2)}
 
 
 def fits(rows: list[dict]) -> dict[str, dict]:
