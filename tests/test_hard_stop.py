@@ -127,12 +127,12 @@ from app.assembly import solve
 real = solve.LinearSolver.solve
 out = Path(sys.argv[sys.argv.index("--out") + 1])
 
-def solve_(self, b, x=None):
+def solve_(self, b, x=None, **kw):
     if (out / "step_0003.h5").exists():  # step 4's recovery: a long call
         with hard_stop.armed():
             print("ready", flush=True)
             ctypes.PyDLL(None).sleep(60)
-    return real(self, b, x)
+    return real(self, b, x, **kw)
 
 solve.LinearSolver.solve = solve_
 from app.cli import main

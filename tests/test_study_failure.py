@@ -205,11 +205,11 @@ from app import hard_stop
 from app.assembly import solve
 real = solve.LinearSolver.solve
 
-def solve_(self, b, x=None):  # a long PETSc call of the first run, which keeps the GIL
+def solve_(self, b, x=None, **kw):  # a long PETSc call of the first run, which keeps the GIL
     with hard_stop.armed():
         print("ready", flush=True)
         ctypes.PyDLL(None).sleep(60)
-    return real(self, b, x)
+    return real(self, b, x, **kw)
 
 solve.LinearSolver.solve = solve_
 from app.cli import main
