@@ -4,7 +4,8 @@ Runs `python -m app run CONFIG --refine N` for each refinement level N (every qu
 four N times, so the DOFs grow about 4x a level) and each contact discretisation (set on every
 interface), and prints one JSON line per run: DOFs, pairs, steps, the wall time seen from
 outside the process, the run's `total`, the sum of its phases, the time outside any phase
-(wall - total: the interpreter and imports before PETSc starts, and the exit), the peak
+(wall - total: the exit, and before the `launch` phase existed the interpreter, the
+imports and PETSc's start), the peak
 resident memory (MB, summed over ranks), the output's size (MB), with 10 steps or more the
 median step seconds of the first and the last tenth of the steps and the mean Lemke pivots
 after the first step, and the seconds of each phase. After the runs of a
