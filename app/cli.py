@@ -181,6 +181,9 @@ def main(argv: list[str] | None = None) -> int:
             print(f"error: {record(args, refused, _out_folder)}", file=sys.stderr)
         return 2
     args.started = time.perf_counter()  # a run's `startup` phase counts from here
+    from app.startup.launch_time import process_start
+
+    args.launched = process_start()  # and its `launch` phase, from the process's start
     from petsc4py import PETSc
 
     from app import exit_sync
@@ -310,6 +313,7 @@ def _run_command(args, petsc_args: list[str], rank: int) -> int:
                           mesh_cache=args.mesh_cache and Path(args.mesh_cache),
                           overrides=list(args.set),
                           refine=args.refine, started=getattr(args, "started", None),
+                          launched=getattr(args, "launched", None),
                           allow_large=args.allow_large)
         method = opts.method or cfg.method  # (--sd with a config's fem-q4 was ignored)
         if args.sd is not None and method in BULK_METHODS \

@@ -60,8 +60,15 @@ class Timer:
         """Start the run's clock at t0 (perf_counter seconds) and book the time since
         then as the phase `name` (what ran before the timer existed). No progress line:
         an input error found before the first phase stays a one-line message."""
-        self.start = t0
+        self.start = min(self.start, t0)
         self.seconds[name] = self.seconds.get(name, 0.0) + time.perf_counter() - t0
+        self.peak_mb[name] = peak_rss_mb()
+
+    def book(self, name: str, t0: float, t1: float) -> None:
+        """Book the interval t0..t1 (perf_counter seconds, before the timer existed) as
+        phase `name`, and start the run's clock at t0 if that is earlier. No progress line."""
+        self.start = min(self.start, t0)
+        self.seconds[name] = self.seconds.get(name, 0.0) + t1 - t0
         self.peak_mb[name] = peak_rss_mb()
 
     def reduced(self) -> dict[str, float]:

@@ -69,12 +69,12 @@ def sleep_in_a_solve(when: str = "True") -> str:
         real = solve.LinearSolver.solve
         out = Path(sys.argv[sys.argv.index("--out") + 1])
 
-        def solve_(self, b, x=None):
+        def solve_(self, b, x=None, **kw):
             if {when}:
                 with hard_stop.armed():
                     print("ready", flush=True)
                     ctypes.PyDLL(None).sleep(60)
-            return real(self, b, x)
+            return real(self, b, x, **kw)
 
         solve.LinearSolver.solve = solve_
         """)

@@ -172,3 +172,23 @@ def test_a_mumps_option_that_refuses_the_schur_set_says_to_use_the_solve_route(t
                    str(tmp_path / "s"), "-mat_mumps_icntl_28", "2", "-contact_compliance",
                    "solve"])
     assert res.returncode == 0, res.stderr
+
+
+def test_recovery_with_kept_columns_matches_the_solve_with_s(hertz):
+    """b = G^T lambda with `forces`: u_c from the kept columns S^-1 G_c^T, the same u."""
+    k, contact, fixed = hertz
+    one = LinearSolver(k)
+    dofs = request_schur(one, contact.g, fixed)
+    one.factor()
+    attach_schur(one, k, dofs)
+    compliance_from_factor(one, contact.g, fixed)
+    assert one.block.columns is not None
+    lam = np.zeros(contact.g.shape[0])
+    lam[: lam.size // 4] = np.linspace(1.0, 2.0, lam.size // 4)
+    b = contact.g.T @ lam
+    b[fixed] = 0.0
+    x1 = one.solve(_vec(k, b)).getArray().copy()
+    x2 = one.solve(_vec(k, b), forces=lam).getArray()
+    cols = one.block.columns  # seeded by the compliance, or filled by this solve
+    assert cols.pos[np.flatnonzero(lam)].min() >= 0 and cols.solves <= 1
+    assert np.abs(x1 - x2).max() <= 1e-12 * np.abs(x1).max()

@@ -149,8 +149,10 @@ class LinearSolver:
                              f"{scale:.3g}): a load, body force or prescribed value is out "
                              "of range; check their values and units")
 
-    def solve(self, b: PETSc.Vec, x: PETSc.Vec | None = None) -> PETSc.Vec:
-        """Solve K x = b; checks convergence and the residual.
+    def solve(self, b: PETSc.Vec, x: PETSc.Vec | None = None,
+              forces: np.ndarray | None = None) -> PETSc.Vec:
+        """Solve K x = b; checks convergence and the residual. forces: b = G^T forces
+        (the contact-force recovery), for the block solver's kept columns.
 
         A direct solve that is inaccurate or NaN means a singular stiffness
         (SingularStiffnessError); an iterative one that stops short is a SolveError that
@@ -161,7 +163,7 @@ class LinearSolver:
             raise SolveError("the load vector of a linear solve is not finite (inf or NaN): "
                              "a load, body force or prescribed value exceeds the range of "
                              "float64; check their values and units")
-        self._check_reason(self._apply(b, x))
+        self._check_reason(self._apply(b, x, forces))
         bn, rn = self._residual_norms(b, x)
         if np.isnan(x.norm()):
             self._check_overflow(b)
@@ -171,12 +173,12 @@ class LinearSolver:
             raise self._inaccurate(rn / bn)
         return x
 
-    def _apply(self, b: PETSc.Vec, x: PETSc.Vec) -> int:
+    def _apply(self, b: PETSc.Vec, x: PETSc.Vec, forces: np.ndarray | None = None) -> int:
         """x = K^-1 b by the block solver or the KSP; the KSP's converged reason (0 for
         the block solver)."""
         with hard_stop.armed():  # one C call that holds the GIL
             if self.block is not None:
-                self.block.solve(b, x)
+                self.block.solve(b, x, forces)
                 return 0
             self.ksp.solve(b, x)
             return self.ksp.getConvergedReason()

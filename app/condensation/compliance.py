@@ -121,21 +121,35 @@ def attach_schur(solver: LinearSolver, k: PETSc.Mat, dofs: np.ndarray) -> None:
         solver.block = SchurFactorization(k, solver.ksp.getPC().getFactorMatrix(), dofs)
 
 
-def compliance_from_factor(solver: LinearSolver, g: sp.csr_matrix, fixed: np.ndarray
-                           ) -> np.ndarray | None:
-    """C = G_c S^-1 G_c^T with the S of `attach_schur`; dense (2m, 2m) on rank 0."""
+def compliance_from_factor(solver: LinearSolver, g: sp.csr_matrix, fixed: np.ndarray,
+                           pairs_first: np.ndarray | None = None) -> np.ndarray | None:
+    """C = G_c S^-1 G_c^T with the S of `attach_schur`; dense (2m, 2m) on rank 0.
+    pairs_first: pair indices, the likeliest to carry a force first (their columns of
+    S^-1 G_c^T are kept for the steps' recoveries); None: pair order."""
     dofs, gc = contact_dofs(g, fixed)
     block = solver.block
     if not dofs.size:
         return np.zeros((g.shape[0], g.shape[0])) if k_rank(solver) == 0 else None
     if not np.array_equal(dofs, block.dofs):
         raise SolveError("the Schur set of the factorization is not the contact DOFs")
-    return rank0_call(dense_compliance, gc, block, share_result=False)  # failure shared
+    return rank0_call(dense_compliance, gc, block, g.shape[0], pairs_first,
+                      share_result=False)  # failure shared
 
 
-def dense_compliance(gc: sp.csr_matrix, block) -> np.ndarray:
-    """Rank 0: G_c S^-1 G_c^T, symmetrised, with the dense factor of S in `block`."""
-    return symmetric_part(gc @ block.dense_solve(gc.T.toarray()))
+def dense_compliance(gc: sp.csr_matrix, block, n_rows: int,
+                     pairs_first: np.ndarray | None) -> np.ndarray:
+    """Rank 0: G_c S^-1 G_c^T (symmetric, formed blockwise) with the dense factor of S in
+    `block`; keeps the columns of S^-1 G_c^T that the recoveries will need (block.columns),
+    those of `pairs_first` (default: the first half of the rows) first."""
+    from app.condensation.compliance_product import compliance_product
+    from app.condensation.contact_columns import ContactColumns
+
+    # block.factor.solve, not block.dense_solve: a cycle through the block would leave its
+    # MUMPS factor to the garbage collector on rank 0 alone (a collective destroy: a hang)
+    columns = block.columns = ContactColumns(gc, block.factor.solve)  # the recoveries
+    first = np.arange(n_rows // 2) if pairs_first is None else pairs_first
+    return compliance_product(gc, lambda b: block.dense_solve(b, overwrite=True),
+                              keep=lambda y: columns.prefill(y, first))
 
 
 def k_rank(solver: LinearSolver) -> int:

@@ -24,7 +24,11 @@ def contact_displacement(g: sp.csr_matrix, lam: np.ndarray, solver: LinearSolver
     r0, r1 = k.getOwnershipRange()
     vec = k.createVecLeft()
     vec.setArray(b[r0:r1])
-    return to_numpy_all(solver.solve(vec))
+    x = solver.solve(vec, forces=lam)
+    out = to_numpy_all(x)
+    x.destroy()
+    vec.destroy()
+    return out
 
 
 def mismatch(g: sp.csr_matrix, u: np.ndarray, result) -> np.ndarray:

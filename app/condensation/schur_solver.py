@@ -119,11 +119,12 @@ class DenseFactor:
                     raise
             self.lu = sla.lu_factor(s, overwrite_a=overwrite, check_finite=False)
 
-    def solve(self, b: np.ndarray) -> np.ndarray:
-        """S^-1 b for b of shape (n,) or (n, k)."""
+    def solve(self, b: np.ndarray, overwrite: bool = False) -> np.ndarray:
+        """S^-1 b for b of shape (n,) or (n, k); b may be overwritten when `overwrite`
+        (in place when it is in Fortran order)."""
         if self.chol is not None:
-            return sla.cho_solve(self.chol, b, check_finite=False)
-        return sla.lu_solve(self.lu, b, check_finite=False)
+            return sla.cho_solve(self.chol, b, overwrite_b=overwrite, check_finite=False)
+        return sla.lu_solve(self.lu, b, overwrite_b=overwrite, check_finite=False)
 
 
 class SchurFactorization:
@@ -156,10 +157,11 @@ class SchurFactorization:
         iset = PETSc.IS().createGeneral(idx.astype(PETSc.IntType), comm=comm)
         self.to_zero = PETSc.Scatter().create(self.work, iset, self.seq, None)
         iset.destroy()
+        self.columns = None  # rank 0's ContactColumns, set with the compliance
 
-    def dense_solve(self, b: np.ndarray) -> np.ndarray:
-        """S^-1 b on rank 0 (b: (n_c,) or (n_c, k))."""
-        return self.factor.solve(b)
+    def dense_solve(self, b: np.ndarray, overwrite: bool = False) -> np.ndarray:
+        """S^-1 b on rank 0 (b: (n_c,) or (n_c, k); overwritten when `overwrite`)."""
+        return self.factor.solve(b, overwrite)
 
     def _gather_c(self, v: PETSc.Vec) -> np.ndarray | None:
         """The contact entries of v on rank 0 (None elsewhere)."""
@@ -180,17 +182,28 @@ class SchurFactorization:
         self.f.solve(b, x)
         x.getArray()[self.local_c] = 0.0
 
-    def solve(self, b: PETSc.Vec, x: PETSc.Vec) -> PETSc.Vec:
-        """x = K^-1 b by block elimination (two interior solves at most)."""
+    def solve(self, b: PETSc.Vec, x: PETSc.Vec, forces: np.ndarray | None = None
+              ) -> PETSc.Vec:
+        """x = K^-1 b by block elimination (two interior solves at most). forces: when b
+        is G^T forces (no interior load; significant on rank 0), u_c comes from the kept
+        columns S^-1 G_c^T (`self.columns`) instead of a solve with S."""
         comm = self.k.getComm().tompi4py()
         has_interior = comm.allreduce(bool(np.any(b.getArray(readonly=True)[self.interior])))
         y = self.k.createVecLeft()
+        t = self.work
+        bc = self._gather_c(b)
         if has_interior:
             self.interior_solve(b, y)
-        t = self.work
-        self.k.mult(y, t)  # (K y)_c = K_ci y_i
-        bc, tc = self._gather_c(b), self._gather_c(t)
-        uc = self.dense_solve(bc - tc) if self.rank == 0 else None
+            self.k.mult(y, t)  # (K y)_c = K_ci y_i
+            tc = self._gather_c(t)
+            if self.rank == 0:
+                bc -= tc
+        uc = None
+        if self.rank == 0 and forces is not None and not has_interior \
+                and self.columns is not None:
+            uc = self.columns.apply(forces)
+        if self.rank == 0 and uc is None:
+            uc = self.dense_solve(bc)
         w = self.k.createVecLeft()
         self._scatter_c(uc, w)  # w = u_c on c, 0 elsewhere
         self.k.mult(w, t)

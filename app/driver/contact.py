@@ -43,7 +43,9 @@ def condense(ctx: RunContext, model: Model, system: LinearSystem,
     contact = model.contact
     with ctx.phase("compliance"):
         if system.route == "schur":
-            c_mat = compliance_from_factor(system.solver, contact.g, model.fixed_all)
+            gaps = contact.pairs.g0 / np.maximum(contact.pairs.length, 1e-300)
+            c_mat = compliance_from_factor(system.solver, contact.g, model.fixed_all,
+                                           np.argsort(gaps, kind="stable"))
         else:
             c_mat = compliance_solve(system.solver, system.k, contact.g, model.fixed_all,
                                      to_numpy_all)

@@ -28,6 +28,7 @@ class RunOptions:
     overrides: list[str] = field(default_factory=list)  # the --set strings (provenance)
     refine: int = 0  # uniform splits of the (scaled) config mesh, see app/mesh/refine.py
     started: float | None = None  # perf_counter at PETSc start-up (cli): the `startup` phase
+    launched: float | None = None  # perf_counter at the process's start: the `launch` phase
     allow_large: bool = False  # --allow-large: also run when the dense contact matrices
     #                            would not fit (app/condensation/dense_size.py)
 
@@ -49,6 +50,9 @@ class RunContext:
         self.timer = Timer(quiet=self.opts.quiet, prefix=prefix)
         if self.opts.started is not None:  # imports, config checks, provenance, --out lock
             self.timer.count_from(self.opts.started, "startup")
+            launched = self.opts.launched  # the interpreter, imports, PETSc's and MPI's start
+            if launched is not None and launched < self.opts.started:
+                self.timer.book("launch", launched, self.opts.started)
 
     @property
     def mpi(self):

@@ -9,6 +9,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
+from petsc4py import PETSc
 
 from app.assembly.loads import LoadCase, support_dofs, unique_names
 from app.assembly.stiffness import node_ownership
@@ -104,6 +105,10 @@ def write_step(ctx: RunContext, model: Model, output: StepOutput, step: int, u: 
                                             minlength=len(mesh.body_names)))
         energy = float(by_body.sum())
         check_finite(step + 1, cfg.n_steps, u, energy)
+        # PETSc objects that Python dropped wait in petsc4py's garbage until a collective
+        # clean-up: without it, each step's solve vectors stayed (0.5 MB a step at 38,580
+        # DOFs, 2.2 MB at 153,060: 0.67 GB over 300 steps)
+        PETSc.garbage_cleanup()
         hold_signals()  # the step's files and summary.json are written together
         step_writing(True)
         on_rank0(_write_step, output.writer, step, mesh, u, gathered, contact_data, info)
