@@ -109,18 +109,20 @@ def _answer_checks(ctx: RunContext, model: Model, result: StepSolution, step: in
     `result.info`, and the once-per-run warnings about it."""
     result.info["consistency_refinements"] = refinements
     result.info["lcp_displacement_mismatch"] = rel
-    _held_mode_warnings(ctx, result, step)
+    _held_mode_warnings(ctx, result, step, model.contact.described)
     _stripe_warnings(ctx, model, result, step)
     _crossing_warnings(ctx, model, u, step)
 
 
-def _held_mode_warnings(ctx: RunContext, result: StepSolution, step: int) -> None:
+def _held_mode_warnings(ctx: RunContext, result: StepSolution, step: int,
+                        described: dict) -> None:
     """A warning (summary `warnings`, one stderr line on rank 0) the first time an unloaded
     contact-held mode of a body slid an interface beyond SLIDE_WARN (app/interface/
     weak_modes.py); `steps[k].contact_held_modes` holds every measured ratio."""
     for entry in result.info.get("contact_held_modes", []):
         if entry["warn"]:
-            ctx.warn(slide_warning(entry, step + 1),
+            how = described.get(entry["interface"], {}).get("discretisation")
+            ctx.warn(slide_warning(entry, step + 1, how),
                      ("contact-held mode", entry["body"], entry["interface"]))
 
 
