@@ -10,6 +10,7 @@ import numpy as np
 
 from app.condensation.compliance import compliance_from_factor, compliance_solve
 from app.condensation.recovery import contact_displacement, mismatch
+from app.contact.master_penetration import master_penetration, master_penetration_warning
 from app.contact.resolution import stripe_checks, stripe_warning
 from app.contact.smooth_ends import smooth_end_checks, smooth_end_warning
 from app.contact.unpaired import crossed_unpaired, crossing_warning
@@ -101,6 +102,10 @@ def _crossing_warnings(ctx: RunContext, model: Model, u: np.ndarray, step: int) 
         if crossing is not None:
             ctx.warn(crossing_warning(itf.name, step + 1, crossing, itf.search_distance),
                      ("crossing", itf.name))
+        behind = master_penetration(model.mesh, slave, master, u.reshape(-1, 2), itf.name)
+        if behind is not None:
+            ctx.warn(master_penetration_warning(itf.name, step + 1, slave, master, behind),
+                     ("master behind slave", itf.name))
 
 
 def _answer_checks(ctx: RunContext, model: Model, result: StepSolution, step: int,
