@@ -10,7 +10,9 @@ import numpy as np
 
 from app.condensation.compliance import compliance_from_factor, compliance_solve
 from app.condensation.recovery import contact_displacement, mismatch
+from app.contact.master_penetration import master_penetration, master_penetration_warning
 from app.contact.resolution import stripe_checks, stripe_warning
+from app.contact.smooth_ends import smooth_end_checks, smooth_end_warning
 from app.contact.unpaired import crossed_unpaired, crossing_warning
 from app.driver.context import RunContext, write_summary
 from app.driver.linear import LinearSystem, UnitSolutions
@@ -102,6 +104,10 @@ def _crossing_warnings(ctx: RunContext, model: Model, u: np.ndarray, step: int) 
         if crossing is not None:
             ctx.warn(crossing_warning(itf.name, step + 1, crossing, itf.search_distance),
                      ("crossing", itf.name))
+        behind = master_penetration(model.mesh, slave, master, u.reshape(-1, 2), itf.name)
+        if behind is not None:
+            ctx.warn(master_penetration_warning(itf.name, step + 1, slave, master, behind),
+                     ("master behind slave", itf.name))
 
 
 def _answer_checks(ctx: RunContext, model: Model, result: StepSolution, step: int,
@@ -110,18 +116,20 @@ def _answer_checks(ctx: RunContext, model: Model, result: StepSolution, step: in
     `result.info`, and the once-per-run warnings about it."""
     result.info["consistency_refinements"] = refinements
     result.info["lcp_displacement_mismatch"] = rel
-    _held_mode_warnings(ctx, result, step)
+    _held_mode_warnings(ctx, result, step, model.contact.described)
     _stripe_warnings(ctx, model, result, step)
     _crossing_warnings(ctx, model, u, step)
 
 
-def _held_mode_warnings(ctx: RunContext, result: StepSolution, step: int) -> None:
+def _held_mode_warnings(ctx: RunContext, result: StepSolution, step: int,
+                        described: dict) -> None:
     """A warning (summary `warnings`, one stderr line on rank 0) the first time an unloaded
     contact-held mode of a body slid an interface beyond SLIDE_WARN (app/interface/
     weak_modes.py); `steps[k].contact_held_modes` holds every measured ratio."""
     for entry in result.info.get("contact_held_modes", []):
         if entry["warn"]:
-            ctx.warn(slide_warning(entry, step + 1),
+            how = described.get(entry["interface"], {}).get("discretisation")
+            ctx.warn(slide_warning(entry, step + 1, how),
                      ("contact-held mode", entry["body"], entry["interface"]))
 
 
@@ -135,6 +143,9 @@ def _stripe_warnings(ctx: RunContext, model: Model, result: StepSolution, step: 
             name = check["interface"]
             ctx.warn(stripe_warning(check, step + 1, described[name]["discretisation"]),
                      ("stripes", name))
+    for check in smooth_end_checks(model.mesh, pairs, normal, ctx.cfg.interfaces, described,
+                                   result.f_scale):
+        ctx.warn(smooth_end_warning(check, step + 1), ("smooth end", check["interface"]))
 
 
 def _displacement(model: Model, system: LinearSystem, u_free: np.ndarray,
