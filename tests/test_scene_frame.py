@@ -164,3 +164,22 @@ def test_kkt_warning_text():
     text = kkt_warning({"gap": 5.4e-3, "normal_force": 0.0}, 3)
     assert text.startswith("step 3: the contact answer breaks the interface law (gap 0.0054")
     assert kkt_warning({"gap": float("nan")}, 1) is not None
+
+
+def test_check_invariance_judges_closed_gaps_against_the_displacements(tmp_path):
+    """patch.toml mirrored: every pair is closed, so the gaps are round-off; the script
+    read 0.97 (round-off over round-off) and now scales them by the interface's
+    displacements as well."""
+    import json
+    import subprocess
+
+    from support import CONFIGS, mpi_env
+
+    res = subprocess.run([sys.executable, str(ROOT / "scripts" / "check_invariance.py"),
+                          str(CONFIGS / "patch.toml"), "--xf", "mirror=1", "--out",
+                          str(tmp_path / "inv")], cwd=ROOT, env=mpi_env(),
+                         capture_output=True, text=True, timeout=600)
+    assert res.returncode == 0, res.stderr
+    row = json.loads(res.stdout.strip().splitlines()[-1])
+    assert row["transform"] == "mirror=1" and row["unmatched"] == 0
+    assert row["gap"] < 1e-8 and row["WORST"] < 1e-8
