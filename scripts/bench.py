@@ -63,7 +63,7 @@ def main() -> int:
     argv = sys.argv[1:]
     extra = argv[argv.index("--") + 1:] if "--" in argv else []
     argv = argv[: argv.index("--")] if "--" in argv else argv
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("names", nargs="*", help="benchmarks to run (see --list)")
     ap.add_argument("--list", action="store_true", help="list the benchmarks")
     ap.add_argument("--log", type=Path, default=None, help="append the JSON lines here")

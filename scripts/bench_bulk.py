@@ -16,7 +16,7 @@ from app_runner import ROOT, run_app
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--config", default=str(ROOT / "configs" / "cantilever.toml"))
     ap.add_argument("--mesh-size", type=float, default=0.003162,
                     help="element size; 0.003162 gives about 10^6 elements (3162 x 316)")

@@ -34,7 +34,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--mesh-size", type=float, default=0.0045)
     ap.add_argument("--pairs", type=int, nargs="+", default=[100, 1000, 3000])
     ap.add_argument("--solve-route-max", type=int, default=100)

@@ -36,7 +36,7 @@ def _median_seconds(fn, repeat: int) -> float:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--config", default=str(ROOT / "configs" / "hard" / "cattaneo_many.toml"))
     ap.add_argument("--refine", type=int, default=0)
     ap.add_argument("--repeat", type=int, default=7)

@@ -174,7 +174,7 @@ def _max():
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--config", default=str(ROOT / "configs" / "hertz.toml"))
     ap.add_argument("--mesh-size", type=float, default=0.0245)
     ap.add_argument("--mesh-cache", default=None)

@@ -16,7 +16,7 @@ from app_runner import ROOT, run_app
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--config", default=str(ROOT / "configs" / "hertz.toml"))
     ap.add_argument("--mesh-size", type=float, nargs="+", default=[0.5, 0.25, 0.125])
     ap.add_argument("--ranks", type=int, default=1)

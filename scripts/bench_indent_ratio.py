@@ -315,7 +315,7 @@ CASES = {"indent": _indent_rows, "bond": _bond_rows, "spaces": _spaces_rows}
 
 
 def _arguments(argv: list[str] | None = None) -> argparse.Namespace:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--only", nargs="+", choices=list(CASES), default=list(CASES))
     ap.add_argument("--block-sizes", type=float, nargs="+",
                     default=[0.144, 0.12, 0.1, 0.09, 0.08, 0.07, 0.06, 0.05, 0.04, 0.035,

@@ -147,7 +147,7 @@ def recovery_sets() -> list[dict]:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--large", action="store_true", help="also n = 6000")
     ap.add_argument("--n", type=int, nargs="*", help="sizes to run (multiples of 3)")
     ap.add_argument("--reference", action="store_true", help="also run the tableau version")

@@ -19,7 +19,7 @@ from app_runner import ROOT, run_app
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--config", default=str(ROOT / "configs" / "hard" / "cattaneo_many.toml"))
     ap.add_argument("--ranks", type=int, default=1)
     args, extra = ap.parse_known_args()

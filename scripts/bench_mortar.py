@@ -108,7 +108,7 @@ def emit(row: dict) -> None:
 
 def _arguments() -> argparse.Namespace:
     """The command line (see the module docstring)."""
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--only", nargs="+", default=["patch", "hertz", "cattaneo", "multibody",
                                                    "mu0"])
     ap.add_argument("--hertz-sizes", type=float, nargs="+", default=[0.5, 0.25, 0.125, 0.0625])

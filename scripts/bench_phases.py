@@ -48,7 +48,7 @@ def run(config: Path, extra: list[str], ranks: int) -> dict:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--skip", nargs="*", default=["cattaneo_many"])
     ap.add_argument("--ranks", type=int, default=1)
     args = ap.parse_args()

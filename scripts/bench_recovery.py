@@ -66,7 +66,7 @@ def last_u(out: Path) -> np.ndarray:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--config", default="configs/hard/cattaneo_many.toml")
     ap.add_argument("--repeat", type=int, default=2)
     ap.add_argument("--ranks", type=int, default=1)

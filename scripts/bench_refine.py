@@ -34,7 +34,7 @@ def row(kind: str, args: list[str], s: dict) -> dict:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--config", default=str(ROOT / "configs" / "hertz.toml"))
     ap.add_argument("--mesh-size", type=float, default=0.0245,
                     help="element size of the fine level (hertz.toml: 0.0245 = 1.12M DOFs)")

@@ -26,7 +26,7 @@ from app_runner import ENV, ROOT
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--config", default=str(ROOT / "configs" / "patch.toml"))
     ap.add_argument("--steps", type=int, default=1000)
     ap.add_argument("--window", type=int, default=100)

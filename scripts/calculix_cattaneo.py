@@ -256,7 +256,7 @@ def plot(rows: list[dict], path: str, mu: float, R: float, E_star: float, thickn
 
 
 def _arguments() -> argparse.Namespace:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--config", default="configs/cattaneo.toml")
     ap.add_argument("--mesh-size", type=float, default=None,
                     help="global element size as in `run` (0.25: a/40 on cattaneo.toml)")

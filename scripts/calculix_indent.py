@@ -257,7 +257,7 @@ def plot(rows: list[dict], path: str) -> None:
 
 
 def _arguments() -> argparse.Namespace:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--config", default="configs/indent.toml")
     ap.add_argument("--block", default="block", help="the [[body]] whose size is varied")
     ap.add_argument("--block-sizes", type=float, nargs="+", default=[0.08])

@@ -60,7 +60,7 @@ def nothing_to_audit(out: Path) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("out", type=Path)
     ap.add_argument("--tol", type=float, default=LAW_TOL)
     args = ap.parse_args(argv)

@@ -248,7 +248,7 @@ def trial(config: Path, ranks: int, delay: float, sig: signal.Signals, out: Path
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("config", type=Path, nargs="?")
     ap.add_argument("--ranks", type=int, default=2)
     ap.add_argument("--trials", type=int, default=6)

@@ -215,7 +215,7 @@ def compare(a: Path, b: Path, tf: Transform) -> dict:
 
 
 def main() -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("config")
     ap.add_argument("--interface", default="0",
                     help="the [[interface]] (name or index) whose discretisation is set "

@@ -45,7 +45,7 @@ def cases(seed: int, large: bool) -> list[tuple[ac.Case, Reference]]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--rounds", type=int, default=20, help="rounds of cases (default 20)")
     ap.add_argument("--seed", type=int, default=0, help="seed of the first round")
     ap.add_argument("--no-large", action="store_true", help="skip the n = 30-420 cases")

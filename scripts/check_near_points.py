@@ -54,7 +54,7 @@ def meshes(c: dict) -> str | None:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--n", type=int, default=60)
     ap.add_argument("--lo", type=float, default=1e-5)
     ap.add_argument("--hi", type=float, default=0.5)

@@ -431,7 +431,7 @@ def compare_folders(ref: Path, other: Path, tol: float, roundoff: float) -> int:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("configs", nargs="*", type=Path,
                     help="scenes (default: configs/*.toml and configs/hard/*.toml)")
     ap.add_argument("--ranks", type=int, nargs="+", default=[1, 2, 3])

@@ -90,7 +90,7 @@ def exact_field(ref_summary: dict, field: str, mu: float):
 
 
 def _arguments() -> argparse.Namespace:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("study", type=Path)
     ap.add_argument("--method", default="4SD")
     ap.add_argument("--reference", default="4SD")

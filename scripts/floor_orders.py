@@ -29,7 +29,7 @@ from app.studies.field_breakdown import bisect_pairs, edge_phase, floor_sequence
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("study", type=Path)
     ap.add_argument("--field", choices=("q", "p"), default="q")
     ap.add_argument("--levels", type=int, default=9)

@@ -109,7 +109,7 @@ def floor_table() -> None:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("outs", nargs="*")
     ap.add_argument("--reference")
     ap.add_argument("--floor-table", action="store_true")

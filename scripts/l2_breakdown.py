@@ -36,7 +36,7 @@ def level_row(run: Path, core: float) -> dict:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("study", type=Path)
     ap.add_argument("--method", default="4SD")
     ap.add_argument("--core", type=float, default=0.95, help="core |x| < CORE a")

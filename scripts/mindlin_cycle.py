@@ -194,7 +194,7 @@ def plot(out: Path, res: dict, steps: list[int], center_x: float, radius: float,
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("out", type=Path)
     ap.add_argument("--radius", type=float, default=1.0)
     ap.add_argument("--center-x", type=float, default=0.0)

@@ -49,7 +49,7 @@ def last_contact(out: Path, step: int) -> dict:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--refine", type=int, default=0)
     ap.add_argument("--steps", type=int, default=10)
     ap.add_argument("--k", type=float, default=0.1, help="Q / P (below mu = 0.2)")
