@@ -30,6 +30,11 @@ MIN_COLUMNS = 64
 """Columns kept at most on a small Schur set (whatever MAX_FRACTION gives)."""
 
 
+def column_cap(n_c: int, n_rows: int) -> int:
+    """Columns kept at most for a Schur set of n_c DOFs and n_rows rows of G."""
+    return min(n_rows, max(MIN_COLUMNS, int(MAX_FRACTION * n_c)))
+
+
 class ContactColumns:
     """S^-1 G_c^T e_r for the rows r of G solved so far (rank 0's).
 
@@ -43,8 +48,8 @@ class ContactColumns:
         self.gct = sp.csc_matrix(gc.T)
         n_c, n_rows = self.gct.shape
         self.dense_solve = dense_solve
-        self.max_columns = min(n_rows, max_columns if max_columns is not None
-                               else max(MIN_COLUMNS, int(MAX_FRACTION * n_c)))
+        self.max_columns = (min(n_rows, max_columns) if max_columns is not None
+                            else column_cap(n_c, n_rows))
         self.pos = np.full(n_rows, -1, dtype=np.int64)  # row -> its column in y, or -1
         self.count = 0
         self.y = np.empty((n_c, self.max_columns), order="F")  # pages touched when filled
