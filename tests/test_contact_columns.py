@@ -71,3 +71,18 @@ def test_prefill_keeps_the_first_pairs_columns_and_saves_their_fill():
     lam[[5, 9 + m]] = [1.0, -0.5]
     assert np.allclose(cols.apply(lam), np.linalg.solve(s, gc.T @ lam), rtol=1e-12)
     assert not calls  # no solve with S: the columns were kept
+
+
+def test_by_default_every_row_fits_and_the_compliance_columns_are_kept_without_a_copy():
+    # before, the cap was n_c / 4 columns: with more rows in contact (cattaneo.toml: 110
+    # rows of 150, 77 columns) every step fell back to the solve with S
+    s, gc, solve, calls = _problem(n_c=400, m=60)
+    y = np.asfortranarray(np.linalg.solve(s, gc.T.toarray()))
+    cols = ContactColumns(gc, solve)
+    cols.prefill(y, np.arange(60))
+    assert cols.y is y and cols.count == 120
+    lam = np.random.default_rng(1).standard_normal(120)
+    lam[::7] = 0.0
+    got = cols.apply(lam)
+    assert got is not None and not calls
+    assert np.allclose(got, np.linalg.solve(s, gc.T @ lam), rtol=1e-12, atol=1e-14)

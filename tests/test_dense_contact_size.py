@@ -17,11 +17,24 @@ from app.errors import InputError
 def test_the_dense_size_counts_free_contact_dofs_and_rows():
     g = sp.csr_matrix(np.array([[1.0, -1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0, 0.0]]))
     assert free_contact_dofs(g, np.array([1])) == 2  # columns 0 and 2; 1 is prescribed
-    assert dense_size.dense_contact_bytes(2, 2) == pytest.approx(24.0 * 8)
+    assert dense_size.dense_contact_bytes(2, 2) == pytest.approx(24.0 * 8 + 8.0 * 4)
     with pytest.raises(InputError, match="1 pairs on 2 free DOFs.*--allow-large"):
         check_dense_contact(g, np.array([1]), 0.0, available=100.0)
-    assert check_dense_contact(g, np.array([1]), 0.0, 100.0, allow_large=True) == 192.0
-    assert check_dense_contact(g, np.array([1]), 0.0, 1e9) == 192.0
+    assert check_dense_contact(g, np.array([1]), 0.0, 100.0, allow_large=True) == 224.0
+    assert check_dense_contact(g, np.array([1]), 0.0, 1e9) == 224.0
+
+
+def test_the_dense_size_counts_the_recovery_s_kept_columns():
+    # they stay through the steps (n_c x 2m doubles when every row fits); before, the
+    # estimate left them out and cattaneo_many's peak passed it
+    from app.condensation.contact_columns import ContactColumns
+
+    n_c, n_rows = 6000, 4000
+    cols = ContactColumns(sp.csr_matrix((n_rows, n_c)), lambda b: b)
+    kept = 8.0 * n_c * cols.max_columns
+    assert cols.max_columns == n_rows
+    assert dense_size.dense_contact_bytes(n_c, n_rows) == pytest.approx(
+        24.0 * (n_c ** 2 + n_rows ** 2) + kept)
 
 
 def test_a_long_thin_contact_is_refused_before_the_factorization(tmp_path):

@@ -8,9 +8,12 @@ the columns S^-1 G_c^T e_r are solved once, together, for the rows r that first 
 force (and the other row of the same pair), and every later step is one product with the
 kept columns: u_c = Y lambda_kept. The compliance's own S^-1 G_c^T seeds them with the
 pairs of the smallest initial gaps (`prefill`), the first to close. The columns are kept
-in a Fortran-order array reserved up to `max_columns` (a quarter of S's memory at most),
-so memory grows only with the columns kept; past that, the step falls back to the one
-dense solve (None from `apply`).
+in a Fortran-order array reserved up to `max_columns` (S's memory at most); when every
+row fits, the compliance's own S^-1 G_c^T is kept as it is (no copy). Past `max_columns`,
+the step falls back to the one dense solve (None from `apply`). With a quarter of n_c (the
+cap before), the rows of the pairs in contact did not fit on cattaneo, multibody and
+bonded.toml (up to 110 of 77, 153 of 69, 66 of 64 columns): every step fell back, and the
+columns were held for nothing.
 """
 
 from __future__ import annotations
@@ -20,10 +23,16 @@ from collections.abc import Callable
 import numpy as np
 import scipy.sparse as sp
 
-MAX_FRACTION = 0.25
-"""Columns kept at most, as a fraction of n_c: their memory stays under a quarter of S's."""
+MAX_FRACTION = 1.0
+"""Columns kept at most, as a fraction of n_c: their memory stays under S's (the 2m rows of G
+are fewer than n_c on a two-sided contact: all of them are kept)."""
 MIN_COLUMNS = 64
 """Columns kept at most on a small Schur set (whatever MAX_FRACTION gives)."""
+
+
+def column_cap(n_c: int, n_rows: int) -> int:
+    """Columns kept at most for a Schur set of n_c DOFs and n_rows rows of G."""
+    return min(n_rows, max(MIN_COLUMNS, int(MAX_FRACTION * n_c)))
 
 
 class ContactColumns:
@@ -39,8 +48,8 @@ class ContactColumns:
         self.gct = sp.csc_matrix(gc.T)
         n_c, n_rows = self.gct.shape
         self.dense_solve = dense_solve
-        self.max_columns = min(n_rows, max_columns if max_columns is not None
-                               else max(MIN_COLUMNS, int(MAX_FRACTION * n_c)))
+        self.max_columns = (min(n_rows, max_columns) if max_columns is not None
+                            else column_cap(n_c, n_rows))
         self.pos = np.full(n_rows, -1, dtype=np.int64)  # row -> its column in y, or -1
         self.count = 0
         self.y = np.empty((n_c, self.max_columns), order="F")  # pages touched when filled
@@ -49,9 +58,17 @@ class ContactColumns:
     def prefill(self, y: np.ndarray, pairs_first: np.ndarray) -> None:
         """Keep the columns of the full S^-1 G_c^T `y` (n_c, n_rows) for the pairs in the
         order `pairs_first` (e.g. by initial gap: the first to close), both rows of each,
-        as many as `max_columns` holds."""
+        as many as `max_columns` holds; when it holds every row, `y` itself (Fortran order)
+        in row order."""
         n_rows = self.pos.size
-        if n_rows % 2 or self.count:
+        if self.count:
+            return
+        if self.max_columns >= n_rows and y.shape == (self.y.shape[0], n_rows) \
+                and y.flags.f_contiguous:  # every row: keep y itself
+            self.y, self.count = y, n_rows
+            self.pos[:] = np.arange(n_rows)
+            return
+        if n_rows % 2:
             return
         m = n_rows // 2
         rows = np.column_stack([pairs_first, pairs_first + m]).ravel()[: self.max_columns]
@@ -94,6 +111,8 @@ class ContactColumns:
             return None
         cols = self.pos[rows]
         end = int(cols.max()) + 1  # the kept columns up to the last one used (a prefix:
-        weights = np.zeros(end)    # the first pairs to close come first)
+        if end > 2 * cols.size:    # the first pairs to close come first), unless sparse
+            return self.y[:, cols] @ lam[rows]
+        weights = np.zeros(end)
         weights[cols] = lam[rows]
         return self.y[:, :end] @ weights

@@ -182,6 +182,13 @@ class SchurFactorization:
         self.f.solve(b, x)
         x.getArray()[self.local_c] = 0.0
 
+    def _contact_solve(self, bc: np.ndarray, forces: np.ndarray | None) -> np.ndarray:
+        """Rank 0: u_c = S^-1 bc, from the kept columns when `forces` (bc = G_c^T forces)
+        are given and the columns they need fit, else one solve with S."""
+        uc = self.columns.apply(forces) if forces is not None and self.columns is not None \
+            else None
+        return self.dense_solve(bc) if uc is None else uc
+
     def solve(self, b: PETSc.Vec, x: PETSc.Vec, forces: np.ndarray | None = None
               ) -> PETSc.Vec:
         """x = K^-1 b by block elimination (two interior solves at most). forces: when b
@@ -198,12 +205,9 @@ class SchurFactorization:
             tc = self._gather_c(t)
             if self.rank == 0:
                 bc -= tc
-        uc = None
-        if self.rank == 0 and forces is not None and not has_interior \
-                and self.columns is not None:
-            uc = self.columns.apply(forces)
-        if self.rank == 0 and uc is None:
-            uc = self.dense_solve(bc)
+        # rank 0's part, its failure shared: the other ranks wait in the scatter below
+        uc = rank0_call(self._contact_solve, bc, None if has_interior else forces,
+                        share_result=False)
         w = self.k.createVecLeft()
         self._scatter_c(uc, w)  # w = u_c on c, 0 elsewhere
         self.k.mult(w, t)
