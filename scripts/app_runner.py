@@ -16,6 +16,15 @@ ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIR
            OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1")
 
 
+def app_command(args: list[str], ranks: int = 1, script: str | None = None) -> list[str]:
+    """The command line of `python -m app ARGS` (or `python -c SCRIPT ARGS`: the app with a
+    hook), under `mpiexec -n ranks` when ranks > 1."""
+    head = [sys.executable, "-c", script] if script else [sys.executable, "-m", "app"]
+    if ranks > 1:
+        return [shutil.which("mpiexec") or "mpiexec", "-n", str(ranks), *head, *args]
+    return [*head, *args]
+
+
 def run_app(config: str, args: list[str], ranks: int = 1,
             pairs: tuple[str, ...] = ()) -> dict:
     """Summary of one run, or {"error": last stderr line(s)} when it failed.
@@ -26,9 +35,7 @@ def run_app(config: str, args: list[str], ranks: int = 1,
     """
     out = Path(tempfile.mkdtemp(prefix="bench_"))
     try:
-        cmd = [sys.executable, "-m", "app", "run", config, "--out", str(out), "--quiet", *args]
-        if ranks > 1:
-            cmd = [shutil.which("mpiexec") or "mpiexec", "-n", str(ranks), *cmd]
+        cmd = app_command(["run", config, "--out", str(out), "--quiet", *args], ranks)
         res = subprocess.run(cmd, cwd=ROOT, env=ENV, capture_output=True, text=True)
         if res.returncode != 0:
             return {"error": res.stderr.strip()[-500:]}

@@ -15,20 +15,16 @@ import argparse
 import json
 import shutil
 import subprocess
-import sys
 import tempfile
 from pathlib import Path
 
-from app_runner import ENV, ROOT
+from app_runner import ENV, ROOT, app_command
 
 
 def run(config: Path, extra: list[str], ranks: int) -> dict:
     out = Path(tempfile.mkdtemp(prefix="bench_phases_"))
     try:
-        cmd = [sys.executable, "-m", "app", "run", str(config), "--out", str(out), "--quiet",
-               *extra]
-        if ranks > 1:
-            cmd = [shutil.which("mpiexec") or "mpiexec", "-n", str(ranks), *cmd]
+        cmd = app_command(["run", str(config), "--out", str(out), "--quiet", *extra], ranks)
         res = subprocess.run(cmd, cwd=ROOT, env=ENV, capture_output=True, text=True)
         path = out / "summary.json"
         if not path.exists():

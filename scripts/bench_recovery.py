@@ -18,12 +18,11 @@ import argparse
 import json
 import shutil
 import subprocess
-import sys
 import tempfile
 from pathlib import Path
 
 import numpy as np
-from app_runner import ENV, ROOT
+from app_runner import ENV, ROOT, app_command
 
 RUN = """
 import sys
@@ -42,9 +41,7 @@ sys.exit(main(sys.argv[2:]))
 
 def run(mode: str, config: str, ranks: int, out: Path) -> dict:
     """One run in its own process; its summary's figures."""
-    cmd = [sys.executable, "-c", RUN, mode, "run", config, "--out", str(out), "--quiet"]
-    if ranks > 1:
-        cmd = [shutil.which("mpiexec") or "mpiexec", "-n", str(ranks), *cmd]
+    cmd = app_command([mode, "run", config, "--out", str(out), "--quiet"], ranks, RUN)
     res = subprocess.run(cmd, cwd=ROOT, env=ENV, capture_output=True, text=True)
     if res.returncode != 0:
         return {"error": res.stderr.strip()[-300:]}

@@ -23,14 +23,13 @@ import argparse
 import json
 import shutil
 import subprocess
-import sys
 import tempfile
 import time
 import tomllib
 from pathlib import Path
 
 import numpy as np
-from app_runner import ENV, ROOT
+from app_runner import ENV, ROOT, app_command
 
 SMALL_S = 0.02
 """Phases shorter than this at the largest size are left out of the fits (timer noise)."""
@@ -45,10 +44,7 @@ def run(config: Path, args: list[str], ranks: int) -> dict:
     """One run: its summary's figures and the wall seconds around the process."""
     out = Path(tempfile.mkdtemp(prefix="bench_scale_"))
     try:
-        cmd = [sys.executable, "-m", "app", "run", str(config), "--out", str(out), "--quiet",
-               *args]
-        if ranks > 1:
-            cmd = [shutil.which("mpiexec") or "mpiexec", "-n", str(ranks), *cmd]
+        cmd = app_command(["run", str(config), "--out", str(out), "--quiet", *args], ranks)
         t0 = time.perf_counter()
         res = subprocess.run(cmd, cwd=ROOT, env=ENV, capture_output=True, text=True)
         wall = time.perf_counter() - t0
