@@ -60,7 +60,7 @@ def master_penetration(mesh: Mesh, slave: str, master: str, u: np.ndarray,
         return None
     scale = float(max(np.linalg.norm(u[s_nodes], axis=1).max(),
                       np.linalg.norm(u[m_nodes], axis=1).max()))
-    if not scale > 0:
+    if not 0 < scale < np.inf:  # (a non-finite u: the step fails its own check)
         return None
     tol = MASTER_DEPTH_WARN * scale
     free = np.bincount(s_edges.ravel(), minlength=pts.shape[0])[s_edges] == 1
