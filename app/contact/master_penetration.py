@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from app.contact.pairs import _curve_edges
-from app.contact.unpaired import _signed_gap
+from app.contact.unpaired import nodes_behind
 from app.mesh.model import Mesh, orient_boundary_edges
 
 MASTER_DEPTH_WARN = 0.03
@@ -63,23 +63,11 @@ def master_penetration(mesh: Mesh, slave: str, master: str, u: np.ndarray,
     if not 0 < scale < np.inf:  # (a non-finite u: the step fails its own check)
         return None
     tol = MASTER_DEPTH_WARN * scale
-    free = np.bincount(s_edges.ravel(), minlength=pts.shape[0])[s_edges] == 1
-    a, b = s_edges[:, 0], s_edges[:, 1]
-    reach = 2.0 * scale + tol
-    g0, ok0 = _signed_gap(pts[m_nodes], pts[a], pts[b], free, reach)
-    near = ok0 & (g0 > -tol)
-    if not near.any():
+    found = nodes_behind(pts, m_nodes, s_edges, u, 2.0 * scale + tol, -tol, tol)
+    if found is None:
         return None
-    nodes, g0 = m_nodes[near], g0[near]
-    x1 = pts + u
-    g1, ok1 = _signed_gap(x1[nodes], x1[a], x1[b], free, 2.0 * reach)
-    behind = ok1 & (g1 < -tol)
-    if not behind.any():
-        return None
-    deepest = int(np.argmin(np.where(behind, g1, np.inf)))
-    depth = float(-g1[deepest])
-    return MasterPenetration(int(behind.sum()), depth, depth / scale,
-                             pts[nodes[deepest]].copy())
+    count, depth, node = found
+    return MasterPenetration(count, depth, depth / scale, pts[node].copy())
 
 
 def master_penetration_warning(name: str, step: int, slave: str, master: str,

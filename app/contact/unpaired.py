@@ -54,6 +54,30 @@ def _signed_gap(x: np.ndarray, xa: np.ndarray, xb: np.ndarray, free: np.ndarray,
     return gap, found & ~beyond
 
 
+def nodes_behind(pts: np.ndarray, nodes: np.ndarray, edges: np.ndarray, u: np.ndarray,
+                 reach: float, start_min: float, depth_tol: float
+                 ) -> tuple[int, float, int] | None:
+    """Of `nodes` (k,), those whose undeformed signed gap to the oriented curve `edges`
+    (s, 2) exceeds start_min and that lie behind the deformed curve (pts + u) by more than
+    depth_tol, both judged by the closest segment (searched within reach, then 2 reach;
+    a node beyond a free end of the curve is not judged): (count, the deepest one's
+    depth, its node id), or None when there is none."""
+    free = np.bincount(edges.ravel(), minlength=pts.shape[0])[edges] == 1
+    a, b = edges[:, 0], edges[:, 1]
+    g_start, ok_start = _signed_gap(pts[nodes], pts[a], pts[b], free, reach)
+    near = ok_start & (g_start > start_min)
+    if not near.any():
+        return None
+    nodes = nodes[near]
+    x1 = pts + u
+    g_now, ok_now = _signed_gap(x1[nodes], x1[a], x1[b], free, 2.0 * reach)
+    behind = ok_now & (g_now < -depth_tol)
+    if not behind.any():
+        return None
+    deepest = int(np.argmin(np.where(behind, g_now, np.inf)))
+    return int(behind.sum()), float(-g_now[deepest]), int(nodes[deepest])
+
+
 def crossed_unpaired(mesh: Mesh, slave: str, master: str, paired: np.ndarray,
                      u: np.ndarray, label: str) -> Crossing | None:
     """The unpaired nodes of curve `slave` (paired (k,): the slave nodes with a pair)
@@ -70,20 +94,11 @@ def crossed_unpaired(mesh: Mesh, slave: str, master: str, paired: np.ndarray,
     reach = float(np.abs(u[s_nodes]).max() + np.abs(u[m_nodes]).max()) * np.sqrt(2.0)
     if not reach > 0:
         return None
-    free = np.bincount(m_edges.ravel(), minlength=pts.shape[0])[m_edges] == 1
-    a, b = m_edges[:, 0], m_edges[:, 1]
-    g_start, ok_start = _signed_gap(pts[nodes], pts[a], pts[b], free, reach)
-    near = ok_start & (g_start > 0)
-    if not near.any():
+    found = nodes_behind(pts, nodes, m_edges, u, reach, 0.0, CROSS_REL_TOL * reach)
+    if found is None:
         return None
-    nodes = nodes[near]
-    x1 = pts + u
-    g_now, ok_now = _signed_gap(x1[nodes], x1[a], x1[b], free, 2.0 * reach)
-    crossed = ok_now & (g_now < -CROSS_REL_TOL * reach)
-    if not crossed.any():
-        return None
-    deepest = int(np.argmin(np.where(crossed, g_now, np.inf)))
-    return Crossing(int(crossed.sum()), float(-g_now[deepest]), pts[nodes[deepest]].copy())
+    count, depth, node = found
+    return Crossing(count, depth, pts[node].copy())
 
 
 def paired_sides(mesh: Mesh, slave: str, master: str, paired: np.ndarray) -> tuple[str, str]:
