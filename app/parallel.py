@@ -60,9 +60,7 @@ class Timer:
         """Start the run's clock at t0 (perf_counter seconds) and book the time since
         then as the phase `name` (what ran before the timer existed). No progress line:
         an input error found before the first phase stays a one-line message."""
-        self.start = min(self.start, t0)
-        self.seconds[name] = self.seconds.get(name, 0.0) + time.perf_counter() - t0
-        self.peak_mb[name] = peak_rss_mb()
+        self.book(name, t0, time.perf_counter())
 
     def book(self, name: str, t0: float, t1: float) -> None:
         """Book the interval t0..t1 (perf_counter seconds, before the timer existed) as
@@ -126,9 +124,9 @@ class PeerFailure(Exception):
         return (PeerFailure, (self.code, str(self)))
 
 
-ONE_LINE_FAILURES = (InputError, SolveError, OSError, MemoryError)
-"""What the run's guard (app/output/status.py) turns into a one-line error, exit 2;
-anything else ends rank 0 with its traceback, exit 1."""
+ONE_LINE_FAILURES = (InputError, SolveError, OSError, MemoryError, PETSc.Error)
+"""What the run's guard (app/output/status.py `_finish`) turns into a one-line error, exit
+2; anything else ends rank 0 with its traceback, exit 1."""
 
 
 def peer_failure(exc: BaseException) -> PeerFailure:
