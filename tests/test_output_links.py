@@ -38,6 +38,7 @@ def _step(w: ResultWriter, step: int, rows: np.ndarray, body: np.ndarray) -> Non
     disp[:, 1] = -0.01 * step * w.points[:, 0]
     stress = np.arange(4.0 * N).reshape(N, 4) * step
     contact = {"position": w.points[:N], "x": w.points[:N, 0], "slave": np.arange(N),
+               "interface": np.zeros(N, dtype=np.int64),
                "p": np.linspace(0, 1, N) * step,
                "normal": np.tile([0.0, 1.0], (N, 1)), "tangent": np.tile([1.0, 0.0], (N, 1)),
                "g_cols": rows.astype(np.int64), "g_normal": rows * 0.5}
@@ -163,3 +164,28 @@ def test_no_link_to_a_step_file_that_failed_or_was_removed(tmp_path, monkeypatch
     assert isinstance(_link(tmp_path / "step_0003.h5", "/contact/g_normal"), h5py.HardLink)
     with h5py.File(tmp_path / "step_0003.h5") as f:
         np.testing.assert_array_equal(f["/contact/g_normal"][()], (rows + 1) * 0.5)
+
+
+def test_step_datasets_and_a_standalone_copy_read_through_the_links(tmp_path):
+    from app.output.read import read_pairs, standalone_copy, step_datasets
+
+    points, quads, body = _mesh()
+    w = ResultWriter(tmp_path / "run", points, quads, body)
+    rows = np.arange(3.0 * N).reshape(N, 3)
+    for step in (1, 2):
+        _step(w, step, rows, body)
+    one, two = (step_datasets(tmp_path / "run" / f"step_{k:04d}.h5") for k in (1, 2))
+    assert one.keys() == two.keys() and {"contact/g_cols", "body_id", "s_xx"} <= one.keys()
+    np.testing.assert_array_equal(two["contact/g_cols"], one["contact/g_cols"])
+    np.testing.assert_array_equal(read_pairs(tmp_path / "run" / "step_0002.h5")["g_cols"],
+                                  rows.astype(np.int64))
+    standalone_copy(tmp_path / "run" / "step_0002.h5", tmp_path / "alone.h5")
+    shutil.rmtree(tmp_path / "run")  # the copy needs none of the folder's files
+    alone = step_datasets(tmp_path / "alone.h5")
+    assert alone.keys() == two.keys()
+    for k, v in two.items():
+        np.testing.assert_array_equal(alone[k], v)
+    with h5py.File(tmp_path / "alone.h5") as f:
+        assert f.attrs["step"] == 2
+        assert isinstance(f.get("contact/g_cols", getlink=True), h5py.HardLink)
+        assert not f["s_xx"].is_virtual
