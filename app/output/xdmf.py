@@ -5,7 +5,10 @@ Layout in the output folder (rank 0 writes; other ranks pass their data to rank 
 - step_0001.h5, step_0002.h5, ...: one closed file per completed load step, with
   /displacement (n, 3) (z = 0 for ParaView's warp filter), /stress (ne, 4)
   (s_xx, s_yy, s_xy, s_zz), /von_mises (ne,), /energy_density (ne,), and, with contact,
-  the group /contact (see `ResultWriter.write_step`).
+  the group /contact (see `ResultWriter.write_step`). A dataset equal to the last written
+  copy of the same name is an external link to it (mesh.h5's /body for /body_id, or an
+  earlier step file), and /s_xx ... are virtual columns of /stress (app/output/links.py);
+  the XDMF files name the one copy itself.
 - results.xdmf: temporal collection of the bulk fields (one Uniform grid per step).
 - contact.xdmf: temporal collection of the contact pairs as points (when there is contact).
 Both XDMF files are written whole through a temporary file and a rename at the first
