@@ -103,6 +103,9 @@ def test_a_step_after_the_data_changed_holds_its_own_copy(tmp_path):
     zero[0, 0] = -0.0
     _step(w, 4, zero, other)
     assert isinstance(_link(tmp_path / "step_0004.h5", "/contact/g_normal"), h5py.HardLink)
+    _step(w, 5, zero[:-1], other)  # fewer rows (a pair set that changed): its own copy
+    with h5py.File(tmp_path / "step_0005.h5") as f:
+        assert f["/contact/g_normal"].shape == (N - 1, 3)
 
 
 def test_the_folder_moved_elsewhere_still_reads(tmp_path, monkeypatch):
