@@ -82,3 +82,27 @@ def test_a_job_that_hangs_or_fails_without_its_line_is_reported(tmp_path):
         "exit 2 with 2 'error:' lines"]
     res = check_ranks.run(ROOT / "configs" / "patch.toml", [], 2, tmp_path / "o", 0.05)
     assert res.returncode is None  # ended by the timeout: mpiexec's process group killed
+
+
+def test_linked_and_own_copies_of_equal_data_compare_equal(tmp_path):
+    """A step array equal to the step before is a link to that copy; a round-off
+    difference decides whether it is, and the two runs still agree (before, the linked
+    dataset was missing from one run and the XDMF text differed)."""
+    from app.output.links import LINK_MIN_BYTES
+
+    m = LINK_MIN_BYTES // 8 + 1
+    pts = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], dtype=float)
+    for name, bump in (("a", False), ("b", True)):
+        w = ResultWriter(tmp_path / name, pts, np.array([[0, 1, 2, 3]]), np.zeros(1, np.int64))
+        for step in (1, 2):
+            p = np.linspace(1.0, 2.0, m)
+            p = np.nextafter(p, 3.0) if bump and step == 2 else p  # one unit in the last place
+            contact = {"position": np.zeros((m, 2)) + [0.5, 0.0], "p": p}
+            w.write_step(step, float(step), {"displacement": np.zeros((4, 3))},
+                         {"stress": np.ones((1, 4))}, contact)
+        steps = [{"step": k, "reactions": {"base": {"Fy": 1.0}}} for k in (1, 2)]
+        (tmp_path / name / "summary.json").write_text(json.dumps(
+            {"status": "completed", "steps": steps}))
+    diffs, mism = check_ranks.compare_outputs(tmp_path / "a", tmp_path / "b")
+    assert mism == [] and diffs["step:contact/p"] < 1e-15
+    assert "contact/p" in check_ranks.h5_datasets(tmp_path / "a" / "step_0002.h5")

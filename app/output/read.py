@@ -33,3 +33,36 @@ def read_pairs(path: Path, interface: int = 0, keys: tuple[str, ...] | None = No
     data = {k: v[sel] for k, v in data.items() if v.shape[:1] == sel.shape}
     order = np.argsort(data["x"]) if "x" in data else np.arange(int(sel.sum()))
     return {k: v[order] for k, v in data.items()}
+
+
+def step_datasets(path: Path) -> dict[str, np.ndarray]:
+    """Every dataset of an output HDF5 file by its path ("displacement", "contact/p"),
+    read through its links: a dataset that repeats an earlier step's is an external link
+    to that one copy (README, "Output"), which h5py's `visititems` does not follow."""
+    out: dict[str, np.ndarray] = {}
+
+    def walk(group: h5py.Group, prefix: str) -> None:
+        for k in group:
+            obj = group[k]
+            if isinstance(obj, h5py.Group):
+                walk(obj, f"{prefix}{k}/")
+            else:
+                out[prefix + k] = obj[()]
+
+    with h5py.File(path, "r") as f:
+        walk(f, "")
+    return out
+
+
+def standalone_copy(path: Path, dest: Path) -> None:
+    """Write step file `path` to `dest` with every dataset its own real copy (no links to
+    other files, no virtual datasets) and the same file attributes: a step file that reads
+    on its own, without the folder's earlier step files and mesh.h5."""
+    data = step_datasets(path)
+    with h5py.File(path, "r") as f:
+        attrs = dict(f.attrs)
+    with h5py.File(dest, "w") as g:
+        for k, v in attrs.items():
+            g.attrs[k] = v
+        for k, v in data.items():
+            g[k] = v
