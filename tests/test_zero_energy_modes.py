@@ -62,3 +62,47 @@ def test_a_body_of_a_thousand_dofs_is_not_decomposed_densely(monkeypatch):
     mesh = distorted_grid(36, 20)  # 777 nodes, 1,554 free DOFs
     assert zero_energy_modes(mesh, ONE_SD, 0, NO_SUPPORT).shape == (2 * mesh.n_nodes, 5)
     assert max(sizes, default=0) <= 1000, sizes
+
+
+def test_mumps_factor_finds_the_same_null_space(monkeypatch):
+    """The run factorizes the shifted stiffness with MUMPS on this rank
+    (`SequentialCholesky`): the same modes as SciPy's SuperLU and the dense route; its
+    options prefix keeps the user's stiffness options (here an iterative KSP that would
+    not solve to round-off) away from it."""
+    from petsc4py import PETSc
+
+    from app.assembly.sequential_factor import SequentialCholesky
+
+    mesh = distorted_grid(14, 12)
+    dense, superlu = both_routes(monkeypatch, mesh)
+    opts = PETSc.Options()
+    opts.setValue("ksp_type", "richardson")
+    opts.setValue("ksp_max_it", "1")
+    opts.setValue("pc_type", "jacobi")
+    try:
+        mumps = zero_energy_modes(mesh, ONE_SD, 0, NO_SUPPORT, factorize=SequentialCholesky)
+    finally:
+        for name in ("ksp_type", "ksp_max_it", "pc_type"):
+            opts.delValue(name)
+    assert mumps.shape == dense.shape == (390, 5)
+    np.testing.assert_allclose(projector(mumps), projector(dense), atol=1e-8)
+    np.testing.assert_allclose(projector(mumps), projector(superlu), atol=1e-8)
+
+
+def test_a_factor_with_destroy_is_destroyed(monkeypatch):
+    """The factor is freed when the eigen-solve ends, not at garbage collection."""
+    destroyed = []
+
+    class Spy:
+        def __init__(self, matrix):
+            self.inner = bulk.superlu_factor(matrix)
+
+        def solve(self, rhs):
+            return self.inner.solve(rhs)
+
+        def destroy(self):
+            destroyed.append(True)
+
+    monkeypatch.setattr(bulk, "DENSE_EIG_MAX_DOFS", 10)
+    modes = zero_energy_modes(distorted_grid(14, 12), ONE_SD, 0, NO_SUPPORT, factorize=Spy)
+    assert modes.shape[1] == 5 and destroyed == [True]

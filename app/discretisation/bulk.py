@@ -5,7 +5,9 @@ Plain numpy on top of the element kernels; no MPI and no files.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 
@@ -133,13 +135,38 @@ def element_fields(mesh: Mesh, disc: Discretisation, u: np.ndarray, elements: np
 # 14 s at 3000 on one core here); above, shift-invert Lanczos (about 0.3 s at 3000).
 DENSE_EIG_MAX_DOFS = 500
 
+LANCZOS_FIRST_K = 4
+"""Eigenpairs Lanczos asks for first, doubled while every one found is zero-energy: each
+pair asked beyond the null space is a slowly converging smallest non-zero one (a
+67,813-DOF body with 3 modes: 4.8 s for 4 pairs, 8.4 s for 12)."""
 
-def zero_energy_modes(mesh: Mesh, disc, body: int, fixed: np.ndarray) -> np.ndarray:
+
+class Factor(Protocol):
+    """A factorized sparse matrix A (n, n): solve(rhs) is A^-1 rhs, (n,)."""
+
+    def solve(self, rhs: np.ndarray) -> np.ndarray: ...
+
+
+Factorize = Callable[..., Factor]
+"""Factorizes a sparse SPD matrix (scipy.sparse, (n, n)); a factor with a `destroy()`
+method is destroyed when the eigen-solve ends."""
+
+
+def superlu_factor(matrix) -> Factor:
+    """SciPy's SuperLU with a symmetric ordering (numpy-only default of `factorize`)."""
+    import scipy.sparse.linalg as sla_sparse
+
+    return sla_sparse.splu(matrix.tocsc(), permc_spec="MMD_AT_PLUS_A")
+
+
+def zero_energy_modes(mesh: Mesh, disc, body: int, fixed: np.ndarray,
+                      factorize: Factorize = superlu_factor) -> np.ndarray:
     """Null space of one body's stiffness with its supports, (2 n_body_nodes, r).
 
     Rigid modes and, for CS-FEM-1SD, hourglass modes. Dense eigen-decomposition for small
-    bodies, shift-invert Lanczos otherwise. Rows follow the body's nodes in ascending
-    order, x and y interleaved.
+    bodies, shift-invert Lanczos otherwise, its one factorization by `factorize` (the run
+    passes MUMPS, `app.assembly.sequential_factor`). Rows follow the body's nodes in
+    ascending order, x and y interleaved.
     """
     import scipy.sparse as sp
 
@@ -165,28 +192,32 @@ def zero_energy_modes(mesh: Mesh, disc, body: int, fixed: np.ndarray) -> np.ndar
         keep = w < 1e-9 * w[-1]
         modes = v[:, keep]
     else:
-        modes = _null_space_lanczos(kff, scale)
+        modes = _null_space_lanczos(kff, scale, factorize)
     out = np.zeros((n, modes.shape[1]))
     out[free] = modes
     return out
 
 
-def _null_space_lanczos(kff, scale: float) -> np.ndarray:
+def _null_space_lanczos(kff, scale: float, factorize: Factorize) -> np.ndarray:
     """Eigenvectors of the sparse symmetric kff (n, n) with eigenvalues below 1e-9 scale,
-    (n, r), by shift-invert Lanczos about -1e-8 scale: one sparse LU (a symmetric
-    ordering: half the fill of SuperLU's default COLAMD on the Hertz cylinder, 2.7x
-    faster), more eigenpairs asked for while every one found is below the bound."""
+    (n, r), by shift-invert Lanczos about -1e-8 scale: one factorization of the shifted
+    (positive definite) matrix, more eigenpairs asked for while every one found is below
+    the bound."""
     import scipy.sparse as sp
     import scipy.sparse.linalg as sla_sparse
 
     n = kff.shape[0]
     shift = -1e-8 * scale
-    lu = sla_sparse.splu((kff - shift * sp.identity(n)).tocsc(), permc_spec="MMD_AT_PLUS_A")
-    inv = sla_sparse.LinearOperator(kff.shape, matvec=lu.solve, dtype=float)
-    k = min(n - 2, 12)
-    while True:
-        w, v = sla_sparse.eigsh(kff, k=k, sigma=shift, which="LM", OPinv=inv)
-        modes = v[:, w < 1e-9 * scale]
-        if modes.shape[1] < k or k == n - 2:
-            return modes
-        k = min(n - 2, 2 * k)
+    factor = factorize(kff - shift * sp.identity(n, format="csr"))
+    inv = sla_sparse.LinearOperator(kff.shape, matvec=factor.solve, dtype=float)
+    k = min(n - 2, LANCZOS_FIRST_K)
+    try:
+        while True:
+            w, v = sla_sparse.eigsh(kff, k=k, sigma=shift, which="LM", OPinv=inv)
+            modes = v[:, w < 1e-9 * scale]
+            if modes.shape[1] < k or k == n - 2:
+                return modes
+            k = min(n - 2, 2 * k)
+    finally:
+        if hasattr(factor, "destroy"):
+            factor.destroy()

@@ -9,6 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 from petsc4py import PETSc
 
+from app.assembly.sequential_factor import SequentialCholesky
 from app.assembly.solve import (
     LinearSolver,
     SingularStiffnessError,
@@ -110,7 +111,8 @@ def singular_message(disc: Discretisation, mesh: Mesh, detail: str,
     if fixed is not None:
         for b in range(len(mesh.body_names)):
             if np.sum(mesh.body == b) <= 20000:
-                r = zero_energy_modes(mesh, disc, b, fixed).shape[1]
+                r = zero_energy_modes(mesh, disc, b, fixed,
+                                      factorize=SequentialCholesky).shape[1]
                 n_modes += r
                 if r > 0:
                     names.append(f"'{mesh.body_names[b]}'")

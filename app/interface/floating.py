@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import scipy.linalg as sla
 
+from app.assembly.sequential_factor import SequentialCholesky
 from app.config import Config
 from app.discretisation.bulk import zero_energy_modes
 from app.errors import SolveError
@@ -134,7 +135,7 @@ def floating_modes(mesh: Mesh, cfg: Config, fixed: np.ndarray,
         labels = mode_names(modes, centroid) if modes.shape[1] else []
         coef = modes
         if hourglass:  # rigid and hourglass modes together, from the body stiffness
-            rb = zero_energy_modes(mesh, disc, b, fixed)
+            rb = zero_energy_modes(mesh, disc, b, fixed, factorize=SequentialCholesky)
             labels = [f"zero-energy mode {i + 1}" for i in range(rb.shape[1])]
             coef = np.full((3, rb.shape[1]), np.nan)
             if rb.shape[1] == 0:
