@@ -131,7 +131,7 @@ class BatchStatus:
 
     def _stopped(self) -> None:
         """A stop hook (several ranks: the job ends on a signal without raising here)."""
-        self.summary["status"] = "interrupted"
+        self.summary["status"] = status.stop_status()  # (`failed`: another rank's failure)
         self.summary["error"] = status.stop_reason() or (
             "interrupted by SIGINT or SIGTERM; what completed before it is written")
         self._write()
