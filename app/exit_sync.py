@@ -39,15 +39,37 @@ study's tables."""
 NOTE_NAME = ".failed_rank.json"
 """The note of a rank that failed alone, in the run's OUT (a hidden file, as OUT/.lock)."""
 
-_STATE: dict = {"comm": None, "note": None}
+_STATE: dict = {"comm": None, "note": None, "meet": None, "alone": False}
 
 
 def arm() -> None:
-    """After PETSc started, on every rank (collective): the communicator of the end."""
+    """After PETSc started, on every rank (collective): the communicators of the end and
+    of `failed_together`."""
     from petsc4py import PETSc
 
     comm = PETSc.COMM_WORLD.tompi4py()
     _STATE["comm"] = comm.Dup() if comm.size > 1 else None
+    _STATE["meet"] = comm.Dup() if comm.size > 1 else None
+
+
+def failed_together() -> bool:
+    """After a run failed, in a batch that goes on past a failed run (a sweep): whether
+    every rank failed it too (they meet in a barrier of a communicator of their own within
+    OTHER_SECONDS; at once when all fail alike, as for a config a check rejects). False:
+    this rank failed alone (a MemoryError in its share of the work; the others wait in a
+    collective of the run): the batch must end, and its failed end then leaves at once
+    (`leave_if_alone`). Before, the sweep went on to its next run and the job hung."""
+    comm = _STATE["meet"]
+    if comm is None:
+        return True
+    request = comm.Ibarrier()
+    deadline = time.monotonic() + OTHER_SECONDS
+    while not request.Test():
+        if time.monotonic() > deadline:
+            _STATE["alone"] = True
+            return False
+        time.sleep(0.005)
+    return True
 
 
 def note_in(folder: Path, rank: int) -> None:
@@ -117,6 +139,8 @@ def leave_if_alone(code: int, message: str | None = None, with_traceback: bool =
         return
     limit = seconds if seconds is not None else (RANK0_SECONDS if comm.rank == 0
                                                   else OTHER_SECONDS)
+    if _STATE["alone"]:  # it waited for the others already (`failed_together`)
+        limit = 0.0
     line = _own_line(comm, message, with_traceback)
     noted = line is not None and _leave_note(comm.rank, code, line, False)
     request = comm.Ibarrier()  # (after the note: rank 0 cannot pass it before the note)

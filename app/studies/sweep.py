@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 from petsc4py import PETSc
 
-from app import hard_stop
+from app import exit_sync, hard_stop
 from app.config import load_config
 from app.errors import InputError, SolveError
 from app.output.batch_guard import BatchGuard
@@ -219,6 +219,8 @@ def _try_combination(sweep: Sweep, ro: RunOptions, params: dict) -> dict | None:
         report_step(sweep.at_step, cfg.n_steps)
         return run(cfg, ro)
     except (InputError, SolveError) as exc:
+        if not exit_sync.failed_together():
+            raise  # this rank failed alone: the others wait in the run (app/exit_sync.py)
         sweep.failed.append(str(exc))
         if PETSc.COMM_WORLD.getRank() == 0:
             print(f"[{time.perf_counter() - sweep.t0:8.2f} s] {ro.progress_prefix}: failed: "
