@@ -143,11 +143,6 @@ def sweep_audit(out: Path, config: Path, n_runs: int) -> tuple[dict, list[str]]:
     and statuses, the plots; `in_c`: the study's summary is the one app/_hard_stop.c writes
     (a signal inside a MUMPS call: it has no end_time)."""
     facts: dict = {"runs": {}, "rows": None, "plots": len(list(out.glob("sweep_*.png")))}
-    try:
-        study = json.loads((out / "summary.json").read_text())
-        facts["in_c"] = study.get("status") == "interrupted" and "end_time" not in study
-    except (OSError, ValueError):
-        pass
     problems: list[str] = []
     for k in range(n_runs):
         run_dir = out / f"run_{k:03d}"
@@ -156,6 +151,12 @@ def sweep_audit(out: Path, config: Path, n_runs: int) -> tuple[dict, list[str]]:
         f, p = audit(run_dir, config)
         facts["runs"][run_dir.name] = f.get("status")
         problems += [f"{run_dir.name}: {x}" for x in p]
+    try:  # (the start-up handler's summary has none either, but no run was stopped)
+        study = json.loads((out / "summary.json").read_text())
+        facts["in_c"] = (study.get("status") == "interrupted" and "end_time" not in study
+                         and "interrupted" in facts["runs"].values())
+    except (OSError, ValueError):
+        pass
     if (out / "sweep.csv").exists():
         with open(out / "sweep.csv", newline="") as fh:
             rows = list(csv.DictReader(fh))
