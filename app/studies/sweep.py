@@ -22,7 +22,7 @@ from app import exit_sync, hard_stop
 from app.config import load_config
 from app.errors import InputError, SolveError
 from app.output.batch_guard import BatchGuard
-from app.output.status import step_writing
+from app.output.status import step_writing, stop_status
 from app.plotting import pyplot
 from app.run import RunOptions, run
 from app.studies.convergence import csv_text, write_csv
@@ -241,7 +241,7 @@ def _write_completed(sweep: Sweep) -> str:
     write_csv(out / "sweep.csv", sweep.rows + missing)  # with a row for each missing run
     if plots:
         plot_sweep([dict(r) for r in sweep.rows], sweep.keys, out, sweep.at_step)
-    return _interrupted_line(sweep, len(missing), plots)
+    return _interrupted_line(sweep, len(missing), plots, stop_status())
 
 
 def _no_run_line(out: Path) -> str:
@@ -249,9 +249,11 @@ def _no_run_line(out: Path) -> str:
     return f"sweep: no run completed in {out}"
 
 
-def _interrupted_line(sweep: Sweep, n_missing: int, plots: bool) -> str:
-    """The `sweep:` line of an interrupted sweep with rows."""
-    return (f"sweep: interrupted; its {len(sweep.rows)} rows are in sweep.csv" +
+def _interrupted_line(sweep: Sweep, n_missing: int, plots: bool,
+                      state: str = "interrupted") -> str:
+    """The `sweep:` line of an interrupted sweep with rows (state `failed`: ended by
+    mpiexec's answer to a rank that failed alone, app/output/status.py `stop_status`)."""
+    return (f"sweep: {state}; its {len(sweep.rows)} rows are in sweep.csv" +
             (" and the plots" if plots else " (no plots on several ranks)") +
             f", in {sweep.out}, with a row for each of the {n_missing} runs that did not "
             "complete")
