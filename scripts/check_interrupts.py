@@ -148,6 +148,9 @@ def sweep_audit(out: Path, config: Path, n_runs: int) -> tuple[dict, list[str]]:
         run_dir = out / f"run_{k:03d}"
         if not run_dir.is_dir():
             continue
+        if {x.name for x in run_dir.iterdir()} <= {".lock"}:  # stopped as it took OUT
+            facts["runs"][run_dir.name] = "not started"
+            continue
         f, p = audit(run_dir, config)
         facts["runs"][run_dir.name] = f.get("status")
         problems += [f"{run_dir.name}: {x}" for x in p]

@@ -494,9 +494,7 @@ class RunGuard:
         self.removed = collective(start) or []
         if self.rank != 0:
             exit_sync.note_in(self.out, self.rank)
-        if self.rank == 0:
-            self.write(self.out, self.summary)
-        _ON_STOP.insert(0, self._stopped_before_its_watchdog)
+        self._write_running()
         self._old_int = signal.getsignal(signal.SIGINT)
         self._old_term = arm_signals()
         early = startup_signals.finish()
@@ -512,6 +510,22 @@ class RunGuard:
             stop = KeyboardInterrupt() if early == "SIGINT" else RunInterrupted(early)
             self.__exit__(type(stop), stop, None)  # writes `interrupted`, raises
         return self
+
+    def _write_running(self) -> None:
+        """The `running` summary (rank 0) and the stop hook that turns it `interrupted`,
+        under the stop lock: a study's watchdog that ends the job before them leaves this
+        run unstarted (no summary.json: `not run` in sweep.csv), one after them sees the
+        hook. Before, its hooks could run between the two, and the run's summary stayed
+        `running` (1 of 18 `check_interrupts.py --sweep` trials on 2 ranks)."""
+        if not _STOP_LOCK.acquire(blocking=False):
+            wait_for_the_stop()  # a watchdog is ending the job (it exits the process)
+            return
+        try:
+            if self.rank == 0:
+                self.write(self.out, self.summary)
+            _ON_STOP.insert(0, self._stopped_before_its_watchdog)
+        finally:
+            _STOP_LOCK.release()
 
     def stop_now(self, name: str) -> None:
         """From the watchdog thread: record `interrupted` (or, when the signal answers
