@@ -147,13 +147,22 @@ def rearm_address() -> int | None:
     return None if fn is None else ctypes.cast(fn, ctypes.c_void_p).value
 
 
+def _texts(extra: Extra, line_int: str, line_term: str) -> tuple | None:
+    """An extra's texts for SIGINT and SIGTERM; None when it fails (a stop then goes
+    without that file: the run's solve must not fail for it)."""
+    try:
+        return extra("SIGINT", line_int), extra("SIGTERM", line_term)
+    except Exception:  # noqa: BLE001 (whatever it is, the solve goes on)
+        return None
+
+
 def _arm(lib: ctypes.CDLL) -> bool:
     """Install the C handler with the provider's texts; whether it is armed."""
     path, offset, text_int, line_int = _PROVIDER[0]("SIGINT")
     _, offset_term, text_term, line_term = _PROVIDER[0]("SIGTERM")
     if offset_term != offset:  # the two must be alike; the whole file otherwise
         raise ValueError("hard_stop provider: one offset for both signals")
-    more = [(e("SIGINT", line_int), e("SIGTERM", line_term)) for e in _EXTRA]
+    more = [m for e in _EXTRA if (m := _texts(e, line_int, line_term)) is not None]
     add, with_lines = getattr(lib, "hard_stop_add", None), True
     if add is None:  # a build before it: the first file only, without its line
         more = [m for m in more if m[0][0] is not None][:1]
