@@ -4,9 +4,11 @@
  * forwards). While armed, the handler writes the prepared summary, prints the prepared
  * line on stderr and exits with 130 (SIGINT) or 143 (SIGTERM). The summary is either the
  * whole file (through a temporary file and a rename) or, for a summary that grows step by
- * step (app/output/append.py), its new tail written in place at a byte offset. An
- * optional second file (a study's own summary.json, app/studies/batch_status.py) is written whole
- * after it. Only async-signal-safe calls. Loaded through ctypes (app/hard_stop.py).
+ * step (app/output/append.py), its new tail written in place at a byte offset. Up to
+ * MORE further files are written whole after it, each with a line printed after the
+ * prepared one (`hard_stop_add`: a study's own summary.json, app/studies/batch_status.py;
+ * a sweep's sweep.csv and its `sweep:` line, app/studies/sweep.py). Only async-signal-safe
+ * calls. Loaded through ctypes (app/hard_stop.py).
  * `hard_stop_arm_exit` arms it with no file to write: the job's end, once every output is
  * written (app/output/late_signals.py), where the ranks wait in MPI_Finalize;
  * `hard_stop_rearm` installs it again after PetscFinalize reset SIGTERM.
@@ -24,8 +26,10 @@ static char *g_text[SLOTS], *g_line[SLOTS];
 static size_t g_text_len[SLOTS], g_line_len[SLOTS];
 static char *g_tmp, *g_path;
 static long long g_offset = -1; /* >= 0: write the text in place at this offset */
-static char *g_xtext[SLOTS], *g_xtmp, *g_xpath; /* the second file, if any */
-static size_t g_xtext_len[SLOTS];
+#define MORE 4 /* further files (and lines) an armed signal writes */
+static char *g_xtext[MORE][SLOTS], *g_xline[MORE][SLOTS], *g_xtmp[MORE], *g_xpath[MORE];
+static size_t g_xtext_len[MORE][SLOTS], g_xline_len[MORE][SLOTS];
+static int g_more = 0; /* how many are set */
 static struct sigaction g_old[SLOTS];
 static volatile sig_atomic_t g_armed = 0;
 static int g_stay = 0; /* hard_stop_arm_exit on a rank other than 0: return, do not exit */
@@ -68,8 +72,10 @@ static void on_signal(int sig) {
         /* armed by hard_stop_arm_exit: no file */
     } else if (g_offset >= 0) patch_in_place(slot);
     else replace_whole(g_tmp, g_path, g_text[slot], g_text_len[slot]);
-    if (g_xpath) replace_whole(g_xtmp, g_xpath, g_xtext[slot], g_xtext_len[slot]);
+    for (int i = 0; i < g_more; i++)
+        if (g_xpath[i]) replace_whole(g_xtmp[i], g_xpath[i], g_xtext[i][slot], g_xtext_len[i][slot]);
     write_all(2, g_line[slot], g_line_len[slot]);
+    for (int i = 0; i < g_more; i++) write_all(2, g_xline[i][slot], g_xline_len[i][slot]);
     _exit(sig == SIGTERM ? 143 : 130);
 }
 
@@ -83,13 +89,17 @@ static char *copy(const char *s, size_t n) {
 }
 
 static void release_extra(void) {
-    for (int i = 0; i < SLOTS; i++) {
-        free(g_xtext[i]);
-        g_xtext[i] = NULL;
+    for (int i = 0; i < MORE; i++) {
+        for (int k = 0; k < SLOTS; k++) {
+            free(g_xtext[i][k]);
+            free(g_xline[i][k]);
+            g_xtext[i][k] = g_xline[i][k] = NULL;
+        }
+        free(g_xtmp[i]);
+        free(g_xpath[i]);
+        g_xtmp[i] = g_xpath[i] = NULL;
     }
-    free(g_xtmp);
-    free(g_xpath);
-    g_xtmp = g_xpath = NULL;
+    g_more = 0;
 }
 
 static void release(void) {
@@ -124,23 +134,45 @@ static int install(void) {
     return 0;
 }
 
-/* Before hard_stop_arm: a second file the handler writes whole (texts for SIGINT and
- * SIGTERM); disarming forgets it. Returns 0, or -1 (none) if armed or out of memory. */
-int hard_stop_extra(const char *tmp, const char *path, const char *text_int, size_t n_int,
-                    const char *text_term, size_t n_term) {
-    if (g_armed) return -1;
-    release_extra();
-    g_xtmp = copy(tmp, strlen(tmp));
-    g_xpath = copy(path, strlen(path));
-    g_xtext[0] = copy(text_int, n_int);
-    g_xtext[1] = copy(text_term, n_term);
-    if (!g_xtmp || !g_xpath || !g_xtext[0] || !g_xtext[1]) {
-        release_extra();
+/* Before hard_stop_arm: one more file the handler writes whole (texts for SIGINT and
+ * SIGTERM; path NULL: none) and lines it prints after the prepared one (either may be
+ * empty); disarming forgets them. Returns 0, or -1 (not added) if armed, MORE are set
+ * already or out of memory. */
+int hard_stop_add(const char *tmp, const char *path, const char *text_int, size_t n_int,
+                  const char *text_term, size_t n_term, const char *line_int,
+                  const char *line_term) {
+    int i = g_more;
+    if (g_armed || i >= MORE) return -1;
+    g_xtmp[i] = path ? copy(tmp, strlen(tmp)) : NULL;
+    g_xpath[i] = path ? copy(path, strlen(path)) : NULL;
+    g_xtext[i][0] = copy(text_int, n_int);
+    g_xtext[i][1] = copy(text_term, n_term);
+    g_xline[i][0] = copy(line_int, strlen(line_int));
+    g_xline[i][1] = copy(line_term, strlen(line_term));
+    if ((path && (!g_xtmp[i] || !g_xpath[i])) || !g_xtext[i][0] || !g_xtext[i][1] ||
+        !g_xline[i][0] || !g_xline[i][1]) {
+        for (int k = 0; k < SLOTS; k++) {
+            free(g_xtext[i][k]);
+            free(g_xline[i][k]);
+            g_xtext[i][k] = g_xline[i][k] = NULL;
+        }
+        free(g_xtmp[i]);
+        free(g_xpath[i]);
+        g_xtmp[i] = g_xpath[i] = NULL;
         return -1;
     }
-    g_xtext_len[0] = n_int;
-    g_xtext_len[1] = n_term;
+    g_xtext_len[i][0] = n_int;
+    g_xtext_len[i][1] = n_term;
+    g_xline_len[i][0] = strlen(line_int);
+    g_xline_len[i][1] = strlen(line_term);
+    g_more = i + 1;
     return 0;
+}
+
+/* The one further file of builds before hard_stop_add (no line): hard_stop_add. */
+int hard_stop_extra(const char *tmp, const char *path, const char *text_int, size_t n_int,
+                    const char *text_term, size_t n_term) {
+    return hard_stop_add(tmp, path, text_int, n_int, text_term, n_term, "", "");
 }
 
 /* Arm: texts[i]/lines[i] for SIGINT (0) and SIGTERM (1), the summary's path, its

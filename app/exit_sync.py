@@ -9,14 +9,24 @@ a communicator of its own; a rank that waits longer than its limit there exits a
 (os._exit, past MPI_Finalize), after printing its message if it is not rank 0 (which
 printed its own), and mpiexec then ends the ranks that wait in a collective. When every
 rank fails alike (any input error) they all meet at once and end as before.
+
+The reason travels to rank 0 through a note in the run's OUT (`note_in`): a rank other
+than 0 at a failed end writes its one line there before it waits, so that rank 0, stuck
+in a collective until mpiexec's SIGTERM (sent once that rank has exited), records the job
+as `failed` with that line (`peer_failure`, app/output/status.py) instead of `interrupted
+by SIGTERM`. No MPI call is added (the ranks run MPI_THREAD_FUNNELED: rank 0's watchdog
+thread may not call MPI while its main thread waits in a collective); a rank that cannot
+see OUT (no shared file system) leaves no note, and rank 0 records the signal as before.
 """
 
 from __future__ import annotations
 
+import json
 import os
 import sys
 import time
 import traceback
+from pathlib import Path
 
 RANK0_SECONDS = 10.0
 """How long rank 0 waits for the others at a failed end (it has printed its line and
@@ -26,15 +36,95 @@ OTHER_SECONDS = 30.0
 """How long another rank waits for rank 0, which may still be writing summary.json or a
 study's tables."""
 
-_STATE: dict = {"comm": None}
+NOTE_NAME = ".failed_rank.json"
+"""The note of a rank that failed alone, in the run's OUT (a hidden file, as OUT/.lock)."""
+
+_STATE: dict = {"comm": None, "note": None, "meet": None, "alone": False}
 
 
 def arm() -> None:
-    """After PETSc started, on every rank (collective): the communicator of the end."""
+    """After PETSc started, on every rank (collective): the communicators of the end and
+    of `failed_together`."""
     from petsc4py import PETSc
 
     comm = PETSc.COMM_WORLD.tompi4py()
     _STATE["comm"] = comm.Dup() if comm.size > 1 else None
+    _STATE["meet"] = comm.Dup() if comm.size > 1 else None
+
+
+def failed_together() -> bool:
+    """After a run failed, in a batch that goes on past a failed run (a sweep): whether
+    every rank failed it too (they meet in a barrier of a communicator of their own within
+    OTHER_SECONDS; at once when all fail alike, as for a config a check rejects). False:
+    this rank failed alone (a MemoryError in its share of the work; the others wait in a
+    collective of the run): the batch must end, and its failed end then leaves at once
+    (`leave_if_alone`). Before, the sweep went on to its next run and the job hung."""
+    comm = _STATE["meet"]
+    if comm is None:
+        return True
+    request = comm.Ibarrier()
+    deadline = time.monotonic() + OTHER_SECONDS
+    while not request.Test():
+        if time.monotonic() > deadline:
+            _STATE["alone"] = True
+            return False
+        time.sleep(0.005)
+    return True
+
+
+def note_in(folder: Path, rank: int) -> None:
+    """Every rank, as a run takes its OUT (rank 0 holding OUT's lock, before the others go
+    on): the note of a rank failing alone goes to OUT; rank 0 removes an earlier one."""
+    note = Path(folder) / NOTE_NAME
+    _STATE["note"] = note
+    if rank == 0:
+        try:
+            note.unlink(missing_ok=True)
+        except OSError:
+            pass
+
+
+def peer_failure() -> dict | None:
+    """Rank 0, as a signal ends the job: the note of a rank that failed alone in this run
+    ({"rank", "code", "error": its line without `error: `, "printed": whether that rank
+    printed it}), taken out of OUT; or None."""
+    note = _STATE["note"]
+    if note is None or _STATE["comm"] is None:
+        return None
+    try:
+        data = json.loads(note.read_text())
+        note.unlink()
+    except (OSError, ValueError):
+        return None
+    ok = isinstance(data, dict) and isinstance(data.get("error"), str)
+    return data if ok and data.get("code") in (1, 2) else None
+
+
+def _leave_note(rank: int, code: int, error: str, printed: bool) -> bool:
+    """Write this rank's note (through a rename); whether it was written."""
+    note = _STATE["note"]
+    if note is None:
+        return False
+    tmp = note.with_name(f"{note.name}.{rank}.tmp")
+    try:
+        tmp.write_text(json.dumps({"rank": rank, "code": code, "error": error,
+                                   "printed": printed}))
+        os.replace(tmp, note)
+    except OSError:
+        return False
+    return True
+
+
+def _own_line(comm, message: str | None, with_traceback: bool) -> str | None:
+    """What a rank other than 0 failed with, for its note: its `error:` line (without the
+    prefix) or the exception being handled, and which rank it is."""
+    if comm.rank == 0:
+        return None
+    if message is None and with_traceback and (exc := sys.exc_info()[1]) is not None:
+        message = f"error: {type(exc).__name__}: {exc}"
+    if message is None:
+        return None
+    return f"{message.removeprefix('error: ')} (rank {comm.rank}; the other ranks did not fail)"
 
 
 def leave_if_alone(code: int, message: str | None = None, with_traceback: bool = False,
@@ -42,22 +132,33 @@ def leave_if_alone(code: int, message: str | None = None, with_traceback: bool =
     """At a failed end (exit status `code`): return once every rank is here too; else,
     after RANK0_SECONDS (rank 0) or OTHER_SECONDS, print what this rank knows and exit
     with `code` at once. message: this rank's `error:` line (printed by a rank other than
-    0 only); with_traceback: print the exception being handled."""
+    0 only); with_traceback: print the exception being handled. A rank other than 0 first
+    leaves its note for rank 0 (`note_in`); rank 0 removes it once every rank is here."""
     comm = _STATE["comm"]
     if comm is None:
         return
     limit = seconds if seconds is not None else (RANK0_SECONDS if comm.rank == 0
                                                   else OTHER_SECONDS)
-    request = comm.Ibarrier()
+    if _STATE["alone"]:  # it waited for the others already (`failed_together`)
+        limit = 0.0
+    line = _own_line(comm, message, with_traceback)
+    noted = line is not None and _leave_note(comm.rank, code, line, False)
+    request = comm.Ibarrier()  # (after the note: rank 0 cannot pass it before the note)
     deadline = time.monotonic() + limit
     while not request.Test():
         if time.monotonic() > deadline:
             if with_traceback:
                 traceback.print_exc()
-            if message is not None and comm.rank != 0:
-                print(f"{message} (rank {comm.rank}; the other ranks did not fail)",
-                      file=sys.stderr)
+            if message is not None and line is not None:
+                print(f"error: {line}", file=sys.stderr)
             sys.stdout.flush()
             sys.stderr.flush()
+            if noted:  # rank 0 need not print it again
+                _leave_note(comm.rank, code, line, True)
             os._exit(code)
         time.sleep(0.005)
+    if comm.rank == 0 and _STATE["note"] is not None:  # every rank failed: no peer's note
+        try:
+            _STATE["note"].unlink(missing_ok=True)
+        except OSError:
+            pass

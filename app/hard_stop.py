@@ -27,9 +27,11 @@ Provider = Callable[[str], tuple[Path, int, bytes, str]]
 an in-place write of its new tail (-1: the whole file through a rename), the bytes, the
 stderr line."""
 
-Extra = Callable[[str, str], tuple[Path, bytes]]
-"""(signal name, the stderr line) -> a second file the handler writes whole: its path and
-bytes (a study's own summary.json, app/studies/batch_status.py)."""
+Extra = Callable[[str, str], tuple[Path | None, bytes, str]]
+"""(signal name, the stderr line) -> a further file the handler writes whole, after the
+summary: its path (None: no file) and bytes, and a line it prints after the stderr line
+("" for none, else ending in a newline): a study's own summary.json
+(app/studies/batch_status.py), a sweep's sweep.csv and `sweep:` line (app/studies/sweep.py)."""
 
 _PROVIDER: list[Provider] = []
 _EXTRA: list[Extra] = []
@@ -56,14 +58,13 @@ def _library() -> ctypes.CDLL | None:
                 lib.hard_stop_disarm.restype = None
         except AttributeError:  # an older build without these functions
             lib = None
-        try:
-            if lib is not None:
-                lib.hard_stop_extra.argtypes = [ctypes.c_char_p, ctypes.c_char_p,
-                                                ctypes.c_char_p, ctypes.c_size_t,
-                                                ctypes.c_char_p, ctypes.c_size_t]
-                lib.hard_stop_extra.restype = ctypes.c_int
-        except AttributeError:  # built before it: the second file is not written
-            pass
+        texts = [ctypes.c_char_p, ctypes.c_char_p, ctypes.c_char_p, ctypes.c_size_t,
+                 ctypes.c_char_p, ctypes.c_size_t]
+        for name, more in (("hard_stop_extra", []), ("hard_stop_add", [ctypes.c_char_p] * 2)):
+            fn = getattr(lib, name, None)  # (absent from a build before it)
+            if fn is not None:
+                fn.argtypes = texts + more
+                fn.restype = ctypes.c_int
         _LIB.append(lib)
     return _LIB[0]
 
@@ -85,12 +86,17 @@ def set_provider(provider: Provider | None,
             _PENDING.append(pending)
 
 
-def set_extra(extra: Extra | None) -> None:
-    """Register (or with None remove) a second file an armed signal writes (a study's
-    summary.json while its runs run); kept across runs, unlike `set_provider`."""
-    _EXTRA.clear()
-    if extra is not None:
-        _EXTRA.append(extra)
+def add_extra(extra: Extra) -> None:
+    """Register a further file (and line) an armed signal writes after the run's summary,
+    in the order added (a study's summary.json, then a sweep's sweep.csv, while their runs
+    run); kept across runs, unlike `set_provider`."""
+    _EXTRA.append(extra)
+
+
+def remove_extra(extra: Extra) -> None:
+    """Undo `add_extra(extra)`."""
+    if extra in _EXTRA:
+        _EXTRA.remove(extra)
 
 
 @contextmanager
@@ -141,17 +147,31 @@ def rearm_address() -> int | None:
     return None if fn is None else ctypes.cast(fn, ctypes.c_void_p).value
 
 
+def _texts(extra: Extra, line_int: str, line_term: str) -> tuple | None:
+    """An extra's texts for SIGINT and SIGTERM; None when it fails (a stop then goes
+    without that file: the run's solve must not fail for it)."""
+    try:
+        return extra("SIGINT", line_int), extra("SIGTERM", line_term)
+    except Exception:  # noqa: BLE001 (whatever it is, the solve goes on)
+        return None
+
+
 def _arm(lib: ctypes.CDLL) -> bool:
     """Install the C handler with the provider's texts; whether it is armed."""
     path, offset, text_int, line_int = _PROVIDER[0]("SIGINT")
     _, offset_term, text_term, line_term = _PROVIDER[0]("SIGTERM")
     if offset_term != offset:  # the two must be alike; the whole file otherwise
         raise ValueError("hard_stop provider: one offset for both signals")
-    if _EXTRA and getattr(lib, "hard_stop_extra", None) is not None:
-        xpath, xint = _EXTRA[0]("SIGINT", line_int)
-        _, xterm = _EXTRA[0]("SIGTERM", line_term)
-        lib.hard_stop_extra(str(xpath.with_name(xpath.name + ".tmp")).encode(),
-                            str(xpath).encode(), xint, len(xint), xterm, len(xterm))
+    more = [m for e in _EXTRA if (m := _texts(e, line_int, line_term)) is not None]
+    add, with_lines = getattr(lib, "hard_stop_add", None), True
+    if add is None:  # a build before it: the first file only, without its line
+        more = [m for m in more if m[0][0] is not None][:1]
+        add, with_lines = getattr(lib, "hard_stop_extra", None), False
+    for (xpath, xint, lint), (_, xterm, lterm) in more if add is not None else ():
+        files = ((str(xpath.with_name(xpath.name + ".tmp")).encode(), str(xpath).encode())
+                 if xpath is not None else (None, None))
+        lines = (lint.encode(), lterm.encode()) if with_lines else ()
+        add(*files, xint, len(xint), xterm, len(xterm), *lines)
     tmp = path.with_name(path.name + ".tmp")
     return lib.hard_stop_arm(str(tmp).encode(), str(path).encode(), offset, text_int,
                              len(text_int), text_term, len(text_term), line_int.encode(),

@@ -21,6 +21,11 @@ problem). The counts per delay close the output:
 
     .venv/bin/python scripts/check_interrupts.py configs/hertz.toml --ranks 2 \
         --sweep interface.contact.mu=0.0,0.1 --delays 1.0,1.5,2.0 --repeat 10
+
+A stopped run's sweep must give its account (the `sweep:` line, and once a run completed
+a sweep.csv row for every run); `in_c` counts the trials stopped inside a MUMPS call
+(app/_hard_stop.c wrote the study's summary). Options the script does not know go to the
+study (e.g. `--mesh-size 0.5`).
 """
 
 from __future__ import annotations
@@ -136,16 +141,26 @@ def audit(out: Path, config: Path | None = None) -> tuple[dict, list[str]]:
 
 def sweep_audit(out: Path, config: Path, n_runs: int) -> tuple[dict, list[str]]:
     """(facts, problems) of a sweep's folder: each run's folder as `audit`, sweep.csv's rows
-    and statuses, the plots."""
+    and statuses, the plots; `in_c`: the study's summary is the one app/_hard_stop.c writes
+    (a signal inside a MUMPS call: it has no end_time)."""
     facts: dict = {"runs": {}, "rows": None, "plots": len(list(out.glob("sweep_*.png")))}
     problems: list[str] = []
     for k in range(n_runs):
         run_dir = out / f"run_{k:03d}"
         if not run_dir.is_dir():
             continue
+        if {x.name for x in run_dir.iterdir()} <= {".lock"}:  # stopped as it took OUT
+            facts["runs"][run_dir.name] = "not started"
+            continue
         f, p = audit(run_dir, config)
         facts["runs"][run_dir.name] = f.get("status")
         problems += [f"{run_dir.name}: {x}" for x in p]
+    try:  # (the start-up handler's summary has none either, but no run was stopped)
+        study = json.loads((out / "summary.json").read_text())
+        facts["in_c"] = (study.get("status") == "interrupted" and "end_time" not in study
+                         and "interrupted" in facts["runs"].values())
+    except (OSError, ValueError):
+        pass
     if (out / "sweep.csv").exists():
         with open(out / "sweep.csv", newline="") as fh:
             rows = list(csv.DictReader(fh))
@@ -155,7 +170,23 @@ def sweep_audit(out: Path, config: Path, n_runs: int) -> tuple[dict, list[str]]:
                                                   "not run"}
         if odd:
             problems.append(f"sweep.csv: rows of status {sorted(map(str, odd))}")
+        facts["row_statuses"] = [r.get("status") for r in rows]
     return facts, problems
+
+
+def sweep_outcome_problems(facts: dict, lines: list[str], n_runs: int) -> list[str]:
+    """A stopped run's sweep gives its account as on the Python path (one interface per
+    run, as the scenes used here): the `sweep:` line, and once a run completed, a row in
+    sweep.csv for every run (before, the C handler's stop inside a MUMPS call left both
+    out)."""
+    statuses = list(facts["runs"].values())
+    if "interrupted" not in statuses:
+        return []
+    problems = [] if any(x.startswith("sweep:") for x in lines) else [
+        "a run interrupted, but no `sweep:` line"]
+    if "completed" in statuses and facts["rows"] != n_runs:
+        problems.append(f"sweep.csv: {facts['rows']} rows for {n_runs} runs")
+    return problems
 
 
 MPIEXEC_TERM_DELAY = 1.0
@@ -193,12 +224,12 @@ def signal_and_wait(proc: subprocess.Popen, delay: float, sig: signal.Signals) -
 
 
 def sweep_trial(config: Path, ranks: int, delay: float, sig: signal.Signals, out: Path,
-                sweep: str, log: bool = True) -> dict:
-    """`study CONFIG --sweep SWEEP` stopped by `sig` after `delay` s; with several ranks
-    each rank's stderr goes to OUT_log (mpiexec --output-filename)."""
+                sweep: str, log: bool = True, extra: tuple[str, ...] = ()) -> dict:
+    """`study CONFIG --sweep SWEEP [EXTRA]` stopped by `sig` after `delay` s; with several
+    ranks each rank's stderr goes to OUT_log (mpiexec --output-filename)."""
     shutil.rmtree(out, ignore_errors=True)
     cmd = [sys.executable, "-m", "app", "study", str(config), "--sweep", sweep, "--out",
-           str(out)]
+           str(out), *extra]
     if ranks > 1:
         logs = out.with_name(out.name + "_log")
         shutil.rmtree(logs, ignore_errors=True)
@@ -220,6 +251,7 @@ def sweep_trial(config: Path, ranks: int, delay: float, sig: signal.Signals, out
     v = verdict(proc.returncode, ranks, line, complete, time.monotonic() - t0 - delay)
     if v == "silent":
         problems.append("a nonzero exit with no line" if proc.returncode else "incomplete")
+    problems += sweep_outcome_problems(facts, lines, n_runs)
     return {"delay": round(delay, 2), "signal": sig.name, "exit": proc.returncode,
             "seconds": round(time.monotonic() - t0, 2), "verdict": v, **facts,
             "lines": lines[-3:], "problems": problems}
@@ -267,7 +299,7 @@ def main() -> None:
     ap.add_argument("--signal", default="SIGINT", choices=("SIGINT", "SIGTERM"))
     a, extra = ap.parse_known_args()
     if a.sweep:
-        sys.exit(sweep_trials(a))
+        sys.exit(sweep_trials(a, extra))
     if a.audit:
         bad = 0
         for out in a.audit:
@@ -299,8 +331,9 @@ def main() -> None:
     sys.exit(1 if bad else 0)
 
 
-def sweep_trials(a) -> int:
-    """--sweep: the trials over --delays (or --trials random delays), with counts."""
+def sweep_trials(a, extra: list[str]) -> int:
+    """--sweep: the trials over --delays (or --trials random delays), with counts; extra:
+    the study's further options (e.g. --mesh-size)."""
     rng = random.Random(a.seed)
     delays = ([float(x) for x in a.delays.split(",") for _ in range(a.repeat)] if a.delays
               else [rng.uniform(0.3, a.max_delay or 3.0) for _ in range(a.trials)])
@@ -308,9 +341,11 @@ def sweep_trials(a) -> int:
     bad = 0
     for i, d in enumerate(delays):
         row = sweep_trial(a.config, a.ranks, d, signal.Signals[a.signal], a.out / f"t{i}",
-                          a.sweep)
+                          a.sweep, extra=tuple(extra))
         counts.setdefault(round(d, 2), {}).setdefault(row["verdict"], 0)
         counts[round(d, 2)][row["verdict"]] += 1
+        if row.get("in_c"):  # (stopped inside a MUMPS call: the C handler's account)
+            counts[round(d, 2)]["in_c"] = counts[round(d, 2)].get("in_c", 0) + 1
         bad += bool(row["problems"])
         print(json.dumps({"trial": i, **row}), flush=True)
     print(json.dumps({"counts": {str(k): v for k, v in counts.items()}}), flush=True)

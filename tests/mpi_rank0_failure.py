@@ -1,7 +1,8 @@
 """Run under mpiexec by tests/test_parallel_edge_cases.py: `python -m app ARGS` with one
 function made to raise on one rank only, as a bug or a shortage on that rank alone would.
-argv[1] is WHERE:EXCEPTION[:RANK] (WHERE one of INJECT_AT, RANK 0 unless given), the rest
-the app's arguments."""
+argv[1] is WHERE:EXCEPTION[:RANK[:SECONDS]] (WHERE one of INJECT_AT, RANK 0 unless given;
+SECONDS: app/exit_sync.py's OTHER_SECONDS instead of its 30 s), the rest the app's
+arguments."""
 
 from __future__ import annotations
 
@@ -42,10 +43,16 @@ def inject(where: str, exc_name: str, rank: str = "0") -> None:
     setattr(owner, name, failing)
 
 
-def start_then_inject(where: str, exc_name: str, rank: str = "0") -> None:
+def start_then_inject(where: str, exc_name: str, rank: str = "0",
+                      seconds: str | None = None) -> None:
     """Inject once PETSc has started with the run's options (the modules patched import
     petsc4py's PETSc, which must not start before)."""
     import app.startup.petsc as petsc_start
+
+    if seconds is not None:
+        import app.exit_sync
+
+        app.exit_sync.OTHER_SECONDS = float(seconds)
 
     start = petsc_start.start_petsc
 

@@ -176,3 +176,17 @@ def test_a_signal_recorded_just_before_arming_is_handed_to_the_c_handler(tmp_pat
     assert res.returncode == 143, res.stderr
     assert res.stderr == "error: interrupted by SIGTERM\n"
     assert json.loads((tmp_path / "summary.json").read_text())["by"] == "SIGTERM"
+
+
+def test_an_extra_that_fails_is_left_out_and_the_others_written():
+    """A further file's texts that cannot be made (a bug, a full disk in a sweep's stat)
+    must not fail the run's long call: that file is left out, the others are armed."""
+    def bad(name: str, line: str):
+        raise OSError(28, "No space left on device")
+
+    def good(name: str, line: str):
+        return None, b"", f"good {name}\n"
+
+    assert hard_stop._texts(bad, "a\n", "b\n") is None
+    assert hard_stop._texts(good, "a\n", "b\n") == ((None, b"", "good SIGINT\n"),
+                                                    (None, b"", "good SIGTERM\n"))

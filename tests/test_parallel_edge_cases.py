@@ -75,3 +75,47 @@ def test_a_failure_on_another_rank_alone_ends_the_job(tmp_path):
     assert res.returncode == 2, res.stderr
     assert "error: out of memory (injected at fields)" in res.stderr
     assert "(rank 1; the other ranks did not fail)" in res.stderr
+
+
+def test_a_failure_on_rank_1_alone_is_recorded_as_its_failure(tmp_path):
+    """Rank 1 fails alone (a MemoryError in its share of the element fields) while rank 0
+    waits in the fields' gather until mpiexec's SIGTERM, sent when rank 1 exits: summary.json
+    said `interrupted by SIGTERM during step 1/1`, and rank 0 printed
+    that line after rank 1's. Now rank 1 leaves its line for rank 0 (app/exit_sync.py):
+    `failed` with rank 1's reason, one `error:` line. (OTHER_SECONDS 3 s here, not 30.)"""
+    out = tmp_path / "o"
+    cmd = [sys.executable, str(ROOT / "tests" / "mpi_rank0_failure.py"),
+           "fields:MemoryError:1:3", "run", str(CONFIGS / "patch.toml"), "--out", str(out),
+           "--quiet"]
+    res = subprocess.run([shutil.which("mpiexec"), "-n", "2", *cmd], cwd=ROOT, env=mpi_env(),
+                         capture_output=True, text=True, timeout=120)
+    assert res.returncode == 2, res.stderr
+    errors = [x for x in res.stderr.splitlines() if x.startswith("error:")]
+    assert len(errors) == 1 and "(rank 1; the other ranks did not fail)" in errors[0], res.stderr
+    assert errors[0].startswith("error: out of memory (injected at fields)"), res.stderr
+    summary = json.loads((out / "summary.json").read_text())
+    assert (summary["status"], f"error: {summary['error']}") == ("failed", errors[0])
+    assert summary["failed_step"] == 1
+    assert not list(out.glob(".failed_rank*"))  # (rank 0 took the note)
+
+
+def test_a_failure_on_rank_1_alone_in_a_sweep_ends_it_as_failed(tmp_path):
+    """The same failure in a sweep's first run: rank 1 took it as the run's own failure
+    (a `failed` row) and went on to the next run while rank 0 waited in the first: the job
+    hung (killed at 90 s, `interrupted by SIGTERM` from the kill, rank 1's line never
+    printed). Now the ranks meet after a failed run (app/exit_sync.py `failed_together`);
+    rank 1, alone there, ends the job: the run's and the study's summary.json say
+    `failed` with rank 1's line."""
+    out = tmp_path / "o"
+    cmd = [sys.executable, str(ROOT / "tests" / "mpi_rank0_failure.py"),
+           "fields:MemoryError:1:3", "study", str(CONFIGS / "patch.toml"), "--sweep",
+           "interface.interface.mu=0.2,0.4", "--out", str(out), "--quiet"]
+    res = subprocess.run([shutil.which("mpiexec"), "-n", "2", *cmd], cwd=ROOT, env=mpi_env(),
+                         capture_output=True, text=True, timeout=120)
+    assert res.returncode == 2, res.stderr
+    errors = [x for x in res.stderr.splitlines() if x.startswith("error:")]
+    assert len(errors) == 1 and "(rank 1; the other ranks did not fail)" in errors[0], res.stderr
+    for folder in (out / "run_000", out):
+        s = json.loads((folder / "summary.json").read_text())
+        assert (s["status"], f"error: {s['error']}") == ("failed", errors[0]), folder
+    assert not (out / "run_001").exists()

@@ -11,6 +11,7 @@ replaced `interrupted`) and its end waited STOP_WAIT_SECONDS and exited with no 
 
 from __future__ import annotations
 
+import json
 import os
 import threading
 import time
@@ -79,6 +80,47 @@ def test_a_batch_stop_with_a_closed_stderr_still_exits(monkeypatch, fake_exit): 
         m.setattr("sys.stderr", _ClosedPipe())
         raised = _in_a_thread(BatchGuard(lambda: "sweep: 0 rows").stop_now, "SIGINT")
     assert raised == [] and fake_exit == [130], (raised, fake_exit)
+
+
+@pytest.mark.parametrize("printed", [True, False])
+def test_a_signal_that_answers_a_peers_failure_records_the_failure(tmp_path, monkeypatch,
+                                                                   fake_exit, capsys,  # noqa: F811
+                                                                   printed):
+    """mpiexec's SIGTERM after rank 1 failed alone and left its note (app/exit_sync.py):
+    the run's summary and a study's stop hooks say `failed` with rank 1's line, the exit
+    status is rank 1's, and the line is printed once (by rank 0 only if rank 1 did not).
+    Before: `interrupted by SIGTERM during step 1/2`, exit 143."""
+    from app import exit_sync
+
+    line = "out of memory (x); no step completed (rank 1; the other ranks did not fail)"
+    seen: list[tuple[str, str | None]] = []
+
+    def hook():
+        seen.append((status.stop_status(), status.stop_reason()))
+
+    monkeypatch.setitem(exit_sync._STATE, "comm", object())  # (as on several ranks)
+    monkeypatch.setitem(exit_sync._STATE, "note", None)
+    monkeypatch.setattr(status, "_STOP_STATUS", [])  # (module state: this test's only)
+    monkeypatch.setattr(status, "_STOP_REASON", [])
+    summary = {"config": "c.toml", "steps": [], "status": "running"}
+    status.on_stop(hook)
+    try:
+        with RunGuard(tmp_path, summary, write_summary, 2) as guard:
+            rank1 = exit_sync._STATE["note"]
+            assert rank1 == tmp_path / exit_sync.NOTE_NAME  # (RunGuard: note_in)
+            rank1.write_text(json.dumps({"rank": 1, "code": 2, "error": line,
+                                         "printed": printed}))
+            raised = _in_a_thread(guard.stop_now, "SIGTERM")
+            assert raised == [] and fake_exit == [2], (raised, fake_exit)
+            s = read_summary(tmp_path)
+            assert (s["status"], s["error"], s["failed_step"]) == ("failed", line, 1), s
+            assert seen == [("failed", line)]
+            assert capsys.readouterr().err.count(line) == (0 if printed else 1)
+            assert not rank1.exists()
+            status._STOP_LOCK.release()
+            summary["status"] = "completed"
+    finally:
+        status.remove_on_stop(hook)
 
 
 def test_the_wait_for_the_stop_outlasts_a_further_signal(monkeypatch):

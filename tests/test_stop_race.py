@@ -145,6 +145,34 @@ def test_a_studys_stop_between_the_runs_is_the_only_one(tmp_path, fake_exit):
     assert s["status"] == "interrupted" and s["error"].startswith("interrupted by SIGTERM"), s
 
 
+def test_a_studys_stop_as_a_run_takes_its_folder_leaves_no_running_summary(tmp_path,
+                                                                             monkeypatch,
+                                                                             fake_exit):
+    """A sweep's watchdog that ends the job after the run's guard took OUT and before it
+    wrote `running` and added its stop hook: the study's hooks ran without the run's, and
+    the run's summary.json stayed `running` (1 of 18 real trials on 2 ranks). Now the run
+    writes neither once a stop is under way (it waits for the job's end): no summary.json,
+    the run did not start."""
+    from app.output.batch_guard import BatchGuard
+
+    real_clear = status.clear_files
+
+    def clear_then_stop(out, pattern=status.STALE):  # (in the guard's `start`)
+        removed = real_clear(out, pattern)
+        threading.Thread(target=BatchGuard(lambda: "sweep: 0 rows").stop_now,
+                         args=("SIGTERM",)).start()
+        while not fake_exit:  # the study's stop has run its hooks
+            pass
+        return removed
+
+    monkeypatch.setattr(status, "clear_files", clear_then_stop)
+    summary = {"config": "c.toml", "steps": [], "status": "running"}
+    with pytest.raises(_Waited):  # before: the run went on
+        with RunGuard(tmp_path, summary, write_summary, 1):
+            pass
+    assert fake_exit == [143] and not (tmp_path / "summary.json").exists()
+
+
 def test_the_stops_summary_is_interrupted_whatever_the_main_thread_sets(tmp_path, fake_exit,
                                                                         monkeypatch):
     """The main thread's `status = completed` (the run's end) between the stop's own

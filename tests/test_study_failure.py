@@ -13,7 +13,7 @@ import time
 
 import pytest
 from signal_support import sleep_in_a_solve, start_script
-from support import CONFIGS, ROOT, mpi_env, read_summary, run_cli
+from support import CONFIGS, ROOT, mpi_env, read_csv, read_summary, run_cli
 
 from app import hard_stop
 
@@ -224,6 +224,40 @@ def test_a_signal_inside_the_first_runs_factorization_on_two_ranks(tmp_path):
     assert (s["status"], s["error"], s["command"]) == ("interrupted", reason, "study")
     assert read_summary(out / "L0_4SD")["error"] == reason
     assert not list(out.glob("*.tmp"))
+
+
+STOP_IN_THE_SECOND_RUNS_SOLVE = sleep_in_a_solve('(out / "sweep.csv").exists()')
+
+
+@pytest.mark.mpi
+@pytest.mark.skipif(not hard_stop.available(), reason="app/_hard_stop.c not built")
+def test_a_signal_inside_a_later_sweep_runs_factorization_gives_the_sweeps_outcome(tmp_path):
+    """The C handler writes what the sweep's stop hook writes on the Python path: sweep.csv
+    with the stopped run `interrupted` and the later ones `not run`, and the `sweep:` line
+    after the `error:` line. Before, it wrote the run's and the study's summary only:
+    sweep.csv had the first run's row alone and no `sweep:` line was printed."""
+    assert getattr(hard_stop._library(), "hard_stop_add", None) is not None, (
+        "app/_hard_stop.c was built before hard_stop_add: rebuild it (pip install -e .)")
+    out = tmp_path / "o"
+    proc = start_script(STOP_IN_THE_SECOND_RUNS_SOLVE, [
+        "study", HERTZ, "--out", str(out), *FAST, "--sweep",
+        "interface.contact.mu=0.0,0.1,0.2"], ranks=2)
+    assert "ready" in proc.stdout.readline()
+    time.sleep(0.2)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    reason = "interrupted by SIGTERM during step 1/1; no step completed"
+    lines = [ln for ln in err.splitlines() if ln.startswith(("error:", "sweep:"))]
+    assert lines == [f"error: {reason}", "sweep: interrupted; its 1 rows are in sweep.csv "
+                     f"(no plots on several ranks), in {out}, with a row for each of the 2 "
+                     "runs that did not complete"], err
+    rows = read_csv(out / "sweep.csv")
+    assert [(r["interface.contact.mu"], r["status"]) for r in rows] == [
+        ("0.0", "completed"), ("0.1", "interrupted"), ("0.2", "not run")]
+    assert rows[1]["error"] == "the sweep was interrupted"
+    assert (read_summary(out / "run_001")["status"], read_summary(out)["error"]) == (
+        "interrupted", reason)
+    assert not list(out.rglob("*.tmp"))
 
 
 def _usage_error(res, command: str) -> str:

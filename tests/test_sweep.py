@@ -3,6 +3,8 @@ contact's physics (balance, friction + bond bound, sliding at mu P)."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 from support import CONFIGS, read_csv, read_summary, run_cli
 
@@ -187,3 +189,20 @@ def test_a_negative_at_step_is_named_by_the_step_it_reports():
     assert report_label([row, dict(row)], -3) == "step 17"
     assert report_label([row, row | {"step": 9}], -3) == "3 steps before the last"
     assert report_label([row], 0) == "the last step" and report_label([row], 4) == "step 4"
+
+
+def test_the_sweep_line_of_a_job_ended_by_another_ranks_failure_says_failed(tmp_path,
+                                                                           monkeypatch):
+    """The stop hook's `sweep:` line says what the summaries say: `failed` when mpiexec's
+    SIGTERM answered a rank that failed alone (app/output/status.py `stop_status`),
+    `interrupted` for a signal. Before, `interrupted` after the failing rank's line."""
+    from app.output import status
+    from app.studies import sweep as sweep_mod
+
+    monkeypatch.setattr(sweep_mod, "plot_sweep", lambda *a, **k: [])
+    sweep = sweep_mod.Sweep(Path("c.toml"), [], ["k"], [("1",), ("2",)], tmp_path, {}, 0,
+                            True, rows=[{"k": 1.0, "status": "completed"}])
+    for state in ("failed", "interrupted"):
+        monkeypatch.setattr(status, "_STOP_STATUS", [state])
+        assert sweep_mod._write_completed(sweep).startswith(f"sweep: {state}; its 1 rows")
+    assert [r["status"] for r in read_csv(tmp_path / "sweep.csv")] == ["completed", "not run"]

@@ -65,14 +65,18 @@ class BatchGuard:
         Every stop hook runs: this guard's `finish` and the study's summary.json
         (app/studies/batch_status.py)."""
         status.begin_stop(name)  # one thread ends the job (a run's guard yields to it)
+        code = EXIT_SIGNAL.get(name, 130)
         try:  # (this thread holds the stop lock: it exits whatever fails here)
-            reason = (f"interrupted by {name} between the runs; what completed before it is "
-                      "written")
-            status._run_stop_hooks(reason)
-            if self.rank == 0:
+            peer = status.peer_failure()  # mpiexec's answer to a rank that failed alone
+            reason = peer["error"] if peer else (
+                f"interrupted by {name} between the runs; what completed before it is "
+                "written")
+            status._run_stop_hooks(reason, "failed" if peer else "interrupted")
+            if self.rank == 0 and not (peer and peer.get("printed")):
                 status._say(f"error: {reason}")
+            code = peer["code"] if peer else code
         finally:
-            startup_signals.exit_after_rank0(EXIT_SIGNAL.get(name, 130))
+            startup_signals.exit_after_rank0(code)
 
     def __exit__(self, exc_type, exc, tb) -> bool:
         if self._watchdog is not None:

@@ -24,7 +24,7 @@ from typing import TextIO
 import numpy as np
 from petsc4py import PETSc
 
-from app import hard_stop
+from app import exit_sync, hard_stop
 from app.errors import InputError, SolveError
 from app.output import startup_signals
 from app.output.out_owner import foreign_files, foreign_message
@@ -112,6 +112,7 @@ def remove_on_stop(fn: Callable[[], None]) -> None:
 
 _STOP_REASON: list[str] = []
 """The `error` line of the signal a watchdog ends the job on (for the stop hooks)."""
+_STOP_STATUS: list[str] = []
 
 
 def stop_reason() -> str | None:
@@ -119,9 +120,22 @@ def stop_reason() -> str | None:
     return _STOP_REASON[-1] if _STOP_REASON else None
 
 
-def _run_stop_hooks(reason: str | None = None) -> None:
+def stop_status() -> str:
+    """In a stop hook: `interrupted`, or `failed` when the signal is mpiexec's answer to
+    another rank's failure (`peer_failure`)."""
+    return _STOP_STATUS[-1] if _STOP_STATUS else "interrupted"
+
+
+def peer_failure() -> dict | None:
+    """Rank 0 ending the job on a signal: the note of a rank that failed alone (its exit
+    made mpiexec send the signal; app/exit_sync.py), or None (on other ranks too)."""
+    return exit_sync.peer_failure() if PETSc.COMM_WORLD.getRank() == 0 else None
+
+
+def _run_stop_hooks(reason: str | None = None, state: str = "interrupted") -> None:
     if reason is not None:
         _STOP_REASON.append(reason)
+        _STOP_STATUS.append(state)
     for fn in list(_ON_STOP):
         try:
             fn()
@@ -472,14 +486,15 @@ class RunGuard:
             foreign = foreign_files(self.out, STALE)
             if foreign:
                 raise InputError(foreign_message(self.out, foreign))
+            exit_sync.note_in(self.out, 0)  # (before the others go on)
             return clear_files(self.out)
 
         _ON_FAILURE.clear()
         startup_signals.defer()  # a signal now is acted on below, not between these writes
         self.removed = collective(start) or []
-        if self.rank == 0:
-            self.write(self.out, self.summary)
-        _ON_STOP.insert(0, self._stopped_before_its_watchdog)
+        if self.rank != 0:
+            exit_sync.note_in(self.out, self.rank)
+        self._write_running()
         self._old_int = signal.getsignal(signal.SIGINT)
         self._old_term = arm_signals()
         early = startup_signals.finish()
@@ -496,16 +511,36 @@ class RunGuard:
             self.__exit__(type(stop), stop, None)  # writes `interrupted`, raises
         return self
 
-    def stop_now(self, name: str) -> None:
-        """From the watchdog thread: record `interrupted`, print it and exit at once."""
-        begin_stop(name)  # (a hand-off to the C handler took it first: it exits)
-        try:  # whatever fails below, this thread holds the stop lock: it must exit
-            self._record_stop(name)
+    def _write_running(self) -> None:
+        """The `running` summary (rank 0) and the stop hook that turns it `interrupted`,
+        under the stop lock: a study's watchdog that ends the job before them leaves this
+        run unstarted (no summary.json: `not run` in sweep.csv), one after them sees the
+        hook. Before, its hooks could run between the two, and the run's summary stayed
+        `running` (1 of 18 `check_interrupts.py --sweep` trials on 2 ranks)."""
+        if not _STOP_LOCK.acquire(blocking=False):
+            wait_for_the_stop()  # a watchdog is ending the job (it exits the process)
+            return
+        try:
+            if self.rank == 0:
+                self.write(self.out, self.summary)
+            _ON_STOP.insert(0, self._stopped_before_its_watchdog)
         finally:
-            startup_signals.exit_after_rank0(EXIT_SIGNAL.get(name, 130))
+            _STOP_LOCK.release()
 
-    def _record_stop(self, name: str) -> None:
-        """stop_now's writes: summary.json `interrupted`, the error line, the stop hooks.
+    def stop_now(self, name: str) -> None:
+        """From the watchdog thread: record `interrupted` (or, when the signal answers
+        another rank's failure, `failed` with its reason), print it and exit at once."""
+        begin_stop(name)  # (a hand-off to the C handler took it first: it exits)
+        code = EXIT_SIGNAL.get(name, 130)
+        try:  # whatever fails below, this thread holds the stop lock: it must exit
+            code = self._record_stop(name) or code
+        finally:
+            startup_signals.exit_after_rank0(code)
+
+    def _record_stop(self, name: str) -> int | None:
+        """stop_now's writes: summary.json `interrupted`, the error line, the stop hooks;
+        `failed` with a peer's line and its exit status (returned) when a rank failed
+        alone (before: `interrupted by SIGTERM`, mpiexec's answer to its exit).
         An OSError here (OUT gone, stderr a closed pipe) used to end the watchdog thread
         with the stop lock held: the run went on, its steps' summaries replaced
         `interrupted`, and its end waited STOP_WAIT_SECONDS and exited with no line."""
@@ -513,9 +548,13 @@ class RunGuard:
 
         where = ("" if PETSc.COMM_WORLD.getSize() > 1 else
                  " (stopped inside a long computation)")
-        reason = self._interrupted_reason(name, where)
-        self.summary["status"] = "interrupted"
+        peer = peer_failure()
+        state = "failed" if peer else "interrupted"
+        reason = peer["error"] if peer else self._interrupted_reason(name, where)
+        self.summary["status"] = state
         self.summary["error"] = reason
+        if peer and "steps" in self.summary and len(self.summary["steps"]) < self.n_steps:
+            self.summary.setdefault("failed_step", len(self.summary["steps"]) + 1)
         if self.rank == 0:
             try:
                 clear_files(self.out, TEMPORARY)
@@ -523,7 +562,7 @@ class RunGuard:
                 pass
             for _ in range(5):  # the main thread may be changing the dict
                 try:  # (its status and error too: a `completed` with this error was seen)
-                    text = json.dumps({**self.summary, "status": "interrupted",
+                    text = json.dumps({**self.summary, "status": state,
                                        "error": reason}, indent=2) + "\n"
                     break
                 except RuntimeError:
@@ -537,8 +576,10 @@ class RunGuard:
                     atomic_write_bytes(self.out / "summary.json", text.encode())
                 except OSError:
                     pass
-            _say(f"error: {reason}")
-        _run_stop_hooks(reason)
+            if not (peer and peer.get("printed")):
+                _say(f"error: {reason}")
+        _run_stop_hooks(reason, state)
+        return peer["code"] if peer else None
 
     def __exit__(self, exc_type, exc, tb) -> bool:
         hard_stop.set_provider(None)

@@ -85,7 +85,7 @@ class BatchStatus:
             cfg.raw, self.overrides, PETSc.COMM_WORLD.getSize())}
         self.out = out
         status.on_stop(self._stopped)
-        hard_stop.set_extra(self._hard_stop_text)
+        hard_stop.add_extra(self._hard_stop_text)
         return out
 
     def completed(self, rows: int, table: str) -> None:
@@ -104,7 +104,7 @@ class BatchStatus:
                                      head={**self.head()})
             return False
         status.remove_on_stop(self._stopped)
-        hard_stop.set_extra(None)
+        hard_stop.remove_extra(self._hard_stop_text)
         try:
             error = self._record(exc)
         finally:
@@ -131,19 +131,19 @@ class BatchStatus:
 
     def _stopped(self) -> None:
         """A stop hook (several ranks: the job ends on a signal without raising here)."""
-        self.summary["status"] = "interrupted"
+        self.summary["status"] = status.stop_status()  # (`failed`: another rank's failure)
         self.summary["error"] = status.stop_reason() or (
             "interrupted by SIGINT or SIGTERM; what completed before it is written")
         self._write()
 
-    def _hard_stop_text(self, name: str, line: str) -> tuple[Path, bytes]:
+    def _hard_stop_text(self, name: str, line: str) -> tuple[Path, bytes, str]:
         """What app/_hard_stop.c writes into OUT/summary.json on `name` inside a long PETSc
         call of a run (rank 0 of several), after the run's own summary: `interrupted`,
         with the run's line (`line`, "error: ...\\n") as the error (no end_time: it is
         prepared when the call starts)."""
         reason = line.removeprefix("error: ").rstrip("\n")
         summary = {**self.summary, "status": "interrupted", "error": reason, "steps": []}
-        return self.out / "summary.json", (json.dumps(summary, indent=2) + "\n").encode()
+        return self.out / "summary.json", (json.dumps(summary, indent=2) + "\n").encode(), ""
 
     def _write(self) -> None:
         from app.output.summary import write_summary

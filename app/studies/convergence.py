@@ -18,6 +18,7 @@ U(FEM-Q4 or 16SD) per level and a markdown table are written next to study.csv.
 from __future__ import annotations
 
 import csv
+import io
 import math
 import sys
 import time
@@ -337,13 +338,20 @@ def finish_study(cfg: Config, out: Path, rows: list[dict], profiles: dict, ref_l
 
 
 def write_csv(path: Path, rows: list[dict]) -> None:
-    keys = list(dict.fromkeys(k for r in rows for k in r))
+    """The rows as CSV (columns: every key, in the order first seen), through a rename."""
     tmp = path.with_suffix(".csv.tmp")
     with open(tmp, "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=keys)
-        w.writeheader()
-        w.writerows(rows)
+        fh.write(csv_text(rows))
     tmp.replace(path)
+
+
+def csv_text(rows: list[dict]) -> str:
+    """What `write_csv` writes."""
+    buf = io.StringIO(newline="")
+    w = csv.DictWriter(buf, fieldnames=list(dict.fromkeys(k for r in rows for k in r)))
+    w.writeheader()
+    w.writerows(rows)
+    return buf.getvalue()
 
 
 def plot_study(rows: list[dict], out: Path, title: str = "", note: str = "",

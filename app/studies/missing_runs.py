@@ -41,18 +41,23 @@ def missing_runs(out: Path, planned: list[tuple[int, str]], done: set[tuple[int,
 
 
 def missing_combinations(out: Path, keys: list[str], combos: list[tuple[str, ...]],
-                         rows: list[dict], value, since: float = -math.inf) -> list[dict]:
+                         rows: list[dict], value, since: float = -math.inf,
+                         stopped: int | None = None) -> list[dict]:
     """The sweep.csv rows of the combinations an interrupted sweep has no row for: their
     swept values (`value`: text -> the rows' value, app.studies.sweep._value) and status
     "interrupted" (or the status of OUT/run_<i>/summary.json) for the run it stopped,
-    "not run" for the ones it never started (since: as `missing_runs`)."""
+    "not run" for the ones it never started (since: as `missing_runs`). stopped: the
+    index of the run a signal is to stop, "interrupted" whatever its summary says now
+    (the texts app/_hard_stop.c writes are prepared while it says `running`)."""
     have = [tuple(r.get(k) for k in keys) for r in rows]
     out_rows = []
     for i, combo in enumerate(combos):
         params = {k: value(v) for k, v in zip(keys, combo, strict=True)}
         if tuple(params.values()) in have:
             continue
-        status = _status(Path(out) / f"run_{i:03d}" / "summary.json", since) or "not run"
+        status = ("interrupted" if i == stopped else "not run" if stopped is not None
+                  and i > stopped else
+                  _status(Path(out) / f"run_{i:03d}" / "summary.json", since) or "not run")
         out_rows.append({**params, "status": status,
                          "error": "the sweep was interrupted"})
     return out_rows

@@ -18,13 +18,14 @@ from pathlib import Path
 import numpy as np
 from petsc4py import PETSc
 
+from app import exit_sync, hard_stop
 from app.config import load_config
 from app.errors import InputError, SolveError
 from app.output.batch_guard import BatchGuard
-from app.output.status import step_writing
+from app.output.status import step_writing, stop_status
 from app.plotting import pyplot
 from app.run import RunOptions, run
-from app.studies.convergence import write_csv
+from app.studies.convergence import csv_text, write_csv
 from app.studies.missing_runs import missing_combinations
 
 ZONES = ("contact", "stick", "slip", "open", "bonded")
@@ -128,9 +129,14 @@ def run_sweep(config: Path, sets: list[str], sweeps: list[tuple[str, list[str]]]
     keys = [k for k, _ in sweeps]
     sweep = Sweep(config, sets, keys, list(itertools.product(*[v for _, v in sweeps])),
                   Path(out), opts, at_step, quiet)
+    in_c = sweep.hard_stop_texts  # (a bound method: removed by equality)
     with BatchGuard(lambda: _write_completed(sweep)):
-        for i, combo in enumerate(sweep.combos):
-            _run_combination(sweep, i, combo)
+        hard_stop.add_extra(in_c)  # a signal inside a run's long PETSc call
+        try:
+            for i, combo in enumerate(sweep.combos):
+                _run_combination(sweep, i, combo)
+        finally:
+            hard_stop.remove_extra(in_c)
     if len(sweep.failed) == len(sweep.combos):
         raise SolveError(f"every run of the sweep failed (first: {sweep.failed[0]})")
     if PETSc.COMM_WORLD.getRank() == 0:
@@ -158,11 +164,33 @@ class Sweep:
     failed: list[str] = field(default_factory=list)
     t0: float = field(default_factory=time.perf_counter)  # progress lines' clock
     started: float = field(default_factory=lambda: time.time() - 0.1)  # (file times: coarse)
+    current: int = -1  # the index of the run in progress
+    _stop_texts: tuple = ((), (None, b"", ""))  # hard_stop_texts' (key, texts)
+
+    def hard_stop_texts(self, name: str, line: str) -> tuple[Path | None, bytes, str]:
+        """What app/_hard_stop.c writes after the run's and the study's summary when a
+        signal stops the run in progress inside a long PETSc call (rank 0 of several): what
+        `_write_completed` writes there (sweep.csv with a row for each run that did not
+        complete, this one `interrupted`; no plots) and its line. Built once per run (each
+        long call arms it)."""
+        key = (len(self.rows), self.current)
+        if self._stop_texts[0] != key:
+            if not self.rows:
+                texts = (None, b"", _no_run_line(self.out) + "\n")
+            else:
+                missing = missing_combinations(self.out, self.keys, self.combos, self.rows,
+                                               _value, since=self.started,
+                                               stopped=self.current)
+                texts = (self.out / "sweep.csv", csv_text(self.rows + missing).encode(),
+                         _interrupted_line(self, len(missing), False) + "\n")
+            self._stop_texts = (key, texts)
+        return self._stop_texts[1]
 
 
 def _run_combination(sweep: Sweep, i: int, combo: tuple[str, ...]) -> None:
     """Run combination i (its folder OUT/run_<i>) and record its rows, or its failure."""
     rank = PETSc.COMM_WORLD.getRank()
+    sweep.current = i
     pairs = list(zip(sweep.keys, combo, strict=True))
     tag = f"run {i + 1}/{len(sweep.combos)} " + " ".join(f"{k}={v}" for k, v in pairs)
     overrides = [*sweep.sets, *(f"{k}={v}" for k, v in pairs)]
@@ -191,6 +219,8 @@ def _try_combination(sweep: Sweep, ro: RunOptions, params: dict) -> dict | None:
         report_step(sweep.at_step, cfg.n_steps)
         return run(cfg, ro)
     except (InputError, SolveError) as exc:
+        if not exit_sync.failed_together():
+            raise  # this rank failed alone: the others wait in the run (app/exit_sync.py)
         sweep.failed.append(str(exc))
         if PETSc.COMM_WORLD.getRank() == 0:
             print(f"[{time.perf_counter() - sweep.t0:8.2f} s] {ro.progress_prefix}: failed: "
@@ -204,16 +234,28 @@ def _write_completed(sweep: Sweep) -> str:
     complete and the plots of those that did; returns the one-line account."""
     out = sweep.out
     if not sweep.rows:
-        return f"sweep: no run completed in {out}"
+        return _no_run_line(out)
     plots = PETSc.COMM_WORLD.getSize() == 1  # several ranks: mpiexec kills in 1 s
     missing = missing_combinations(out, sweep.keys, sweep.combos, sweep.rows, _value,
                                    since=sweep.started)
     write_csv(out / "sweep.csv", sweep.rows + missing)  # with a row for each missing run
     if plots:
         plot_sweep([dict(r) for r in sweep.rows], sweep.keys, out, sweep.at_step)
-    return (f"sweep: interrupted; its {len(sweep.rows)} rows are in sweep.csv" +
+    return _interrupted_line(sweep, len(missing), plots, stop_status())
+
+
+def _no_run_line(out: Path) -> str:
+    """The `sweep:` line of a sweep stopped before a run completed (no sweep.csv)."""
+    return f"sweep: no run completed in {out}"
+
+
+def _interrupted_line(sweep: Sweep, n_missing: int, plots: bool,
+                      state: str = "interrupted") -> str:
+    """The `sweep:` line of an interrupted sweep with rows (state `failed`: ended by
+    mpiexec's answer to a rank that failed alone, app/output/status.py `stop_status`)."""
+    return (f"sweep: {state}; its {len(sweep.rows)} rows are in sweep.csv" +
             (" and the plots" if plots else " (no plots on several ranks)") +
-            f", in {out}, with a row for each of the {len(missing)} runs that did not "
+            f", in {sweep.out}, with a row for each of the {n_missing} runs that did not "
             "complete")
 
 
