@@ -232,7 +232,8 @@ def _study_command(args, petsc_args: list[str], rank: int) -> int:
     from app.studies.batch_status import BatchStatus
 
     with BatchStatus("sweep" if args.sweep else "convergence", args.config, list(args.set),
-                     _out_folder(args, Path("out") / f"study_{args.config.stem}")) as batch:
+                     _out_folder(args, Path("out") / f"study_{args.config.stem}"),
+                     launched=args.launched, started=args.started) as batch:
         rows, out = _study_rows(args, batch)
         batch.completed(len(rows), "sweep.csv" if args.sweep else "study.csv")
     if rank == 0 and not args.quiet:
@@ -253,6 +254,7 @@ def _study_rows(args, batch) -> tuple[list[dict], Path]:
     """The checks of the study's options, then its runs; the rows and OUT."""
     from app.config import load_config
     from app.errors import InputError
+    from app.studies.batch_status import shared_start_line
     from app.studies.convergence import parse_methods, run_study
 
     cfg = load_config(args.config, args.set)
@@ -287,7 +289,8 @@ def _study_rows(args, batch) -> tuple[list[dict], Path]:
     rows = run_study(cfg, out, args.levels, methods, scale,
                      args.quiet, args.first_level, args.remesh, args.reference_method,
                      args.reference, args.reference_levels, tuple(args.set),
-                     allow_large=args.allow_large)
+                     allow_large=args.allow_large,
+                     timing=shared_start_line(batch.summary.get("timings", {})))
     if not rows:
         raise InputError(f"every run of the study failed (see the lines above and "
                          f"{out}/*/summary.json)")
