@@ -151,11 +151,30 @@ def main(argv: list[str] | None = None) -> int:
     """`python -m app run|study ...`; returns the exit status (0, 2, 130 or 143). The
     process's end follows: from the return on, a signal exits at once (on several ranks an
     interrupted rank exits here), see app/output/late_signals.py."""
-    argv = list(sys.argv[1:] if argv is None else argv)
+    parsed = _parse_command_line(list(sys.argv[1:] if argv is None else argv))
+    if isinstance(parsed, int):  # a usage error, recorded
+        return parsed
+    args, petsc_args = parsed
+    refused = _start(args, petsc_args)
+    if refused is not None:
+        return refused
+    from petsc4py import PETSc
+
+    from app import exit_sync
+
+    rank = PETSc.COMM_WORLD.getRank()
+    exit_sync.arm()
+    message, code = _dispatch(args, petsc_args, rank)
+    return _leave(rank, message, code)
+
+
+def _parse_command_line(argv: list[str]) -> tuple[argparse.Namespace, list[str]] | int:
+    """(the parsed arguments, the PETSc options), or the exit status of a usage error
+    (argparse's lines printed, OUT/summary.json says failed)."""
     parser = _parser()
     # PETSc options that begin with -h (-help) would be taken as argparse's -h with a value
     petsc_h = [a for a in argv if a.startswith("-h") and a != "-h"]
-    from app.startup.early_failure import UsageError, record, study_head, usage_failure
+    from app.startup.early_failure import UsageError, usage_failure
 
     try:
         args, petsc_args = parser.parse_known_args([a for a in argv if a not in petsc_h])
@@ -165,8 +184,16 @@ def main(argv: list[str] | None = None) -> int:
             parser.error(f"unknown option {bad[0]} (PETSc options take a single dash)")
     except UsageError as exc:  # argparse's lines, and OUT/summary.json says failed
         return usage_failure(exc, _parser, [a for a in argv if a not in petsc_h], _out_folder)
+    return args, petsc_args
 
+
+def _start(args: argparse.Namespace, petsc_args: list[str]) -> int | None:
+    """The start-up signal handler armed and PETSc started; args.started and
+    args.launched set (perf_counter at PETSc's start-up and at the process's start: the
+    `startup` and `launch` phases). Exit status 2 when PETSc refused to start (rank 0
+    says why, OUT/summary.json says failed), else None."""
     from app.output import startup_signals
+    from app.startup.early_failure import record, study_head
     from app.startup.petsc import start_petsc
 
     stem = args.config.stem if args.command == "run" else f"study_{args.config.stem}"
@@ -184,17 +211,23 @@ def main(argv: list[str] | None = None) -> int:
     from app.startup.launch_time import process_start
 
     args.launched = process_start()  # and its `launch` phase, from the process's start
+    return None
+
+
+def _dispatch(args: argparse.Namespace, petsc_args: list[str], rank: int
+              ) -> tuple[str | None, int]:
+    """Run the command: (the `error:` line to print on rank 0 or None, the exit status).
+    An unexpected exception leaves (on several ranks, not waiting for the others) with
+    its traceback. The start-up signal handler is restored and the job's end armed."""
     from petsc4py import PETSc
 
     from app import exit_sync
     from app.errors import InputError, SolveError
-    from app.output import late_signals
+    from app.output import late_signals, startup_signals
     from app.output.status import RunInterrupted
     from app.parallel import PeerFailure
     from app.petsc_options import petsc_error_line
 
-    rank = PETSc.COMM_WORLD.getRank()
-    exit_sync.arm()
     command = _study_command if args.command == "study" else _run_command
     late_signals.arm_outside()  # SIGTERM outside the runs' guards: as SIGINT
     message, code = None, 1
@@ -218,6 +251,15 @@ def main(argv: list[str] | None = None) -> int:
     finally:
         startup_signals.restore()  # when no run's guard took the signals over
         late_signals.arm_end(code)  # the job's end: Python's, PETSc's and MPI's shutdown
+    return message, code
+
+
+def _leave(rank: int, message: str | None, code: int) -> int:
+    """Print the `error:` line (rank 0), leave at once after a failure on a rank the others
+    do not wait for, and hand `code` to the process's end."""
+    from app import exit_sync
+    from app.output import late_signals
+
     if rank == 0 and message is not None:
         print(message, file=sys.stderr)
     if code in (1, 2):  # a failure: do not wait in MPI_Finalize for a rank that never ends
@@ -232,7 +274,8 @@ def _study_command(args, petsc_args: list[str], rank: int) -> int:
     from app.studies.batch_status import BatchStatus
 
     with BatchStatus("sweep" if args.sweep else "convergence", args.config, list(args.set),
-                     _out_folder(args, Path("out") / f"study_{args.config.stem}")) as batch:
+                     _out_folder(args, Path("out") / f"study_{args.config.stem}"),
+                     launched=args.launched, started=args.started) as batch:
         rows, out = _study_rows(args, batch)
         batch.completed(len(rows), "sweep.csv" if args.sweep else "study.csv")
     if rank == 0 and not args.quiet:
@@ -253,6 +296,7 @@ def _study_rows(args, batch) -> tuple[list[dict], Path]:
     """The checks of the study's options, then its runs; the rows and OUT."""
     from app.config import load_config
     from app.errors import InputError
+    from app.studies.batch_status import shared_start_line
     from app.studies.convergence import parse_methods, run_study
 
     cfg = load_config(args.config, args.set)
@@ -287,7 +331,8 @@ def _study_rows(args, batch) -> tuple[list[dict], Path]:
     rows = run_study(cfg, out, args.levels, methods, scale,
                      args.quiet, args.first_level, args.remesh, args.reference_method,
                      args.reference, args.reference_levels, tuple(args.set),
-                     allow_large=args.allow_large)
+                     allow_large=args.allow_large,
+                     timing=shared_start_line(batch.summary.get("timings", {})))
     if not rows:
         raise InputError(f"every run of the study failed (see the lines above and "
                          f"{out}/*/summary.json)")

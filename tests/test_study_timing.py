@@ -1,11 +1,14 @@
-"""The study's time axis: no method pays gmsh, and the phase columns add up to t_total."""
+"""The study's time axis: no method pays gmsh, the phase columns add up to t_total, and
+the process start-up the runs share is counted once, in the study's summary."""
 
 from __future__ import annotations
 
 import json
+import subprocess
+import sys
 
 import pytest
-from support import CONFIGS, read_csv, run_cli
+from support import CONFIGS, ROOT, mpi_env, read_csv, read_summary, run_cli
 
 
 @pytest.fixture(scope="module")
@@ -46,3 +49,40 @@ def test_phase_columns_add_up_to_the_total(remesh_study):
         assert phases == pytest.approx(float(r["t_total"]), abs=0.06)
     one_sd = [r for r in rows if r["method"] == "1SD"]
     assert all(float(r["t_floating_modes"]) > 0 for r in one_sd)  # its eigen-solve
+
+
+SLOW_START = """
+import sys, time
+time.sleep(0.5)  # a slow interpreter start, before PETSc: the process's launch
+from app.cli import main
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+def test_the_shared_process_start_is_counted_once_in_the_study_summary(tmp_path):
+    """A study's runs share one process: its launch and startup (what a `run` adds to its
+    total) are in the study's summary.json `timings`, once, not in any run's t_total (the
+    first run would be charged for all), and the tables say how t_total is counted.
+    Before, the study's summary had no timings and nothing said t_total left them out."""
+    out = tmp_path / "study"
+    res = subprocess.run([sys.executable, "-c", SLOW_START, "study",
+                          str(CONFIGS / "hertz.toml"), "--levels", "1", "--methods", "4,q4",
+                          "--out", str(out)],
+                         cwd=ROOT, env=mpi_env(), capture_output=True, text=True, timeout=300)
+    assert res.returncode == 0, res.stderr
+    t = read_summary(out)["timings"]
+    assert t["launch"] >= 0.5 and t["startup"] > 0
+    rows = read_csv(out / "study.csv")
+    runs = sum(float(r["t_total"]) for r in rows)
+    assert t["total"] >= t["launch"] + t["startup"] + runs
+    # no run pays the process start: no launch or startup column, and t_total is the
+    # run's own phases
+    for r in rows:
+        assert "t_launch" not in r and "t_startup" not in r
+        phases = sum(float(v) for k, v in r.items()
+                     if k.startswith("t_") and k not in ("t_total", "t_level_gmsh"))
+        assert float(r["t_total"]) == pytest.approx(phases, abs=0.06)
+    line = (f"launch {t['launch']:.2f} s, startup {t['startup']:.2f} s")
+    tables = (out / "study_tables.md").read_text()
+    assert "t_total [s]" in tables and "t_total: each run's own phases" in tables
+    assert line in tables and line in res.stdout

@@ -24,6 +24,7 @@ from __future__ import annotations
 import datetime
 import json
 import sys
+import time
 from collections.abc import Callable
 from pathlib import Path
 
@@ -47,8 +48,11 @@ class BatchStatus:
     usable), None when there is no folder to write (a mistyped config without --out)."""
 
     def __init__(self, kind: str, config: Path, overrides: list[str],
-                 folder: Callable[[], Path] | None):
+                 folder: Callable[[], Path] | None, launched: float | None = None,
+                 started: float | None = None):
         self.kind = kind
+        self.launched = launched  # perf_counter at the process's start (None: unknown)
+        self.started = started  # perf_counter at PETSc's start-up
         self.config = Path(config)
         self.overrides = list(overrides)
         self.folder = folder
@@ -82,7 +86,8 @@ class BatchStatus:
 
         collective(take)
         self.summary = {**self.head(), "provenance": provenance(
-            cfg.raw, self.overrides, PETSc.COMM_WORLD.getSize())}
+            cfg.raw, self.overrides, PETSc.COMM_WORLD.getSize()),
+            "timings": shared_start(self.launched, self.started, time.perf_counter())}
         self.out = out
         status.on_stop(self._stopped)
         hard_stop.add_extra(self._hard_stop_text)
@@ -152,10 +157,36 @@ class BatchStatus:
             return
         self.summary["end_time"] = datetime.datetime.now(datetime.UTC).isoformat(
             timespec="seconds")
+        begun = self.launched if self.launched is not None else self.started
+        if "timings" in self.summary and begun is not None:
+            self.summary["timings"]["total"] = time.perf_counter() - begun
         if not status.write_summary_robust(lambda out, s: write_summary(out / "summary.json",
                                                                         s), self.out,
                                            self.summary):
             print(f"warning: could not update {self.out / 'summary.json'}", file=sys.stderr)
+
+
+def shared_start(launched: float | None, started: float | None, opened: float) -> dict:
+    """The study's process start-up, shared by all its runs (perf_counter seconds: the
+    process's start, PETSc's start-up, OUT taken): {"launch": the interpreter, imports,
+    PETSc's and MPI's start; "startup": imports, config and option checks, provenance,
+    OUT's lock}, seconds, as a `run`'s phases of those names; a part not known is left out.
+    A study's runs have neither phase, so their `t_total` is their own phases, from the
+    mesh to the output, and this is paid once, not by the first run."""
+    out = {}
+    if launched is not None and started is not None and launched < started:
+        out["launch"] = started - launched
+    if started is not None:
+        out["startup"] = opened - started
+    return out
+
+
+def shared_start_line(timings: dict) -> str:
+    """One line saying how a study's run times are counted, with the shared start-up."""
+    known = ", ".join(f"{k} {timings[k]:.2f} s" for k in ("launch", "startup") if k in timings)
+    return ("t_total: each run's own phases, from its mesh to its output; the process "
+            "start-up that a `run` adds to its total is shared by the study's runs and "
+            f"counted once, in the study's summary.json `timings` ({known or 'not known'})")
 
 
 def reason(exc: BaseException, out: Path) -> str:

@@ -93,7 +93,8 @@ def run_study(cfg: Config, out: Path, levels: int, methods: list[tuple[str, int]
               base_scale: float = 1.0, quiet: bool = False, first_level: int = 0,
               remesh: bool = False, reference: str | None = None,
               reference_mode: str = "richardson", reference_levels: int = 0,
-              overrides: tuple[str, ...] = (), allow_large: bool = False) -> list[dict]:
+              overrides: tuple[str, ...] = (), allow_large: bool = False,
+              timing: str = "") -> list[dict]:
     """Run every (level, method); returns the rows written to OUT/study.csv.
 
     reference: label of the reference method (default 4SD if run, else the last method).
@@ -102,14 +103,15 @@ def run_study(cfg: Config, out: Path, levels: int, methods: list[tuple[str, int]
     the reference method alone also runs that many levels finer than the others, so that
     their finest levels are compared with a finer reference. overrides: the `--set`
     strings already in cfg, recorded in each run's provenance. allow_large: as run's
-    --allow-large (the dense contact check of each run). Raises SolveError if every
-    run fails.
+    --allow-large (the dense contact check of each run). timing: the line under the
+    tables that says how t_total is counted (batch_status.shared_start_line). Raises
+    SolveError if every run fails.
     """
     columns, ref_label = _study_reference(cfg, methods, reference, reference_mode)
     study = ConvergenceStudy(cfg, Path(out), methods, columns, ref_label, reference_mode,
                       first_level, first_level + levels - 1 + reference_levels,
                       reference_levels, base_scale, remesh, quiet, list(overrides),
-                      allow_large)
+                      allow_large, timing=timing)
     with BatchGuard(lambda: _write_completed(study)):
         for level in range(first_level, study.last + 1):
             _run_level(study, level)
@@ -118,7 +120,7 @@ def run_study(cfg: Config, out: Path, levels: int, methods: list[tuple[str, int]
                          f"{study.failures[0].splitlines()[0] if study.failures else 'none'})")
     if PETSc.COMM_WORLD.getRank() == 0:
         finish_study(cfg, study.out, study.rows, study.profiles, ref_label, reference_mode,
-                     quiet, study.failures)
+                     quiet, study.failures, timing=study.timing)
     return study.rows
 
 
@@ -145,6 +147,7 @@ class ConvergenceStudy:
     rows: list[dict] = field(default_factory=list)
     profiles: dict[tuple[int, str], dict] = field(default_factory=dict)
     failures: list[str] = field(default_factory=list)
+    timing: str = ""  # the tables' line on how t_total is counted
     t0: float = field(default_factory=time.perf_counter)  # progress lines' clock
     started: float = field(default_factory=lambda: time.time() - 0.1)  # (file times: coarse)
 
@@ -188,7 +191,7 @@ def _add_row(study: ConvergenceStudy, s: dict, opts: RunOptions, level: int, met
         if PETSc.COMM_WORLD.getRank() == 0:
             _record_row(study.out, study.rows, study.profiles, s, opts, study.t0)
             _refresh_tables(study.cfg, study.out, study.rows, study.profiles, study.ref_label,
-                            study.reference_mode, study.failures)
+                            study.reference_mode, study.failures, study.timing)
     finally:
         step_writing(False)
 
@@ -206,7 +209,8 @@ def _write_completed(study: ConvergenceStudy) -> str:
     missing = missing_runs(out, plan, {(r["level"], r["method"]) for r in done},
                            study.failures, study.last, since=study.started)
     finish_study(study.cfg, out, done, dict(study.profiles), study.ref_label,
-                 study.reference_mode, True, study.failures + missing, plots=plots)
+                 study.reference_mode, True, study.failures + missing, plots=plots,
+                 timing=study.timing)
     return (f"study: interrupted; the {len(done)} completed runs are in study.csv and "
             f"study_tables.md" + (", and the plots" if plots else
                                   " (no plots on several ranks)") + f", in {out}; "
@@ -258,14 +262,14 @@ def _record_row(out: Path, rows: list[dict], profiles: dict, s: dict, opts: RunO
 
 
 def _refresh_tables(cfg: Config, out: Path, rows: list[dict], profiles: dict, ref_label: str,
-                    reference_mode: str, failures: list[str]) -> None:
+                    reference_mode: str, failures: list[str], timing: str = "") -> None:
     """Rank 0, after each completed run: the tables of the runs so far (no plots), so that
     an interrupt leaves them. A failure here is a warning: the study goes on (an exception
     on rank 0 alone would end a study on several ranks), and the final tables are written
     at its end as always."""
     try:
         finish_study(cfg, out, [dict(r) for r in rows], profiles, ref_label, reference_mode,
-                     True, failures, plots=False)
+                     True, failures, plots=False, timing=timing)
     except Exception as exc:  # a warning; the end of the study reports it
         print(f"warning: the study's tables could not be refreshed after this run "
               f"({type(exc).__name__}: {exc}); the study goes on", file=sys.stderr,
@@ -298,10 +302,11 @@ def study_row(s: dict, level: int, method: str, columns) -> dict:
 
 def finish_study(cfg: Config, out: Path, rows: list[dict], profiles: dict, ref_label: str,
                  reference_mode: str, quiet: bool, failures: list[str] | None = None,
-                 plots: bool = True) -> None:
+                 plots: bool = True, timing: str = "") -> None:
     """Rank 0, after every run: the ref_* errors (Richardson limits or the finest level),
     the energy bracket, study.csv, the tables (printed unless quiet; with the failed runs
-    and why, `failures`, which have no row) and, if `plots`, the plots. Also after each
+    and why, `failures`, which have no row; `timing`: the line on how t_total is counted)
+    and, if `plots`, the plots. Also after each
     completed run without plots (milliseconds), so that an interrupt at any moment leaves
     the tables of the runs that completed."""
     limits = method_limits(rows, profiles) if reference_mode == "richardson" else []
@@ -315,7 +320,7 @@ def finish_study(cfg: Config, out: Path, rows: list[dict], profiles: dict, ref_l
     if bracket:
         write_csv(out / "energy_bracket.csv", bracket)
     marks = order_marks(rows, limits, ref_label, extrapolated=scalars is not None)
-    table = write_tables(rows, bracket, out, note, marks)
+    table = write_tables(rows, bracket, out, note, marks, timing)
     if limits:
         add_limit_spread(limits, ref_label)
         write_csv(out / "richardson.csv", limits)

@@ -173,17 +173,19 @@ def _fmt(v) -> str:
 
 
 def write_tables(rows: list[dict], bracket: list[dict], out: Path, note: str,
-                 marks: dict[tuple[str, str], dict[int, str]] | None = None) -> str:
+                 marks: dict[tuple[str, str], dict[int, str]] | None = None,
+                 timing: str = "") -> str:
     """Markdown tables (errors with observed orders per method; the energy bracket) in
     OUT/study_tables.md; returns the text. marks: {(method, column): {level: mark}} put
     after an order (app/studies/richardson_reference.order_marks: * fixed by the reference's own
-    limit, ~ within its uncertainty, = against the reference at the same level)."""
+    limit, ~ within its uncertainty, = against the reference at the same level); timing:
+    a line under the errors' table on how its times (t_total) are counted."""
     cols = [k for k in dict.fromkeys(k for r in rows for k in r)
             if k.startswith(("err_", "ref_"))]
     lines = [f"errors (observed order in parentheses; *: fixed by the reference's own "
              f"Richardson limit, ~: an error within that limit's uncertainty, =: an error "
              f"against the reference run at the same level); {note}", "",
-             "| method | level | DOFs | time [s] | " + " | ".join(c for c in cols) + " |",
+             "| method | level | DOFs | t_total [s] | " + " | ".join(c for c in cols) + " |",
              "|---" * (4 + len(cols)) + "|"]
     runs = {m: i for i, m in enumerate(dict.fromkeys(r["method"] for r in rows))}
     for r in sorted(rows, key=lambda r: (runs[r["method"]], r["level"])):  # --methods order
@@ -195,6 +197,8 @@ def write_tables(rows: list[dict], bracket: list[dict], out: Path, note: str,
                          + (f" ({o:.2f}{mark})" if math.isfinite(o) else ""))
         lines.append(f"| {r['method']} | {r['level']} | {r['n_dofs']} | {r['t_total']:.2f} | "
                      + " | ".join(cells) + " |")
+    if timing:
+        lines += ["", timing]
     if bracket:
         keys = list(dict.fromkeys(k for b in bracket for k in b))
         lines += ["", "energy bracket (width relative to the mean of the two bounds)", "",
