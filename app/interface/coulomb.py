@@ -126,10 +126,14 @@ class ContactLCP:
         eq = e0 - self.nm.T @ a + self.tm.T @ hxi
         out = np.concatenate([qg, base + hxi, base - hxi, -eq, eq])
         # entries that are round-off of exact cancellations (e.g. F = 0 and no tangential
-        # motion) are set to zero, so that Lemke does not pivot on them
-        d = self.scaling * self.row_scale
-        big = np.abs(d * out).max(initial=0.0)
-        out[np.abs(d * out) < 1e-14 * big] = 0.0
+        # motion) are set to zero, so that Lemke does not pivot on them; relative to their
+        # own block (gaps, F +- q, equilibrium): a strength c of 1e20 set every free gap to
+        # zero when the whole vector was the measure
+        scaled = np.abs(self.scaling * self.row_scale * out)
+        e = self.edges
+        for i0, i1 in ((e[0], e[1]), (e[1], e[3]), (e[3], e[5])):
+            blk = scaled[i0:i1]
+            out[i0:i1][blk < 1e-14 * blk.max(initial=0.0)] = 0.0
         return out
 
     def solve(self, gap_free: np.ndarray, tau_free: np.ndarray, tau_prev: np.ndarray,
@@ -160,10 +164,16 @@ class ContactLCP:
         res.pivots = pivots
         m, f, e = self.m, self.fric, self.edges
         z = d * res.z
-        ptil = z[: e[1]]
+        z[: e[1]] -= a  # p on the normal rows
+        # p holds round-off of a: solved again without the shift where a >> the forces
+        if res.status == "solved" and res.basis is not None and \
+                a.max(initial=0.0) > 1e3 * np.abs(z[: e[1]]).max(initial=0.0):
+            unshifted = self._unshifted(res.basis, a, gap_free, tau_free, tau_prev, c, mu, e0)
+            if unshifted is not None:
+                z = unshifted
+        p = z[: e[1]]
         sp_, sm_ = z[e[1]: e[2]], z[e[2]: e[3]]
         alpha = z[e[3]: e[4]] - z[e[4]: e[5]]
-        p = ptil - a
         q = np.zeros(m)
         splus = np.zeros(m)
         sminus = np.zeros(m)
@@ -181,3 +191,37 @@ class ContactLCP:
             tau = tau + self.tm_all @ alpha
         return ContactSolution(p, q, gap, tau, splus, sminus, alpha, res.pivots, res.status,
                                res.basis, res.residual, res.message)
+
+    def _unshifted(self, basis: np.ndarray, a: np.ndarray, gap_free: np.ndarray,
+                   tau_free: np.ndarray, tau_prev: np.ndarray, c: np.ndarray,
+                   mu: np.ndarray, e0: np.ndarray) -> np.ndarray | None:
+        """(p, s+, s-, alpha+, alpha-) (unscaled; p compression positive) on Lemke's final
+        basis, solved for p rather than p + a. Lemke's unknown p + a holds p only to the
+        round-off of a, so a bond far stronger than its forces (a = 1e12 against forces of
+        1) lost p altogether: the pairs read open and all debonded at the first pull. With
+        y = z - a on the normal rows, w = M y + q0 (q0: the constant vector at a = 0), and
+        the basic y solve M_BB y_B = -(q0_B + M_BN y_N), y_N = -a on the nonbasic normal
+        rows (open pairs), 0 elsewhere. None (Lemke's z kept) when that system is singular
+        or its answer leaves the basis's signs by more than round-off."""
+        d, ms, m = self.scaling, self.M_scaled, self.m
+        q0 = d * self.row_scale * self.constant(gap_free, tau_free, tau_prev,
+                                                np.zeros_like(a), c, mu, e0)
+        b = np.asarray(basis, dtype=bool)
+        nb = ~b
+        shift = np.zeros(self.size)
+        shift[:m] = a / d[:m]  # a in the scaled unknowns
+        y = np.where(b, 0.0, -shift)
+        try:
+            y[b] = np.linalg.solve(ms[np.ix_(b, b)], -(q0[b] + ms[np.ix_(b, nb)] @ y[nb]))
+        except np.linalg.LinAlgError:
+            return None
+        z, w = y + shift, ms @ y + q0
+        if not (np.isfinite(z).all() and np.isfinite(w).all()):
+            return None
+        z_low = float(z[b].min(initial=0.0)) / max(float(np.abs(z).max(initial=0.0)), 1e-300)
+        w_low = float(w[nb].min(initial=0.0)) / max(float(np.abs(q0).max(initial=0.0)),
+                                                    float(np.abs(w).max(initial=0.0)), 1e-300)
+        if min(z_low, w_low) < -1e-9:
+            return None
+        y[m:] = np.maximum(y[m:], 0.0)
+        return d * y
