@@ -171,3 +171,26 @@ def test_a_bond_far_stronger_than_its_forces_holds_them_exactly(strength):
     assert res.status == "solved" and list(res.state) == [BONDED] * m
     np.testing.assert_allclose(np.r_[res.solution.p, res.solution.q], lam, rtol=1e-9)
     assert (res.debonded_step == 0).all() and hist.bonded.all()
+
+
+@pytest.mark.parametrize("a", [0.0, 0.5])
+def test_a_pair_whose_motion_the_supports_fix_carries_no_force(a):
+    """Pair 0's normal and tangential compliance are round-off (both of its sides
+    prescribed, as at the ends of a bonded block with prescribed sides) and so is its free
+    gap: any force is an equilibrium there, and Lemke returned p = -a (the bond at its full
+    tension; on configs/hard/shear_off.toml with mortar the round-off gave p = 3.8e14,
+    -1e-20 / 1e-35, which the interface's normal force and the reactions carried). Now it is
+    0, and the other pairs' forces are those of the system without it."""
+    m = 3
+    c = np.diag(np.r_[1e-35, CN, CN, 1e-35, CT, CT])
+    c[0, 1] = c[1, 0] = 2e-20
+    lcp = ContactLCP(c, np.full(m, 0.3), np.ones(m, dtype=bool), None, None)
+    hist = _history(m, a=a, c=1.0 if a else 0.0)
+    gap_free = np.array([-1.36e-20, -1e-3, 2e-4])
+    res = solve_step(lcp, hist, 1, gap_free, np.array([-2e-19, 1e-5, 0.0]), np.full(m, 0.3),
+                     np.zeros(0), TOL, TOL)
+    assert res.status == "solved"
+    assert abs(res.solution.p[0]) < 1e-9  # (before: -a with a = 0.5, the full tension)
+    assert abs(res.solution.q[0]) < 1e-6  # the stiff tangential tie on round-off tau
+    assert res.solution.p[1] == pytest.approx(1e-3 / CN, rel=1e-9)
+    assert res.state[0] == (BONDED if a else STICK)

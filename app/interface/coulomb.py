@@ -33,7 +33,7 @@ import numpy as np
 
 from app.errors import SolveError
 from app.lcp import lemke
-from app.lcp.coulomb_matrix import coulomb_matrix
+from app.lcp.coulomb_matrix import DEPENDENT_REL, coulomb_matrix
 from app.lcp.solvers import LCPSolver
 
 
@@ -55,6 +55,34 @@ class ContactSolution:
     message: str = ""  # Lemke's own summary of the solve
 
 
+FIXED_COMPLIANCE_REL = 1e-12
+"""The normal compliance given to a pair whose normal motion the supports fix, relative to
+the largest normal compliance (a stiff tie, as `tangential_stiffness` gives C_tt's null
+space)."""
+
+
+def _fixed_normal(c: np.ndarray, m: int) -> tuple[np.ndarray, np.ndarray]:
+    """(fixed (m,) bool, c): the pairs whose normal compliance is round-off (below
+    DEPENDENT_REL of the largest: both sides of the pair prescribed, e.g. the end pairs of
+    a bonded block whose sides are prescribed) and the compliance with their normal rows
+    and columns set to zero and a stiff tie FIXED_COMPLIANCE_REL x the largest on their
+    diagonal. Their force moves nothing (the supports take it), so any value is an answer;
+    the round-off of their compliance and free gap, 1e-35 and -1e-20, gave p = 3.8e14 there,
+    which the normal forces and reactions of the interface then carried. With the tie such
+    a pair carries p = 0 at a zero prescribed gap (its p + a basic)."""
+    diag = np.diagonal(c)[:m]
+    top = float(diag.max(initial=0.0))
+    fixed = diag <= DEPENDENT_REL * top if top > 0 else np.zeros(m, dtype=bool)
+    if not fixed.any():
+        return fixed, c
+    c = c.copy()
+    idx = np.flatnonzero(fixed)
+    c[idx, :] = 0.0
+    c[:, idx] = 0.0
+    c[idx, idx] = FIXED_COMPLIANCE_REL * top
+    return fixed, c
+
+
 class ContactLCP:
     """The LCP matrix of a run and the constant vector of each solve."""
 
@@ -70,6 +98,7 @@ class ContactLCP:
             raise SolveError("the contact compliance is not finite (overflow or underflow in "
                              "the solve): check the Young's moduli and the loads")
         self.m = m
+        self.fixed, c = _fixed_normal(c, m)
         self.c = c
         cm = coulomb_matrix(c, mu, frictional, n_modes, t_modes)
         self.fric, self.mf = cm.fric, cm.fric.size
@@ -118,6 +147,9 @@ class ContactLCP:
                  a: np.ndarray, c: np.ndarray, mu: np.ndarray, e0: np.ndarray) -> np.ndarray:
         """The LCP constant vector for one solve (all arguments per pair, (m,); e0 (r,))."""
         f = self.fric
+        if self.fixed.any():  # their free gap is prescribed: its round-off is no motion
+            big = np.abs(gap_free).max(initial=0.0)
+            gap_free = np.where(self.fixed & (np.abs(gap_free) <= 1e-12 * big), 0.0, gap_free)
         cnt_f = self.c[: self.m, self.m:][:, f]
         xi = tau_prev[f] - tau_free[f] + cnt_f.T @ a
         hxi = self.h @ xi
