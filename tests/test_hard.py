@@ -333,3 +333,35 @@ def test_shear_off_debonds_where_q_reaches_c_plus_mu_p(tmp_path, disc, ey, step)
             p, q = c["p_force"][inner], c["q_force"][inner]
             np.testing.assert_allclose(np.abs(q), 0.3 * np.maximum(p, 0.0), atol=1e-12)
     check_law(s, out)
+
+
+@pytest.mark.parametrize("disc", ["mortar", "node-to-segment"])
+def test_peel_debonds_from_the_pulled_end_monotonically(tmp_path, disc):
+    """hard/pull_off.toml peeled: uy = delta (x + 0.5) on the top gives the exact linear
+    field sigma = E' delta (x + 0.5), largest at x = 0.5, where it reaches a = 2 between
+    delta = 1.8e-3 (step 5) and 2.2e-3 (step 6). The debonded pairs are a run from the right
+    end at every step, growing; each step file's debonded_step is the final one's so far;
+    the held pairs keep p >= -a, |q| <= mu p + c, the debonded ones carry no tension."""
+    hist = list(range(1, 60, 2))
+    s, out = solve(tmp_path, "pull_off", f'interface.bond.discretisation="{disc}"',
+                   'support.3.uy="2e-4 * (x + 0.5)"', f"analysis.steps={len(hist)}",
+                   f"support.3.history={hist}")
+    assert s["status"] == "completed"
+    last = contact(out, len(hist))
+    order = np.argsort(last["x"])
+    final = last["debonded_step"][order]
+    first = int(final[final > 0].min())
+    assert first == 6 and final[-1] == 6 and (final > 0).all()
+    for k in range(1, len(hist) + 1):
+        c = contact(out, k)
+        db = c["debonded_step"][order]
+        gone = db > 0
+        assert np.array_equal(db, np.where(final <= k, final, 0))
+        if gone.any():  # a run from the right end
+            assert gone[int(np.argmax(gone)):].all()
+        p, q = c["p_force"][order], c["q_force"][order]
+        held = ~gone
+        assert (p + c["a_force"][order])[held].min(initial=0.0) >= -1e-12
+        bound = c["mu"][order] * p + c["c_force"][order]
+        assert (np.abs(q) - bound)[held].max(initial=0.0) <= 1e-12
+        assert p[gone].min(initial=0.0) >= -1e-12

@@ -61,26 +61,28 @@ the largest normal compliance (a stiff tie, as `tangential_stiffness` gives C_tt
 space)."""
 
 
-def _fixed_normal(c: np.ndarray, m: int) -> tuple[np.ndarray, np.ndarray]:
-    """(fixed (m,) bool, c): the pairs whose normal compliance is round-off (below
-    DEPENDENT_REL of the largest: both sides of the pair prescribed, e.g. the end pairs of
-    a bonded block whose sides are prescribed) and the compliance with their normal rows
+def _fixed_pairs(c: np.ndarray, m: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(fixed_n, fixed_t, c): the pairs whose normal (tangential) compliance is round-off,
+    below DEPENDENT_REL of the largest (both sides of the pair prescribed, e.g. the end
+    pairs of a bonded block whose sides are prescribed), and the compliance with those rows
     and columns set to zero and a stiff tie FIXED_COMPLIANCE_REL x the largest on their
     diagonal. Their force moves nothing (the supports take it), so any value is an answer;
     the round-off of their compliance and free gap, 1e-35 and -1e-20, gave p = 3.8e14 there,
-    which the normal forces and reactions of the interface then carried. With the tie such
-    a pair carries p = 0 at a zero prescribed gap (its p + a basic)."""
-    diag = np.diagonal(c)[:m]
-    top = float(diag.max(initial=0.0))
-    fixed = diag <= DEPENDENT_REL * top if top > 0 else np.zeros(m, dtype=bool)
-    if not fixed.any():
-        return fixed, c
-    c = c.copy()
-    idx = np.flatnonzero(fixed)
-    c[idx, :] = 0.0
-    c[:, idx] = 0.0
-    c[idx, idx] = FIXED_COMPLIANCE_REL * top
-    return fixed, c
+    which the normal force and the reactions of the interface then carried, and their q
+    differed between 1 and 2 ranks by 5e-8. With the tie and their round-off free motion
+    zeroed (`ContactLCP._free_motion`) such a pair carries p = q = 0 (its p + a basic)."""
+    out = [c.copy(), []]
+    for rows in (slice(0, m), slice(m, 2 * m)):
+        diag = np.diagonal(c)[rows]
+        top = float(diag.max(initial=0.0))
+        fixed = diag <= DEPENDENT_REL * top if top > 0 else np.zeros(m, dtype=bool)
+        out[1].append(fixed)
+        if fixed.any():
+            idx = np.flatnonzero(fixed) + rows.start
+            out[0][idx, :] = 0.0
+            out[0][:, idx] = 0.0
+            out[0][idx, idx] = FIXED_COMPLIANCE_REL * top
+    return out[1][0], out[1][1], out[0]
 
 
 class ContactLCP:
@@ -98,7 +100,7 @@ class ContactLCP:
             raise SolveError("the contact compliance is not finite (overflow or underflow in "
                              "the solve): check the Young's moduli and the loads")
         self.m = m
-        self.fixed, c = _fixed_normal(c, m)
+        self.fixed, self.fixed_t, c = _fixed_pairs(c, m)
         self.c = c
         cm = coulomb_matrix(c, mu, frictional, n_modes, t_modes)
         self.fric, self.mf = cm.fric, cm.fric.size
@@ -143,15 +145,27 @@ class ContactLCP:
     def size(self) -> int:
         return self.M_scaled.shape[0]
 
+    def _free_motion(self, gap_free: np.ndarray, tau_free: np.ndarray,
+                     tau_prev: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(gap_free, tau_prev - tau_free), (m,) each, with the round-off (below 1e-12 of
+        the largest) of the pairs the supports fix (`_fixed_pairs`) set to zero: their
+        motion is prescribed, and its round-off times their stiff tie was a force."""
+        dtau = tau_prev - tau_free
+        gap_free = gap_free.copy() if self.fixed.any() else gap_free
+        for fixed, x in ((self.fixed, gap_free), (self.fixed_t, dtau)):
+            if fixed.any():
+                big = max(float(np.abs(x).max(initial=0.0)),
+                          float(np.abs(tau_free).max(initial=0.0)) if x is dtau else 0.0)
+                x[fixed & (np.abs(x) <= 1e-12 * big)] = 0.0
+        return gap_free, dtau
+
     def constant(self, gap_free: np.ndarray, tau_free: np.ndarray, tau_prev: np.ndarray,
                  a: np.ndarray, c: np.ndarray, mu: np.ndarray, e0: np.ndarray) -> np.ndarray:
         """The LCP constant vector for one solve (all arguments per pair, (m,); e0 (r,))."""
         f = self.fric
-        if self.fixed.any():  # their free gap is prescribed: its round-off is no motion
-            big = np.abs(gap_free).max(initial=0.0)
-            gap_free = np.where(self.fixed & (np.abs(gap_free) <= 1e-12 * big), 0.0, gap_free)
+        gap_free, dtau = self._free_motion(gap_free, tau_free, tau_prev)
         cnt_f = self.c[: self.m, self.m:][:, f]
-        xi = tau_prev[f] - tau_free[f] + cnt_f.T @ a
+        xi = dtau[f] + cnt_f.T @ a
         hxi = self.h @ xi
         qg = gap_free - self.c[: self.m, : self.m] @ a + cnt_f @ hxi
         base = c[f] - mu[f] * a[f]
@@ -211,7 +225,8 @@ class ContactLCP:
         sminus = np.zeros(m)
         if self.mf:
             cnt_f = self.c[:m, m:][:, f]
-            rhs = tau_prev[f] - tau_free[f] - cnt_f.T @ p + sp_ - sm_ - self.tm @ alpha
+            dtau = self._free_motion(gap_free, tau_free, tau_prev)[1]
+            rhs = dtau[f] - cnt_f.T @ p + sp_ - sm_ - self.tm @ alpha
             q[f] = self.h @ rhs
             splus[f], sminus[f] = sp_, sm_
         cn = self.c[:m]
