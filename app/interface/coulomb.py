@@ -71,18 +71,19 @@ def _fixed_pairs(c: np.ndarray, m: int) -> tuple[np.ndarray, np.ndarray, np.ndar
     which the normal force and the reactions of the interface then carried, and their q
     differed between 1 and 2 ranks by 5e-8. With the tie and their round-off free motion
     zeroed (`ContactLCP._free_motion`) such a pair carries p = q = 0 (its p + a basic)."""
-    out = [c.copy(), []]
+    diag = np.diagonal(c)
+    fixed, ties = [], []
     for rows in (slice(0, m), slice(m, 2 * m)):
-        diag = np.diagonal(c)[rows]
-        top = float(diag.max(initial=0.0))
-        fixed = diag <= DEPENDENT_REL * top if top > 0 else np.zeros(m, dtype=bool)
-        out[1].append(fixed)
-        if fixed.any():
-            idx = np.flatnonzero(fixed) + rows.start
-            out[0][idx, :] = 0.0
-            out[0][:, idx] = 0.0
-            out[0][idx, idx] = FIXED_COMPLIANCE_REL * top
-    return out[1][0], out[1][1], out[0]
+        top = float(diag[rows].max(initial=0.0))
+        fixed.append(diag[rows] <= DEPENDENT_REL * top if top > 0 else np.zeros(m, dtype=bool))
+        ties.append((np.flatnonzero(fixed[-1]) + rows.start, FIXED_COMPLIANCE_REL * top))
+    if fixed[0].any() or fixed[1].any():
+        c = c.copy()  # (the caller's compliance is kept)
+        for idx, tie in ties:
+            c[idx, :] = 0.0
+            c[:, idx] = 0.0
+            c[idx, idx] = tie
+    return fixed[0], fixed[1], c
 
 
 class ContactLCP:
