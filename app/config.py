@@ -388,7 +388,7 @@ def _interface(raw: dict, it: dict, i: int, earlier: list[Interface]) -> Interfa
     if not bonded and (a > 0.0 or c > 0.0):
         raise InputError(f"{where}: a = {a}, c = {c} act only while a pair is bonded, and "
                          "bonded = false ignores them: remove them or set bonded = true")
-    if c < mu * a:
+    if c < mu * a * (1.0 - 1e-12):  # c = mu a is allowed (0.1 * 3 is 0.30000000000000004)
         raise InputError(f"{where}: c = {c} < mu * a = {mu * a}: need c >= mu a so the "
                          "friction bound mu p + c stays >= 0 under tension")
     sdist = _num(it["search_distance"], f"{where}: search_distance", positive=True)

@@ -282,3 +282,86 @@ def test_many_pairs_and_steps_full(tmp_path):
     later = [st["step_seconds"] for st in s["steps"][1:]]
     print(f"\n100 steps, {s['n_pairs']} pairs: first step {s['steps'][0]['step_seconds']:.2f} s,"
           f" later steps mean {np.mean(later):.2f} s, max {np.max(later):.2f} s")
+
+
+@pytest.mark.parametrize("disc, step", [("mortar", 10), ("node-to-segment", 9)])
+def test_pull_off_debonds_where_the_uniform_tension_reaches_a(tmp_path, disc, step):
+    """hard/pull_off.toml: sigma = E' delta / H reaches a = 2 between steps 9 and 10 (hand
+    figure); mortar carries the uniform tension exactly, node-to-segment on the
+    non-matching meshes 4% above it at the peak pair (the patch-test error), one step
+    earlier. After debonding: no tension, compression without adhesion, no re-bond."""
+    s, out = solve(tmp_path, "pull_off", f'interface.bond.discretisation="{disc}"')
+    assert s["status"] == "completed"
+    e_prime = 1000.0 / (1 - 0.3 ** 2)
+    deb = [st["interfaces"]["bond"]["debonded_pairs"] for st in s["steps"]]
+    assert deb == [0] * (step - 1) + [17] * (19 - step)
+    for k in range(1, step):  # bonded: N = -sigma x width
+        n = s["steps"][k - 1]["interfaces"]["bond"]["normal_force"]
+        assert n == pytest.approx(-e_prime * 2e-4 * k, rel=1e-3)
+    for k in (step, 11, 12, 16, 17, 18):  # pulled after debonding: nothing
+        assert np.abs(contact(out, k)["p_force"]).max() < 1e-12
+    p = contact(out, 15)["p_force"]  # pressed by delta = -8e-4: sigma = E' 8e-4 x width
+    assert p.sum() == pytest.approx(e_prime * 8e-4, rel=1e-3) and (p >= 0).all()
+    assert check_law(s, out) < KKT_TOL
+
+
+@pytest.mark.parametrize("disc", ["mortar", "node-to-segment"])
+@pytest.mark.parametrize("ey, step", [(1e-4, 15), (-1e-4, 14)])
+def test_shear_off_debonds_where_q_reaches_c_plus_mu_p(tmp_path, disc, ey, step):
+    """hard/shear_off.toml: uniform p = 1346.15 ey and q = G g; the interior pairs debond
+    between g = 2.6e-3 and 2.8e-3 under compression (c + mu p = 1.0404), between 2.4e-3 and
+    2.6e-3 under tension (c - mu |p| = 0.9596, ey = -1e-4), then slide at q = mu p or
+    open. The end pairs (both sides prescribed) carry no force (before: p = 3.8e14 with
+    mortar at the debonding step, the round-off of a zero compliance)."""
+    s, out = solve(tmp_path, "shear_off", f'interface.bond.discretisation="{disc}"',
+                   f"parameters.ey={ey}", tag=f"{disc}{ey}")
+    assert s["status"] == "completed"
+    deb = [st["interfaces"]["bond"]["debonded_pairs"] for st in s["steps"]]
+    assert deb == [0] * (step - 1) + [15] * (19 - step)
+    c = contact(out, step - 1)
+    inner = np.abs(c["x"]) < 0.49
+    p_hand = 1000 * 0.7 / (1.3 * 0.4) * ey
+    if disc == "mortar":  # the exact uniform field
+        np.testing.assert_allclose(c["p"][inner], p_hand, rtol=1e-9)
+        np.testing.assert_allclose(np.abs(c["q"][inner]), 1000 / 2.6 * 2e-4 * (step - 2),
+                                   rtol=1e-6)
+    for k in range(1, 19):
+        c = contact(out, k)
+        ends = ~(np.abs(c["x"]) < 0.49)
+        assert np.abs(c["p_force"][ends]).max() < 1e-9
+        if k >= step:
+            p, q = c["p_force"][inner], c["q_force"][inner]
+            np.testing.assert_allclose(np.abs(q), 0.3 * np.maximum(p, 0.0), atol=1e-12)
+    check_law(s, out)
+
+
+@pytest.mark.parametrize("disc", ["mortar", "node-to-segment"])
+def test_peel_debonds_from_the_pulled_end_monotonically(tmp_path, disc):
+    """hard/pull_off.toml peeled: uy = delta (x + 0.5) on the top gives the exact linear
+    field sigma = E' delta (x + 0.5), largest at x = 0.5, where it reaches a = 2 between
+    delta = 1.8e-3 (step 5) and 2.2e-3 (step 6). The debonded pairs are a run from the right
+    end at every step, growing; each step file's debonded_step is the final one's so far;
+    the held pairs keep p >= -a, |q| <= mu p + c, the debonded ones carry no tension."""
+    hist = list(range(1, 60, 2))
+    s, out = solve(tmp_path, "pull_off", f'interface.bond.discretisation="{disc}"',
+                   'support.3.uy="2e-4 * (x + 0.5)"', f"analysis.steps={len(hist)}",
+                   f"support.3.history={hist}")
+    assert s["status"] == "completed"
+    last = contact(out, len(hist))
+    order = np.argsort(last["x"])
+    final = last["debonded_step"][order]
+    first = int(final[final > 0].min())
+    assert first == 6 and final[-1] == 6 and (final > 0).all()
+    for k in range(1, len(hist) + 1):
+        c = contact(out, k)
+        db = c["debonded_step"][order]
+        gone = db > 0
+        assert np.array_equal(db, np.where(final <= k, final, 0))
+        if gone.any():  # a run from the right end
+            assert gone[int(np.argmax(gone)):].all()
+        p, q = c["p_force"][order], c["q_force"][order]
+        held = ~gone
+        assert (p + c["a_force"][order])[held].min(initial=0.0) >= -1e-12
+        bound = c["mu"][order] * p + c["c_force"][order]
+        assert (np.abs(q) - bound)[held].max(initial=0.0) <= 1e-12
+        assert p[gone].min(initial=0.0) >= -1e-12

@@ -150,3 +150,47 @@ def test_debonding_that_does_not_settle_within_the_cap_is_no_answer():
                      TOL, max_iterations=2)
     assert res.status != "solved" and "debond" in res.status
     assert hist.bonded.all()  # the history is not updated
+
+
+@pytest.mark.parametrize("strength", [1e6, 1e12, 1e20, 1e300])
+def test_a_bond_far_stronger_than_its_forces_holds_them_exactly(strength):
+    """Lemke's unknown is p + a, which holds p only to round-off of a: with a = c = 1e12
+    against forces of 1 the pairs read open and all debonded at the first pull (a glued
+    interface given a huge strength came apart at once), and with 1e20 a strength c in the
+    constant vector set the free gaps to zero as round-off. Now p is solved on Lemke's basis
+    without the shift, and round-off is judged per block of the constant vector."""
+    m = 3
+    cn = np.eye(m) + 0.2 * (np.eye(m, k=1) + np.eye(m, k=-1))
+    ct = 2.0 * np.eye(m) + 0.3 * (np.eye(m, k=1) + np.eye(m, k=-1))
+    c = np.block([[cn, 0.1 * np.eye(m)], [0.1 * np.eye(m), ct]]) * 1e-3
+    lcp = ContactLCP(c, np.full(m, 0.3), np.ones(m, dtype=bool), None, None)
+    hist = _history(m, a=strength, c=strength)
+    gap_free, tau_free = np.array([1e-3, 2e-3, 1.5e-3]), np.array([1e-3, -2e-3, 0.0])
+    res = solve_step(lcp, hist, 1, gap_free, tau_free, np.full(m, 0.3), np.zeros(0), TOL, TOL)
+    lam = np.linalg.solve(c, -np.r_[gap_free, tau_free])  # tied: gap = tau = 0
+    assert res.status == "solved" and list(res.state) == [BONDED] * m
+    np.testing.assert_allclose(np.r_[res.solution.p, res.solution.q], lam, rtol=1e-9)
+    assert (res.debonded_step == 0).all() and hist.bonded.all()
+
+
+@pytest.mark.parametrize("a", [0.0, 0.5])
+def test_a_pair_whose_motion_the_supports_fix_carries_no_force(a):
+    """Pair 0's normal and tangential compliance are round-off (both of its sides
+    prescribed, as at the ends of a bonded block with prescribed sides) and so is its free
+    gap: any force is an equilibrium there, and Lemke returned p = -a (the bond at its full
+    tension; on configs/hard/shear_off.toml with mortar the round-off gave p = 3.8e14,
+    -1e-20 / 1e-35, which the interface's normal force and the reactions carried). Now it is
+    0, and the other pairs' forces are those of the system without it."""
+    m = 3
+    c = np.diag(np.r_[1e-35, CN, CN, 1e-35, CT, CT])
+    c[0, 1] = c[1, 0] = 2e-20
+    lcp = ContactLCP(c, np.full(m, 0.3), np.ones(m, dtype=bool), None, None)
+    hist = _history(m, a=a, c=1.0 if a else 0.0)
+    gap_free = np.array([-1.36e-20, -1e-3, 2e-4])
+    res = solve_step(lcp, hist, 1, gap_free, np.array([-2e-19, 1e-5, 0.0]), np.full(m, 0.3),
+                     np.zeros(0), TOL, TOL)
+    assert res.status == "solved"
+    assert abs(res.solution.p[0]) < 1e-9  # (before: -a with a = 0.5, the full tension)
+    assert abs(res.solution.q[0]) < 1e-9  # (before: 4e-8, the tie k0 x round-off tau)
+    assert res.solution.p[1] == pytest.approx(1e-3 / CN, rel=1e-9)
+    assert res.state[0] == (BONDED if a else STICK)

@@ -33,7 +33,7 @@ import numpy as np
 
 from app.errors import SolveError
 from app.lcp import lemke
-from app.lcp.coulomb_matrix import coulomb_matrix
+from app.lcp.coulomb_matrix import DEPENDENT_REL, coulomb_matrix
 from app.lcp.solvers import LCPSolver
 
 
@@ -55,6 +55,37 @@ class ContactSolution:
     message: str = ""  # Lemke's own summary of the solve
 
 
+FIXED_COMPLIANCE_REL = 1e-12
+"""The normal compliance given to a pair whose normal motion the supports fix, relative to
+the largest normal compliance (a stiff tie, as `tangential_stiffness` gives C_tt's null
+space)."""
+
+
+def _fixed_pairs(c: np.ndarray, m: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(fixed_n, fixed_t, c): the pairs whose normal (tangential) compliance is round-off,
+    below DEPENDENT_REL of the largest (both sides of the pair prescribed, e.g. the end
+    pairs of a bonded block whose sides are prescribed), and the compliance with those rows
+    and columns set to zero and a stiff tie FIXED_COMPLIANCE_REL x the largest on their
+    diagonal. Their force moves nothing (the supports take it), so any value is an answer;
+    the round-off of their compliance and free gap, 1e-35 and -1e-20, gave p = 3.8e14 there,
+    which the normal force and the reactions of the interface then carried, and their q
+    differed between 1 and 2 ranks by 5e-8. With the tie and their round-off free motion
+    zeroed (`ContactLCP._free_motion`) such a pair carries p = q = 0 (its p + a basic)."""
+    diag = np.diagonal(c)
+    fixed, ties = [], []
+    for rows in (slice(0, m), slice(m, 2 * m)):
+        top = float(diag[rows].max(initial=0.0))
+        fixed.append(diag[rows] <= DEPENDENT_REL * top if top > 0 else np.zeros(m, dtype=bool))
+        ties.append((np.flatnonzero(fixed[-1]) + rows.start, FIXED_COMPLIANCE_REL * top))
+    if fixed[0].any() or fixed[1].any():
+        c = c.copy()  # (the caller's compliance is kept)
+        for idx, tie in ties:
+            c[idx, :] = 0.0
+            c[:, idx] = 0.0
+            c[idx, idx] = tie
+    return fixed[0], fixed[1], c
+
+
 class ContactLCP:
     """The LCP matrix of a run and the constant vector of each solve."""
 
@@ -70,6 +101,7 @@ class ContactLCP:
             raise SolveError("the contact compliance is not finite (overflow or underflow in "
                              "the solve): check the Young's moduli and the loads")
         self.m = m
+        self.fixed, self.fixed_t, c = _fixed_pairs(c, m)
         self.c = c
         cm = coulomb_matrix(c, mu, frictional, n_modes, t_modes)
         self.fric, self.mf = cm.fric, cm.fric.size
@@ -114,22 +146,41 @@ class ContactLCP:
     def size(self) -> int:
         return self.M_scaled.shape[0]
 
+    def _free_motion(self, gap_free: np.ndarray, tau_free: np.ndarray,
+                     tau_prev: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(gap_free, tau_prev - tau_free), (m,) each, with the round-off (below 1e-12 of
+        the largest) of the pairs the supports fix (`_fixed_pairs`) set to zero: their
+        motion is prescribed, and its round-off times their stiff tie was a force."""
+        dtau = tau_prev - tau_free
+        gap_free = gap_free.copy() if self.fixed.any() else gap_free
+        for fixed, x in ((self.fixed, gap_free), (self.fixed_t, dtau)):
+            if fixed.any():
+                big = max(float(np.abs(x).max(initial=0.0)),
+                          float(np.abs(tau_free).max(initial=0.0)) if x is dtau else 0.0)
+                x[fixed & (np.abs(x) <= 1e-12 * big)] = 0.0
+        return gap_free, dtau
+
     def constant(self, gap_free: np.ndarray, tau_free: np.ndarray, tau_prev: np.ndarray,
                  a: np.ndarray, c: np.ndarray, mu: np.ndarray, e0: np.ndarray) -> np.ndarray:
         """The LCP constant vector for one solve (all arguments per pair, (m,); e0 (r,))."""
         f = self.fric
+        gap_free, dtau = self._free_motion(gap_free, tau_free, tau_prev)
         cnt_f = self.c[: self.m, self.m:][:, f]
-        xi = tau_prev[f] - tau_free[f] + cnt_f.T @ a
+        xi = dtau[f] + cnt_f.T @ a
         hxi = self.h @ xi
         qg = gap_free - self.c[: self.m, : self.m] @ a + cnt_f @ hxi
         base = c[f] - mu[f] * a[f]
         eq = e0 - self.nm.T @ a + self.tm.T @ hxi
         out = np.concatenate([qg, base + hxi, base - hxi, -eq, eq])
         # entries that are round-off of exact cancellations (e.g. F = 0 and no tangential
-        # motion) are set to zero, so that Lemke does not pivot on them
-        d = self.scaling * self.row_scale
-        big = np.abs(d * out).max(initial=0.0)
-        out[np.abs(d * out) < 1e-14 * big] = 0.0
+        # motion) are set to zero, so that Lemke does not pivot on them; relative to their
+        # own block (gaps, F +- q, equilibrium): a strength c of 1e20 set every free gap to
+        # zero when the whole vector was the measure
+        scaled = np.abs(self.scaling * self.row_scale * out)
+        e = self.edges
+        for i0, i1 in ((e[0], e[1]), (e[1], e[3]), (e[3], e[5])):
+            blk = scaled[i0:i1]
+            out[i0:i1][blk < 1e-14 * blk.max(initial=0.0)] = 0.0
         return out
 
     def solve(self, gap_free: np.ndarray, tau_free: np.ndarray, tau_prev: np.ndarray,
@@ -160,16 +211,23 @@ class ContactLCP:
         res.pivots = pivots
         m, f, e = self.m, self.fric, self.edges
         z = d * res.z
-        ptil = z[: e[1]]
+        z[: e[1]] -= a  # p on the normal rows
+        # p holds round-off of a: solved again without the shift where a >> the forces
+        if res.status == "solved" and res.basis is not None and \
+                a.max(initial=0.0) > 1e3 * np.abs(z[: e[1]]).max(initial=0.0):
+            unshifted = self._unshifted(res.basis, a, gap_free, tau_free, tau_prev, c, mu, e0)
+            if unshifted is not None:
+                z = unshifted
+        p = z[: e[1]]
         sp_, sm_ = z[e[1]: e[2]], z[e[2]: e[3]]
         alpha = z[e[3]: e[4]] - z[e[4]: e[5]]
-        p = ptil - a
         q = np.zeros(m)
         splus = np.zeros(m)
         sminus = np.zeros(m)
         if self.mf:
             cnt_f = self.c[:m, m:][:, f]
-            rhs = tau_prev[f] - tau_free[f] - cnt_f.T @ p + sp_ - sm_ - self.tm @ alpha
+            dtau = self._free_motion(gap_free, tau_free, tau_prev)[1]
+            rhs = dtau[f] - cnt_f.T @ p + sp_ - sm_ - self.tm @ alpha
             q[f] = self.h @ rhs
             splus[f], sminus[f] = sp_, sm_
         cn = self.c[:m]
@@ -181,3 +239,37 @@ class ContactLCP:
             tau = tau + self.tm_all @ alpha
         return ContactSolution(p, q, gap, tau, splus, sminus, alpha, res.pivots, res.status,
                                res.basis, res.residual, res.message)
+
+    def _unshifted(self, basis: np.ndarray, a: np.ndarray, gap_free: np.ndarray,
+                   tau_free: np.ndarray, tau_prev: np.ndarray, c: np.ndarray,
+                   mu: np.ndarray, e0: np.ndarray) -> np.ndarray | None:
+        """(p, s+, s-, alpha+, alpha-) (unscaled; p compression positive) on Lemke's final
+        basis, solved for p rather than p + a. Lemke's unknown p + a holds p only to the
+        round-off of a, so a bond far stronger than its forces (a = 1e12 against forces of
+        1) lost p altogether: the pairs read open and all debonded at the first pull. With
+        y = z - a on the normal rows, w = M y + q0 (q0: the constant vector at a = 0), and
+        the basic y solve M_BB y_B = -(q0_B + M_BN y_N), y_N = -a on the nonbasic normal
+        rows (open pairs), 0 elsewhere. None (Lemke's z kept) when that system is singular
+        or its answer leaves the basis's signs by more than round-off."""
+        d, ms, m = self.scaling, self.M_scaled, self.m
+        q0 = d * self.row_scale * self.constant(gap_free, tau_free, tau_prev,
+                                                np.zeros_like(a), c, mu, e0)
+        b = np.asarray(basis, dtype=bool)
+        nb = ~b
+        shift = np.zeros(self.size)
+        shift[:m] = a / d[:m]  # a in the scaled unknowns
+        y = np.where(b, 0.0, -shift)
+        try:
+            y[b] = np.linalg.solve(ms[np.ix_(b, b)], -(q0[b] + ms[np.ix_(b, nb)] @ y[nb]))
+        except np.linalg.LinAlgError:
+            return None
+        z, w = y + shift, ms @ y + q0
+        if not (np.isfinite(z).all() and np.isfinite(w).all()):
+            return None
+        z_low = float(z[b].min(initial=0.0)) / max(float(np.abs(z).max(initial=0.0)), 1e-300)
+        w_low = float(w[nb].min(initial=0.0)) / max(float(np.abs(q0).max(initial=0.0)),
+                                                    float(np.abs(w).max(initial=0.0)), 1e-300)
+        if min(z_low, w_low) < -1e-9:
+            return None
+        y[m:] = np.maximum(y[m:], 0.0)
+        return d * y
