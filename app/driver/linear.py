@@ -96,7 +96,16 @@ def unit_solutions(ctx: RunContext, model: Model, system: LinearSystem) -> UnitS
                 raise SolveError(singular_message(model.disc, model.mesh, str(exc),
                                                   model.fixed_all)) from None
             unit.append(to_numpy_all(x))
+    warn_solve_accuracy(ctx, system.solver)
     return UnitSolutions(unit, rhs)
+
+
+def warn_solve_accuracy(ctx: RunContext, solver: LinearSolver) -> None:
+    """Once per run: a warning when an iterative solve so far was accepted with a relative
+    residual that the contact states and figures cannot carry (`accuracy_warning`)."""
+    text = solver.accuracy_warning()
+    if text is not None:
+        ctx.warn(text, ("solve accuracy",))
 
 
 def singular_message(disc: Discretisation, mesh: Mesh, detail: str,
