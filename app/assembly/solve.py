@@ -37,8 +37,8 @@ ACCEPTED_RESIDUAL = 1e-6
 """Largest relative residual |b - K x| / |b| a solve may return."""
 
 REFINED_RESIDUAL = 1e-14
-"""Relative residual an iterative solve at -ksp_rtol ITERATIVE_RTOL (or tighter) is refined
-towards (`LinearSolver._refine`): near a direct solve's round-off level."""
+"""Relative residual that `LinearSolver.solve(refine=True)` takes an iterative solve at
+-ksp_rtol ITERATIVE_RTOL (or tighter) towards (`_refine`): near a direct solve's round-off."""
 
 CORRECTION_MARGIN = 0.01
 """A refinement's correction solve aims this factor below the reduction still needed."""
@@ -130,8 +130,9 @@ class LinearSolver:
         self.is_mumps = False
         self.block = None  # a solver on the factor (e.g. SchurFactorization) used instead
         self.iterative = self.ksp.getType() != "preonly"
-        # an iterative solve asked for the default accuracy or better: refined to round-off
-        self.refine = self.iterative and self.ksp.getTolerances()[0] <= float(ITERATIVE_RTOL)
+        # an iterative KSP asked for the default accuracy or better: solve(refine=True)
+        # refines to round-off
+        self.refinable = self.iterative and self.ksp.getTolerances()[0] <= float(ITERATIVE_RTOL)
         pc = self.ksp.getPC()
         if pc.getType() in ("lu", "cholesky"):
             self.is_mumps = pc.getFactorSolverType() == "mumps"
@@ -181,9 +182,11 @@ class LinearSolver:
                              "of range; check their values and units")
 
     def solve(self, b: PETSc.Vec, x: PETSc.Vec | None = None,
-              forces: np.ndarray | None = None) -> PETSc.Vec:
+              forces: np.ndarray | None = None, refine: bool = False) -> PETSc.Vec:
         """Solve K x = b; checks convergence and the residual. forces: b = G^T forces
-        (the contact-force recovery), for the block solver's kept columns.
+        (the contact-force recovery), for the block solver's kept columns. refine: an
+        iterative KSP at the default -ksp_rtol (or tighter) goes on to round-off
+        (`_refine`): for the free displacements, from which the LCP's data come.
 
         A direct solve that is inaccurate or NaN means a singular stiffness
         (SingularStiffnessError); an iterative one that stops short is a SolveError that
@@ -196,7 +199,7 @@ class LinearSolver:
                              "float64; check their values and units")
         self._check_reason(self._apply(b, x, forces))
         bn, rn = self._residual_norms(b, x)
-        if self.refine and self.block is None and rn > REFINED_RESIDUAL * bn:
+        if refine and self.refinable and self.block is None and rn > REFINED_RESIDUAL * bn:
             rn = self._refine(b, x, bn, rn)
         if np.isnan(x.norm()):
             self._check_overflow(b)
@@ -235,7 +238,7 @@ class LinearSolver:
         """Iterative refinement of x in place, x += K^-1 (b - K x) with the KSP, while the
         true residual |b - K x| halves, up to MAX_REFINEMENTS times or REFINED_RESIDUAL;
         returns the final |b - K x|. Each correction solve needs only the reduction that
-        is left (its -ksp_rtol relaxed to CORRECTION_MARGIN x that, at most the user's).
+        is left (its -ksp_rtol relaxed to CORRECTION_MARGIN x that, never below the KSP's own).
 
         Why: the KSP's rtol applies to its own residual (GMRES's preconditioned one), and
         a true relative residual near 1e-12 left an error in the free displacements that

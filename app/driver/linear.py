@@ -91,7 +91,7 @@ def unit_solutions(ctx: RunContext, model: Model, system: LinearSystem) -> UnitS
             rhs.append(np.where(free, b, 0.0))
             b[model.fixed_all] = case.prescribed[model.fixed_all]
             try:
-                x = system.solver.solve(from_numpy(system.k, b))
+                x = system.solver.solve(from_numpy(system.k, b), refine=True)
             except SingularStiffnessError as exc:
                 raise SolveError(singular_message(model.disc, model.mesh, str(exc),
                                                   model.fixed_all)) from None
