@@ -132,3 +132,14 @@ def test_a_loose_tolerance_that_changes_a_contact_state_is_warned_about(tmp_path
     lines = [x for x in r.stderr.splitlines() if x.startswith("warning: ")]
     assert len(lines) == 1 and "(-ksp_rtol 1e-06)" in lines[0]
     assert any("relative residual" in w for w in read_summary(tmp_path)["warnings"])
+
+
+def test_cg_with_an_indefinite_preconditioner_is_not_told_to_raise_max_it(tmp_path):
+    """multibody.toml with -ksp_type cg -pc_type ilu: CG stops after 2 iterations on the
+    indefinite ILU(0) (DIVERGED_INDEFINITE_PC); before, the line said `raise -ksp_max_it`."""
+    r = run_cli(["run", str(CONFIGS / "multibody.toml"), "--mesh-size", "0.8", "--quiet",
+                 "--out", str(tmp_path), "-ksp_type", "cg", "-pc_type", "ilu"])
+    assert r.returncode == 2
+    line = r.stderr.strip().splitlines()[-1]
+    assert line.startswith("error: ") and "DIVERGED_INDEFINITE_PC" in line
+    assert "-pc_type ilu is not one" in line and "-ksp_max_it" not in line

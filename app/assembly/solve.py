@@ -57,6 +57,11 @@ STOPPING_OPTIONS = {1: "ksp_rtol", 2: "ksp_rtol", 3: "ksp_atol", 9: "ksp_atol", 
 ATOL, ATOL_NORMAL, ITS)."""
 
 
+REASON_NAMES = {v: k for k, v in vars(PETSc.KSP.ConvergedReason).items()
+                if not k.startswith("_") and isinstance(v, int) and v < 0}
+"""PETSc's names of the negative KSP converged reasons (DIVERGED_MAX_IT, ...)."""
+
+
 class SingularStiffnessError(SolveError):
     """The stiffness itself is singular (null pivots, NaN, or a direct solve that is
     inaccurate): the driver names the bodies that keep zero-energy modes."""
@@ -227,12 +232,25 @@ class LinearSolver:
         """SolveError for a negative KSP converged reason (diverged or stopped short)."""
         if reason < 0 and self.iterative:
             raise SolveError(
-                f"iterative linear solve did not converge (KSP reason {reason}, "
-                f"{self.ksp.getIterationNumber()} iterations): raise -ksp_max_it, change "
-                "-ksp_type/-pc_type, or use the default MUMPS LU")
+                f"iterative linear solve did not converge (KSP reason {reason} "
+                f"{REASON_NAMES.get(reason, '')}, {self.ksp.getIterationNumber()} "
+                f"iterations): {self._advice(reason)}")
         if reason < 0:
             raise SolveError(f"linear solver diverged (KSP reason {reason}): try other "
                              "PETSc options or the default MUMPS LU")
+
+    def _advice(self, reason: int) -> str:
+        """What to change after an iterative solve that ended with a negative reason."""
+        ksp, pc = self.ksp.getType(), self.pc_type
+        if reason == -3:  # DIVERGED_MAX_IT
+            return (f"raise -ksp_max_it ({self.ksp.getTolerances()[3]}), change "
+                    "-ksp_type/-pc_type, or use the default MUMPS LU")
+        if reason in (-8, -10):  # an indefinite preconditioner or matrix for CG
+            return (f"-ksp_type {ksp} needs a symmetric positive definite preconditioner, "
+                    f"and -pc_type {pc} is not one for this stiffness: use -pc_type gamg, "
+                    "icc or jacobi, -ksp_type gmres, or the default MUMPS LU")
+        return (f"-ksp_type {ksp} with -pc_type {pc} broke down on this stiffness: change "
+                "-ksp_type/-pc_type or use the default MUMPS LU")
 
     def _refine(self, b: PETSc.Vec, x: PETSc.Vec, bn: float, rn: float) -> float:
         """Iterative refinement of x in place, x += K^-1 (b - K x) with the KSP, while the
