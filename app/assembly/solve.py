@@ -56,7 +56,6 @@ STOPPING_OPTIONS = {1: "ksp_rtol", 2: "ksp_rtol", 3: "ksp_atol", 9: "ksp_atol", 
 """The option whose tolerance stopped a KSP, by its converged reason (RTOL_NORMAL, RTOL,
 ATOL, ATOL_NORMAL, ITS)."""
 
-
 REASON_NAMES = {v: k for k, v in vars(PETSc.KSP.ConvergedReason).items()
                 if not k.startswith("_") and isinstance(v, int) and v < 0}
 """PETSc's names of the negative KSP converged reasons (DIVERGED_MAX_IT, ...)."""
