@@ -106,12 +106,14 @@ def _states(out) -> list:
             for s in read_summary(out)["steps"]]
 
 
-def test_gmres_block_jacobi_completes_bonded_on_one_rank_as_the_direct_solve(tmp_path):
-    """Before: `the contact problem could not be solved at step 16: Lemke ended with
-    'inaccurate'`, exit 2 (README, "More ranks than useful ...")."""
+@pytest.mark.parametrize("ranks", [1, 2])
+def test_gmres_block_jacobi_completes_bonded_as_the_direct_solve(tmp_path, ranks):
+    """Before, on 1 rank: `the contact problem could not be solved at step 16: Lemke ended
+    with 'inaccurate'`, exit 2 (README, "More ranks than useful ..."); 2 ranks: the
+    refinement's collective solves."""
     base = ["run", str(CONFIGS / "bonded.toml"), "--mesh-size", "0.8", "--quiet"]
     r = run_cli([*base, "--out", str(tmp_path / "it"), "-ksp_type", "gmres",
-                 "-pc_type", "bjacobi"])
+                 "-pc_type", "bjacobi"], ranks=ranks)
     assert r.returncode == 0, r.stderr
     assert "warning" not in r.stderr
     r = run_cli([*base, "--out", str(tmp_path / "lu")])
