@@ -36,6 +36,30 @@ DIRECT_PCS = ("lu", "cholesky", "qr", "redundant", "svd")
 ACCEPTED_RESIDUAL = 1e-6
 """Largest relative residual |b - K x| / |b| a solve may return."""
 
+REFINED_RESIDUAL = 1e-14
+"""Relative residual that `LinearSolver.solve(refine=True)` takes an iterative solve at
+-ksp_rtol ITERATIVE_RTOL (or tighter) towards (`_refine`): near a direct solve's round-off."""
+
+CORRECTION_MARGIN = 0.01
+"""A refinement's correction solve aims this factor below the reduction still needed."""
+
+MAX_REFINEMENTS = 3
+"""Refinement solves per solve at most (each must halve the residual, else it stops)."""
+
+LOOSE_RESIDUAL = 1e-9
+"""Relative residual above which a run's iterative solves get a warning (`accuracy_warning`):
+bonded.toml at --mesh-size 0.8 with -ksp_type cg -pc_type gamg -ksp_rtol 1e-6 (residuals up
+to 2.6e-6, accepted) ended step 15 with a pair open instead of slipping, without a word;
+the contact states are judged at 1e-7 of the displacement scale."""
+
+STOPPING_OPTIONS = {1: "ksp_rtol", 2: "ksp_rtol", 3: "ksp_atol", 9: "ksp_atol", 4: "ksp_max_it"}
+"""The option whose tolerance stopped a KSP, by its converged reason (RTOL_NORMAL, RTOL,
+ATOL, ATOL_NORMAL, ITS)."""
+
+REASON_NAMES = {v: k for k, v in vars(PETSc.KSP.ConvergedReason).items()
+                if not k.startswith("_") and isinstance(v, int) and v < 0}
+"""PETSc's names of the negative KSP converged reasons (DIVERGED_MAX_IT, ...)."""
+
 
 class SingularStiffnessError(SolveError):
     """The stiffness itself is singular (null pivots, NaN, or a direct solve that is
@@ -93,6 +117,12 @@ def _schur_hint(f: PETSc.Mat, info: int) -> str:
             "the -mat_mumps_icntl_* option that conflicts with it")
 
 
+def _tighten(option: str) -> str:
+    """What to do with the option that stopped a KSP too early (`-ksp_rtol 1e-06`)."""
+    name = option.split()[0]
+    return f"raise {name}" if name == "-ksp_max_it" else f"lower {name}"
+
+
 class LinearSolver:
     """One factorization of K (after Dirichlet elimination), reused for every solve."""
 
@@ -104,6 +134,9 @@ class LinearSolver:
         self.is_mumps = False
         self.block = None  # a solver on the factor (e.g. SchurFactorization) used instead
         self.iterative = self.ksp.getType() != "preonly"
+        # an iterative KSP asked for the default accuracy or better: solve(refine=True)
+        # refines to round-off
+        self.refinable = self.iterative and self.ksp.getTolerances()[0] <= float(ITERATIVE_RTOL)
         pc = self.ksp.getPC()
         if pc.getType() in ("lu", "cholesky"):
             self.is_mumps = pc.getFactorSolverType() == "mumps"
@@ -111,6 +144,9 @@ class LinearSolver:
         # (C came out wrong), so the Schur route needs its LU.
         self.is_mumps_lu = self.is_mumps and pc.getType() == "lu"
         self.pc_type = pc.getType()
+        self.worst_residual = 0.0  # largest relative residual of a solve returned so far
+        self.worst_option = ""  # the option that stopped that solve (`stopping_option`)
+        self.reason = 0  # the KSP's converged reason of the last solve
 
     def factor(self) -> None:
         """Symbolic + numeric factorization (or preconditioner set-up)."""
@@ -150,9 +186,11 @@ class LinearSolver:
                              "of range; check their values and units")
 
     def solve(self, b: PETSc.Vec, x: PETSc.Vec | None = None,
-              forces: np.ndarray | None = None) -> PETSc.Vec:
+              forces: np.ndarray | None = None, refine: bool = False) -> PETSc.Vec:
         """Solve K x = b; checks convergence and the residual. forces: b = G^T forces
-        (the contact-force recovery), for the block solver's kept columns.
+        (the contact-force recovery), for the block solver's kept columns. refine: an
+        iterative KSP at the default -ksp_rtol (or tighter) goes on to round-off
+        (`_refine`): for the free displacements, from which the LCP's data come.
 
         A direct solve that is inaccurate or NaN means a singular stiffness
         (SingularStiffnessError); an iterative one that stops short is a SolveError that
@@ -165,12 +203,17 @@ class LinearSolver:
                              "float64; check their values and units")
         self._check_reason(self._apply(b, x, forces))
         bn, rn = self._residual_norms(b, x)
+        if refine and self.refinable and self.block is None and rn > REFINED_RESIDUAL * bn:
+            rn = self._refine(b, x, bn, rn)
         if np.isnan(x.norm()):
             self._check_overflow(b)
             raise SingularStiffnessError("linear solve produced NaN: the stiffness is "
                                          "probably singular")
         if bn > 0 and rn > ACCEPTED_RESIDUAL * bn and not np.isnan(bn):
             raise self._inaccurate(rn / bn)
+        if bn > 0 and rn > self.worst_residual * bn:
+            self.worst_residual = rn / bn
+            self.worst_option = self.stopping_option() if self.iterative else ""
         return x
 
     def _apply(self, b: PETSc.Vec, x: PETSc.Vec, forces: np.ndarray | None = None) -> int:
@@ -181,18 +224,90 @@ class LinearSolver:
                 self.block.solve(b, x, forces)
                 return 0
             self.ksp.solve(b, x)
-            return self.ksp.getConvergedReason()
+            self.reason = self.ksp.getConvergedReason()
+            return self.reason
 
     def _check_reason(self, reason: int) -> None:
         """SolveError for a negative KSP converged reason (diverged or stopped short)."""
         if reason < 0 and self.iterative:
             raise SolveError(
-                f"iterative linear solve did not converge (KSP reason {reason}, "
-                f"{self.ksp.getIterationNumber()} iterations): raise -ksp_max_it, change "
-                "-ksp_type/-pc_type, or use the default MUMPS LU")
+                f"iterative linear solve did not converge (KSP reason {reason} "
+                f"{REASON_NAMES.get(reason, '')}, {self.ksp.getIterationNumber()} "
+                f"iterations): {self._advice(reason)}")
         if reason < 0:
             raise SolveError(f"linear solver diverged (KSP reason {reason}): try other "
                              "PETSc options or the default MUMPS LU")
+
+    def _advice(self, reason: int) -> str:
+        """What to change after an iterative solve that ended with a negative reason."""
+        ksp, pc = self.ksp.getType(), self.pc_type
+        if reason == -3:  # DIVERGED_MAX_IT
+            return (f"raise -ksp_max_it ({self.ksp.getTolerances()[3]}), change "
+                    "-ksp_type/-pc_type, or use the default MUMPS LU")
+        if reason in (-8, -10):  # an indefinite preconditioner or matrix for CG
+            return (f"-ksp_type {ksp} needs a symmetric positive definite preconditioner, "
+                    f"and -pc_type {pc} is not one for this stiffness: use -pc_type gamg, "
+                    "icc or jacobi, -ksp_type gmres, or the default MUMPS LU")
+        return (f"-ksp_type {ksp} with -pc_type {pc} broke down on this stiffness: change "
+                "-ksp_type/-pc_type or use the default MUMPS LU")
+
+    def _refine(self, b: PETSc.Vec, x: PETSc.Vec, bn: float, rn: float) -> float:
+        """Iterative refinement of x in place, x += K^-1 (b - K x) with the KSP, while the
+        true residual |b - K x| halves, up to MAX_REFINEMENTS times or REFINED_RESIDUAL;
+        returns the final |b - K x|. Each correction solve needs only the reduction that
+        is left (its -ksp_rtol relaxed to CORRECTION_MARGIN x that, never below the KSP's own).
+
+        Why: the KSP's rtol applies to its own residual (GMRES's preconditioned one), and
+        a true relative residual near 1e-12 left an error in the free displacements that
+        reached the LCP's data: bonded.toml at --mesh-size 0.8 with -ksp_type gmres
+        -pc_type bjacobi failed at step 16 (a tangential motion of +-1e-13 where the
+        exact one is 0, which Lemke could not resolve)."""
+        rtol, atol, dtol, max_it = self.ksp.getTolerances()
+        r, d, best = b.duplicate(), x.duplicate(), x.copy()
+        try:
+            for _ in range(MAX_REFINEMENTS):
+                self.k.mult(x, r)
+                r.aypx(-1.0, b)  # r = b - K x
+                self.ksp.setTolerances(rtol=max(rtol, min(
+                    CORRECTION_MARGIN * REFINED_RESIDUAL * bn / rn, 0.1)))
+                with hard_stop.armed():
+                    self.ksp.solve(r, d)
+                if self.ksp.getConvergedReason() < 0:
+                    break
+                x.axpy(1.0, d)
+                _, new = self._residual_norms(b, x)
+                if not new < 0.5 * rn:
+                    best.copy(x)  # no gain: keep the better x
+                    break
+                rn = new
+                x.copy(best)
+                if rn <= REFINED_RESIDUAL * bn:
+                    break
+        finally:
+            self.ksp.setTolerances(rtol=rtol, atol=atol, divtol=dtol, max_it=max_it)
+            for v in (r, d, best):
+                v.destroy()
+        return rn
+
+    def stopping_option(self) -> str:
+        """The option and value that stopped the last KSP solve (`-ksp_atol 1e-06`), by its
+        converged reason; -ksp_rtol when the reason names none."""
+        rtol, atol, _, max_it = self.ksp.getTolerances()
+        name = STOPPING_OPTIONS.get(self.reason, "ksp_rtol")
+        value = {"ksp_rtol": rtol, "ksp_atol": atol, "ksp_max_it": max_it}[name]
+        return f"-{name} {value:g}"
+
+    def accuracy_warning(self) -> str | None:
+        """A warning when an iterative solve of the run was returned with a relative residual
+        above LOOSE_RESIDUAL (accepted up to ACCEPTED_RESIDUAL), else None."""
+        if not self.iterative or not self.worst_residual > LOOSE_RESIDUAL:
+            return None
+        return (f"the iterative linear solves reached a relative residual of only "
+                f"{self.worst_residual:.2e} ({self.worst_option}): displacements, forces and "
+                "contact states carry errors of about that size (states are told apart at "
+                f"1e-7 of the displacements); {_tighten(self.worst_option)} (the default "
+                f"-ksp_rtol {ITERATIVE_RTOL} is refined to round-off) or use the default "
+                "MUMPS LU")
 
     def _residual_norms(self, b: PETSc.Vec, x: PETSc.Vec) -> tuple[float, float]:
         """(|b|, |b - K x|), 2-norms."""
@@ -208,11 +323,11 @@ class LinearSolver:
         an iterative KSP's tolerance, a preconditioner that is no full factorization, or
         (a direct solve) a singular stiffness."""
         if self.iterative:
+            option = self.stopping_option()
             return SolveError(
                 f"iterative linear solve is inaccurate (relative residual "
-                f"{rel:.2e} > {ACCEPTED_RESIDUAL:g}, -ksp_rtol "
-                f"{self.ksp.getTolerances()[0]:g}): lower -ksp_rtol or use the default "
-                "MUMPS LU")
+                f"{rel:.2e} > {ACCEPTED_RESIDUAL:g}, {option}): {_tighten(option)} or "
+                "use the default MUMPS LU")
         if self.pc_type not in DIRECT_PCS:
             return SolveError(
                 f"linear solve is inaccurate (relative residual {rel:.2e}): "

@@ -8,6 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from app.assembly.solve import LinearSolver
 from app.condensation.compliance import compliance_from_factor, compliance_solve
 from app.condensation.recovery import contact_displacement, mismatch
 from app.contact.master_penetration import master_penetration, master_penetration_warning
@@ -15,7 +16,7 @@ from app.contact.resolution import stripe_checks, stripe_warning
 from app.contact.smooth_ends import smooth_end_checks, smooth_end_warning
 from app.contact.unpaired import crossed_unpaired, crossing_warning
 from app.driver.context import RunContext, write_summary
-from app.driver.linear import LinearSystem, UnitSolutions
+from app.driver.linear import LinearSystem, UnitSolutions, warn_solve_accuracy
 from app.driver.model import Model
 from app.driver.rank0_solve import on_rank0_solve
 from app.errors import SolveError
@@ -52,6 +53,7 @@ def condense(ctx: RunContext, model: Model, system: LinearSystem,
             c_mat = compliance_solve(system.solver, system.k, contact.g, model.fixed_all,
                                      to_numpy_all)
     ctx.summary["compliance_route"] = system.route
+    warn_solve_accuracy(ctx, system.solver)
     with ctx.phase("lcp"):  # rank 0's stepper (None elsewhere); its errors on every rank
         return on_rank0_solve(contact.stepper, c_mat, model.cases, unit.u, unit.rhs,
                               model.floating)
@@ -66,7 +68,7 @@ def solve_contact_step(ctx: RunContext, model: Model, system: LinearSystem,
     with ctx.phase("lcp"):
         result = collective(lambda: stepper.step(step, model.cases))  # on every rank
     if not result.solved:
-        _fail(ctx, model, step, result)
+        _fail(ctx, model, step, result, system.solver)
     correction = np.zeros(2 * model.contact.pairs.n_pairs) if ctx.rank == 0 else None
     refinements, previous = 0, np.inf
     while True:
@@ -88,6 +90,7 @@ def solve_contact_step(ctx: RunContext, model: Model, system: LinearSystem,
             break
         result = retry
         refinements += 1
+    warn_solve_accuracy(ctx, system.solver)
     return ContactStep(u, result)
 
 
@@ -174,7 +177,18 @@ def _consistency(ctx: RunContext, model: Model, u: np.ndarray, result: StepSolut
     return miss, rel, again
 
 
-def _fail(ctx: RunContext, model: Model, step: int, result: StepSolution) -> None:
+def _iterative_hint(solver: LinearSolver) -> str:
+    """With iterative linear solves, what tells whether their error made the LCP fail (the
+    compliance and the free displacements carry it), else ""."""
+    if not solver.iterative:
+        return ""
+    return (f"; the linear solves are iterative (relative residual up to "
+            f"{solver.worst_residual:.1e}): rerun with the default MUMPS LU (no -ksp_type, "
+            "-pc_type) to tell whether their error is the cause")
+
+
+def _fail(ctx: RunContext, model: Model, step: int, result: StepSolution,
+          solver: LinearSolver) -> None:
     """Record the failed step in the summary and raise the one-line reason."""
     summary = ctx.summary
     summary["status"] = "failed"
@@ -185,7 +199,7 @@ def _fail(ctx: RunContext, model: Model, step: int, result: StepSolution) -> Non
         "; held only by contact: " + ", ".join(model.floating.names))
     head = ("no static equilibrium" if result.status in ("secondary ray", "unbalanced load")
             else "the contact problem could not be solved")
-    reason = f"{head} at step {step + 1}: {result.message}{held}; {done}"
+    reason = f"{head} at step {step + 1}: {result.message}{held}{_iterative_hint(solver)}; {done}"
     summary["error"] = reason
     if ctx.rank == 0:
         with writing():  # (a watchdog's stop waits for it)

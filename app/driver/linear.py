@@ -92,12 +92,21 @@ def unit_solutions(ctx: RunContext, model: Model, system: LinearSystem) -> UnitS
             rhs.append(np.where(free, b, 0.0))
             b[model.fixed_all] = case.prescribed[model.fixed_all]
             try:
-                x = system.solver.solve(from_numpy(system.k, b))
+                x = system.solver.solve(from_numpy(system.k, b), refine=True)
             except SingularStiffnessError as exc:
                 raise SolveError(singular_message(model.disc, model.mesh, str(exc),
                                                   model.fixed_all)) from None
             unit.append(to_numpy_all(x))
+    warn_solve_accuracy(ctx, system.solver)
     return UnitSolutions(unit, rhs)
+
+
+def warn_solve_accuracy(ctx: RunContext, solver: LinearSolver) -> None:
+    """Once per run: a warning when an iterative solve so far was accepted with a relative
+    residual that the contact states and figures cannot carry (`accuracy_warning`)."""
+    text = solver.accuracy_warning()
+    if text is not None:
+        ctx.warn(text, ("solve accuracy",))
 
 
 def singular_message(disc: Discretisation, mesh: Mesh, detail: str,
