@@ -194,3 +194,23 @@ def test_a_pair_whose_motion_the_supports_fix_carries_no_force(a):
     assert abs(res.solution.q[0]) < 1e-9  # (before: 4e-8, the tie k0 x round-off tau)
     assert res.solution.p[1] == pytest.approx(1e-3 / CN, rel=1e-9)
     assert res.state[0] == (BONDED if a else STICK)
+
+
+@pytest.mark.parametrize("stiff", [1e-11, 1e-13])
+def test_a_stiff_interface_next_to_a_soft_one_is_not_taken_for_a_fixed_pair(stiff):
+    """Two uncoupled interfaces, one between soft bodies (compliance ~1) and one between
+    bodies 1e11 or 1e13 times stiffer: the stiff pairs' compliance is small but not
+    round-off, and their forces follow from it. `_fixed_pairs` judged them against the
+    soft interface's compliance with DEPENDENT_REL (1e-10), took them for pairs the
+    supports fix, and gave them p off by 330% (1e-11) or p = 0 (1e-13)."""
+    k, m = 3, 6
+    soft = np.eye(k) + 0.3 * (np.eye(k, k=1) + np.eye(k, k=-1))
+    cn = np.zeros((m, m))
+    cn[:k, :k], cn[k:, k:] = soft, stiff * soft
+    c = np.block([[cn, np.zeros((m, m))], [np.zeros((m, m)), np.eye(m)]])
+    lcp = ContactLCP(c, np.zeros(m), np.zeros(m, dtype=bool), None, None)
+    gap_free = -np.r_[np.ones(k), stiff * np.array([1.0, 2.0, 1.5])]
+    sol = lcp.solve(gap_free, np.zeros(m), np.zeros(m), np.zeros(m), np.zeros(m),
+                    np.zeros(m), np.zeros(0))
+    assert sol.status == "solved" and not lcp.fixed.any()
+    np.testing.assert_allclose(sol.p, np.linalg.solve(cn, -gap_free), rtol=1e-9)

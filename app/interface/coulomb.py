@@ -33,7 +33,7 @@ import numpy as np
 
 from app.errors import SolveError
 from app.lcp import lemke
-from app.lcp.coulomb_matrix import DEPENDENT_REL, coulomb_matrix
+from app.lcp.coulomb_matrix import coulomb_matrix
 from app.lcp.solvers import LCPSolver
 
 
@@ -55,6 +55,14 @@ class ContactSolution:
     message: str = ""  # Lemke's own summary of the solve
 
 
+FIXED_REL = 1e-20
+"""A pair's normal (tangential) compliance below this x the largest is round-off of a
+motion the supports fix: with the Dirichlet rows and columns eliminated the prescribed
+displacements are exactly zero, and only round-off weights (~1e-16) of the pair's G on free
+dofs give it a compliance, ~1e-32 of the largest. Not DEPENDENT_REL (1e-10): a legitimate
+pair between bodies 1e11 times stiffer than those of another interface was taken for fixed
+(`tests/test_interface_steps.py`, stiff interface)."""
+
 FIXED_COMPLIANCE_REL = 1e-12
 """The normal compliance given to a pair whose normal motion the supports fix, relative to
 the largest normal compliance (a stiff tie, as `tangential_stiffness` gives C_tt's null
@@ -63,7 +71,7 @@ space)."""
 
 def _fixed_pairs(c: np.ndarray, m: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(fixed_n, fixed_t, c): the pairs whose normal (tangential) compliance is round-off,
-    below DEPENDENT_REL of the largest (both sides of the pair prescribed, e.g. the end
+    below FIXED_REL of the largest (both sides of the pair prescribed, e.g. the end
     pairs of a bonded block whose sides are prescribed), and the compliance with those rows
     and columns set to zero and a stiff tie FIXED_COMPLIANCE_REL x the largest on their
     diagonal. Their force moves nothing (the supports take it), so any value is an answer;
@@ -75,7 +83,7 @@ def _fixed_pairs(c: np.ndarray, m: int) -> tuple[np.ndarray, np.ndarray, np.ndar
     fixed, ties = [], []
     for rows in (slice(0, m), slice(m, 2 * m)):
         top = float(diag[rows].max(initial=0.0))
-        fixed.append(diag[rows] <= DEPENDENT_REL * top if top > 0 else np.zeros(m, dtype=bool))
+        fixed.append(diag[rows] <= FIXED_REL * top if top > 0 else np.zeros(m, dtype=bool))
         ties.append((np.flatnonzero(fixed[-1]) + rows.start, FIXED_COMPLIANCE_REL * top))
     if fixed[0].any() or fixed[1].any():
         c = c.copy()  # (the caller's compliance is kept)
