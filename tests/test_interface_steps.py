@@ -214,3 +214,31 @@ def test_a_stiff_interface_next_to_a_soft_one_is_not_taken_for_a_fixed_pair(stif
                     np.zeros(m), np.zeros(0))
     assert sol.status == "solved" and not lcp.fixed.any()
     np.testing.assert_allclose(sol.p, np.linalg.solve(cn, -gap_free), rtol=1e-9)
+
+
+def test_a_weak_bond_next_to_strong_ones_keeps_its_tension_within_its_adhesion():
+    """Pairs 0 and 1 bonded with a = 1e13, pair 2 with a = 0.65 (forces ~1). Lemke's basis,
+    found on p + a with round-off of 1e13 (~2e-3), closed pair 2; `_unshifted` solved p on
+    it and got p2 = -1.90 < -a, a tension beyond the adhesion, which it accepted because
+    its sign check was relative to the largest z (~1e13). The answer must keep p >= -a and
+    be a solution of the law: bonded pairs closed, pair 2 open at p = -a or closed."""
+    c = 1e-3 * np.array([
+        [0.66753, -0.57299, 0.006469, 0.021819, 0.067482, 0.0026524],
+        [-0.57299, 1.7016, 0.049089, -0.080151, -0.010908, 0.037295],
+        [0.006469, 0.049089, 0.30706, -0.024914, -0.0015408, 0.032901],
+        [0.021819, -0.080151, -0.024914, 0.7756, -0.062919, -0.47004],
+        [0.067482, -0.010908, -0.0015408, -0.062919, 0.40054, -0.21178],
+        [0.0026524, 0.037295, 0.032901, -0.47004, -0.21178, 1.7317]])
+    mu = np.full(3, 0.3)
+    lcp = ContactLCP(c, mu, np.ones(3, dtype=bool), None, None)
+    a = np.array([1e13, 1e13, 0.65041])
+    strength = np.array([3e12, 3e12, 0.98625])
+    gap_free = 1e-3 * np.array([0.2698, -1.1923, 0.5401])
+    tau_free = 1e-3 * np.array([0.0975, -0.0019, 0.3386])
+    sol = lcp.solve(gap_free, tau_free, np.zeros(3), a, strength, mu, np.zeros(0))
+    assert sol.status == "solved"
+    assert sol.p[2] >= -a[2] - 1e-9
+    gap = gap_free + c[:3, :3] @ sol.p + c[:3, 3:] @ sol.q
+    assert np.abs(gap[:2]).max() < 1e-9 * 1e-3  # the strong bonds hold: closed
+    assert gap[2] >= -1e-12 and min(gap[2] / 1e-3, sol.p[2] + a[2]) < 1e-9
+    assert (np.abs(sol.q) <= mu * sol.p + strength + 1e-9).all()

@@ -63,6 +63,9 @@ dofs give it a compliance, ~1e-32 of the largest. Not DEPENDENT_REL (1e-10): a l
 pair between bodies 1e11 times stiffer than those of another interface was taken for fixed
 (`tests/test_interface_steps.py`, stiff interface)."""
 
+UNSHIFTED_PIVOTS = 8
+"""Block pivots `ContactLCP._unshifted` tries on Lemke's final basis before keeping z."""
+
 FIXED_COMPLIANCE_REL = 1e-12
 """The normal compliance given to a pair whose normal motion the supports fix, relative to
 the largest normal compliance (a stiff tie, as `tangential_stiffness` gives C_tt's null
@@ -258,26 +261,45 @@ class ContactLCP:
         y = z - a on the normal rows, w = M y + q0 (q0: the constant vector at a = 0), and
         the basic y solve M_BB y_B = -(q0_B + M_BN y_N), y_N = -a on the nonbasic normal
         rows (open pairs), 0 elsewhere. None (Lemke's z kept) when that system is singular
-        or its answer leaves the basis's signs by more than round-off."""
-        d, ms, m = self.scaling, self.M_scaled, self.m
+        or its answer still leaves the basis's signs by more than round-off after
+        UNSHIFTED_PIVOTS block pivots."""
+        d, m = self.scaling, self.m
         q0 = d * self.row_scale * self.constant(gap_free, tau_free, tau_prev,
                                                 np.zeros_like(a), c, mu, e0)
-        b = np.asarray(basis, dtype=bool)
-        nb = ~b
         shift = np.zeros(self.size)
         shift[:m] = a / d[:m]  # a in the scaled unknowns
+        b = np.asarray(basis, dtype=bool).copy()
+        # Lemke's basis was found on p + a, to round-off of the largest a: where it is wrong
+        # for a pair of small a, a few block pivots (basic z < 0 leaves, nonbasic w < 0
+        # enters) on the exact unshifted system correct it
+        for _ in range(UNSHIFTED_PIVOTS):
+            y, w = self._on_basis(b, shift, q0)
+            if y is None:
+                return None
+            # sign checks against the unshifted scales (forces, not a: p + a >= 0 of a weak
+            # bond beside a strong one was judged against the strong one's a before)
+            z_bad = b & (y + shift < -1e-9 * max(float(np.abs(y[b]).max(initial=0.0)), 1e-300))
+            w_bad = ~b & (w < -1e-9 * max(float(np.abs(q0).max(initial=0.0)),
+                                          float(np.abs(w).max(initial=0.0)), 1e-300))
+            if not (z_bad.any() or w_bad.any()):
+                break
+            b ^= z_bad | w_bad
+        else:
+            return None
+        y[m:] = np.maximum(y[m:], 0.0)
+        return d * y
+
+    def _on_basis(self, b: np.ndarray, shift: np.ndarray,
+                  q0: np.ndarray) -> tuple[np.ndarray | None, np.ndarray]:
+        """(y, w) of the scaled LCP on basis b (z basic) without the shift: y_N = -shift,
+        M_BB y_B = -(q0_B + M_BN y_N), w = M y + q0; y None when singular or not finite."""
+        ms, nb = self.M_scaled, ~b
         y = np.where(b, 0.0, -shift)
         try:
             y[b] = np.linalg.solve(ms[np.ix_(b, b)], -(q0[b] + ms[np.ix_(b, nb)] @ y[nb]))
         except np.linalg.LinAlgError:
-            return None
-        z, w = y + shift, ms @ y + q0
-        if not (np.isfinite(z).all() and np.isfinite(w).all()):
-            return None
-        z_low = float(z[b].min(initial=0.0)) / max(float(np.abs(z).max(initial=0.0)), 1e-300)
-        w_low = float(w[nb].min(initial=0.0)) / max(float(np.abs(q0).max(initial=0.0)),
-                                                    float(np.abs(w).max(initial=0.0)), 1e-300)
-        if min(z_low, w_low) < -1e-9:
-            return None
-        y[m:] = np.maximum(y[m:], 0.0)
-        return d * y
+            return None, y
+        w = ms @ y + q0
+        if not (np.isfinite(y).all() and np.isfinite(w).all()):
+            return None, w
+        return y, w
