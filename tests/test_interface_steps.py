@@ -242,3 +242,31 @@ def test_a_weak_bond_next_to_strong_ones_keeps_its_tension_within_its_adhesion()
     assert np.abs(gap[:2]).max() < 1e-9 * 1e-3  # the strong bonds hold: closed
     assert gap[2] >= -1e-12 and min(gap[2] / 1e-3, sol.p[2] + a[2]) < 1e-9
     assert (np.abs(sol.q) <= mu * sol.p + strength + 1e-9).all()
+
+
+@pytest.mark.parametrize("strength", [1e12, 1e20])
+def test_a_strong_bond_on_one_pair_leaves_the_others_unchanged(strength):
+    """Pair 0 glued (a = c = 1e12 or 1e20), pairs 1 and 2 pressed without bond. Pair 0
+    holds alike with a = c = 1e6 and with any larger value, so the other pairs' forces must
+    not depend on it. The round-off zeroing of the constant vector was relative to each
+    block's largest entry, which c made 1e12: the slip rows of pairs 1 and 2 were zeroed,
+    and Lemke's basis (found to the round-off of a) was accepted because the sign check of
+    `_unshifted` was relative to the largest w, c itself: pair 1 read p = 0 with q != 0
+    (1e12), or |q| > mu p (1e20)."""
+    m = 3
+    cn = np.eye(m) + 0.2 * (np.eye(m, k=1) + np.eye(m, k=-1))
+    ct = 2.0 * np.eye(m) + 0.3 * (np.eye(m, k=1) + np.eye(m, k=-1))
+    c = np.block([[cn, 0.1 * np.eye(m)], [0.1 * np.eye(m), ct]]) * 1e-3
+    mu = np.full(m, 0.3)
+    lcp = ContactLCP(c, mu, np.ones(m, dtype=bool), None, None)
+    gap_free, tau_free = np.full(m, -1e-3), np.array([0.0, -3e-3, 2e-3])  # 1, 2 slip
+
+    def solve(big):
+        bond = np.array([big, 0.0, 0.0])
+        return lcp.solve(gap_free, tau_free, np.zeros(m), bond, bond, mu, np.zeros(0))
+
+    ref, sol = solve(1e6), solve(strength)
+    assert ref.status == sol.status == "solved"
+    assert np.allclose(np.abs(ref.q[1:]), mu[1:] * ref.p[1:])  # (the reference slips)
+    np.testing.assert_allclose(np.r_[sol.p, sol.q], np.r_[ref.p, ref.q], rtol=1e-6,
+                               atol=1e-9)

@@ -174,25 +174,37 @@ class ContactLCP:
     def constant(self, gap_free: np.ndarray, tau_free: np.ndarray, tau_prev: np.ndarray,
                  a: np.ndarray, c: np.ndarray, mu: np.ndarray, e0: np.ndarray) -> np.ndarray:
         """The LCP constant vector for one solve (all arguments per pair, (m,); e0 (r,))."""
-        f = self.fric
         gap_free, dtau = self._free_motion(gap_free, tau_free, tau_prev)
-        cnt_f = self.c[: self.m, self.m:][:, f]
-        xi = dtau[f] + cnt_f.T @ a
-        hxi = self.h @ xi
-        qg = gap_free - self.c[: self.m, : self.m] @ a + cnt_f @ hxi
-        base = c[f] - mu[f] * a[f]
-        eq = e0 - self.nm.T @ a + self.tm.T @ hxi
-        out = np.concatenate([qg, base + hxi, base - hxi, -eq, eq])
+        out = self._parts(gap_free, dtau, np.zeros(self.m), np.zeros(self.m), e0)
         # entries that are round-off of exact cancellations (e.g. F = 0 and no tangential
-        # motion) are set to zero, so that Lemke does not pivot on them; relative to their
-        # own block (gaps, F +- q, equilibrium): a strength c of 1e20 set every free gap to
-        # zero when the whole vector was the measure
+        # motion) are set to zero, so that Lemke does not pivot on them; judged on the
+        # motion part alone (a = c = 0), relative to its own block (gaps, F +- q,
+        # equilibrium): a strength c of 1e20 set every free gap to zero when the whole
+        # vector was the measure, and a = c = 1e12 on one pair zeroed the other pairs'
+        # slip rows when its block was
         scaled = np.abs(self.scaling * self.row_scale * out)
         e = self.edges
         for i0, i1 in ((e[0], e[1]), (e[1], e[3]), (e[3], e[5])):
             blk = scaled[i0:i1]
             out[i0:i1][blk < 1e-14 * blk.max(initial=0.0)] = 0.0
+        if a.any() or c.any():  # the bond's part; c - mu a that is round-off is zero
+            base = c - mu * a
+            base[np.abs(base) <= 1e-14 * np.maximum(np.abs(c), np.abs(mu * a))] = 0.0
+            zero = np.zeros(self.m)
+            out = out + self._parts(zero, zero, a, base, np.zeros(self.r))
         return out
+
+    def _parts(self, gap_free: np.ndarray, dtau: np.ndarray, a: np.ndarray,
+               base: np.ndarray, e0: np.ndarray) -> np.ndarray:
+        """The constant vector, linear in (gap_free, dtau, a, base, e0): base is the
+        friction bound at p = 0, c - mu a (m,)."""
+        f = self.fric
+        cnt_f = self.c[: self.m, self.m:][:, f]
+        xi = dtau[f] + cnt_f.T @ a
+        hxi = self.h @ xi
+        qg = gap_free - self.c[: self.m, : self.m] @ a + cnt_f @ hxi
+        eq = e0 - self.nm.T @ a + self.tm.T @ hxi
+        return np.concatenate([qg, base[f] + hxi, base[f] - hxi, -eq, eq])
 
     def solve(self, gap_free: np.ndarray, tau_free: np.ndarray, tau_prev: np.ndarray,
               a: np.ndarray, c: np.ndarray, mu: np.ndarray, e0: np.ndarray, *,
@@ -279,8 +291,10 @@ class ContactLCP:
             # sign checks against the unshifted scales (forces, not a: p + a >= 0 of a weak
             # bond beside a strong one was judged against the strong one's a before)
             z_bad = b & (y + shift < -1e-9 * max(float(np.abs(y[b]).max(initial=0.0)), 1e-300))
-            w_bad = ~b & (w < -1e-9 * max(float(np.abs(q0).max(initial=0.0)),
-                                          float(np.abs(w).max(initial=0.0)), 1e-300))
+            # w_i = sum_j M_ij y_j + q0_i against the size of its own terms (not the
+            # largest w: a strength c of 1e12 in one pair's slip rows hid a penetration)
+            terms = np.abs(q0) + np.abs(self.M_scaled) @ np.abs(y)
+            w_bad = ~b & (w < -1e-9 * np.maximum(terms, 1e-300))
             if not (z_bad.any() or w_bad.any()):
                 break
             b ^= z_bad | w_bad
