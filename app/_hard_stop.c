@@ -31,7 +31,24 @@ static char *g_xtext[MORE][SLOTS], *g_xline[MORE][SLOTS], *g_xtmp[MORE], *g_xpat
 static size_t g_xtext_len[MORE][SLOTS], g_xline_len[MORE][SLOTS];
 static int g_more = 0; /* how many are set */
 static struct sigaction g_old[SLOTS];
-static volatile sig_atomic_t g_armed = 0;
+/* 0 not armed, 1 armed, 2 a handler is writing (it ends the process), 3 being disarmed.
+ * Changed only by atomic compare-and-swap (lock-free, so async-signal-safe): disarm runs
+ * on whichever thread ends the job, the handler on whichever thread the signal reaches,
+ * and `armed`'s own disarm may run at the same time (ctypes calls drop the GIL). Before,
+ * two threads disarming at once freed the texts twice ("double free or corruption"), and a
+ * handler could write texts another thread was freeing. */
+static int g_armed = 0;
+#define ARMED 1
+#define WRITING 2
+#define DISARMING 3
+
+static int take(int from, int to) {
+    int expected = from;
+    return __atomic_compare_exchange_n(&g_armed, &expected, to, 0, __ATOMIC_SEQ_CST,
+                                       __ATOMIC_SEQ_CST);
+}
+
+static int state(void) { return __atomic_load_n(&g_armed, __ATOMIC_SEQ_CST); }
 static int g_stay = 0; /* hard_stop_arm_exit on a rank other than 0: return, do not exit */
 
 static void write_all(int fd, const char *p, size_t n) {
@@ -68,6 +85,14 @@ static void replace_whole(const char *tmp, const char *path, const char *text, s
 static void on_signal(int sig) {
     int slot = sig == SIGTERM ? 1 : 0;
     if (g_stay) return;
+    if (!take(ARMED, WRITING)) {
+        if (state() == WRITING)
+            for (;;) pause(); /* another thread's handler writes and exits the process */
+        /* being disarmed (the texts may be freed): the handler found at arm time takes it */
+        sigaction(sig, &g_old[slot], NULL);
+        raise(sig); /* (blocked here: delivered once this handler returns) */
+        return;
+    }
     if (!g_path) {
         /* armed by hard_stop_arm_exit: no file */
     } else if (g_offset >= 0) patch_in_place(slot);
@@ -130,7 +155,7 @@ static int install(void) {
         release();
         return -1;
     }
-    g_armed = 1;
+    __atomic_store_n(&g_armed, ARMED, __ATOMIC_SEQ_CST);
     return 0;
 }
 
@@ -142,7 +167,7 @@ int hard_stop_add(const char *tmp, const char *path, const char *text_int, size_
                   const char *text_term, size_t n_term, const char *line_int,
                   const char *line_term) {
     int i = g_more;
-    if (g_armed || i >= MORE) return -1;
+    if (state() || i >= MORE) return -1;
     g_xtmp[i] = path ? copy(tmp, strlen(tmp)) : NULL;
     g_xpath[i] = path ? copy(path, strlen(path)) : NULL;
     g_xtext[i][0] = copy(text_int, n_int);
@@ -182,7 +207,7 @@ int hard_stop_arm(const char *tmp, const char *path, long long offset,
                   const char *text_int, size_t n_int,
                   const char *text_term, size_t n_term, const char *line_int,
                   const char *line_term) {
-    if (g_armed) return -1;
+    if (state()) return -1;
     g_tmp = copy(tmp, strlen(tmp));
     g_path = copy(path, strlen(path));
     g_text[0] = copy(text_int, n_int);
@@ -206,7 +231,7 @@ int hard_stop_arm(const char *tmp, const char *path, long long offset,
  * SIGKILL, which it sends every rank as soon as one rank has ended, so that rank 0 has
  * printed its line first. Returns 0, or -1 (nothing armed). */
 int hard_stop_arm_exit(const char *line_int, const char *line_term, int stay) {
-    if (g_armed) return -1;
+    if (state()) return -1;
     release_extra(); /* the job's end: a study's summary is written, never overwritten */
     g_line[0] = copy(line_int, strlen(line_int));
     g_line[1] = copy(line_term, strlen(line_term));
@@ -230,7 +255,7 @@ int hard_stop_arm_exit(const char *line_int, const char *line_term, int stay) {
  * between). Returns 0 (a PetscErrorCode). */
 int hard_stop_rearm(void) {
     struct sigaction sa;
-    if (!g_armed) return 0;
+    if (state() != ARMED) return 0;
     memset(&sa, 0, sizeof sa);
     sa.sa_handler = on_signal;
     sigfillset(&sa.sa_mask);
@@ -241,10 +266,14 @@ int hard_stop_rearm(void) {
 
 /* Disarm: put back the handlers found at arm time (Python's), free the texts. */
 void hard_stop_disarm(void) {
-    if (!g_armed) return;
+    if (!take(ARMED, DISARMING)) {
+        if (state() == WRITING)
+            for (;;) pause(); /* a handler is ending the process: its texts must stay */
+        return; /* not armed, or another thread disarms it */
+    }
     sigaction(SIGINT, &g_old[0], NULL);
     sigaction(SIGTERM, &g_old[1], NULL);
-    g_armed = 0;
     g_stay = 0;
     release();
+    __atomic_store_n(&g_armed, 0, __ATOMIC_SEQ_CST);
 }

@@ -39,7 +39,7 @@ study's tables."""
 NOTE_NAME = ".failed_rank.json"
 """The note of a rank that failed alone, in the run's OUT (a hidden file, as OUT/.lock)."""
 
-_STATE: dict = {"comm": None, "note": None, "meet": None, "alone": False}
+_STATE: dict = {"comm": None, "note": None, "meet": None, "alone": False, "token": ""}
 
 
 def arm() -> None:
@@ -72,11 +72,15 @@ def failed_together() -> bool:
     return True
 
 
-def note_in(folder: Path, rank: int) -> None:
+def note_in(folder: Path, rank: int, token: str = "") -> None:
     """Every rank, as a run takes its OUT (rank 0 holding OUT's lock, before the others go
-    on): the note of a rank failing alone goes to OUT; rank 0 removes an earlier one."""
+    on): the note of a rank failing alone goes to OUT; rank 0 removes an earlier one.
+    token: the run's own (rank 0 makes it, every rank gets it): a note carries it, and one
+    without it is not this run's (a rank of an earlier job that outlived it can write its
+    note after rank 0 removed the old one)."""
     note = Path(folder) / NOTE_NAME
     _STATE["note"] = note
+    _STATE["token"] = token
     if rank == 0:
         try:
             note.unlink(missing_ok=True)
@@ -96,7 +100,8 @@ def peer_failure() -> dict | None:
         note.unlink()
     except (OSError, ValueError):
         return None
-    ok = isinstance(data, dict) and isinstance(data.get("error"), str)
+    ok = isinstance(data, dict) and isinstance(data.get("error"), str) and \
+        data.get("run") == _STATE["token"]
     return data if ok and data.get("code") in (1, 2) else None
 
 
@@ -108,7 +113,7 @@ def _leave_note(rank: int, code: int, error: str, printed: bool) -> bool:
     tmp = note.with_name(f"{note.name}.{rank}.tmp")
     try:
         tmp.write_text(json.dumps({"rank": rank, "code": code, "error": error,
-                                   "printed": printed}))
+                                   "printed": printed, "run": _STATE["token"]}))
         os.replace(tmp, note)
     except OSError:
         return False

@@ -194,3 +194,79 @@ def test_a_pair_whose_motion_the_supports_fix_carries_no_force(a):
     assert abs(res.solution.q[0]) < 1e-9  # (before: 4e-8, the tie k0 x round-off tau)
     assert res.solution.p[1] == pytest.approx(1e-3 / CN, rel=1e-9)
     assert res.state[0] == (BONDED if a else STICK)
+
+
+@pytest.mark.parametrize("stiff", [1e-11, 1e-13])
+def test_a_stiff_interface_next_to_a_soft_one_is_not_taken_for_a_fixed_pair(stiff):
+    """Two uncoupled interfaces, one between soft bodies (compliance ~1) and one between
+    bodies 1e11 or 1e13 times stiffer: the stiff pairs' compliance is small but not
+    round-off, and their forces follow from it. `_fixed_pairs` judged them against the
+    soft interface's compliance with DEPENDENT_REL (1e-10), took them for pairs the
+    supports fix, and gave them p off by 330% (1e-11) or p = 0 (1e-13)."""
+    k, m = 3, 6
+    soft = np.eye(k) + 0.3 * (np.eye(k, k=1) + np.eye(k, k=-1))
+    cn = np.zeros((m, m))
+    cn[:k, :k], cn[k:, k:] = soft, stiff * soft
+    c = np.block([[cn, np.zeros((m, m))], [np.zeros((m, m)), np.eye(m)]])
+    lcp = ContactLCP(c, np.zeros(m), np.zeros(m, dtype=bool), None, None)
+    gap_free = -np.r_[np.ones(k), stiff * np.array([1.0, 2.0, 1.5])]
+    sol = lcp.solve(gap_free, np.zeros(m), np.zeros(m), np.zeros(m), np.zeros(m),
+                    np.zeros(m), np.zeros(0))
+    assert sol.status == "solved" and not lcp.fixed.any()
+    np.testing.assert_allclose(sol.p, np.linalg.solve(cn, -gap_free), rtol=1e-9)
+
+
+def test_a_weak_bond_next_to_strong_ones_keeps_its_tension_within_its_adhesion():
+    """Pairs 0 and 1 bonded with a = 1e13, pair 2 with a = 0.65 (forces ~1). Lemke's basis,
+    found on p + a with round-off of 1e13 (~2e-3), closed pair 2; `_unshifted` solved p on
+    it and got p2 = -1.90 < -a, a tension beyond the adhesion, which it accepted because
+    its sign check was relative to the largest z (~1e13). The answer must keep p >= -a and
+    be a solution of the law: bonded pairs closed, pair 2 open at p = -a or closed."""
+    c = 1e-3 * np.array([
+        [0.66753, -0.57299, 0.006469, 0.021819, 0.067482, 0.0026524],
+        [-0.57299, 1.7016, 0.049089, -0.080151, -0.010908, 0.037295],
+        [0.006469, 0.049089, 0.30706, -0.024914, -0.0015408, 0.032901],
+        [0.021819, -0.080151, -0.024914, 0.7756, -0.062919, -0.47004],
+        [0.067482, -0.010908, -0.0015408, -0.062919, 0.40054, -0.21178],
+        [0.0026524, 0.037295, 0.032901, -0.47004, -0.21178, 1.7317]])
+    mu = np.full(3, 0.3)
+    lcp = ContactLCP(c, mu, np.ones(3, dtype=bool), None, None)
+    a = np.array([1e13, 1e13, 0.65041])
+    strength = np.array([3e12, 3e12, 0.98625])
+    gap_free = 1e-3 * np.array([0.2698, -1.1923, 0.5401])
+    tau_free = 1e-3 * np.array([0.0975, -0.0019, 0.3386])
+    sol = lcp.solve(gap_free, tau_free, np.zeros(3), a, strength, mu, np.zeros(0))
+    assert sol.status == "solved"
+    assert sol.p[2] >= -a[2] - 1e-9
+    gap = gap_free + c[:3, :3] @ sol.p + c[:3, 3:] @ sol.q
+    assert np.abs(gap[:2]).max() < 1e-9 * 1e-3  # the strong bonds hold: closed
+    assert gap[2] >= -1e-12 and min(gap[2] / 1e-3, sol.p[2] + a[2]) < 1e-9
+    assert (np.abs(sol.q) <= mu * sol.p + strength + 1e-9).all()
+
+
+@pytest.mark.parametrize("strength", [1e12, 1e20])
+def test_a_strong_bond_on_one_pair_leaves_the_others_unchanged(strength):
+    """Pair 0 glued (a = c = 1e12 or 1e20), pairs 1 and 2 pressed without bond. Pair 0
+    holds alike with a = c = 1e6 and with any larger value, so the other pairs' forces must
+    not depend on it. The round-off zeroing of the constant vector was relative to each
+    block's largest entry, which c made 1e12: the slip rows of pairs 1 and 2 were zeroed,
+    and Lemke's basis (found to the round-off of a) was accepted because the sign check of
+    `_unshifted` was relative to the largest w, c itself: pair 1 read p = 0 with q != 0
+    (1e12), or |q| > mu p (1e20)."""
+    m = 3
+    cn = np.eye(m) + 0.2 * (np.eye(m, k=1) + np.eye(m, k=-1))
+    ct = 2.0 * np.eye(m) + 0.3 * (np.eye(m, k=1) + np.eye(m, k=-1))
+    c = np.block([[cn, 0.1 * np.eye(m)], [0.1 * np.eye(m), ct]]) * 1e-3
+    mu = np.full(m, 0.3)
+    lcp = ContactLCP(c, mu, np.ones(m, dtype=bool), None, None)
+    gap_free, tau_free = np.full(m, -1e-3), np.array([0.0, -3e-3, 2e-3])  # 1, 2 slip
+
+    def solve(big):
+        bond = np.array([big, 0.0, 0.0])
+        return lcp.solve(gap_free, tau_free, np.zeros(m), bond, bond, mu, np.zeros(0))
+
+    ref, sol = solve(1e6), solve(strength)
+    assert ref.status == sol.status == "solved"
+    assert np.allclose(np.abs(ref.q[1:]), mu[1:] * ref.p[1:])  # (the reference slips)
+    np.testing.assert_allclose(np.r_[sol.p, sol.q], np.r_[ref.p, ref.q], rtol=1e-6,
+                               atol=1e-9)

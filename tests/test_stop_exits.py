@@ -109,7 +109,8 @@ def test_a_signal_that_answers_a_peers_failure_records_the_failure(tmp_path, mon
             rank1 = exit_sync._STATE["note"]
             assert rank1 == tmp_path / exit_sync.NOTE_NAME  # (RunGuard: note_in)
             rank1.write_text(json.dumps({"rank": 1, "code": 2, "error": line,
-                                         "printed": printed}))
+                                         "printed": printed,
+                                         "run": exit_sync._STATE["token"]}))  # (this run's)
             raised = _in_a_thread(guard.stop_now, "SIGTERM")
             assert raised == [] and fake_exit == [2], (raised, fake_exit)
             s = read_summary(tmp_path)
@@ -266,3 +267,27 @@ def test_a_hand_off_without_a_stop(monkeypatch, fake_exit):  # noqa: F811
     assert status._hand_off_pending() is None and not status._STOP_LOCK.locked()
     monkeypatch.setattr(status, "_PENDING", ["SIGTERM"])
     assert status._hand_off_pending() == "SIGTERM" and status._STOP_LOCK.locked()
+
+
+def test_a_note_left_by_an_earlier_run_is_not_this_runs_failure(tmp_path, monkeypatch,
+                                                                 fake_exit):  # noqa: F811
+    """A note in OUT that this run's ranks did not write (a rank of an earlier job in the
+    same OUT that outlived it: its `leave_if_alone` writes the note again at its deadline,
+    after this run's rank 0 removed the old one) must not turn this run's SIGTERM into
+    `failed` with that job's line: the note carries its run's token (`note_in`)."""
+    from app import exit_sync
+
+    monkeypatch.setitem(exit_sync._STATE, "comm", object())  # (as on several ranks)
+    monkeypatch.setitem(exit_sync._STATE, "note", None)
+    monkeypatch.setattr(status, "_STOP_STATUS", [])
+    monkeypatch.setattr(status, "_STOP_REASON", [])
+    summary = {"config": "c.toml", "steps": [], "status": "running"}
+    with RunGuard(tmp_path, summary, write_summary, 2) as guard:
+        (tmp_path / exit_sync.NOTE_NAME).write_text(json.dumps(
+            {"rank": 1, "code": 2, "error": "an earlier job's line", "printed": False}))
+        raised = _in_a_thread(guard.stop_now, "SIGTERM")
+        assert raised == [] and fake_exit == [143], (raised, fake_exit)
+        s = read_summary(tmp_path)
+        assert s["status"] == "interrupted" and "earlier" not in json.dumps(s), s
+        status._STOP_LOCK.release()
+        summary["status"] = "completed"

@@ -33,7 +33,7 @@ import numpy as np
 
 from app.errors import SolveError
 from app.lcp import lemke
-from app.lcp.coulomb_matrix import DEPENDENT_REL, coulomb_matrix
+from app.lcp.coulomb_matrix import coulomb_matrix
 from app.lcp.solvers import LCPSolver
 
 
@@ -55,6 +55,17 @@ class ContactSolution:
     message: str = ""  # Lemke's own summary of the solve
 
 
+FIXED_REL = 1e-20
+"""A pair's normal (tangential) compliance below this x the largest is round-off of a
+motion the supports fix: with the Dirichlet rows and columns eliminated the prescribed
+displacements are exactly zero, and only round-off weights (~1e-16) of the pair's G on free
+dofs give it a compliance, ~1e-32 of the largest. Not DEPENDENT_REL (1e-10): a legitimate
+pair between bodies 1e11 times stiffer than those of another interface was taken for fixed
+(`tests/test_interface_steps.py`, stiff interface)."""
+
+UNSHIFTED_PIVOTS = 8
+"""Block pivots `ContactLCP._unshifted` tries on Lemke's final basis before keeping z."""
+
 FIXED_COMPLIANCE_REL = 1e-12
 """The normal compliance given to a pair whose normal motion the supports fix, relative to
 the largest normal compliance (a stiff tie, as `tangential_stiffness` gives C_tt's null
@@ -63,7 +74,7 @@ space)."""
 
 def _fixed_pairs(c: np.ndarray, m: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(fixed_n, fixed_t, c): the pairs whose normal (tangential) compliance is round-off,
-    below DEPENDENT_REL of the largest (both sides of the pair prescribed, e.g. the end
+    below FIXED_REL of the largest (both sides of the pair prescribed, e.g. the end
     pairs of a bonded block whose sides are prescribed), and the compliance with those rows
     and columns set to zero and a stiff tie FIXED_COMPLIANCE_REL x the largest on their
     diagonal. Their force moves nothing (the supports take it), so any value is an answer;
@@ -75,7 +86,7 @@ def _fixed_pairs(c: np.ndarray, m: int) -> tuple[np.ndarray, np.ndarray, np.ndar
     fixed, ties = [], []
     for rows in (slice(0, m), slice(m, 2 * m)):
         top = float(diag[rows].max(initial=0.0))
-        fixed.append(diag[rows] <= DEPENDENT_REL * top if top > 0 else np.zeros(m, dtype=bool))
+        fixed.append(diag[rows] <= FIXED_REL * top if top > 0 else np.zeros(m, dtype=bool))
         ties.append((np.flatnonzero(fixed[-1]) + rows.start, FIXED_COMPLIANCE_REL * top))
     if fixed[0].any() or fixed[1].any():
         c = c.copy()  # (the caller's compliance is kept)
@@ -163,25 +174,37 @@ class ContactLCP:
     def constant(self, gap_free: np.ndarray, tau_free: np.ndarray, tau_prev: np.ndarray,
                  a: np.ndarray, c: np.ndarray, mu: np.ndarray, e0: np.ndarray) -> np.ndarray:
         """The LCP constant vector for one solve (all arguments per pair, (m,); e0 (r,))."""
-        f = self.fric
         gap_free, dtau = self._free_motion(gap_free, tau_free, tau_prev)
-        cnt_f = self.c[: self.m, self.m:][:, f]
-        xi = dtau[f] + cnt_f.T @ a
-        hxi = self.h @ xi
-        qg = gap_free - self.c[: self.m, : self.m] @ a + cnt_f @ hxi
-        base = c[f] - mu[f] * a[f]
-        eq = e0 - self.nm.T @ a + self.tm.T @ hxi
-        out = np.concatenate([qg, base + hxi, base - hxi, -eq, eq])
+        out = self._parts(gap_free, dtau, np.zeros(self.m), np.zeros(self.m), e0)
         # entries that are round-off of exact cancellations (e.g. F = 0 and no tangential
-        # motion) are set to zero, so that Lemke does not pivot on them; relative to their
-        # own block (gaps, F +- q, equilibrium): a strength c of 1e20 set every free gap to
-        # zero when the whole vector was the measure
+        # motion) are set to zero, so that Lemke does not pivot on them; judged on the
+        # motion part alone (a = c = 0), relative to its own block (gaps, F +- q,
+        # equilibrium): a strength c of 1e20 set every free gap to zero when the whole
+        # vector was the measure, and a = c = 1e12 on one pair zeroed the other pairs'
+        # slip rows when its block was
         scaled = np.abs(self.scaling * self.row_scale * out)
         e = self.edges
         for i0, i1 in ((e[0], e[1]), (e[1], e[3]), (e[3], e[5])):
             blk = scaled[i0:i1]
             out[i0:i1][blk < 1e-14 * blk.max(initial=0.0)] = 0.0
+        if a.any() or c.any():  # the bond's part; c - mu a that is round-off is zero
+            base = c - mu * a
+            base[np.abs(base) <= 1e-14 * np.maximum(np.abs(c), np.abs(mu * a))] = 0.0
+            zero = np.zeros(self.m)
+            out = out + self._parts(zero, zero, a, base, np.zeros(self.r))
         return out
+
+    def _parts(self, gap_free: np.ndarray, dtau: np.ndarray, a: np.ndarray,
+               base: np.ndarray, e0: np.ndarray) -> np.ndarray:
+        """The constant vector, linear in (gap_free, dtau, a, base, e0): base is the
+        friction bound at p = 0, c - mu a (m,)."""
+        f = self.fric
+        cnt_f = self.c[: self.m, self.m:][:, f]
+        xi = dtau[f] + cnt_f.T @ a
+        hxi = self.h @ xi
+        qg = gap_free - self.c[: self.m, : self.m] @ a + cnt_f @ hxi
+        eq = e0 - self.nm.T @ a + self.tm.T @ hxi
+        return np.concatenate([qg, base[f] + hxi, base[f] - hxi, -eq, eq])
 
     def solve(self, gap_free: np.ndarray, tau_free: np.ndarray, tau_prev: np.ndarray,
               a: np.ndarray, c: np.ndarray, mu: np.ndarray, e0: np.ndarray, *,
@@ -250,26 +273,47 @@ class ContactLCP:
         y = z - a on the normal rows, w = M y + q0 (q0: the constant vector at a = 0), and
         the basic y solve M_BB y_B = -(q0_B + M_BN y_N), y_N = -a on the nonbasic normal
         rows (open pairs), 0 elsewhere. None (Lemke's z kept) when that system is singular
-        or its answer leaves the basis's signs by more than round-off."""
-        d, ms, m = self.scaling, self.M_scaled, self.m
+        or its answer still leaves the basis's signs by more than round-off after
+        UNSHIFTED_PIVOTS block pivots."""
+        d, m = self.scaling, self.m
         q0 = d * self.row_scale * self.constant(gap_free, tau_free, tau_prev,
                                                 np.zeros_like(a), c, mu, e0)
-        b = np.asarray(basis, dtype=bool)
-        nb = ~b
         shift = np.zeros(self.size)
         shift[:m] = a / d[:m]  # a in the scaled unknowns
+        b = np.asarray(basis, dtype=bool).copy()
+        # Lemke's basis was found on p + a, to round-off of the largest a: where it is wrong
+        # for a pair of small a, a few block pivots (basic z < 0 leaves, nonbasic w < 0
+        # enters) on the exact unshifted system correct it
+        for _ in range(UNSHIFTED_PIVOTS):
+            y, w = self._on_basis(b, shift, q0)
+            if y is None:
+                return None
+            # sign checks against the unshifted scales (forces, not a: p + a >= 0 of a weak
+            # bond beside a strong one was judged against the strong one's a before)
+            z_bad = b & (y + shift < -1e-9 * max(float(np.abs(y[b]).max(initial=0.0)), 1e-300))
+            # w_i = sum_j M_ij y_j + q0_i against the size of its own terms (not the
+            # largest w: a strength c of 1e12 in one pair's slip rows hid a penetration)
+            terms = np.abs(q0) + np.abs(self.M_scaled) @ np.abs(y)
+            w_bad = ~b & (w < -1e-9 * np.maximum(terms, 1e-300))
+            if not (z_bad.any() or w_bad.any()):
+                break
+            b ^= z_bad | w_bad
+        else:
+            return None
+        y[m:] = np.maximum(y[m:], 0.0)
+        return d * y
+
+    def _on_basis(self, b: np.ndarray, shift: np.ndarray,
+                  q0: np.ndarray) -> tuple[np.ndarray | None, np.ndarray]:
+        """(y, w) of the scaled LCP on basis b (z basic) without the shift: y_N = -shift,
+        M_BB y_B = -(q0_B + M_BN y_N), w = M y + q0; y None when singular or not finite."""
+        ms, nb = self.M_scaled, ~b
         y = np.where(b, 0.0, -shift)
         try:
             y[b] = np.linalg.solve(ms[np.ix_(b, b)], -(q0[b] + ms[np.ix_(b, nb)] @ y[nb]))
         except np.linalg.LinAlgError:
-            return None
-        z, w = y + shift, ms @ y + q0
-        if not (np.isfinite(z).all() and np.isfinite(w).all()):
-            return None
-        z_low = float(z[b].min(initial=0.0)) / max(float(np.abs(z).max(initial=0.0)), 1e-300)
-        w_low = float(w[nb].min(initial=0.0)) / max(float(np.abs(q0).max(initial=0.0)),
-                                                    float(np.abs(w).max(initial=0.0)), 1e-300)
-        if min(z_low, w_low) < -1e-9:
-            return None
-        y[m:] = np.maximum(y[m:], 0.0)
-        return d * y
+            return None, y
+        w = ms @ y + q0
+        if not (np.isfinite(y).all() and np.isfinite(w).all()):
+            return None, w
+        return y, w

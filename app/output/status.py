@@ -16,6 +16,7 @@ import re
 import signal
 import sys
 import threading
+import uuid
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -486,14 +487,15 @@ class RunGuard:
             foreign = foreign_files(self.out, STALE)
             if foreign:
                 raise InputError(foreign_message(self.out, foreign))
-            exit_sync.note_in(self.out, 0)  # (before the others go on)
-            return clear_files(self.out)
+            token = uuid.uuid4().hex  # this run's notes (exit_sync.note_in)
+            exit_sync.note_in(self.out, 0, token)  # (before the others go on)
+            return clear_files(self.out), token
 
         _ON_FAILURE.clear()
         startup_signals.defer()  # a signal now is acted on below, not between these writes
-        self.removed = collective(start) or []
+        self.removed, token = collective(start)
         if self.rank != 0:
-            exit_sync.note_in(self.out, self.rank)
+            exit_sync.note_in(self.out, self.rank, token)
         self._write_running()
         self._old_int = signal.getsignal(signal.SIGINT)
         self._old_term = arm_signals()
