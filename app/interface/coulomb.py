@@ -178,15 +178,14 @@ class ContactLCP:
         out = self._parts(gap_free, dtau, np.zeros(self.m), np.zeros(self.m), e0)
         # entries that are round-off of exact cancellations (e.g. F = 0 and no tangential
         # motion) are set to zero, so that Lemke does not pivot on them; judged on the
-        # motion part alone (a = c = 0), relative to its own block (gaps, F +- q,
-        # equilibrium): a strength c of 1e20 set every free gap to zero when the whole
-        # vector was the measure, and a = c = 1e12 on one pair zeroed the other pairs'
-        # slip rows when its block was
+        # motion part alone (a = c = 0), relative to its largest entry: with the bond's
+        # part in the measure, a strength c of 1e20 set every free gap to zero, and a = c =
+        # 1e12 on one pair zeroed the other pairs' slip rows. Not per block: a block that
+        # is all round-off (the tangential motion of a symmetric scene) is then its own
+        # measure and kept, and Lemke pivoted on it (initial_gap.toml step 2: 7 pivots
+        # from the crash guess in place of 0)
         scaled = np.abs(self.scaling * self.row_scale * out)
-        e = self.edges
-        for i0, i1 in ((e[0], e[1]), (e[1], e[3]), (e[3], e[5])):
-            blk = scaled[i0:i1]
-            out[i0:i1][blk < 1e-14 * blk.max(initial=0.0)] = 0.0
+        out[scaled < 1e-14 * scaled.max(initial=0.0)] = 0.0
         if a.any() or c.any():  # the bond's part; c - mu a that is round-off is zero
             base = c - mu * a
             base[np.abs(base) <= 1e-14 * np.maximum(np.abs(c), np.abs(mu * a))] = 0.0
