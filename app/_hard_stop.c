@@ -113,17 +113,21 @@ static char *copy(const char *s, size_t n) {
     return p;
 }
 
-static void release_extra(void) {
-    for (int i = 0; i < MORE; i++) {
-        for (int k = 0; k < SLOTS; k++) {
-            free(g_xtext[i][k]);
-            free(g_xline[i][k]);
-            g_xtext[i][k] = g_xline[i][k] = NULL;
-        }
-        free(g_xtmp[i]);
-        free(g_xpath[i]);
-        g_xtmp[i] = g_xpath[i] = NULL;
+/* Free extra file i's texts, lines and paths. */
+static void release_one(int i) {
+    for (int k = 0; k < SLOTS; k++) {
+        free(g_xtext[i][k]);
+        free(g_xline[i][k]);
+        g_xtext[i][k] = g_xline[i][k] = NULL;
     }
+    free(g_xtmp[i]);
+    free(g_xpath[i]);
+    g_xtmp[i] = g_xpath[i] = NULL;
+}
+
+static void release_extra(void) {
+    for (int i = 0; i < MORE; i++)
+        release_one(i);
     g_more = 0;
 }
 
@@ -176,14 +180,7 @@ int hard_stop_add(const char *tmp, const char *path, const char *text_int, size_
     g_xline[i][1] = copy(line_term, strlen(line_term));
     if ((path && (!g_xtmp[i] || !g_xpath[i])) || !g_xtext[i][0] || !g_xtext[i][1] ||
         !g_xline[i][0] || !g_xline[i][1]) {
-        for (int k = 0; k < SLOTS; k++) {
-            free(g_xtext[i][k]);
-            free(g_xline[i][k]);
-            g_xtext[i][k] = g_xline[i][k] = NULL;
-        }
-        free(g_xtmp[i]);
-        free(g_xpath[i]);
-        g_xtmp[i] = g_xpath[i] = NULL;
+        release_one(i);
         return -1;
     }
     g_xtext_len[i][0] = n_int;

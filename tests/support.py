@@ -96,3 +96,19 @@ def rectangle_body(name: str, origin: tuple[float, float], width: float = 1.0,
     if curves:
         text += "[body.curves]\n" + "".join(f'{k} = "{v}"\n' for k, v in curves.items())
     return text
+
+
+def cleared_petsc_options(keys: tuple[str, ...]):
+    """Generator for a fixture: PETSc's options database with `keys` cleared, yielded,
+    and the earlier values put back afterwards."""
+    from petsc4py import PETSc
+
+    o = PETSc.Options()
+    saved = {k: o.getString(k) for k in keys if o.hasName(k)}
+    for k in keys:
+        o.delValue(k)
+    yield o
+    for k in keys:
+        o.delValue(k)
+    for k, v in saved.items():
+        o.setValue(k, v)

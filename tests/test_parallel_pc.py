@@ -5,10 +5,9 @@ from __future__ import annotations
 import json
 
 import pytest
-from petsc4py import PETSc
 
 from app.assembly.parallel_pc import block_jacobi_for_sequential_pc
-from tests.support import CONFIGS, run_cli
+from tests.support import CONFIGS, cleared_petsc_options, run_cli
 
 KEYS = ("pc_type", "sub_pc_type", "pc_factor_levels", "sub_pc_factor_levels",
         "pc_factor_mat_solver_type")
@@ -16,15 +15,8 @@ KEYS = ("pc_type", "sub_pc_type", "pc_factor_levels", "sub_pc_factor_levels",
 
 @pytest.fixture
 def opts():
-    o = PETSc.Options()
-    saved = {k: o.getString(k) for k in KEYS if o.hasName(k)}
-    for k in KEYS:
-        o.delValue(k)
-    yield o
-    for k in KEYS:
-        o.delValue(k)
-    for k, v in saved.items():
-        o.setValue(k, v)
+    """The PETSc options database with KEYS cleared, restored afterwards."""
+    yield from cleared_petsc_options(KEYS)
 
 
 def test_icc_becomes_block_jacobi_on_several_ranks_only(opts):

@@ -23,7 +23,7 @@ from petsc4py import PETSc
 from app.assembly.solve import LOOSE_RESIDUAL, REFINED_RESIDUAL, LinearSolver
 from app.driver.contact import _iterative_hint
 from app.errors import SolveError
-from tests.support import CONFIGS, read_summary, run_cli
+from tests.support import CONFIGS, cleared_petsc_options, read_summary, run_cli
 
 KEYS = ("ksp_type", "pc_type", "ksp_rtol", "ksp_atol", "pc_factor_mat_solver_type",
         "mat_mumps_icntl_24")
@@ -32,15 +32,7 @@ KEYS = ("ksp_type", "pc_type", "ksp_rtol", "ksp_atol", "pc_factor_mat_solver_typ
 @pytest.fixture
 def options():
     """The PETSc options database with KEYS cleared, restored afterwards."""
-    o = PETSc.Options()
-    saved = {k: o.getString(k) for k in KEYS if o.hasName(k)}
-    for k in KEYS:
-        o.delValue(k)
-    yield o
-    for k in KEYS:
-        o.delValue(k)
-    for k, v in saved.items():
-        o.setValue(k, v)
+    yield from cleared_petsc_options(KEYS)
 
 
 def _laplacian(n: int) -> PETSc.Mat:
