@@ -305,6 +305,46 @@ def test_pull_off_debonds_where_the_uniform_tension_reaches_a(tmp_path, disc, st
     assert check_law(s, out) < KKT_TOL
 
 
+def pull_off_by_force(tmp_path: Path, disc: str, traction: float):
+    """hard/pull_off.toml with its top pulled by a traction in place of the prescribed uy
+    (force control), one step: the run's summary and output folder."""
+    raw = tomllib.loads((HARD / "pull_off.toml").read_text())
+    raw["support"] = [x for x in raw["support"] if x["on"] != "block_top"]
+    raw["load"] = [{"on": "block_top", "traction": [0.0, traction]}]
+    apply_overrides(raw, ["analysis.steps=1", f'interface.bond.discretisation="{disc}"'])
+    out = tmp_path / f"{disc}_{traction}"
+    return run(parse_config(raw, HARD / "pull_off.toml"), RunOptions(out=out, quiet=True)), out
+
+
+def test_a_pull_by_force_exactly_at_the_strength_is_held_by_mortar(tmp_path):
+    """Traction = a = 2: mortar's uniform tension holds every pair at p = -a (N = -2, the
+    hand figure, a degenerate LCP solved as it is)."""
+    s, out = pull_off_by_force(tmp_path, "mortar", 2.0)
+    bond = s["steps"][0]["interfaces"]["bond"]
+    assert bond["normal_force"] == pytest.approx(-2.0, rel=1e-12)
+    assert bond["debonded_pairs"] == 0
+    assert check_law(s, out) < KKT_TOL
+
+
+@pytest.mark.parametrize("traction, held", [(1.92, True), (2.0, False), (2.1, False)])
+def test_a_pull_by_force_at_the_strength_pulls_node_to_segment_off(tmp_path, traction, held):
+    """node-to-segment carries the tension 4.2% above the mean at its peak pair, so under
+    force control it holds up to 2 / 1.042 = 1.92 and beyond that the peak pairs open,
+    debond and the rest cannot carry the load: no static equilibrium. Exactly at a = 2
+    every pair must sit at p = -a (a degenerate LCP whose balance row's constant e0 -
+    N^T a is exactly 0); before, Lemke judged that row's round-off (9.2e-14) against its
+    own round-off and the run stopped with `Lemke ended with 'inaccurate'` (violation
+    6.7e-8) in place of the first solve's 15 open pairs."""
+    if held:
+        s, out = pull_off_by_force(tmp_path, "node-to-segment", traction)
+        bond = s["steps"][0]["interfaces"]["bond"]
+        assert bond["normal_force"] == pytest.approx(-traction, rel=1e-12)
+        assert bond["debonded_pairs"] == 0 and check_law(s, out) < KKT_TOL
+        return
+    with pytest.raises(SolveError, match="no static equilibrium at step 1"):
+        pull_off_by_force(tmp_path, "node-to-segment", traction)
+
+
 @pytest.mark.parametrize("disc", ["mortar", "node-to-segment"])
 @pytest.mark.parametrize("ey, step", [(1e-4, 15), (-1e-4, 14)])
 def test_shear_off_debonds_where_q_reaches_c_plus_mu_p(tmp_path, disc, ey, step):

@@ -8,7 +8,7 @@ One or two pairs with a diagonal compliance: gap = gap_free + c_n p, tau = tau_f
 import numpy as np
 import pytest
 
-from app.interface.coulomb import ContactLCP
+from app.interface.coulomb import ContactLCP, _rejudged
 from app.interface.steps import (
     BONDED,
     OPEN,
@@ -18,6 +18,7 @@ from app.interface.steps import (
     InterfaceHistory,
     solve_step,
 )
+from app.lcp.result import LCPResult
 
 CN, CT = 2.0e-3, 5.0e-3  # compliances (length / force)
 TOL = 1e-12
@@ -270,3 +271,18 @@ def test_a_strong_bond_on_one_pair_leaves_the_others_unchanged(strength):
     assert np.allclose(np.abs(ref.q[1:]), mu[1:] * ref.p[1:])  # (the reference slips)
     np.testing.assert_allclose(np.r_[sol.p, sol.q], np.r_[ref.p, ref.q], rtol=1e-6,
                                atol=1e-9)
+
+
+@pytest.mark.parametrize("z, qsize, solved", [(1e-15, 2.0, True), (1e-15, 0.0, False),
+                                              (1e-3, 2.0, False)])
+def test_an_inaccurate_answer_is_judged_again_against_the_terms_of_its_constant(z, qsize,
+                                                                                 solved):
+    """A row whose constant cancelled to exactly 0 (a balance row, e0 = N^T a of size 2):
+    a round-off z (1e-15) is round-off of those terms and passes; judged against its own
+    round-off (qsize 0, Lemke's check) it does not, nor does a real violation (1e-3)."""
+    res = LCPResult(np.array([z]), np.array([z]), 5, "inaccurate", 0.0,
+                    np.array([True]), "Lemke ended ...")
+    _rejudged(res, np.array([[1.0]]), np.array([0.0]), np.array([qsize]))
+    assert (res.status == "solved") == solved
+    assert ("accepted against" in res.message) == solved
+    assert res.residual <= 1e-9 if solved else res.residual == 0.0  # (the given one kept)

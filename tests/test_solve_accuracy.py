@@ -10,6 +10,10 @@
   -ksp_rtol 1e-6 changed a contact state of bonded.toml without a word).
 - An error or warning names the option that stopped the KSP (before, -ksp_atol 1e-6 was
   reported as `-ksp_rtol 1e-12: lower -ksp_rtol`).
+- A right-hand side that is round-off of the run's forces is judged against them, not
+  against itself: -ksp_atol 1e-12 solved a recovery of round-off contact forces (|b| =
+  5.9e-12, loads 23.1) as x = 0 and bonded.toml and patch.toml stopped with `relative
+  residual 1.00e+00 ... lower -ksp_atol`.
 """
 
 from __future__ import annotations
@@ -87,6 +91,40 @@ def test_an_inaccurate_solve_names_the_absolute_tolerance_that_stopped_it(option
                          "ksp_atol": "0.1"})
 
 
+def _rhs(k: PETSc.Mat, size: float) -> PETSc.Vec:
+    """A random right-hand side of 2-norm `size`."""
+    b = k.createVecLeft()
+    b.setArray(np.random.default_rng(5).standard_normal(b.getLocalSize()))
+    b.scale(size / b.norm())
+    return b
+
+
+def test_a_round_off_right_hand_side_below_the_absolute_tolerance_is_solved_by_zero(options):
+    """After a load of norm 20, a right-hand side of norm 2e-12 (round-off of it) under
+    -ksp_atol 1e-12 (on the Jacobi-preconditioned residual, |b| / 4): PETSc returns x = 0,
+    which is accepted without a warning; before, `relative residual 1.00e+00 > 1e-06,
+    -ksp_atol 1e-12`."""
+    solver, _ = _solve(options, {"ksp_type": "cg", "pc_type": "jacobi", "ksp_rtol": "1e-12",
+                                 "ksp_atol": "1e-12"})
+    solver.solve(_rhs(solver.k, 20.0), refine=True)
+    x = solver.solve(_rhs(solver.k, 2e-12))
+    assert x.norm() == 0.0
+    assert solver.worst_residual < LOOSE_RESIDUAL and solver.accuracy_warning() is None
+    solver.solve(_rhs(solver.k, 5e-16), scale=1.0)  # a round-off compliance column
+
+
+def test_a_small_real_right_hand_side_below_the_absolute_tolerance_still_stops(options):
+    """|b| = 1e-8 of the loads is no round-off: x = 0 (-ksp_atol 1e-6 above |b|) is an
+    error naming -ksp_atol, and so is the same column judged against unit forces."""
+    solver, _ = _solve(options, {"ksp_type": "cg", "pc_type": "gamg", "ksp_rtol": "1e-12",
+                                 "ksp_atol": "1e-6"})
+    solver.solve(_rhs(solver.k, 20.0), refine=True)
+    with pytest.raises(SolveError, match=r"relative residual 1\.00e\+00 .*lower -ksp_atol"):
+        solver.solve(_rhs(solver.k, 2e-7))
+    with pytest.raises(SolveError, match=r"-ksp_atol 1e-06\): lower -ksp_atol"):
+        solver.solve(_rhs(solver.k, 2e-7), scale=1.0)
+
+
 def test_a_failed_lcp_with_iterative_solves_says_how_to_tell_their_part():
     assert _iterative_hint(SimpleNamespace(iterative=False, worst_residual=0.0)) == ""
     hint = _iterative_hint(SimpleNamespace(iterative=True, worst_residual=3.5e-12))
@@ -114,6 +152,26 @@ def test_gmres_block_jacobi_completes_bonded_as_the_direct_solve(tmp_path, ranks
     assert [s for s, _ in it] == [s for s, _ in lu]
     scale = max(abs(p) for _, p in lu)
     assert max(abs(a - b) for (_, a), (_, b) in zip(it, lu, strict=True)) <= 1e-10 * scale
+
+
+@pytest.mark.parametrize(("scene", "size"), [("bonded", "0.8"), ("patch", "1.0")])
+def test_an_absolute_tolerance_at_round_off_completes_as_the_direct_solve(tmp_path, scene,
+                                                                          size):
+    """-ksp_atol 1e-12 with cg + gamg: bonded.toml's recovery of round-off contact forces
+    (step 16, |b| = 5.9e-12) and patch.toml's compliance column of a round-off row of G
+    (|b| = 1.5e-16) came back as x = 0 and stopped the run (`relative residual 1.00e+00`)."""
+    base = ["run", str(CONFIGS / f"{scene}.toml"), "--mesh-size", size, "--quiet"]
+    r = run_cli([*base, "--out", str(tmp_path / "it"), "-ksp_type", "cg", "-pc_type", "gamg",
+                 "-ksp_atol", "1e-12"])
+    assert r.returncode == 0, r.stderr
+    assert "warning" not in r.stderr
+    r = run_cli([*base, "--out", str(tmp_path / "lu")])
+    assert r.returncode == 0, r.stderr
+    it, lu = read_summary(tmp_path / "it")["steps"], read_summary(tmp_path / "lu")["steps"]
+    assert [s["states"] for s in it] == [s["states"] for s in lu]
+    for key in ("max_contact_pressure", "strain_energy"):
+        a, b = (np.array([s[key] for s in steps]) for steps in (it, lu))
+        assert np.abs(a - b).max() <= 1e-9 * max(np.abs(b).max(), 1e-300), key
 
 
 def test_a_loose_tolerance_that_changes_a_contact_state_is_warned_about(tmp_path):
