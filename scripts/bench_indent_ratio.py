@@ -183,11 +183,27 @@ def lps_matrix(d: np.ndarray, basis: np.ndarray) -> np.ndarray:
     return d.mean() * r.T @ w @ r
 
 
+def quadratic_bspline_weights(eta: np.ndarray, has_prev: np.ndarray,
+                              has_next: np.ndarray) -> np.ndarray:
+    """Weights (4, p, g) on (prev, a, b, next) of the uniform quadratic B-spline at
+    parameters eta (p, g) of segments [a, b] (has_prev, has_next (p,) bool), knots at the
+    segments' midpoints; a missing neighbour is the reflection 2 x_a - x_b (2 x_b - x_a),
+    folded into a and b (`mortar-smooth`'s first master, kept for `coarse-bspline`)."""
+    left = eta < 0.5
+    u = np.where(left, eta + 0.5, eta - 0.5)
+    b0, b1, b2 = 0.5 * (1 - u) ** 2, 0.5 * (1 + 2 * u - 2 * u * u), 0.5 * u * u
+    hp, hn = has_prev[:, None], has_next[:, None]
+    zero = np.zeros_like(eta)
+    w_a = np.where(left, b1 + np.where(hp, 0, 2 * b0), b0 - np.where(hn, 0, b2))
+    w_b = np.where(left, b2 - np.where(hp, 0, b0), b1 + np.where(hn, 0, 2 * b2))
+    return np.stack([np.where(left & hp, b0, zero), w_a, w_b, np.where(~left & hn, b2, zero)])
+
+
 def cubic_weights(eta: np.ndarray, has_prev: np.ndarray, has_next: np.ndarray) -> np.ndarray:
     """Weights (4, p, g) on (prev, a, b, next) of the uniform cubic B-spline at parameters
     eta (p, g) of segments [a, b] (has_prev, has_next (p,) bool): C2, not interpolating
     the nodes, reproduces linear fields; a missing neighbour is the reflection 2 x_a - x_b
-    (2 x_b - x_a), folded into a and b as in app/contact/mortar_smooth.bspline_weights."""
+    (2 x_b - x_a), folded into a and b as in `quadratic_bspline_weights`."""
     t = eta
     b0, b3 = (1 - t) ** 3 / 6, t ** 3 / 6
     b1 = (3 * t ** 3 - 6 * t ** 2 + 4) / 6
@@ -259,7 +275,7 @@ def _indent_lcp(scene: dict, master_basis=None) -> dict:
 def _master_bases(scene: dict) -> dict[str, np.ndarray]:
     """Coarse-hat and coarse-bspline P (m, k) at the slave nodes' closest master points."""
     from app.contact.mortar import _interface_edges
-    from app.contact.mortar_smooth import bspline_weights, master_neighbours
+    from app.contact.mortar_smooth import master_neighbours
 
     mesh, pr = scene["mesh"], scene["pairs"]
     pts = np.asarray(mesh.points, float)
@@ -267,7 +283,7 @@ def _master_bases(scene: dict) -> dict[str, np.ndarray]:
     seg = {(int(a), int(b)): i for i, (a, b) in enumerate(m_edges)}
     f = np.array([seg[(int(a), int(b))] for a, b in pr.master])
     prev, nxt = master_neighbours(pts, m_edges)
-    spline = bspline_weights(pr.xi[:, None], prev[f] >= 0, nxt[f] >= 0)[:, :, 0].T
+    spline = quadratic_bspline_weights(pr.xi[:, None], prev[f] >= 0, nxt[f] >= 0)[:, :, 0].T
     quad = np.column_stack([prev[f], m_edges[f, 0], m_edges[f, 1], nxt[f]])
     hat = np.column_stack([1 - pr.xi, pr.xi])
     n = mesh.n_nodes
@@ -287,7 +303,7 @@ def _solve(c_mat: np.ndarray, b: np.ndarray) -> np.ndarray:
 def _spaces_rows(a: argparse.Namespace) -> Iterator[dict]:
     """The frictionless indent LCP with each multiplier space and smoothed master, per
     block size."""
-    from app.contact.mortar_smooth import bspline_master
+    from app.contact.mortar_smooth import smooth_master
 
     for size in a.block_sizes:
         scene = _indent_scene(size)
@@ -295,7 +311,7 @@ def _spaces_rows(a: argparse.Namespace) -> Iterator[dict]:
         pr, c_mat, b = lcp["pairs"], lcp["C"], lcp["b"]
         d, x = pr.length, pr.position[:, 0]
         out = {"dual": (x, d, _solve(c_mat, b) / d)}  # name: (x, D, p), each (m,)
-        for name, factory in (("smooth-quadratic", bspline_master),
+        for name, factory in (("smooth-quadratic", smooth_master),
                               ("smooth-cubic", cubic_master)):
             o = _indent_lcp(scene, factory)
             od = o["pairs"].length

@@ -73,7 +73,8 @@ def test_spaces_at_the_shipped_block_size(capsys):
     """Block 0.08 (4.4x the arc): per-node dual multipliers stripe (README 29.0%), coarse
     multipliers at the block's nodes do not (4.0%) and give max p near the fine answer
     (57.0; a block at the arc's size gives 58.1); the smoothed master of `mortar-smooth`
-    is smooth here (0.9%)."""
+    is within the issue's 3% here (2.4%; 0.9% with its first master, the quadratic
+    B-spline, which failed the patch test at a master's ends)."""
     bench.main(["--only", "spaces", "--block-sizes", "0.08", "--gammas", "10"])
     import json
 
@@ -83,7 +84,7 @@ def test_spaces_at_the_shipped_block_size(capsys):
     assert rows["dual"]["max_fit_deviation"] > 0.25
     assert rows["coarse-hat"]["max_fit_deviation"] < 0.05
     assert abs(rows["coarse-hat"]["max_p"] - 58.1) < 0.05 * 58.1
-    assert rows["smooth-quadratic"]["max_fit_deviation"] < 0.02
+    assert rows["smooth-quadratic"]["max_fit_deviation"] < 0.03
     for r in rows.values():
         assert abs(r["P"] - 20.1) < 0.03 * 20.1
 

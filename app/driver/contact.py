@@ -13,7 +13,6 @@ from app.condensation.compliance import compliance_from_factor, compliance_solve
 from app.condensation.recovery import contact_displacement, mismatch
 from app.contact.master_penetration import master_penetration, master_penetration_warning
 from app.contact.resolution import stripe_checks, stripe_warning
-from app.contact.smooth_ends import smooth_end_checks, smooth_end_warning
 from app.contact.unpaired import crossed_unpaired, crossing_warning
 from app.driver.context import RunContext, write_summary
 from app.driver.linear import LinearSystem, UnitSolutions, warn_solve_accuracy
@@ -146,9 +145,6 @@ def _stripe_warnings(ctx: RunContext, model: Model, result: StepSolution, step: 
             name = check["interface"]
             ctx.warn(stripe_warning(check, step + 1, described[name]["discretisation"]),
                      ("stripes", name))
-    for check in smooth_end_checks(model.mesh, pairs, normal, ctx.cfg.interfaces, described,
-                                   result.f_scale):
-        ctx.warn(smooth_end_warning(check, step + 1), ("smooth end", check["interface"]))
 
 
 def _displacement(model: Model, system: LinearSystem, u_free: np.ndarray,
