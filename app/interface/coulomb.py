@@ -33,13 +33,7 @@ import numpy as np
 
 from app.errors import SolveError
 from app.lcp import lemke
-from app.lcp.coulomb_matrix import (  # noqa: F401 (FIXED_*: their home was here)
-    FIXED_COMPLIANCE_REL,
-    FIXED_REL,
-    coulomb_matrix,
-    fixed_rows,
-    tie_fixed,
-)
+from app.lcp.coulomb_matrix import coulomb_matrix, fixed_rows, tie_fixed
 from app.lcp.scaling import absmax, row_blocks
 from app.lcp.solvers import LCPSolver
 
@@ -68,7 +62,7 @@ UNSHIFTED_PIVOTS = 8
 
 def _fixed_pairs(c: np.ndarray, m: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(fixed_n, fixed_t, c): the pairs whose normal (tangential) compliance is round-off,
-    below FIXED_REL of the largest (both sides of the pair prescribed, e.g. the end
+    below FIXED_REL of the largest (`fixed_rows`; both sides of the pair prescribed, e.g. the end
     pairs of a bonded block whose sides are prescribed), and the compliance with those rows
     and columns set to zero and a stiff tie FIXED_COMPLIANCE_REL x the largest on their
     diagonal. Their force moves nothing (the supports take it), so any value is an answer;
@@ -131,8 +125,8 @@ class ContactLCP:
         self.nm, self.tm = cm.nm, cm.tm
         self.tm_all = np.zeros((m, 0)) if t_modes is None else t_modes
         self.h, self.bm, self.v, self.w, self.z = cm.h, cm.bm, cm.v, cm.w, cm.z
-        # the pairs tied here are dependent directions too (counted as before the ties
-        # moved out of `tangential_stiffness`'s null space)
+        # the frictional pairs tied here are dependent directions too (zero rows of C_tt;
+        # `tangential_stiffness` gets them tied, so it does not count them)
         self.dependent_tangential = cm.dependent + int(self.fixed_t[cm.fric].sum())
         self.edges = edges = cm.edges
         big, n, mf = cm.M, cm.M.shape[0], cm.fric.size
