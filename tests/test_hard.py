@@ -87,6 +87,32 @@ def test_material_contrast_1e6(tmp_path):
           f"{s['steps'][0]['lcp_residual']:.1e}, KKT {check_law(s, out):.1e}")
 
 
+@pytest.mark.parametrize("stiff, disc", [(1e13, "mortar"), (1e15, "mortar"),
+                                         (1e14, "node-to-segment")])
+def test_tangential_stiffness_contrast(tmp_path, stiff, disc):
+    """hard/tangential_contrast.toml: a stiff interface (E = 1e13 to 1e15 on both sides)
+    and a soft one (E = 1e3 above) sharing the floating core, in the exact field of a
+    uniform stress: every pair sticks with p = P = 1 and q = T = 0.2 (hand figures).
+    Before, the stiff interface's tangential compliance eigenvalues (1e-10 to 1e-12 of the
+    largest) were taken for a null space and its floating core's pins sat on pairs (a zero
+    compliance tied at 1e-12 of the largest): the run failed (1e13: no equilibrium) or
+    q was 44% (1e14) and 64% (1e15) off, with the law audit at 1e-12. The contrast 1e12
+    also needs the LCP's scaling to judge the compliance in its own units (25% off)."""
+    sets = [f"body.base.E={stiff}", f"body.core.E={stiff}", f"parameters.Es={stiff}",
+            f'interface.lower.discretisation="{disc}"',
+            f'interface.upper.discretisation="{disc}"']
+    s, out = solve(tmp_path, "tangential_contrast", *sets)
+    assert s["status"] == "completed"
+    c = contact(out, 1)
+    assert (c["state"] == 1).all()  # stick
+    np.testing.assert_allclose(c["p"], 1.0, rtol=1e-9)  # measured 2.5e-12
+    np.testing.assert_allclose(c["q"], 0.2, rtol=1e-9)  # measured 1.1e-11
+    assert s["steps"][0]["dependent_tangential_directions"] == 0
+    print(f"\ntangential contrast E = {stiff:g} ({disc}): max |p - 1| "
+          f"{np.abs(c['p'] - 1).max():.1e}, max |q / 0.2 - 1| "
+          f"{np.abs(c['q'] / 0.2 - 1).max():.1e}, KKT {check_law(s, out):.1e}")
+
+
 def test_tolerances_scale_with_the_data(tmp_path):
     """Stiffness and loads times 1e9 or 1e-9: the same states and displacements."""
     ref, out0 = solve(tmp_path, "contrast", tag="1")

@@ -33,8 +33,9 @@ import numpy as np
 
 from app.errors import SolveError
 from app.lcp import lemke
-from app.lcp.coulomb_matrix import coulomb_matrix
+from app.lcp.coulomb_matrix import coulomb_matrix, fixed_rows, tie_fixed
 from app.lcp.result import DEFAULT_TOL
+from app.lcp.scaling import absmax, row_blocks
 from app.lcp.solvers import LCPSolver
 
 
@@ -56,26 +57,13 @@ class ContactSolution:
     message: str = ""  # Lemke's own summary of the solve
 
 
-FIXED_REL = 1e-20
-"""A pair's normal (tangential) compliance below this x the largest is round-off of a
-motion the supports fix: with the Dirichlet rows and columns eliminated the prescribed
-displacements are exactly zero, and only round-off weights (~1e-16) of the pair's G on free
-dofs give it a compliance, ~1e-32 of the largest. Not DEPENDENT_REL (1e-10): a legitimate
-pair between bodies 1e11 times stiffer than those of another interface was taken for fixed
-(`tests/test_interface_steps.py`, stiff interface)."""
-
 UNSHIFTED_PIVOTS = 8
 """Block pivots `ContactLCP._unshifted` tries on Lemke's final basis before keeping z."""
-
-FIXED_COMPLIANCE_REL = 1e-12
-"""The normal compliance given to a pair whose normal motion the supports fix, relative to
-the largest normal compliance (a stiff tie, as `tangential_stiffness` gives C_tt's null
-space)."""
 
 
 def _fixed_pairs(c: np.ndarray, m: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(fixed_n, fixed_t, c): the pairs whose normal (tangential) compliance is round-off,
-    below FIXED_REL of the largest (both sides of the pair prescribed, e.g. the end
+    below FIXED_REL of the largest (`fixed_rows`; both sides of the pair prescribed, e.g. the end
     pairs of a bonded block whose sides are prescribed), and the compliance with those rows
     and columns set to zero and a stiff tie FIXED_COMPLIANCE_REL x the largest on their
     diagonal. Their force moves nothing (the supports take it), so any value is an answer;
@@ -83,18 +71,13 @@ def _fixed_pairs(c: np.ndarray, m: int) -> tuple[np.ndarray, np.ndarray, np.ndar
     which the normal force and the reactions of the interface then carried, and their q
     differed between 1 and 2 ranks by 5e-8. With the tie and their round-off free motion
     zeroed (`ContactLCP._free_motion`) such a pair carries p = q = 0 (its p + a basic)."""
-    diag = np.diagonal(c)
-    fixed, ties = [], []
-    for rows in (slice(0, m), slice(m, 2 * m)):
-        top = float(diag[rows].max(initial=0.0))
-        fixed.append(diag[rows] <= FIXED_REL * top if top > 0 else np.zeros(m, dtype=bool))
-        ties.append((np.flatnonzero(fixed[-1]) + rows.start, FIXED_COMPLIANCE_REL * top))
-    if fixed[0].any() or fixed[1].any():
-        c = c.copy()  # (the caller's compliance is kept)
-        for idx, tie in ties:
-            c[idx, :] = 0.0
-            c[:, idx] = 0.0
-            c[idx, idx] = tie
+    diag = np.diagonal(c).copy()
+    fixed = []
+    for start in (0, m):
+        rows, tie = fixed_rows(diag[start: start + m])
+        fixed.append(rows)
+        if rows.any():  # (a copy: the caller's compliance is kept)
+            c = tie_fixed(c, np.flatnonzero(rows) + start, tie)
     return fixed[0], fixed[1], c
 
 
@@ -123,6 +106,28 @@ def _rejudged(res, ms: np.ndarray, qs: np.ndarray, qsize: np.ndarray) -> None:
                         "bond's strength cancels)")
 
 
+def _symmetric_scaling(big: np.ndarray) -> np.ndarray:
+    """d (n,): the symmetric scaling of the LCP matrix big (n, n), 1 / sqrt(ref) with ref
+    its diagonal entry where that is not round-off, else the column's largest |entry| (1
+    for an empty column). A diagonal entry is round-off when it is below 1e-12 x its
+    column's largest M_ij^2 / M_ii (rows with M_ii > 0): the entry that the scaling by the
+    diagonals would make 1e6 times the unit diagonal. That measure has the units of the
+    diagonal entry: compliance for p, whose column also holds mu and dimensionless
+    couplings. Compared with those directly (before), the p columns of an interface whose
+    compliance was below 1e-12 (E ~ 1e15 on unit geometry) were scaled by mu and lost
+    their forces (configs/hard/tangential_contrast.toml, floating: p 11% off)."""
+    n = big.shape[0]
+    diag = np.abs(np.diagonal(big))
+    inv = np.divide(1.0, diag, out=np.zeros(n), where=diag > 0)
+    reach = np.zeros(n)
+    for i0, i1 in row_blocks(n):  # (no n x n temporary)
+        blk = big[i0:i1]
+        np.maximum(reach, (blk * blk * inv[i0:i1, None]).max(axis=0), out=reach)
+    colmax = absmax(big, axis=0) if n else np.zeros(0)
+    ref = np.where(diag > 1e-12 * reach, diag, colmax)
+    return 1.0 / np.sqrt(np.where(ref > 0, ref, 1.0))
+
+
 class ContactLCP:
     """The LCP matrix of a run and the constant vector of each solve."""
 
@@ -146,7 +151,9 @@ class ContactLCP:
         self.nm, self.tm = cm.nm, cm.tm
         self.tm_all = np.zeros((m, 0)) if t_modes is None else t_modes
         self.h, self.bm, self.v, self.w, self.z = cm.h, cm.bm, cm.v, cm.w, cm.z
-        self.dependent_tangential = cm.dependent
+        # the frictional pairs tied here are dependent directions too (zero rows of C_tt;
+        # `tangential_stiffness` gets them tied, so it does not count them)
+        self.dependent_tangential = cm.dependent + int(self.fixed_t[cm.fric].sum())
         self.edges = edges = cm.edges
         big, n, mf = cm.M, cm.M.shape[0], cm.fric.size
         i0, i2 = edges[1], edges[3]
@@ -161,11 +168,7 @@ class ContactLCP:
         # Symmetric diagonal scaling z = d z', w' = d w (complementarity is kept): brings
         # compliance-sized and stiffness-sized blocks to unit diagonal for Lemke. Only the
         # scaled matrix is kept (scaled in place: one n x n array).
-        diag = np.abs(np.diag(big))
-        colmax = np.maximum(big.max(axis=0), -big.min(axis=0)) if n else np.zeros(0)
-        ref = np.where(diag > 1e-12 * colmax, diag, colmax)
-        ref = np.where(ref > 0, ref, 1.0)
-        self.scaling = 1.0 / np.sqrt(ref)
+        self.scaling = _symmetric_scaling(big)
         big *= self.scaling[:, None]
         big *= self.scaling[None, :]
         if not np.isfinite(big).all():

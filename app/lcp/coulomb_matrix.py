@@ -22,11 +22,47 @@ from scipy.linalg import cho_factor, cho_solve
 
 from app.errors import SolveError
 
+FIXED_REL = 1e-20
+"""A pair's normal (tangential) compliance below this x the largest is round-off of a
+motion the supports fix: with the Dirichlet rows and columns eliminated the prescribed
+displacements are exactly zero, and only round-off weights (~1e-16) of the pair's G on free
+dofs give it a compliance, ~1e-32 of the largest. Not DEPENDENT_REL (1e-10): a legitimate
+pair between bodies 1e11 times stiffer than those of another interface was taken for fixed
+(`tests/test_interface_steps.py`, stiff interface)."""
+
+FIXED_COMPLIANCE_REL = 1e-12
+"""The compliance given to such a pair (`tie_fixed`), relative to the largest of its block:
+a stiff tie, decoupled from the other pairs."""
+
 DEPENDENT_REL = 1e-10
-"""Tangential compliance eigenvalues below this x the largest span its null space."""
+"""Eigenvalues of the Jacobi-scaled tangential compliance (unit diagonal) below this x the
+largest span its null space."""
 
 NULL_STIFFNESS_REL = 1e9
-"""Stiffness on that null space, relative to the largest stiffness 1 / lambda_min kept."""
+"""Stiffness on that null space, relative to the largest scaled stiffness 1 / lambda_min
+kept."""
+
+
+def fixed_rows(diag: np.ndarray) -> tuple[np.ndarray, float]:
+    """(fixed (k,) bool, tie): the rows of a compliance block (diagonal diag, (k,)) whose
+    compliance is round-off, at most FIXED_REL x the largest (or not positive), and the
+    compliance FIXED_COMPLIANCE_REL x the largest that `tie_fixed` gives them (0 and no
+    row fixed when no diagonal entry is positive)."""
+    top = float(diag.max(initial=0.0))
+    if not top > 0:
+        return np.zeros(diag.size, dtype=bool), 0.0
+    return diag <= FIXED_REL * top, FIXED_COMPLIANCE_REL * top
+
+
+def tie_fixed(c: np.ndarray, rows: np.ndarray, tie: float) -> np.ndarray:
+    """A copy of compliance c with its rows and columns `rows` (indices) zeroed and `tie` on
+    their diagonal: a stiff spring, decoupled from the other rows, where the supports fix the
+    motion (its force moves nothing, so any value is an answer; the tie picks 0)."""
+    c = c.copy()
+    c[rows, :] = 0.0
+    c[:, rows] = 0.0
+    c[rows, rows] = tie
+    return c
 
 
 @dataclass
@@ -53,42 +89,59 @@ def tangential_stiffness(ctt: np.ndarray) -> tuple[np.ndarray, int]:
     """(H, n_dependent): H = C_tt^-1, (mf, mf), and the number of dependent directions.
 
     C_tt is singular when tangential rows of G are dependent on the free DOFs: a pair
-    whose tangential motion is fixed by supports (a zero row), or two pairs whose slave
-    tangential DOFs are fixed and which project onto the same master point (equal rows).
-    The tangential forces along such a direction v do not move anything: they are not
-    unique. There H = V diag(1/lambda) V^T + k0 N0 N0^T, with k0 = NULL_STIFFNESS_REL x
+    whose tangential motion is fixed by supports (a zero or round-off row: `fixed_rows`,
+    tied by `tie_fixed`), or two pairs whose slave tangential DOFs are fixed and which
+    project onto the same master point (equal rows). The tangential forces along such a
+    direction do not move anything: they are not unique. Dependence is judged on the
+    Jacobi-scaled S = D^-1/2 C_tt D^-1/2 (D = diag C_tt, S has a unit diagonal), so that
+    each pair is measured against its own compliance: an interface between bodies 1e11
+    times stiffer than another's is not taken for a null space (its eigenvalues of C_tt
+    are ~1e-11 of the largest; unscaled, q there was 99% off). H = D^-1/2 S^+ D^-1/2 with
+    S^+ = V diag(1/lambda) V^T + k0 N0 N0^T on S's eigenvectors, k0 = NULL_STIFFNESS_REL x
     the largest kept 1/lambda: a stiff tie on the null space N0, so the LCP stays regular
     and picks one of the equivalent force splits, while the displacements, which come
-    from C, are exact.
+    from C, are exact. The count includes the fixed rows.
     """
+    ctt = 0.5 * (ctt + ctt.T)
+    if not np.isfinite(ctt).all():
+        raise SolveError("the tangential contact compliance is not finite: check the "
+                         "Young's moduli and the loads")
+    fixed, tie = fixed_rows(np.diagonal(ctt))
+    if tie == 0.0:
+        raise SolveError("the tangential compliance of every frictional pair is zero: their "
+                         "tangential motion is fixed by supports; set mu = 0 on the interface")
+    if fixed.any():
+        ctt = tie_fixed(ctt, np.flatnonzero(fixed), tie)
+    root = np.sqrt(np.diagonal(ctt))
+    hs, dependent = _unit_diagonal_inverse(ctt / root[:, None] / root[None, :])
+    h = hs / root[:, None] / root[None, :]
+    return 0.5 * (h + h.T), dependent + int(fixed.sum())
+
+
+def _unit_diagonal_inverse(s: np.ndarray) -> tuple[np.ndarray, int]:
+    """(S^+, n_null) of a symmetric positive semidefinite S with unit diagonal: S^-1 by
+    Cholesky when its smallest pivot^2 is above DEPENDENT_REL, else from the eigenvectors
+    with a stiff tie on the null space (see `tangential_stiffness`)."""
     try:
-        fac = cho_factor(ctt)
-        h = cho_solve(fac, np.eye(ctt.shape[0]))
-        h = 0.5 * (h + h.T)
-        ok = bool(np.all(np.isfinite(h)))
-        if ok:
-            lam_max = float(np.abs(np.diag(ctt)).max())
-            # Cholesky can pass a numerically singular C_tt: check the smallest pivot
-            ok = float(np.diag(fac[0]).min() ** 2) > DEPENDENT_REL * lam_max
+        fac = cho_factor(s)
+        ok = float(np.diag(fac[0]).min()) ** 2 > DEPENDENT_REL
+        if ok:  # Cholesky can pass a numerically singular S: the pivot check above
+            h = cho_solve(fac, np.eye(s.shape[0]))
+            ok = bool(np.all(np.isfinite(h)))
     except np.linalg.LinAlgError:
         ok = False
     if ok:
         return h, 0
     try:
-        lam, vec = np.linalg.eigh(0.5 * (ctt + ctt.T))
+        lam, vec = np.linalg.eigh(s)
     except np.linalg.LinAlgError:
         raise SolveError("the tangential contact compliance has no eigen-decomposition "
                          "(non-finite or badly scaled values): check the Young's moduli and "
                          "the loads") from None
-    top = float(np.abs(lam).max(initial=0.0))
-    if top == 0.0:
-        raise SolveError("the tangential compliance of every frictional pair is zero: their "
-                         "tangential motion is fixed by supports; set mu = 0 on the interface")
-    keep = lam > DEPENDENT_REL * top
+    keep = lam > DEPENDENT_REL * float(lam.max())  # lam.max() >= 1: unit diagonal
     vk, vn = vec[:, keep], vec[:, ~keep]
     k0 = NULL_STIFFNESS_REL / float(lam[keep].min())
-    h = (vk / lam[keep]) @ vk.T + k0 * (vn @ vn.T)
-    return 0.5 * (h + h.T), int((~keep).sum())
+    return (vk / lam[keep]) @ vk.T + k0 * (vn @ vn.T), int((~keep).sum())
 
 
 def coulomb_matrix(c: np.ndarray, mu: np.ndarray, frictional: np.ndarray,
