@@ -47,12 +47,14 @@ import scipy.linalg as sla
 from app.lcp.check_product import CheckProduct
 from app.lcp.crash import (
     PROBE_ROWS,
+    block_solver,
     column_probe,
     crash_basis,
     find_twins,
     sampled_probe,
     twins_from_probe,
     verified_twins,
+    warm_solve,
 )
 from app.lcp.matrix_cache import MatrixCache, for_matrix
 from app.lcp.pivoting import _LEX_REL, _PIV_REL, _TIE_REL, _CoreOut, _lexmin  # noqa: F401
@@ -87,6 +89,10 @@ _SETTLE_REL = 1e-14
 size pass without the row size (so `residual` stays a round-off figure)."""
 _WARM_CRASH = 5
 """Block pivoting iterations tried from a warm-start basis that does not solve the LCP."""
+_NEAR = 1e-6
+"""A warm-start basis whose answer on a kept block solver (`_try_given`) fails the final
+check by less than this relative violation is tried again with a fresh LU (the bordered
+solve's round-off could be what fails); one that fails by more does not solve the LCP."""
 
 
 def _memo(cache: MatrixCache | None, key: tuple, compute: Callable[[], Any]) -> Any:
@@ -229,18 +235,15 @@ def _z_scale(M: np.ndarray, q: np.ndarray, z: np.ndarray, row_max: np.ndarray,
     return max(z_max, q_max / m_max if m_max > 0 else 0.0)
 
 
-def _solve_on(Ms: _ScaledM, qs: np.ndarray, zset: np.ndarray,
-              cache: MatrixCache | None = None) -> np.ndarray | None:
-    """z~ with z~_Z = -M~_ZZ^-1 q~_Z (LU + one refinement), 0 elsewhere; None if singular.
-    cache: the `MatrixCache` of Ms.M, Ms its scaling (`_Problem`): the LU is kept."""
+def _solve_on(Ms: _ScaledM, qs: np.ndarray, zset: np.ndarray) -> np.ndarray | None:
+    """z~ with z~_Z = -M~_ZZ^-1 q~_Z (LU + one refinement), 0 elsewhere; None if singular."""
     n = qs.size
     Z = np.flatnonzero(zset)
     zt = np.zeros(n)
     if Z.size == 0:
         return zt
     A = Ms.sub(Z)
-    lu = _lu_or_none(A) if cache is None else cache.lu(
-        ("lu", Ms.mu, Ms.D.tobytes(), zset.tobytes()), lambda: _lu_or_none(A))
+    lu = _lu_or_none(A)
     if lu is None:
         return None
     x = sla.lu_solve(lu, -qs[Z], check_finite=False)
@@ -276,9 +279,17 @@ class _Problem:
         """`app.lcp.crash.find_twins` of the scaled M."""
         return _memo(self.cache, ("twins",), lambda: find_twins(self.Ms))
 
+    @property
+    def block_solver(self):
+        """The cache's block solver of the scaled M (`app.lcp.crash.block_solver`), or
+        None without a cache."""
+        if self.cache is None:
+            return None
+        return self.cache.get(("block_solver",), lambda: block_solver(self.Ms))
+
     def solve_on(self, zset: np.ndarray) -> np.ndarray | None:
         """`_solve_on` for the scaled LCP."""
-        return _solve_on(self.Ms, self.qs, zset, self.cache)
+        return _solve_on(self.Ms, self.qs, zset)
 
     def finish(self, zt: np.ndarray | None, zfac: np.ndarray | None = None,
                exact: CheckProduct | None = None):
@@ -316,6 +327,20 @@ def _try_basis(P: _Problem, B0: np.ndarray, zt: np.ndarray | None = None,
             return out
     out = P.finish(P.solve_on(B0))
     return out if out is not None and out[2] else None
+
+
+def _try_given(P: _Problem, B0: np.ndarray):
+    """`_try_basis` for a warm-start basis B0: with a cache, z on B0 from its kept block
+    solver first (`app.lcp.crash.warm_solve`: no factorization when B0 is a few indices
+    from its base block, e.g. the last solve's basis); the fresh LU of `_try_basis` only
+    when that has no answer, or one that fails the check by less than _NEAR."""
+    solver = P.block_solver
+    if solver is not None:
+        zt = warm_solve(solver, P.qs, B0)
+        out = P.finish(zt)
+        if out is not None and (out[2] or out[4] > _NEAR):
+            return out if out[2] else None
+    return _try_basis(P, B0)
 
 
 class _Start(NamedTuple):
@@ -417,7 +442,7 @@ def _from_start(core, P: _Problem, start: _Start, given: bool, crash: bool, cold
     iterations from it, else by Lemke from B0. When all fail: the result of a warm start
     without cold_start, else (pivots, refactorizations, note so far) for the cold start."""
     B0 = start.B0
-    sol = _try_basis(P, B0, start.zt, start.zfac, start.exact)
+    sol = _try_given(P, B0) if given else _try_basis(P, B0, start.zt, start.zfac, start.exact)
     if sol is not None:
         z, w, ok, comp, worst = sol
         msg = ("the warm-start basis solves it" if given
@@ -455,7 +480,7 @@ def _warm_crash(P: _Problem, B0: np.ndarray) -> LCPResult | None:
     """The answer on the basis that _WARM_CRASH block pivoting iterations from the
     warm-start basis B0 reach, when it passes the check; else None."""
     B1, iters, zt = crash_basis(P.Ms, P.qs, twin=P.twins, start=B0,
-                                max_iterations=_WARM_CRASH)
+                                max_iterations=_WARM_CRASH, solver=P.block_solver)
     sol = _try_basis(P, B1, zt) if zt is not None else None
     if sol is None:
         return None
@@ -571,10 +596,11 @@ def lemke(
         caller can try another basis first.
     cache: a `MatrixCache(M)` made for this very array M (ValueError otherwise), for a
         caller that solves many LCPs with one M (e.g. a load step's debonding rounds):
-        what depends on M alone (its check for finite entries, the scaling, the twins,
-        the LU of the basis a solve ended on) is kept in it between calls instead of
-        read from M again. The answers are the same bits as without it; M is made
-        read-only (it must not change while the cache is used).
+        what depends on M alone (its check for finite entries, the scaling, the twins)
+        is kept in it between calls instead of read from M again, and a warm-start basis
+        and the block pivoting from it are solved on a kept factorization of a nearby
+        basis block, bordered (`app.lcp.matrix_cache`): answers the same to round-off,
+        checked as always. `MatrixCache` makes M read-only.
 
     Returns an `LCPResult`. "solved" only after the check above passes (z on the final
     basis is recomputed by a fresh LU solve); "secondary ray": no solution was found from

@@ -4,28 +4,28 @@ The contact LCP's M is built once per run; the load steps and the debonding roun
 step change only q (`app.interface.coulomb`). Every solve of `lemke` still read M whole
 several times for results that depend on M only: its finiteness (the column probe), the
 symmetric scaling (D, mu), the twins of the warm crash and the largest entry of the
-scaled M in the final check's floor. A `MatrixCache` bound to M keeps those, and the LU
-factors of the basis blocks the final solve factorized last (`lu`), so that a solve costs
-its own pivots and one check.
+scaled M in the final check's floor, and it factorized the warm-start basis's block afresh
+(twice: to try it, and for the crash's block pivoting from it). A `MatrixCache` bound to M
+keeps those results, and the crash's block solver (`app.lcp.crash`): its factors of a
+basis block and the bordered rows and columns of the indices that changed since depend
+on M alone, so the next solve's warm-start basis, a few indices away, is solved on them
+without a new factorization.
 
-Every entry is a pure function of M (and its key), computed by the code that computed it
-before: a solve with the cache returns the same bits as one without. The cache serves only
-the very array it was made for (`for_matrix`; a balanced or transformed copy gets none),
-and that array is made read-only: a change of M, which would leave the entries stale,
-raises instead.
+The M-only results are the same bits as without the cache. The solves on the kept block
+solver are the same to round-off (a bordered solve with one residual correction, not a
+fresh LU), and every answer still passes `lemke`'s final check. The cache serves only the
+very array it was made for (`for_matrix`; a balanced or transformed copy gets none), and
+that array is made read-only: a change of M, which would leave the entries stale, raises
+instead.
 """
 
 from __future__ import annotations
 
-from collections import Counter, OrderedDict
+from collections import Counter
 from collections.abc import Callable, Hashable
 from typing import Any
 
 import numpy as np
-
-LU_KEEP = 2
-"""LU factors of basis blocks kept (the newest first): the basis a solve ended on is the
-next solve's warm start."""
 
 
 class MatrixCache:
@@ -42,7 +42,6 @@ class MatrixCache:
         M.flags.writeable = False
         self.M = M
         self._memo: dict[Hashable, Any] = {}
-        self._lus: OrderedDict[Hashable, Any] = OrderedDict()
         self.hits: Counter[str] = Counter()
         self.misses: Counter[str] = Counter()
 
@@ -54,19 +53,6 @@ class MatrixCache:
             return self._memo[key]
         self.misses[kind] += 1
         value = self._memo[key] = compute()
-        return value
-
-    def lu(self, key: Hashable, compute: Callable[[], Any]) -> Any:
-        """LU factors of a basis block (key: the block's scaling and index set), computed
-        once while among the LU_KEEP newest."""
-        if key in self._lus:
-            self.hits["lu"] += 1
-            self._lus.move_to_end(key)
-            return self._lus[key]
-        self.misses["lu"] += 1
-        value = self._lus[key] = compute()
-        while len(self._lus) > LU_KEEP:
-            self._lus.popitem(last=False)
         return value
 
 
