@@ -149,3 +149,19 @@ def test_a_solve_forms_the_free_motion_once(monkeypatch):
     sol = lcp.solve(gap_free, tau_free, hist.tau_prev, hist.a, hist.c, np.full(6, 0.3),
                     np.zeros(0))
     assert sol.status == "solved" and calls[0] == 1
+
+
+def test_without_the_cache_each_solve_reads_M_afresh():
+    """`ContactLCP(cache=False)` (the PETSc option -contact_lcp_cache 0): no cache, the
+    matrix stays writable, and the step's answer is the one with the cache to round-off."""
+    lcp, hist, gap_free, tau_free = _bonded_strip()
+    off = ContactLCP(lcp.c, np.full(lcp.m, 0.3), np.ones(lcp.m, dtype=bool), cache=False)
+    assert off.cache is None and off.M_scaled.flags.writeable
+    hist2 = _bonded_strip()[1]
+    res = solve_step(lcp, hist, 1, gap_free, tau_free, np.full(lcp.m, 0.3), np.zeros(0), TOL,
+                     TOL)
+    res2 = solve_step(off, hist2, 1, gap_free, tau_free, np.full(lcp.m, 0.3), np.zeros(0),
+                      TOL, TOL)
+    assert np.array_equal(res.debonded_step, res2.debonded_step)
+    np.testing.assert_allclose(res.solution.p, res2.solution.p, rtol=0,
+                               atol=1e-12 * np.abs(res2.solution.p).max())

@@ -103,10 +103,11 @@ class ContactLCP:
 
     def __init__(self, c: np.ndarray, mu: np.ndarray, frictional: np.ndarray,
                  n_modes: np.ndarray | None = None, t_modes: np.ndarray | None = None,
-                 solver: LCPSolver = lemke):
+                 solver: LCPSolver = lemke, cache: bool = True):
         """c: (2m, 2m) compliance, normal rows first then tangential; mu (m,);
         frictional (m,) bool; n_modes = G_n R (m, r), t_modes = G_t R (m, r); solver: an
-        entry of app.lcp.solvers.LCP_SOLVERS."""
+        entry of app.lcp.solvers.LCP_SOLVERS; cache: keep a MatrixCache of the LCP
+        matrix for the solver over the solves (False: none, each solve reads M afresh)."""
         self.solver = solver
         m = mu.size
         if not np.isfinite(c).all():
@@ -149,7 +150,7 @@ class ContactLCP:
         self.M_scaled = big  # what Lemke gets: R D M D (R: row_scale)
         # what the solver derives from M alone, kept over the run's solves (only q
         # changes between them); it makes M_scaled read-only
-        self.cache = MatrixCache(big)
+        self.cache = MatrixCache(big) if cache else None
 
     @property
     def M(self) -> np.ndarray:
