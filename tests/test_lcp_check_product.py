@@ -85,8 +85,8 @@ def test_the_cold_start_checks_with_the_crash_product_on_benchmark_lcps(monkeypa
     monkeypatch.setattr(CP.CheckProduct, "__init__", counted)
     checks = []
     check = LM._check
-    monkeypatch.setattr(LM, "_check", lambda M, q, z, tol, w=None:
-                        checks.append(w is not None) or check(M, q, z, tol, w))
+    monkeypatch.setattr(LM, "_check", lambda M, q, z, tol, w=None, cache=None:
+                        checks.append(w is not None) or check(M, q, z, tol, w, cache))
     for m, seed in ((100, 0), (300, 1)):
         M, q = strip_contact_lcp(m, seed=seed)
         res = lemke(M, q)

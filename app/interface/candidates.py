@@ -32,6 +32,15 @@ def candidate_pairs(configured: bool) -> bool:
     return bool(PETSc.Options().getBool("contact_candidate_pairs", configured))
 
 
+def lcp_cache() -> bool:
+    """Whether the contact LCP keeps a `app.lcp.matrix_cache.MatrixCache` over the run's
+    solves: the PETSc option -contact_lcp_cache (default true; 0 for the solves without
+    it, e.g. to time them: scripts/bench_debond.py)."""
+    from petsc4py import PETSc
+
+    return bool(PETSc.Options().getBool("contact_lcp_cache", True))
+
+
 MARGIN = 0.1
 """Pairs whose free gap is below MARGIN x the deepest free penetration are candidates."""
 
@@ -42,13 +51,13 @@ class CandidateLCP:
     c: (2m, 2m) compliance, normal rows first; mu (m,); frictional (m,) bool;
     n_modes = G_n R (m, r), t_modes = G_t R (m, r) for floating bodies (their rigid motion
     is not in the free gap: the check after the solve includes it, and a sub-LCP that
-    fails is solved again over every pair).
+    fails is solved again over every pair); cache: as ContactLCP's.
     """
 
     def __init__(self, c: np.ndarray, mu: np.ndarray, frictional: np.ndarray,
                  n_modes: np.ndarray | None = None, t_modes: np.ndarray | None = None,
-                 solver: LCPSolver = lemke):
-        self.solver = solver
+                 solver: LCPSolver = lemke, cache: bool = True):
+        self.solver, self.use_cache = solver, cache
         m = mu.size
         self.m, self.c, self.mu, self.frictional = m, c, mu, frictional
         self.fric = np.flatnonzero(frictional)
@@ -87,7 +96,8 @@ class CandidateLCP:
         rows = np.concatenate([idx, self.m + idx])
         lcp = ContactLCP(self.c[np.ix_(rows, rows)], self.mu[idx], self.frictional[idx],
                          None if self.n_modes is None else self.n_modes[idx],
-                         None if self.t_modes is None else self.t_modes[idx], self.solver)
+                         None if self.t_modes is None else self.t_modes[idx], self.solver,
+                         self.use_cache)
         lay = self.layout(cand)
         self._cols = np.ascontiguousarray(self.c[:, rows])  # (2m, 2 |cand|) for `_expand`
         self._sub = (key, lcp, lay)

@@ -34,6 +34,7 @@ import numpy as np
 from app.errors import SolveError
 from app.lcp import lemke
 from app.lcp.coulomb_matrix import coulomb_matrix, fixed_rows, tie_fixed
+from app.lcp.matrix_cache import MatrixCache
 from app.lcp.result import DEFAULT_TOL
 from app.lcp.scaling import absmax, row_blocks
 from app.lcp.solvers import LCPSolver
@@ -133,10 +134,11 @@ class ContactLCP:
 
     def __init__(self, c: np.ndarray, mu: np.ndarray, frictional: np.ndarray,
                  n_modes: np.ndarray | None = None, t_modes: np.ndarray | None = None,
-                 solver: LCPSolver = lemke):
+                 solver: LCPSolver = lemke, cache: bool = True):
         """c: (2m, 2m) compliance, normal rows first then tangential; mu (m,);
         frictional (m,) bool; n_modes = G_n R (m, r), t_modes = G_t R (m, r); solver: an
-        entry of app.lcp.solvers.LCP_SOLVERS."""
+        entry of app.lcp.solvers.LCP_SOLVERS; cache: keep a MatrixCache of the LCP
+        matrix for the solver over the solves (False: none, each solve reads M afresh)."""
         self.solver = solver
         m = mu.size
         if not np.isfinite(c).all():
@@ -175,6 +177,9 @@ class ContactLCP:
             raise SolveError("the contact LCP matrix is not finite (overflow in the "
                              "compliance): check the Young's moduli and the loads")
         self.M_scaled = big  # what Lemke gets: R D M D (R: row_scale)
+        # what the solver derives from M alone, kept over the run's solves (only q
+        # changes between them); it makes M_scaled read-only
+        self.cache = MatrixCache(big) if cache else None
 
     @property
     def M(self) -> np.ndarray:
@@ -203,15 +208,16 @@ class ContactLCP:
     def constant(self, gap_free: np.ndarray, tau_free: np.ndarray, tau_prev: np.ndarray,
                  a: np.ndarray, c: np.ndarray, mu: np.ndarray, e0: np.ndarray) -> np.ndarray:
         """The LCP constant vector for one solve (all arguments per pair, (m,); e0 (r,))."""
-        return self._constant_terms(gap_free, tau_free, tau_prev, a, c, mu, e0)[0]
+        return self._constant_terms(*self._free_motion(gap_free, tau_free, tau_prev), a, c,
+                                    mu, e0)[0]
 
-    def _constant_terms(self, gap_free: np.ndarray, tau_free: np.ndarray,
-                        tau_prev: np.ndarray, a: np.ndarray, c: np.ndarray, mu: np.ndarray,
+    def _constant_terms(self, gap_free: np.ndarray, dtau: np.ndarray, a: np.ndarray,
+                        c: np.ndarray, mu: np.ndarray,
                         e0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(the constant vector, the size of its terms (n,) >= its magnitude): the motion
-        part's magnitude plus the bond part's terms (`_bond_sizes`), for the rows where
-        they cancel (a load exactly at the adhesion's strength, e0 = N^T a: `_rejudged`)."""
-        gap_free, dtau = self._free_motion(gap_free, tau_free, tau_prev)
+        """(the constant vector, the size of its terms (n,) >= its magnitude) from the free
+        motion of `_free_motion` (gap_free, tau_prev - tau_free): the motion part's
+        magnitude plus the bond part's terms (`_bond_sizes`), for the rows where they
+        cancel (a load exactly at the adhesion's strength, e0 = N^T a: `_rejudged`)."""
         out = self._parts(gap_free, dtau, np.zeros(self.m), np.zeros(self.m), e0)
         # entries that are round-off of exact cancellations (e.g. F = 0 and no tangential
         # motion) are set to zero, so that Lemke does not pivot on them; judged on the
@@ -262,7 +268,8 @@ class ContactLCP:
         """Solve the LCP and recover p, q, gap, tau and alpha. basis: a warm-start basis,
         or a list of them tried in order (newest first); when none solves it, Lemke starts
         from its crash basis, then cold."""
-        qv, qsize = self._constant_terms(gap_free, tau_free, tau_prev, a, c, mu, e0)
+        free = self._free_motion(gap_free, tau_free, tau_prev)  # (the q recovery's too)
+        qv, qsize = self._constant_terms(*free, a, c, mu, e0)
         if not np.isfinite(qv).all():
             raise SolveError("the contact LCP's constant vector is not finite (overflow in "
                              "the free gaps): check the loads and the Young's moduli")
@@ -273,12 +280,13 @@ class ContactLCP:
                       if b is not None]
         pivots = 0
         for b in candidates:
-            res = self.solver(ms, qs, basis=b, max_pivots=max_pivots, cold_start=False)
+            res = self.solver(ms, qs, basis=b, max_pivots=max_pivots, cold_start=False,
+                              cache=self.cache)
             pivots += res.pivots
             if res.status != "warm start failed":
                 break
         else:  # no warm start (or none worked): the crash basis, then the cold start
-            res = self.solver(ms, qs, max_pivots=max_pivots)
+            res = self.solver(ms, qs, max_pivots=max_pivots, cache=self.cache)
             pivots += res.pivots
         res.pivots = pivots
         if res.status == "inaccurate":
@@ -300,8 +308,7 @@ class ContactLCP:
         sminus = np.zeros(m)
         if self.mf:
             cnt_f = self.c[:m, m:][:, f]
-            dtau = self._free_motion(gap_free, tau_free, tau_prev)[1]
-            rhs = dtau[f] - cnt_f.T @ p + sp_ - sm_ - self.tm @ alpha
+            rhs = free[1][f] - cnt_f.T @ p + sp_ - sm_ - self.tm @ alpha
             q[f] = self.h @ rhs
             splus[f], sminus[f] = sp_, sm_
         cn = self.c[:m]

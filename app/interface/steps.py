@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from app.interface.candidates import CandidateLCP, candidate_pairs
+from app.interface.candidates import CandidateLCP, candidate_pairs, lcp_cache
 from app.interface.coulomb import ContactLCP, ContactSolution
 from app.interface.floating import split_modes
 from app.interface.weak_modes import held_mode_entries
@@ -261,7 +261,7 @@ class ContactStepper:
             self.mode_names = []
         lcp_class = CandidateLCP if candidate_pairs(setup.cfg.candidate_pairs) else ContactLCP
         self.lcp = lcp_class(c_mat, setup.mu, setup.frictional, self.n_modes, self.t_modes,
-                             lcp_solver(setup.cfg.lcp_solver))
+                             lcp_solver(setup.cfg.lcp_solver), lcp_cache())
         self.undetermined = [] if self.v_null is None else [
             self.mode_names[int(np.argmax(np.abs(v)))] for v in self.v_null.T]
         self.hist = InterfaceHistory(

@@ -401,9 +401,25 @@ class _BlockSolver:
         return z if np.isfinite(z).all() else None
 
 
+def block_solver(Ms: ScaledM) -> _BlockSolver:
+    """A block solver of M~ for a caller to keep between LCPs with this M~ (its factors
+    and bordered keys depend on M~ alone): `warm_solve`, `crash_basis`'s solver."""
+    return _BlockSolver(Ms, np.zeros(Ms.n))
+
+
+def warm_solve(solver: _BlockSolver, qs: np.ndarray, zset: np.ndarray) -> np.ndarray | None:
+    """z~ with M~_ZZ z~_Z = -q~_Z, 0 elsewhere, on a kept block solver (bordered on its
+    base block, which is factorized again only when that costs less), with one residual
+    correction; None when singular or huge (as `_converged`)."""
+    z = solver.retarget(qs).solve(zset)
+    if z is None:
+        return None
+    return _converged(solver, zset, z, solver.Ms.matvec(z) + qs, qs, False)
+
+
 def crash_basis(Ms: ScaledM, qs: np.ndarray, twin: np.ndarray | None = None,
                 max_iterations: int = MAX_ITERATIONS, start: np.ndarray | None = None,
-                exact: CheckProduct | None = None
+                exact: CheckProduct | None = None, solver: _BlockSolver | None = None
                 ) -> tuple[np.ndarray, int, np.ndarray | None]:
     """Guessed active set (n,) bool by block principal pivoting, the iterations used, and
     z~ on that set when the iteration converged: with one residual correction applied, or
@@ -420,10 +436,14 @@ def crash_basis(Ms: ScaledM, qs: np.ndarray, twin: np.ndarray | None = None,
     start: another first set (e.g. a warm-start basis), with the whole LCP from the first
     iteration. exact: the final check's product for Ms = the diagonal scaling of the
     caller's M (`CheckProduct`), used in the rounds on the whole LCP expected to be last.
+    solver: with start, a kept `block_solver` of this M~ for the rounds (retargeted to
+    qs): a start a few indices from its base block is bordered, not factorized.
     """
     n = qs.size
     twin = find_twins(Ms) if twin is None else twin
     Z, stages = _first_set(Ms, qs, twin, start, max_iterations)
+    if solver is not None and start is not None:
+        stages.solver = solver.retarget(qs)
     product = _TwinProduct(Ms, twin)
     best, best_bad = Z.copy(), n + 1
     prev_bad = None  # infeasible indices of the last round on the whole LCP

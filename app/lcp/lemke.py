@@ -37,8 +37,9 @@ from __future__ import annotations
 
 import contextlib
 import math
+from collections.abc import Callable
 from dataclasses import replace
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 import scipy.linalg as sla
@@ -46,12 +47,16 @@ import scipy.linalg as sla
 from app.lcp.check_product import CheckProduct
 from app.lcp.crash import (
     PROBE_ROWS,
+    block_solver,
     column_probe,
     crash_basis,
+    find_twins,
     sampled_probe,
     twins_from_probe,
     verified_twins,
+    warm_solve,
 )
+from app.lcp.matrix_cache import MatrixCache, for_matrix
 from app.lcp.pivoting import _LEX_REL, _PIV_REL, _TIE_REL, _CoreOut, _lexmin  # noqa: F401
 from app.lcp.recovery import RECOVERED, recover
 from app.lcp.result import DEFAULT_TOL, STATUSES, LCPResult, default_max_pivots
@@ -66,13 +71,13 @@ from app.lcp.revised import (  # noqa: F401 (the knobs, for tests)
 from app.lcp.scaling import RCOND_MIN as _RCOND_MIN  # noqa: F401
 from app.lcp.scaling import ScaledM as _ScaledM
 from app.lcp.scaling import absmax as _absmax
-from app.lcp.scaling import diagonal_scaling, pow2
+from app.lcp.scaling import diagonal_scaling, matrix_scaling, pow2, q_scaling
 from app.lcp.scaling import lu_or_none as _lu_or_none  # noqa: F401
 from app.lcp.scaling import row_blocks as _row_blocks
-from app.lcp.scaling import scaling as _scaling
 from app.lcp.tableau import _core_tableau
 
-__all__ = ["LCPResult", "lemke", "lemke_tableau", "default_max_pivots", "STATUSES"]
+__all__ = ["LCPResult", "MatrixCache", "lemke", "lemke_tableau", "default_max_pivots",
+           "STATUSES"]
 
 _CHECK_ROWS = 32
 """Rows of M per block in the final check (a buffer that stays in cache)."""
@@ -84,9 +89,18 @@ _SETTLE_REL = 1e-14
 size pass without the row size (so `residual` stays a round-off figure)."""
 _WARM_CRASH = 5
 """Block pivoting iterations tried from a warm-start basis that does not solve the LCP."""
+_NEAR = 1e-6
+"""A warm-start basis whose answer on a kept block solver (`_try_given`) fails the final
+check by less than this relative violation is tried again with a fresh LU (the bordered
+solve's round-off could be what fails); one that fails by more does not solve the LCP."""
 
 
-def _validate(M, q, sample: bool = False
+def _memo(cache: MatrixCache | None, key: tuple, compute: Callable[[], Any]) -> Any:
+    """compute(), kept in the cache under key when there is one (for this M)."""
+    return compute() if cache is None else cache.get(key, compute)
+
+
+def _validate(M, q, sample: bool = False, cache: MatrixCache | None = None
               ) -> tuple[np.ndarray, np.ndarray, np.ndarray, bool]:
     """(M, q) as float arrays, the column probe of M (`app.lcp.crash.column_probe` with
     the diagonal scaling, one BLAS pass, which also shows any non-finite entry) and False;
@@ -98,8 +112,10 @@ def _validate(M, q, sample: bool = False
     True: M is then checked to be finite later, by the final check's product
     (`CheckProduct.finite`: a non-finite entry makes M z + q non-finite whatever z, since
     0 x inf and 0 x nan are nan), else by this function without sample, before any
-    answer is returned or Lemke pivots."""
-    M = np.asarray(M, dtype=float)
+    answer is returned or Lemke pivots. cache: M's `MatrixCache` (the probe and M's
+    finiteness are kept; q is checked every time)."""
+    if cache is None or M is not cache.M:  # (cache.M is float64: no new view of it)
+        M = np.asarray(M, dtype=float)
     q = np.asarray(q, dtype=float).reshape(-1)
     n = q.size
     if M.shape != (n, n):
@@ -107,14 +123,22 @@ def _validate(M, q, sample: bool = False
     # (q >= 0: z = 0 answers at once, after a full check of M anyway: no sampling)
     deferred = (sample and n > 2 * PROBE_ROWS and M.flags.c_contiguous
                 and not (q >= 0).all())
-    if deferred:
-        probe = sampled_probe(M, _diagonal_D(M))
-    else:
-        probe = column_probe(M, _diagonal_D(M)) if n else np.zeros((2, 0))
-    finite = np.isfinite(probe).all() or bool(np.isfinite(M).all())  # (overflow)
+    probe, finite = _memo(for_matrix(cache, M), ("probe", deferred),
+                          lambda: _probe(M, deferred))
     if not (finite and np.isfinite(q).all()):
         raise ValueError("M and q must be finite")
     return M, q, probe, deferred
+
+
+def _probe(M: np.ndarray, sampled: bool) -> tuple[np.ndarray, bool]:
+    """The column probe of M (`sampled_probe` when sampled, else `column_probe`), with
+    the diagonal scaling, and whether M is finite as far as it read (all of M when not
+    sampled)."""
+    if sampled:
+        probe = sampled_probe(M, _diagonal_D(M))
+    else:
+        probe = column_probe(M, _diagonal_D(M)) if M.shape[0] else np.zeros((2, 0))
+    return probe, bool(np.isfinite(probe).all() or np.isfinite(M).all())  # (overflow)
 
 
 def _diagonal_D(M: np.ndarray) -> np.ndarray:
@@ -124,9 +148,10 @@ def _diagonal_D(M: np.ndarray) -> np.ndarray:
 
 
 def _check(M: np.ndarray, q: np.ndarray, z: np.ndarray, tol: float,
-           w: np.ndarray | None = None):
+           w: np.ndarray | None = None, cache: MatrixCache | None = None):
     """w = M z + q and whether (z, w) passes the final check; returns (w, ok, comp, worst).
     w: M z + q formed by this expression already (`CheckProduct.w_for`), not formed again.
+    cache: M's `MatrixCache` (the largest entry of the scaled M in the floor is kept).
 
     The row sizes s_i = |q_i| + sum_j |M_ij| z_j are formed only on the rows with a
     violation (w_i < 0, or w_i != 0 where z_i > 0) that their lower bound
@@ -163,7 +188,8 @@ def _check(M: np.ndarray, q: np.ndarray, z: np.ndarray, tol: float,
     # Floor for rows whose terms all cancel at round-off level (e.g. q_i = -1e-17 where the
     # rest of q is O(1)): 1e-4 x the row's largest coefficient x the problem's z scale, in
     # the units of the diagonal scaling (z = D z~).
-    z_scale = _z_scale(M, q, z, row_max * D[rows], D) if rows.size else 0.0
+    z_scale = _z_scale(M, q, z, row_max * D[rows], D, for_matrix(cache, M)) \
+        if rows.size else 0.0
     s = np.maximum(s, 1e-4 * row_max * z_scale)
     with np.errstate(divide="ignore", invalid="ignore"):
         rel = np.where(viol[rows] > 0, viol[rows] / s, 0.0)
@@ -193,17 +219,19 @@ def _floor_D(M: np.ndarray, rows: np.ndarray) -> np.ndarray:
 
 
 def _z_scale(M: np.ndarray, q: np.ndarray, z: np.ndarray, row_max: np.ndarray,
-             D: np.ndarray) -> float:
+             D: np.ndarray, cache: MatrixCache | None = None) -> float:
     """max(max z~, max |q~| / max |M~|) in the diagonal scaling (M~ = D M D, q~ = D q,
-    z = D z~); max |M~| is read from M (one pass) only when the largest row maximum
-    already known (row_max, of M~; the diagonal) does not settle it."""
+    z = D z~); max |M~| is read from M (one pass, kept in the cache for this D) only when
+    the largest row maximum already known (row_max, of M~; the diagonal) does not settle
+    it."""
     z_max = float((z / D).max(initial=0.0))
     q_max = float(np.abs(D * q).max(initial=0.0))
     known = max(float(row_max.max(initial=0.0)), float((np.abs(np.diagonal(M)) * D * D).max()))
     if known > 0 and q_max / known <= z_max:
         return z_max  # max |M~| >= known, so max |q~| / max |M~| <= z_max
-    m_max = max((float(_absmax(D[i0:i1, None] * M[i0:i1] * D)) for i0, i1 in
-                 _row_blocks(q.size)), default=0.0)
+    m_max = _memo(cache, ("absmax", D.tobytes()), lambda: max(
+        (float(_absmax(D[i0:i1, None] * M[i0:i1] * D)) for i0, i1 in _row_blocks(q.size)),
+        default=0.0))
     return max(z_max, q_max / m_max if m_max > 0 else 0.0)
 
 
@@ -227,21 +255,41 @@ def _solve_on(Ms: _ScaledM, qs: np.ndarray, zset: np.ndarray) -> np.ndarray | No
 
 
 class _Problem:
-    """Caller data, its scaled copy (formed on first use) and the final solve + check."""
+    """Caller data, its scaled copy (formed on first use) and the final solve + check.
+    cache: M's `MatrixCache` or None (the scaling, twins and LU factors are kept)."""
 
-    def __init__(self, M: np.ndarray, q: np.ndarray, tol: float):
-        self.M, self.q, self.tol = M, q, tol
+    def __init__(self, M: np.ndarray, q: np.ndarray, tol: float,
+                 cache: MatrixCache | None = None):
+        self.M, self.q, self.tol, self.cache = M, q, tol, for_matrix(cache, M)
         self._scaled = None
 
     def _scale(self):
-        if self._scaled is None:
-            Ms, D, mu, nu = _scaling(self.M, self.q)
-            self._scaled = (Ms, D * self.q / nu, D * (nu / mu))  # z = zfac * z~
-        return self._scaled
+        if self._scaled is None:  # `app.lcp.scaling.scaling`, D and mu kept
+            D, mu = _memo(self.cache, ("scaling",), lambda: matrix_scaling(self.M))
+            nu = q_scaling(D, self.q)
+            self._scaled = (_ScaledM(self.M, D, mu), D * self.q / nu, D * (nu / mu))
+        return self._scaled  # z = zfac * z~
 
     Ms = property(lambda self: self._scale()[0])
     qs = property(lambda self: self._scale()[1])
     zfac = property(lambda self: self._scale()[2])
+
+    @property
+    def twins(self) -> np.ndarray:
+        """`app.lcp.crash.find_twins` of the scaled M."""
+        return _memo(self.cache, ("twins",), lambda: find_twins(self.Ms))
+
+    @property
+    def block_solver(self):
+        """The cache's block solver of the scaled M (`app.lcp.crash.block_solver`), or
+        None without a cache."""
+        if self.cache is None:
+            return None
+        return self.cache.get(("block_solver",), lambda: block_solver(self.Ms))
+
+    def solve_on(self, zset: np.ndarray) -> np.ndarray | None:
+        """`_solve_on` for the scaled LCP."""
+        return _solve_on(self.Ms, self.qs, zset)
 
     def finish(self, zt: np.ndarray | None, zfac: np.ndarray | None = None,
                exact: CheckProduct | None = None):
@@ -252,12 +300,12 @@ class _Problem:
             return None
         z = np.maximum(zt * (self.zfac if zfac is None else zfac), 0.0)
         w = None if exact is None else exact.w_for(z)
-        w, ok, comp, worst = _check(self.M, self.q, z, self.tol, w)
+        w, ok, comp, worst = _check(self.M, self.q, z, self.tol, w, self.cache)
         return z, w, ok, comp, worst
 
     def candidate(self, core: _CoreOut):
         """Best checked answer from a core that reported a candidate basis."""
-        first = self.finish(_solve_on(self.Ms, self.qs, core.zset))
+        first = self.finish(self.solve_on(core.zset))
         if first is not None and first[2]:
             return first
         second = self.finish(core.z)
@@ -277,8 +325,22 @@ def _try_basis(P: _Problem, B0: np.ndarray, zt: np.ndarray | None = None,
         out = P.finish(zt, zfac, exact)
         if out[2]:
             return out
-    out = P.finish(_solve_on(P.Ms, P.qs, B0))
+    out = P.finish(P.solve_on(B0))
     return out if out is not None and out[2] else None
+
+
+def _try_given(P: _Problem, B0: np.ndarray):
+    """`_try_basis` for a warm-start basis B0: with a cache, z on B0 from its kept block
+    solver first (`app.lcp.crash.warm_solve`: no factorization when B0 is a few indices
+    from its base block, e.g. the last solve's basis); the fresh LU of `_try_basis` only
+    when that has no answer, or one that fails the check by less than _NEAR."""
+    solver = P.block_solver
+    if solver is not None:
+        zt = warm_solve(solver, P.qs, B0)
+        out = P.finish(zt)
+        if out is not None and (out[2] or out[4] > _NEAR):
+            return out if out[2] else None
+    return _try_basis(P, B0)
 
 
 class _Start(NamedTuple):
@@ -301,16 +363,19 @@ def _run(
     basis,
     cold_start: bool = True,
     crash: bool = True,
+    cache: MatrixCache | None = None,
 ) -> LCPResult:
     """One solve (see `lemke`): z = 0 when q >= 0, else Lemke from the warm-start basis or
     the crash guess (`_from_start`), and from the textbook start when that fails.
 
     An empty warm-start basis (z = 0, e.g. the last load step had every pair open) names
-    the textbook start itself, so with crash it is treated as no basis: the crash guess."""
+    the textbook start itself, so with crash it is treated as no basis: the crash guess.
+    cache: a `MatrixCache`, used when it was made for this M (see `lemke`)."""
     if basis is not None and crash and not np.asarray(basis, dtype=bool).any():
         _given_basis(basis, np.asarray(q).size)  # (its shape is still checked)
         basis = None
-    M, q, probe, deferred = _validate(M, q, sample=basis is None and crash)
+    M, q, probe, deferred = _validate(M, q, sample=basis is None and crash, cache=cache)
+    cache = for_matrix(cache, M)
     n = q.size
     tol, max_pivots = _checked_knobs(tol, max_pivots, n)
     if basis is not None:
@@ -318,13 +383,13 @@ def _run(
     if (q >= 0).all():  # M was checked whole by _validate (no sampling when q >= 0)
         return LCPResult(np.zeros(n), q.copy(), 0, "solved", 0.0, np.zeros(n, dtype=bool),
                          "q >= 0: z = 0 solves it")
-    P = _Problem(M, q, tol)
+    P = _Problem(M, q, tol, cache)
     given = basis is not None
     start = None
     if given:
         start = _Start(_given_basis(basis, n))
     elif crash:
-        start = _crash_start(M, q, probe, deferred)
+        start = _crash_start(M, q, probe, deferred, cache)
     if start is None or not start.B0.any():
         note = "" if start is None else start.note
         return _cold(core, P, M, q, tol, max_pivots, 0, 0, note, "none")
@@ -352,7 +417,8 @@ def _given_basis(basis, n: int) -> np.ndarray:
     return B0
 
 
-def _crash_start(M: np.ndarray, q: np.ndarray, probe: np.ndarray, deferred: bool) -> _Start:
+def _crash_start(M: np.ndarray, q: np.ndarray, probe: np.ndarray, deferred: bool,
+                 cache: MatrixCache | None = None) -> _Start:
     """The crash guess (`app.lcp.crash.crash_basis`) on the diagonal scaling: no pass over M
     beyond the probe (and the final check's product, formed in its last round). deferred:
     M is not yet known to be finite (see `_validate`); it is, before this returns."""
@@ -365,7 +431,7 @@ def _crash_start(M: np.ndarray, q: np.ndarray, probe: np.ndarray, deferred: bool
     with quiet:  # a non-finite M is reported below, not by warnings of the guess
         B0, iters, zt = crash_basis(Mc, qc, twin=twin, exact=exact)
     if deferred and not exact.finite:
-        _validate(M, q)  # every entry of M, before an answer or a pivot
+        _validate(M, q, cache=cache)  # every entry of M, before an answer or a pivot
     return _Start(B0, zt, zfac, exact, f"crash basis ({iters} block pivoting iterations); ")
 
 
@@ -376,7 +442,7 @@ def _from_start(core, P: _Problem, start: _Start, given: bool, crash: bool, cold
     iterations from it, else by Lemke from B0. When all fail: the result of a warm start
     without cold_start, else (pivots, refactorizations, note so far) for the cold start."""
     B0 = start.B0
-    sol = _try_basis(P, B0, start.zt, start.zfac, start.exact)
+    sol = _try_given(P, B0) if given else _try_basis(P, B0, start.zt, start.zfac, start.exact)
     if sol is not None:
         z, w, ok, comp, worst = sol
         msg = ("the warm-start basis solves it" if given
@@ -404,7 +470,7 @@ def _from_start(core, P: _Problem, start: _Start, given: bool, crash: bool, cold
              f"'{res.status}' after {res.pivots} pivots; ")
     if given and not cold_start:
         z = np.maximum(res.z * P.zfac, 0.0)
-        w, _, comp, worst = _check(P.M, P.q, z, P.tol)
+        w, _, comp, worst = _check(P.M, P.q, z, P.tol, cache=P.cache)
         return LCPResult(z, w, pivots, "warm start failed", comp, res.zset.copy(),
                          note + "no cold start (cold_start=False)", "failed", refacts, worst)
     return pivots, refacts, note
@@ -413,7 +479,8 @@ def _from_start(core, P: _Problem, start: _Start, given: bool, crash: bool, cold
 def _warm_crash(P: _Problem, B0: np.ndarray) -> LCPResult | None:
     """The answer on the basis that _WARM_CRASH block pivoting iterations from the
     warm-start basis B0 reach, when it passes the check; else None."""
-    B1, iters, zt = crash_basis(P.Ms, P.qs, start=B0, max_iterations=_WARM_CRASH)
+    B1, iters, zt = crash_basis(P.Ms, P.qs, twin=P.twins, start=B0,
+                                max_iterations=_WARM_CRASH, solver=P.block_solver)
     sol = _try_basis(P, B1, zt) if zt is not None else None
     if sol is None:
         return None
@@ -444,7 +511,7 @@ def _cold(core, P: _Problem, M, q, tol: float, max_pivots: int, pivots: int, ref
         return LCPResult(z, w, pivots, "inaccurate", comp, res.zset.copy(), msg, warm, refacts,
                          worst)
     z = np.maximum(res.z * P.zfac, 0.0)
-    w, _, comp, worst = _check(M, q, z, tol)
+    w, _, comp, worst = _check(M, q, z, tol, cache=P.cache)
     if res.status == "secondary ray":
         status = "secondary ray"
         msg = (
@@ -461,21 +528,26 @@ def _cold(core, P: _Problem, M, q, tol: float, max_pivots: int, pivots: int, ref
     return LCPResult(z, w, pivots, status, comp, res.zset.copy(), msg, warm, refacts, worst)
 
 
-def _solve(core, M, q, max_pivots, tol, basis, cold_start, crash) -> LCPResult:
+def _solve(core, M, q, max_pivots, tol, basis, cold_start, crash,
+           cache: MatrixCache | None = None) -> LCPResult:
     """`_run`, then, when it ended "inaccurate" or on a secondary ray, the one recovery step
     of `app.lcp.recovery.recover` (restart from the final basis, the balanced LCP, the
-    basis repair; the first result stands when every one fails)."""
-    res = _run(core, M, q, max_pivots, tol, basis, cold_start, crash)
+    basis repair; the first result stands when every one fails). cache: `lemke`'s (it
+    serves every run on the caller's M, none on a balanced copy)."""
+    if cache is not None and cache.M is not M:
+        raise ValueError("cache: this MatrixCache was made for another matrix (pass the "
+                         "array it was made for, or a new MatrixCache(M))")
+    res = _run(core, M, q, max_pivots, tol, basis, cold_start, crash, cache)
     if res.ok or res.status not in RECOVERED:
         return res
-    M, q, _, _ = _validate(M, q)
+    M, q, _, _ = _validate(M, q, cache=cache)
     tol = DEFAULT_TOL if tol is None else float(tol)
 
     def run(Mr, qr, budget, B, cold, crash_r):
-        return _run(core, Mr, qr, budget, tol, B, cold, crash_r)
+        return _run(core, Mr, qr, budget, tol, B, cold, crash_r, cache)
 
     def check(Mr, qr, z):
-        return _check(Mr, qr, z, tol)
+        return _check(Mr, qr, z, tol, cache=cache)
 
     return recover(run, check, M, q, res, max_pivots, crash)
 
@@ -489,6 +561,7 @@ def lemke(
     basis: np.ndarray | None = None,
     cold_start: bool = True,
     crash: bool = True,
+    cache: MatrixCache | None = None,
 ) -> LCPResult:
     """Solve LCP(M, q): z >= 0, w = M z + q >= 0, z.w = 0, by Lemke's method.
 
@@ -521,6 +594,13 @@ def lemke(
     cold_start: with a basis, False returns at once when the warm start fails (status
         "warm start failed", warm_start "failed") instead of starting cold, so that a
         caller can try another basis first.
+    cache: a `MatrixCache(M)` made for this very array M (ValueError otherwise), for a
+        caller that solves many LCPs with one M (e.g. a load step's debonding rounds):
+        what depends on M alone (its check for finite entries, the scaling, the twins)
+        is kept in it between calls instead of read from M again, and a warm-start basis
+        and the block pivoting from it are solved on a kept factorization of a nearby
+        basis block, bordered (`app.lcp.matrix_cache`): answers the same to round-off,
+        checked as always. `MatrixCache` makes M read-only.
 
     Returns an `LCPResult`. "solved" only after the check above passes (z on the final
     basis is recomputed by a fresh LU solve); "secondary ray": no solution was found from
@@ -534,7 +614,7 @@ def lemke(
     q >= 0 returns z = 0 with 0 pivots.
     """
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-        res = _solve(_core_revised, M, q, max_pivots, tol, basis, cold_start, crash)
+        res = _solve(_core_revised, M, q, max_pivots, tol, basis, cold_start, crash, cache)
     return _finite(res, q)
 
 
@@ -562,10 +642,11 @@ def lemke_tableau(
     basis: np.ndarray | None = None,
     cold_start: bool = True,
     crash: bool = True,
+    cache: MatrixCache | None = None,
 ) -> LCPResult:
     """Reference: `lemke` with the textbook full-tableau core (O(n^2) per pivot; the same
     arguments, starts, check and recovery; for tests, the checker and benchmarks)."""
-    return _solve(_core_tableau, M, q, max_pivots, tol, basis, cold_start, crash)
+    return _solve(_core_tableau, M, q, max_pivots, tol, basis, cold_start, crash, cache)
 
 
 _lemke_tableau = lemke_tableau  # the former private name (tests and scripts use it)

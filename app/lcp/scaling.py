@@ -14,8 +14,8 @@ from collections.abc import Iterator
 import numpy as np
 import scipy.linalg as sla
 
-__all__ = ["ScaledM", "gather", "scaling", "diagonal_scaling", "lu_or_none", "absmax", "row_blocks",
-           "RCOND_MIN"]
+__all__ = ["ScaledM", "gather", "scaling", "matrix_scaling", "q_scaling", "diagonal_scaling",
+           "lu_or_none", "absmax", "row_blocks", "RCOND_MIN"]
 
 BLOCK_ROWS = 256
 """Row-block size for passes over M that need an |M| temporary (no n x n temporaries)."""
@@ -112,9 +112,22 @@ def scaling(M: np.ndarray, q: np.ndarray) -> tuple[ScaledM, np.ndarray, float, f
     D_i = 1 / sqrt(s_i) with s_i = |M_ii| when that is at least 1e-6 times the largest
     entry of row or column i, else that largest entry (1 for an all-zero row and column);
     D, mu and nu are powers of two (exact scaling), mu = max|D M D|, nu = max|D q|.
-    One pass over M in row blocks (two when a diagonal entry is too small).
+    One pass over M in row blocks (two when a diagonal entry is too small), in
+    `matrix_scaling` (D and mu: M alone).
     """
-    n = q.size
+    D, mu = matrix_scaling(M)
+    return ScaledM(M, D, mu), D, mu, q_scaling(D, q)
+
+
+def q_scaling(D: np.ndarray, q: np.ndarray) -> float:
+    """nu of `scaling`: max |D q| as a power of two (1 when q = 0)."""
+    nu = float(np.abs(D * q).max(initial=0.0))
+    return float(pow2(np.array(nu))) if nu > 0 else 1.0
+
+
+def matrix_scaling(M: np.ndarray) -> tuple[np.ndarray, float]:
+    """(D, mu) of `scaling`: they depend on M alone."""
+    n = M.shape[0]
     dg = np.abs(np.diagonal(M))
     # first guess D from the diagonal alone; one pass checks it and gives mu with it
     D = pow2(1.0 / np.sqrt(np.where(dg > 0, dg, 1.0)))
@@ -137,9 +150,7 @@ def scaling(M: np.ndarray, q: np.ndarray) -> tuple[ScaledM, np.ndarray, float, f
         for i0, i1 in row_blocks(n):
             mu = max(mu, float(((np.abs(M[i0:i1]) * D).max(axis=1) * D[i0:i1]).max()))
     mu = float(pow2(np.array(mu))) if mu > 0 else 1.0
-    nu = float(np.abs(D * q).max())
-    nu = float(pow2(np.array(nu))) if nu > 0 else 1.0
-    return ScaledM(M, D, mu), D, mu, nu
+    return D, mu
 
 
 def diagonal_scaling(M: np.ndarray, q: np.ndarray) -> tuple[ScaledM, np.ndarray, np.ndarray]:

@@ -9,6 +9,7 @@ import numpy as np
 
 from app.errors import InputError
 from app.lcp.lemke import lemke
+from app.lcp.matrix_cache import MatrixCache
 from app.lcp.result import LCPResult
 
 
@@ -18,11 +19,14 @@ class LCPSolver(Protocol):
     basis: a warm-start complementary basis (n,) bool (True: z_i basic); cold_start: on
     a warm start that fails, start again cold (True) or return status "warm start failed"
     (False, so that the caller can try another basis). The result's `basis` is the final
-    complementary basis, for the next warm start.
+    complementary basis, for the next warm start. cache: a `MatrixCache` made for this M
+    (the caller solves many LCPs with it), where the solver may keep what it derives from
+    M alone; a solver may ignore it, and must return the same answer either way.
     """
 
     def __call__(self, M: np.ndarray, q: np.ndarray, *, basis: np.ndarray | None = None,
-                 max_pivots: int | None = None, cold_start: bool = True) -> LCPResult: ...
+                 max_pivots: int | None = None, cold_start: bool = True,
+                 cache: MatrixCache | None = None) -> LCPResult: ...
 
 
 LCP_SOLVERS: dict[str, LCPSolver] = {"lemke": lemke}
