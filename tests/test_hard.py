@@ -87,6 +87,26 @@ def test_material_contrast_1e6(tmp_path):
           f"{s['steps'][0]['lcp_residual']:.1e}, KKT {check_law(s, out):.1e}")
 
 
+@pytest.mark.parametrize("stiff", [1e3, 1e14])
+def test_a_floating_core_whose_every_node_is_in_contact_is_pinned_off_the_fixed_pairs(
+        tmp_path, stiff):
+    """hard/tangential_contrast.toml at mesh.size = 0.5: the core is one element thick, so
+    every DOF of it is a contact DOF and its pins sit on pairs. The pins at x = 0 paired
+    with the base's prescribed corner node gave those pairs a zero compliance, tied at
+    1e-12 of the largest (a penalty): p 3.0e-6 and q 3.0e-6 off without contrast, 3.1% and
+    9.7% off at E = 1e14 (status completed, one dependent tangential direction). Pins on
+    DOFs whose pairs keep a free DOF elsewhere leave every pair its compliance
+    (measured 8e-14 / 1.2e-13 and 2.1e-13 / 3.5e-13)."""
+    s, out = solve(tmp_path, "tangential_contrast", "mesh.size=0.5", f"body.base.E={stiff}",
+                   f"body.core.E={stiff}", f"parameters.Es={stiff}")
+    assert s["status"] == "completed"
+    c = contact(out, 1)
+    assert c["p"].size == 6  # (3 pairs per interface: the core is one element thick)
+    np.testing.assert_allclose(c["p"], 1.0, rtol=1e-9)
+    np.testing.assert_allclose(c["q"], 0.2, rtol=1e-9)
+    assert s["steps"][0]["dependent_tangential_directions"] == 0
+
+
 @pytest.mark.parametrize("stiff, disc", [(1e13, "mortar"), (1e15, "mortar"),
                                          (1e14, "node-to-segment")])
 def test_tangential_stiffness_contrast(tmp_path, stiff, disc):

@@ -195,3 +195,28 @@ def test_cg_with_an_indefinite_preconditioner_is_not_told_to_raise_max_it(tmp_pa
     line = r.stderr.strip().splitlines()[-1]
     assert line.startswith("error: ") and "DIVERGED_INDEFINITE_PC" in line
     assert "-pc_type ilu is not one" in line and "-ksp_max_it" not in line
+
+
+def test_a_small_load_with_a_large_history_is_judged_against_the_forces_it_applies(tmp_path):
+    """The cantilever with an extra axial load of 1e-13 at history [1e13] (a unit force):
+    -ksp_atol 1e-12 solves its unit case as x = 0 (|b| below the tolerance). That case was
+    judged against the other cases' |b| at factor 1, so x = 0 passed as round-off and the
+    run completed without the axial load (strain energy 1.8144 for 1.8189 at
+    --mesh-size 0.25); judged against the forces the steps apply it is an error naming
+    -ksp_atol, and the direct solve carries the load as an axial force of 1 does."""
+    text = (CONFIGS / "cantilever.toml").read_text()
+    extra = '\n[[load]]\non = "tip_edge"\ntraction = [{0}, 0.0]\nhistory = [{1}]\n'
+    (tmp_path / "tiny.toml").write_text(text + extra.format("1e-13", "1e13"))
+    (tmp_path / "unit.toml").write_text(text + extra.format("1.0", "1.0"))
+    base = ["--mesh-size", "0.5", "--quiet"]
+    r = run_cli(["run", str(tmp_path / "tiny.toml"), *base, "--out", str(tmp_path / "it"),
+                 "-ksp_type", "cg", "-pc_type", "jacobi", "-ksp_atol", "1e-12"])
+    assert r.returncode == 2, r.stderr
+    assert "-ksp_atol" in r.stderr and read_summary(tmp_path / "it")["status"] == "failed"
+    energy = []
+    for name in ("tiny", "unit"):
+        r = run_cli(["run", str(tmp_path / f"{name}.toml"), *base, "--out",
+                     str(tmp_path / name)])
+        assert r.returncode == 0, r.stderr
+        energy.append(read_summary(tmp_path / name)["steps"][-1]["strain_energy"])
+    assert energy[0] == pytest.approx(energy[1], rel=1e-9)

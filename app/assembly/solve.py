@@ -203,8 +203,9 @@ class LinearSolver:
         (`_refine`): for the free displacements, from which the LCP's data come.
         scale: the size (2-norm) of this kind of right-hand side in the run, against which
         a residual up to ROUND_OFF_RESIDUAL x scale is round-off (`_relative`); None: the
-        run's forces, the largest |b| of such solves so far (`force_scale`: the load
-        cases, then the contact-force recoveries).
+        run's forces, the largest |b| of such solves so far (`force_scale`: the forces
+        the steps apply, set by `app.driver.linear.unit_solutions` (the load cases pass
+        their own scale), then the contact-force recoveries).
 
         A direct solve that is inaccurate or NaN means a singular stiffness
         (SingularStiffnessError); an iterative one that stops short is a SolveError that

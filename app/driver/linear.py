@@ -82,23 +82,44 @@ def assemble_and_factor(ctx: RunContext, model: Model) -> LinearSystem:
 
 def unit_solutions(ctx: RunContext, model: Model, system: LinearSystem) -> UnitSolutions:
     """Phase solve: one forward/back substitution per load case."""
-    unit, rhs = [], []
+    unit, rhs, loads = [], [], []
     free = ~np.isin(np.arange(model.n_dofs), model.fixed)
+    for case, kud in zip(model.cases, system.lifting, strict=True):
+        b = case.rhs.copy()
+        if kud is not None:
+            b -= kud
+        rhs.append(np.where(free, b, 0.0))
+        b[model.fixed_all] = case.prescribed[model.fixed_all]
+        loads.append(b)
+    scales, run_scale = case_scales(loads, [case.history for case in model.cases])
+    system.solver.force_scale = max(system.solver.force_scale, run_scale)
     with ctx.phase("solve"):
-        for case, kud in zip(model.cases, system.lifting, strict=True):
-            b = case.rhs.copy()
-            if kud is not None:
-                b -= kud
-            rhs.append(np.where(free, b, 0.0))
-            b[model.fixed_all] = case.prescribed[model.fixed_all]
+        for b, scale in zip(loads, scales, strict=True):
             try:
-                x = system.solver.solve(from_numpy(system.k, b), refine=True)
+                x = system.solver.solve(from_numpy(system.k, b), refine=True, scale=scale)
             except SingularStiffnessError as exc:
                 raise SolveError(singular_message(model.disc, model.mesh, str(exc),
                                                   model.fixed_all)) from None
             unit.append(to_numpy_all(x))
     warn_solve_accuracy(ctx, system.solver)
     return UnitSolutions(unit, rhs)
+
+
+def case_scales(loads: list[np.ndarray], histories: list[np.ndarray]
+                ) -> tuple[list[float], float]:
+    """(per load case the scale its unit solve's residual is judged against, the run's
+    force scale): loads (2n,) each at factor 1, histories (n_steps,) each. The run's scale
+    is the largest |b_k| x max|history_k| (the forces the steps apply); a case's is that
+    over its own largest factor, so that a residual accepted as round-off
+    (`app.assembly.solve.ROUND_OFF_RESIDUAL`) stays round-off of the run's forces once the
+    steps multiply it. Judged against the other cases' |b| at factor 1 (before), a load of
+    1e-13 with history [1e13] was solved by -ksp_atol 1e-12 as x = 0 and dropped without
+    a word. A case whose factors are all 0 is judged against its own |b|."""
+    peaks = [float(np.abs(h).max(initial=0.0)) for h in histories]
+    sizes = [float(np.linalg.norm(b)) for b in loads]
+    run = max((s * p for s, p in zip(sizes, peaks, strict=True)), default=0.0)
+    return [max(run / p, s) if p > 0 else s
+            for s, p in zip(sizes, peaks, strict=True)], run
 
 
 def warn_solve_accuracy(ctx: RunContext, solver: LinearSolver) -> None:

@@ -20,6 +20,8 @@ from app.errors import SolveError
 from app.mesh.model import Mesh
 
 if TYPE_CHECKING:
+    import scipy.sparse as sp
+
     from app.interface.contact import ContactSetup
 
 
@@ -141,7 +143,7 @@ def floating_modes(mesh: Mesh, cfg: Config, fixed: np.ndarray,
             if rb.shape[1] == 0:
                 continue
         dofs = np.stack([2 * nodes, 2 * nodes + 1], axis=1).ravel()
-        pins.append(_pins(rb, dofs, contact))
+        pins.append(_pins(rb, dofs, contact, fixed))
         full = np.zeros((2 * mesh.n_nodes, rb.shape[1]))
         full[dofs] = rb
         cols.append(full)
@@ -160,24 +162,53 @@ PIN_RANK_REL = 1e-6
 above this x the first (else every DOF of the body is a candidate)."""
 
 
-def _pins(rb: np.ndarray, dofs: np.ndarray, contact: ContactSetup | None) -> np.ndarray:
+PIN_ROUND_OFF = 1e-12
+"""Entries of a contact row below this x its largest are round-off (a weight of ~1e-17 on
+a node the projection does not reach), not a DOF that gives the pair a compliance."""
+
+
+def _pins(rb: np.ndarray, dofs: np.ndarray, contact: ContactSetup | None,
+          fixed: np.ndarray | None = None) -> np.ndarray:
     """DOFs (r,) of a body (its DOFs `dofs`, its modes rb (len(dofs), r)) that pin the
     modes: chosen by QR with column pivoting (well spread), among the DOFs that no contact
-    row touches when they pin every mode. A pin on a pair's node gave that pair a zero
-    compliance, whose motion came from the modes alone: the stiff tie of `_fixed_pairs`
-    (1e-12 of the largest compliance) on it then acted as a penalty: q of an interface
-    1e11 times stiffer than another was 18% off (configs/hard/tangential_contrast.toml;
-    0.19% at 1e9, 40% at 1e12)."""
+    row touches when they pin every mode; else among the DOFs whose contact rows all keep
+    a DOF off the body and off the supports `fixed` (a pin there leaves every pair a
+    compliance); else among all. A pin on a pair's node gave that pair a zero compliance,
+    whose motion came from the modes alone: the stiff tie of `_fixed_pairs` (1e-12 of the
+    largest compliance) on it then acted as a penalty: q of an interface 1e11 times stiffer
+    than another was 18% off (configs/hard/tangential_contrast.toml; 0.19% at 1e9, 40% at
+    1e12); with the core one element thick (--mesh-size 0.5, every DOF of the core a
+    contact DOF), p 3% and q 10% off at 1e11."""
     r = rb.shape[1]
     if contact is not None and r:
-        free = ~np.isin(dofs, contact.g.tocoo().col)
-        if free.sum() >= r:
-            _, rr, piv = sla.qr(rb[free].T, pivoting=True, mode="economic")
-            d = np.abs(np.diag(rr))
-            if d[r - 1] > PIN_RANK_REL * d[0]:
-                return dofs[free][piv[:r]]
+        g = contact.g.tocsr()
+        for allowed in (~np.isin(dofs, g.indices), _pin_safe(g, dofs, fixed)):
+            if allowed.sum() >= r:
+                _, rr, piv = sla.qr(rb[allowed].T, pivoting=True, mode="economic")
+                d = np.abs(np.diag(rr))
+                if d[r - 1] > PIN_RANK_REL * d[0]:
+                    return dofs[allowed][piv[:r]]
     _, _, piv = sla.qr(rb.T, pivoting=True, mode="economic")
     return dofs[piv[:r]]
+
+
+def _pin_safe(g: sp.csr_matrix, dofs: np.ndarray, fixed: np.ndarray | None) -> np.ndarray:
+    """(len(dofs),) bool: the body's DOFs that no contact row (of g, (2m, 2n)) confined to
+    the body's DOFs and the supports `fixed` touches: every row with an entry on such a
+    DOF also has one (above PIN_ROUND_OFF of its largest) on a free DOF elsewhere, which
+    keeps it a compliance whatever DOFs of the body are pinned."""
+    elsewhere = np.ones(g.shape[1], dtype=bool)
+    elsewhere[dofs] = False
+    if fixed is not None:
+        elsewhere[fixed] = False
+    rows = np.repeat(np.arange(g.shape[0]), np.diff(g.indptr))
+    size = np.abs(g.data)
+    top = np.zeros(g.shape[0])
+    np.maximum.at(top, rows, size)
+    live = size > PIN_ROUND_OFF * top[rows]  # (a projection's round-off weights are not)
+    keeps = np.bincount(rows[live], weights=elsewhere[g.indices[live]],
+                        minlength=g.shape[0]) > 0
+    return ~np.isin(dofs, g.indices[live & ~keeps[rows]])
 
 
 def _check_held(mesh: Mesh, cfg: Config, fixed: np.ndarray,
