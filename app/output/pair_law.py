@@ -45,10 +45,11 @@ def body_scale(u: np.ndarray, node_body: np.ndarray) -> np.ndarray:
     is relative to that body's displacements (bodies are coupled only by contact): on
     hard/shear_off.toml the bond's end pairs, whose own motion is 1e-13 of the block's,
     move by 2e-19, eps x the block's max |u|."""
-    a = np.abs(u).reshape(-1, 2).max(axis=1)
+    a = np.maximum(np.abs(u[0::2]), np.abs(u[1::2]))  # (max(axis=1) of (n, 2): 10x slower)
     n_body = int(node_body.max(initial=-1)) + 1
     top = np.zeros(n_body + 1)  # (last entry: nodes of no body, unused)
-    np.maximum.at(top, node_body, a)
+    for b in range(n_body):  # (a loop over bodies: np.maximum.at took 2.8 ms at 15k nodes)
+        top[b] = a[node_body == b].max(initial=0.0)
     per_node = np.where(node_body >= 0, top[node_body], a)
     return np.repeat(per_node, 2)
 
@@ -82,9 +83,9 @@ def pair_scales(c_diag: np.ndarray, interface: np.ndarray, forces: np.ndarray,
         top = float(comp[block].max(initial=0.0))
         comp[block][rows] = np.maximum(comp[block][rows], FIXED_COMPLIANCE_REL * top)
     n_itf = int(interface.max(initial=-1)) + 1
-    biggest = np.zeros(n_itf)
-    np.maximum.at(biggest, interface, np.abs(forces).max(axis=0, initial=0.0))
-    f = np.maximum(biggest[interface], FORCE_FLOOR * f_run)
+    size = np.abs(forces).max(axis=0, initial=0.0)
+    biggest = np.array([size[interface == k].max(initial=0.0) for k in range(n_itf)])
+    f = np.maximum(biggest[interface] if m else np.zeros(0), FORCE_FLOOR * f_run)
     s = np.maximum(comp * np.concatenate([f, f]), floor / PAIR_WARN)
     return f, s
 
