@@ -159,6 +159,19 @@ def test_round_off_of_a_body_reads_below_the_warning():
     assert r_bad[0] > PAIR_WARN
 
 
+def test_iterative_solves_raise_the_floor_of_the_displacements_only():
+    """With iterative linear solves at a relative residual of 1e-12, |G| ub carries that
+    (not eps): hard/shear_off.toml with cg + gamg read 2.9e-6 on its end pairs before.
+    The initial gap and the previous slip are data: their round-off stays eps."""
+    g_abs = sp.csr_matrix(np.array([[1.0, 1.0], [1.0, 0.0]]))
+    ub = np.array([1e-3, 1e-3])
+    direct = kinematic_floor(g_abs, ub, np.array([1.0]), np.array([0.0]))
+    iterative = kinematic_floor(g_abs, ub, np.array([1.0]), np.array([0.0]), 1e-12)
+    eps64 = ROUNDOFF_ULPS * EPS
+    np.testing.assert_allclose(direct, [eps64 * (2e-3 + 1.0), eps64 * 1e-3])
+    np.testing.assert_allclose(iterative, [1e-12 * 2e-3 + eps64, 1e-12 * 1e-3])
+
+
 def test_round_off_forces_and_fixed_pairs_read_below_the_warning():
     """hard/pull_off.toml pulled off: open pairs carry q = 4e-16 beside loads of 4.5;
     two_blocks.toml's end pairs (both sides prescribed) have a compliance of 1e-35 and

@@ -130,7 +130,8 @@ def _contact_output(ctx: RunContext, model: Model, output: StepOutput, solved: C
         ctx.warn(law, ("kkt",))
     info["kkt_pairs"] = kkt_pairs_check(model.contact, solved.result, u,
                                         model.mesh.node_body(),
-                                        [itf.name for itf in ctx.cfg.interfaces])
+                                        [itf.name for itf in ctx.cfg.interfaces],
+                                        solved.solve_rel)
     law = kkt_pairs_warning(info["kkt_pairs"], info["step"])
     if law is not None:
         ctx.warn(law, ("kkt_pairs",))
