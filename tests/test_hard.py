@@ -193,6 +193,20 @@ def test_the_refinement_sees_a_mismatch_on_the_stiff_interface(tmp_path, monkeyp
           f", kkt_pairs consistency {st['kkt_pairs']['consistency']:.1e}")
 
 
+def test_an_unbalanced_floating_body_shows_in_its_balance(tmp_path, monkeypatch):
+    """q of the stiff interface 1e-3 off in every LCP answer, the re-solves included: the
+    refinement moves the error into the floating core's equilibrium (the pins of its
+    modes take an unbalanced Fx of 2e-4 against loads of 0.1 a side, and the displacement
+    then agrees with the law on every pair). The core's balance shows it: 9.1e-5. Before,
+    its floor was 1e-6 x the run's largest diag(K) (a stiff body's, E = 1e14) x the run's
+    largest |u| (the soft top's, 5e-4): 2.1e-9."""
+    _wrong_stiff_q(monkeypatch, 1e-3, consistent=False)
+    s, out = solve(tmp_path, "tangential_contrast")
+    core = s["steps"][0]["balance"]["bodies"]["core"]
+    assert core["relative_residual"] > 1e-5, core
+    assert s["steps"][0]["balance"]["bodies"]["top"]["relative_residual"] < 1e-12
+
+
 def test_iterative_solves_pass_the_per_pair_check(tmp_path):
     """hard/shear_off.toml with -ksp_type cg -pc_type gamg: the displacements carry the
     solves' relative residual (1e-12), not eps; judged against eps, the bond's end pairs
