@@ -63,7 +63,7 @@ CSV_VOLATILE = re.compile(r"^(t_.*|ranks|.*seconds.*)$")
 # a study's CSV tables; every subfolder with a summary.json is one of its runs
 STUDY_CSV = ("study.csv", "sweep.csv", "sweep_steps.csv", "richardson.csv")
 # figures that are round-off by nature: compared against --roundoff, not with each other
-ROUNDOFF = re.compile(r"(^|/)(kkt|lcp_residual|lcp_displacement_mismatch|residual|"
+ROUNDOFF = re.compile(r"(^|/)(kkt|kkt_pairs|lcp_residual|lcp_displacement_mismatch|residual|"
                       r"relative_residual|max_relative_residual)(/|$)")
 # per-step counters that may differ with round-off without the result differing
 SOLVER_PATH = re.compile(r"(^|/)(lemke_pivots|consistency_refinements|lcp_solves)$")

@@ -43,6 +43,22 @@ def test_round_off_agrees_and_real_differences_are_found(tmp_path):
     assert "summary:timings/total" not in diffs
 
 
+def test_per_pair_law_figures_are_round_off_figures(tmp_path):
+    """`kkt_pairs` (its figures, the worst pair's index and interface) differs between
+    rank counts with round-off: judged against --roundoff, not compared (before it was
+    added, the worst pair's index was an integer that had to be equal)."""
+    a = {"steps": [{"kkt_pairs": {"normal": 1e-15, "pair": 3, "interface": "lower",
+                                  "by_interface": {"lower": {"normal": 1e-15}}}}]}
+    b = {"steps": [{"kkt_pairs": {"normal": 4e-16, "pair": 7, "interface": "upper",
+                                  "by_interface": {"lower": {"normal": 4e-16}}}}]}
+    diffs, mism = check_ranks.compare_summaries(a, b, 1e-7)
+    assert mism == [] and diffs == {}
+    bad = {"steps": [{"kkt_pairs": {"normal": 1e-3, "pair": 3, "interface": "lower",
+                                    "by_interface": {"lower": {"normal": 1e-3}}}}]}
+    _, mism = check_ranks.compare_summaries(a, bad, 1e-7)
+    assert any("kkt_pairs/normal = 0.001 above round-off" in m for m in mism)
+
+
 def _study(path, mu_rows: list[tuple[str, float, float]], run_fy: float):
     """A sweep's output: summary.json, sweep.csv (status, a figure, a wall time) and one
     run folder; an error message names the sweep's own folder."""

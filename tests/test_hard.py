@@ -5,6 +5,7 @@ interface law is recomputed from the written displacement field."""
 
 from __future__ import annotations
 
+import json
 import tomllib
 from pathlib import Path
 
@@ -15,11 +16,13 @@ from support import CONFIGS, kkt_violations, run_cli
 
 from app.config import apply_overrides, parse_config
 from app.errors import InputError, SolveError
+from app.output.pair_law import PAIR_WARN
 from app.run import RunOptions, run
 
 HARD = CONFIGS / "hard"
 KKT_TOL = 1e-7
 LCP_TOL = 1e-9  # Lemke's own check (relative, scaled LCP)
+PAIR_KEYS = ("normal", "tangential", "consistency")  # summary steps[k].kkt_pairs
 
 
 def solve(tmp_path: Path, name: str, *overrides: str, tag: str = "", **kw):
@@ -48,6 +51,10 @@ def check_law(s: dict, out: Path) -> float:
         assert max(v.values()) < KKT_TOL, (st["step"], v)
         assert st["lcp_residual"] < LCP_TOL, st
         assert max(st["kkt"].values()) < KKT_TOL, st["kkt"]
+        own = st.get("kkt_pairs")  # each pair against its own scale (contact steps)
+        if own is not None:
+            assert max(own[k] for k in PAIR_KEYS) <= PAIR_WARN, own
+    assert not [w for w in s.get("warnings", []) if "own scale" in w], s["warnings"]
     return worst
 
 
@@ -128,9 +135,112 @@ def test_tangential_stiffness_contrast(tmp_path, stiff, disc):
     np.testing.assert_allclose(c["p"], 1.0, rtol=1e-9)  # measured 2.5e-12
     np.testing.assert_allclose(c["q"], 0.2, rtol=1e-9)  # measured 1.1e-11
     assert s["steps"][0]["dependent_tangential_directions"] == 0
+    own = s["steps"][0]["kkt_pairs"]
+    assert max(own[k] for k in PAIR_KEYS) < 1e-12, own  # measured 3.9e-16 at most
     print(f"\ntangential contrast E = {stiff:g} ({disc}): max |p - 1| "
           f"{np.abs(c['p'] - 1).max():.1e}, max |q / 0.2 - 1| "
-          f"{np.abs(c['q'] / 0.2 - 1).max():.1e}, KKT {check_law(s, out):.1e}")
+          f"{np.abs(c['q'] / 0.2 - 1).max():.1e}, KKT {check_law(s, out):.1e}, per pair "
+          f"{max(own[k] for k in PAIR_KEYS):.1e}")
+
+
+def _wrong_stiff_q(monkeypatch, dq: float, consistent: bool) -> None:
+    """Every LCP answer of the run gets q of interface 0 times (1 + dq); with consistent,
+    its kinematics too (C dlam added: the answer of a wrong LCP, as before the fix)."""
+    from app.interface.steps import ContactStepper
+
+    solve_ = ContactStepper._solve
+
+    def wrong(self, *args):
+        out = solve_(self, *args)
+        if out.solved:
+            m, sel = self.m, np.flatnonzero(self.setup.pairs.interface == 0)
+            dlam = out.lam[m + sel] * dq
+            out.lam[m + sel] += dlam
+            if consistent:
+                out.kinematics = out.kinematics + self.lcp.c[:, m + sel] @ dlam
+        return out
+
+    monkeypatch.setattr(ContactStepper, "_solve", wrong)
+
+
+@pytest.mark.parametrize("dq", [1e-3, -0.44])
+def test_a_wrong_force_on_the_stiff_interface_is_seen(tmp_path, monkeypatch, dq):
+    """hard/tangential_contrast.toml with q of the stiff interface ('lower') 1e-3 (and
+    44%, the error of the run before its fix) off in each LCP answer, its kinematics and
+    the displacement recovered from those forces: the run-wide KKT figures stay at
+    round-off (before, the only check: it passed q 44% off at 1e-12); `kkt_pairs` fails
+    at that interface, with a warning."""
+    _wrong_stiff_q(monkeypatch, dq, consistent=True)
+    s, out = solve(tmp_path, "tangential_contrast")
+    st = s["steps"][0]
+    assert max(st["kkt"].values()) < 1e-9, st["kkt"]  # the run-wide check is blind
+    own = st["kkt_pairs"]
+    assert own["tangential"] > 1e-5 and own["interface"] == "lower", own
+    assert own["by_interface"]["upper"]["tangential"] < 1e-9, own  # 2e-12 at 44%
+    assert any("own scale" in w and "interface 'lower'" in w for w in s["warnings"])
+    print(f"\nq {dq:g} off on the stiff interface: KKT {max(st['kkt'].values()):.1e}, "
+          f"kkt_pairs normal {own['normal']:.1e} tangential {own['tangential']:.1e} "
+          f"consistency {own['consistency']:.1e}, refinements "
+          f"{st['consistency_refinements']}")
+
+
+def test_the_refinement_sees_a_mismatch_on_the_stiff_interface(tmp_path, monkeypatch):
+    """hard/tangential_contrast.toml with the stiff interface's compliance block 1e-4 off
+    (an inexact Schur complement there): the LCP's answer disagrees with the displacement
+    recovered from the factorization by 1.3e-4 of that interface's own motion, 3e-15 of
+    max |u|. The consistency refinement now re-solves (one: 6.6e-9 left, q to 1.8e-8;
+    before: it accepted 1e-9 of max |u|, no re-solve, q 1e-4 off and no word)."""
+    from app.interface.steps import ContactStepper
+
+    init = ContactStepper.__init__
+
+    def inexact(self, setup, c_mat, *args):
+        m = setup.pairs.n_pairs
+        rows = np.flatnonzero(np.tile(setup.pairs.interface == 0, 2))
+        d = np.ones(2 * m)
+        d[rows] = np.sqrt(1 + 1e-4)  # symmetric: C_ij (1 + 1e-4) within the block
+        init(self, setup, c_mat * d[:, None] * d[None, :], *args)
+
+    monkeypatch.setattr(ContactStepper, "__init__", inexact)
+    s, out = solve(tmp_path, "tangential_contrast")
+    st = s["steps"][0]
+    assert st["consistency_refinements"] >= 1
+    assert st["lcp_displacement_mismatch"] < 1e-13  # (3e-15 before the re-solve)
+    np.testing.assert_allclose(contact(out, 1)["q"], 0.2, rtol=1e-6)
+    check_law(s, out)
+    print(f"\ncompliance 1e-4 off on the stiff interface: {st['consistency_refinements']} "
+          f"refinements, max |q / 0.2 - 1| {np.abs(contact(out, 1)['q'] / 0.2 - 1).max():.1e}"
+          f", kkt_pairs consistency {st['kkt_pairs']['consistency']:.1e}")
+
+
+def test_an_unbalanced_floating_body_shows_in_its_balance(tmp_path, monkeypatch):
+    """q of the stiff interface 1e-3 off in every LCP answer, the re-solves included: the
+    refinement moves the error into the floating core's equilibrium (the pins of its
+    modes take an unbalanced Fx of 2e-4 against loads of 0.1 a side, and the displacement
+    then agrees with the law on every pair). The core's balance shows it: 9.1e-5. Before,
+    its floor was 1e-6 x the run's largest diag(K) (a stiff body's, E = 1e14) x the run's
+    largest |u| (the soft top's, 5e-4): 2.1e-9."""
+    _wrong_stiff_q(monkeypatch, 1e-3, consistent=False)
+    s, out = solve(tmp_path, "tangential_contrast")
+    core = s["steps"][0]["balance"]["bodies"]["core"]
+    assert core["relative_residual"] > 1e-5, core
+    assert s["steps"][0]["balance"]["bodies"]["top"]["relative_residual"] < 1e-12
+
+
+def test_iterative_solves_pass_the_per_pair_check(tmp_path):
+    """hard/shear_off.toml with -ksp_type cg -pc_type gamg: the displacements carry the
+    solves' relative residual (1e-12), not eps; judged against eps, the bond's end pairs
+    (their own motion 1e-13 of the block's) read 2.9e-6 with a warning, and the
+    consistency refinement re-solved 14 times. The floor now holds that residual."""
+    out = tmp_path / "shear_off_cg"
+    r = run_cli(["run", str(HARD / "shear_off.toml"), "--out", str(out), "--quiet",
+                 "-ksp_type", "cg", "-pc_type", "gamg"])
+    assert r.returncode == 0, r.stderr
+    s = json.loads((out / "summary.json").read_text())
+    assert sum(st["consistency_refinements"] for st in s["steps"]) == 0
+    worst = max(st["kkt_pairs"][k] for st in s["steps"] for k in PAIR_KEYS)
+    assert worst <= PAIR_WARN, worst  # measured 2.3e-8
+    assert not [w for w in s.get("warnings", []) if "own scale" in w]
 
 
 def test_tolerances_scale_with_the_data(tmp_path):

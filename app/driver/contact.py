@@ -21,6 +21,8 @@ from app.driver.rank0_solve import on_rank0_solve
 from app.errors import SolveError
 from app.interface.steps import ContactStepper, StepSolution
 from app.interface.weak_modes import slide_warning
+from app.output.contact import pair_scales_of
+from app.output.pair_law import PAIR_WARN
 from app.output.status import writing
 from app.parallel import collective, to_numpy_all
 
@@ -32,11 +34,13 @@ MAX_REFINEMENTS = 5
 
 @dataclass
 class ContactStep:
-    """One solved load step: u (2n,) the displacement with the contact forces, and the
-    stepper's solution (rank 0's, broadcast)."""
+    """One solved load step: u (2n,) the displacement with the contact forces, the
+    stepper's solution (rank 0's, broadcast), and the linear solves' relative residual
+    if iterative (0 for a direct solve: the per-pair checks' round-off floor)."""
 
     u: np.ndarray
     result: StepSolution
+    solve_rel: float = 0.0
 
 
 def condense(ctx: RunContext, model: Model, system: LinearSystem,
@@ -73,12 +77,13 @@ def solve_contact_step(ctx: RunContext, model: Model, system: LinearSystem,
     while True:
         with ctx.phase("recovery"):
             u = _displacement(model, system, u_free, result)
-            miss, rel, again = _consistency(ctx, model, u, result, refinements, previous)
+            miss, rel, worst, again = _consistency(ctx, model, u, result, refinements,
+                                                   previous, solve_rel(system.solver))
             if not again:  # the step's answer: its checks, in the same phase
                 _answer_checks(ctx, model, result, step, refinements, rel, u)
         if not again:
             break
-        previous = rel
+        previous = worst
         with ctx.phase("lcp"):
             if ctx.rank == 0:
                 correction += miss
@@ -90,7 +95,13 @@ def solve_contact_step(ctx: RunContext, model: Model, system: LinearSystem,
         result = retry
         refinements += 1
     warn_solve_accuracy(ctx, system.solver)
-    return ContactStep(u, result)
+    return ContactStep(u, result, solve_rel(system.solver))
+
+
+def solve_rel(solver: LinearSolver) -> float:
+    """The relative residual of the linear solves so far if iterative, else 0: what the
+    displacements carry beyond round-off (`app.output.pair_law.kinematic_floor`)."""
+    return float(solver.worst_residual) if solver.iterative else 0.0
 
 
 def _crossing_warnings(ctx: RunContext, model: Model, u: np.ndarray, step: int) -> None:
@@ -158,19 +169,26 @@ def _displacement(model: Model, system: LinearSystem, u_free: np.ndarray,
 
 
 def _consistency(ctx: RunContext, model: Model, u: np.ndarray, result: StepSolution,
-                 refinements: int, previous: float):
-    """(G u - LCP kinematics on rank 0, its size relative to max |u|, whether to re-solve)."""
+                 refinements: int, previous: float, accuracy: float):
+    """(G u - LCP kinematics on rank 0, its size relative to max |u|, the larger of that
+    over CONSISTENCY_TOL and of each pair's against its own scale over PAIR_WARN, whether
+    to re-solve: that measure above 1 and halved since the last solve). accuracy: the
+    linear solves' relative residual if iterative, else 0 (`solve_rel`)."""
     def measure():
         miss = mismatch(model.contact.g, u, result)
         scale = max(np.abs(u).max(initial=0.0), 1e-300)
         rel = float(np.abs(miss).max(initial=0.0) / scale)
-        again = (rel > CONSISTENCY_TOL and refinements < MAX_REFINEMENTS
-                 and rel < 0.5 * previous)
-        return miss, rel, again
+        # each pair against its own scale (`app.output.pair_law`): a stiff interface
+        # beside a soft one moves 1e-11 as much, far below CONSISTENCY_TOL of max |u|
+        _, _, s = pair_scales_of(model.contact, result, u, model.mesh.node_body(), accuracy)
+        own = float((np.abs(miss) / s).max(initial=0.0))
+        worst = max(rel / CONSISTENCY_TOL, own / PAIR_WARN)
+        again = worst > 1.0 and refinements < MAX_REFINEMENTS and worst < 0.5 * previous
+        return miss, rel, worst, again
 
-    miss, rel, again = on_rank0_solve(measure) or (None, None, None)  # its failure shared
-    again, rel = ctx.mpi.bcast((again, rel), root=0)
-    return miss, rel, again
+    miss, rel, worst, again = on_rank0_solve(measure) or (None, None, None, None)
+    again, rel, worst = ctx.mpi.bcast((again, rel, worst), root=0)  # (its failure shared)
+    return miss, rel, worst, again
 
 
 def _iterative_hint(solver: LinearSolver) -> str:

@@ -22,8 +22,9 @@ from app.driver.model import Model
 from app.driver.rank0_io import on_rank0
 from app.driver.rank0_solve import on_rank0_solve
 from app.mesh.model import Mesh
-from app.output.contact import contact_arrays
+from app.output.contact import contact_arrays, kkt_pairs_check
 from app.output.kkt_warning import kkt_warning
+from app.output.pair_law import kkt_pairs_warning
 from app.output.progress import step_line
 from app.output.reactions import ReactionProbe, support_owner
 from app.output.rigid_motion import rigid_motion
@@ -127,6 +128,13 @@ def _contact_output(ctx: RunContext, model: Model, output: StepOutput, solved: C
     law = kkt_warning(info["kkt"], info["step"])
     if law is not None:
         ctx.warn(law, ("kkt",))
+    info["kkt_pairs"] = kkt_pairs_check(model.contact, solved.result, u,
+                                        model.mesh.node_body(),
+                                        [itf.name for itf in ctx.cfg.interfaces],
+                                        solved.solve_rel)
+    law = kkt_pairs_warning(info["kkt_pairs"], info["step"])
+    if law is not None:
+        ctx.warn(law, ("kkt_pairs",))
     output.last_contact = contact_data
     _add_interface_forces(info, contact_data, ctx.cfg, model.contact.described)
     return contact_data

@@ -192,8 +192,9 @@ class StepSolution:
     state, debonded_step (m,) int; tau_prev (m,) tau before the step; slip (m,)
     accumulated; a, c (m,) adhesion and strength forces in force at this step; f_scale
     and u_scale the problem's force and displacement scales (the largest load, the
-    largest unit-load contact motion or initial gap); info the step's summary.json
-    entries.
+    largest unit-load contact motion or initial gap); compliance_diag (2m,) the diagonal
+    of the compliance C (normal rows, then tangential), each pair's own scale for the
+    per-pair law check (`app.output.pair_law`); info the step's summary.json entries.
     """
 
     status: str
@@ -209,6 +210,7 @@ class StepSolution:
     c: np.ndarray | None = None
     f_scale: float = 0.0
     u_scale: float = 0.0
+    compliance_diag: np.ndarray | None = None
     info: dict = field(default_factory=dict)
 
     @property
@@ -240,6 +242,7 @@ class ContactStepper:
         self.m = m
         g = setup.g
         self.gu = [g @ uc for uc in unit]  # (2m,) per load case
+        self.c_diag = np.diagonal(c_mat).copy()  # each pair's own scale (pair_law)
         self.v_keep = self.v_null = None
         self.floating = floating
         if floating is not None and floating.r.shape[1]:
@@ -412,6 +415,6 @@ class ContactStepper:
         out.info = self._step_info(step, res, out.alpha)
         out.state, out.debonded_step = res.state, res.debonded_step
         out.tau_prev, out.slip, out.f_scale = tau_prev, self.slip.copy(), self.f_scale
-        out.u_scale = self.u_scale
+        out.u_scale, out.compliance_diag = self.u_scale, self.c_diag
         out.a, out.c = self.hist.a.copy(), self.hist.c.copy()
         return out

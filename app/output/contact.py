@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from app.interface.steps import StepSolution
+from app.output.pair_law import body_scale, kinematic_floor, pair_law, pair_scales
 
 
 def contact_arrays(setup, result: StepSolution, u: np.ndarray,
@@ -59,6 +60,36 @@ def contact_arrays(setup, result: StepSolution, u: np.ndarray,
     return data, kkt
 
 
+def pair_scales_of(setup, result: StepSolution, u: np.ndarray, node_body: np.ndarray,
+                   solve_rel: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(G u (2m,), F (m,), s (2m,)): the step's kinematics from u (2n,) and each pair's
+    own force and kinematic scales (`app.output.pair_law.pair_scales`) from the LCP
+    result (lam, compliance_diag, a, c, tau_prev, f_scale); node_body (n,) body index of
+    each node; solve_rel the linear solves' relative residual if iterative (else 0). No
+    solve: O(nnz(G) + n + m)."""
+    pr = setup.pairs
+    m = pr.n_pairs
+    floor = kinematic_floor(abs(setup.g), body_scale(u, node_body), pr.g0, result.tau_prev,
+                            solve_rel)
+    forces = np.stack([result.lam[:m], result.lam[m:], result.a, result.c])
+    f_run = max(float(np.abs(forces).max(initial=0.0)), result.f_scale)
+    f, s = pair_scales(result.compliance_diag, pr.interface, forces, f_run, floor)
+    return setup.g @ u, f, s
+
+
+def kkt_pairs_check(setup, result: StepSolution, u: np.ndarray, node_body: np.ndarray,
+                    names: list[str], solve_rel: float = 0.0) -> dict:
+    """summary `steps[k].kkt_pairs`: the law and the consistency with the LCP judged on
+    each pair against its own scales (`app.output.pair_law`), from the displacement field
+    u (2n,) and the step's LCP result (lam, kinematics, ...); node_body (n,); names: the
+    interfaces' names in config order; solve_rel: see `pair_scales_of`."""
+    pr = setup.pairs
+    m = pr.n_pairs
+    gu, f, s = pair_scales_of(setup, result, u, node_body, solve_rel)
+    p, q = result.lam[:m], result.lam[m:]
+    return pair_law(pr.g0 + gu[:m], gu[m:] - result.tau_prev, p, q, setup.mu, result.a,
+                    result.c, setup.frictional, f, s, gu - result.kinematics, pr.interface,
+                    names)
 
 
 def kkt_check(gap: np.ndarray, tau: np.ndarray, tau_prev: np.ndarray, p: np.ndarray,

@@ -1,0 +1,202 @@
+"""The interface law judged pair by pair against each pair's own scale
+(app/output/pair_law.py, summary `steps[k].kkt_pairs`).
+
+Synthetic contrast cases: two interfaces whose compliances differ by 1e11, every pair in
+stick at p = 1, q = 0.2. A force 1e-3 off on the stiff interface moves it by 1e-3 of its
+own motion, 1e-14 of the soft one's: the run-wide KKT check (`kkt_check`, gaps against
+the largest displacement) reads round-off; the per-pair check fails it. Before, the run of
+hard/tangential_contrast.toml with q 44% off on the stiff interface read KKT 1e-12.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+from app.output.contact import kkt_check
+from app.output.pair_law import (
+    EPS,
+    PAIR_WARN,
+    ROUNDOFF_ULPS,
+    body_scale,
+    kinematic_floor,
+    kkt_pairs_warning,
+    pair_law,
+    pair_residuals,
+    pair_scales,
+)
+
+M = 4  # pairs 0, 1 on the stiff interface, 2, 3 on the soft one
+INTERFACE = np.array([0, 0, 1, 1])
+NAMES = ["stiff", "soft"]
+MU = np.full(M, 0.3)
+FRICTIONAL = np.ones(M, dtype=bool)
+ZERO = np.zeros(M)
+
+
+def _compliance(contrast: float) -> np.ndarray:
+    """(2m, 2m) SPD compliance, rows (n0..n3, t0..t3): each interface's four rows coupled,
+    the stiff interface's block `contrast` times the soft one's, no coupling between
+    them (separate bodies)."""
+    rng = np.random.default_rng(3)
+    a = rng.normal(size=(4, 4))
+    block = a @ a.T + 4 * np.eye(4)
+    c = np.zeros((2 * M, 2 * M))
+    for k, factor in ((0, contrast), (1, 1.0)):
+        rows = np.array([2 * k, 2 * k + 1, M + 2 * k, M + 2 * k + 1])
+        c[np.ix_(rows, rows)] = factor * block
+    return c
+
+
+def _answer(c: np.ndarray, lam: np.ndarray, lam_true: np.ndarray):
+    """(gap, tau) of forces lam when the free motion makes lam_true the answer (every pair
+    closed and stuck: gap = tau = 0 at lam_true), and the round-off floor of their terms."""
+    kin = c @ (lam - lam_true)
+    floor = ROUNDOFF_ULPS * EPS * (np.abs(c) @ np.abs(lam))
+    return kin[:M], kin[M:], floor
+
+
+def _figures(c: np.ndarray, lam: np.ndarray, kin_from=None) -> tuple[dict, dict]:
+    """(run-wide kkt, per-pair kkt_pairs) of forces lam on compliance c."""
+    lam_true = np.concatenate([np.ones(M), np.full(M, 0.2)])
+    gap, tau, floor = _answer(c, lam, lam_true)
+    p, q = lam[:M], lam[M:]
+    u_scale = float(np.abs(c @ lam_true).max())  # the soft interface's motion
+    old = kkt_check(gap, tau, ZERO, p, q, MU, ZERO, ZERO, FRICTIONAL, u_scale=u_scale,
+                    f_scale=1.0)
+    f, s = pair_scales(np.diagonal(c), INTERFACE, np.stack([p, q, ZERO, ZERO]), 1.0, floor)
+    mismatch = np.zeros(2 * M) if kin_from is None else np.concatenate([gap, tau]) - kin_from
+    new = pair_law(gap, tau, p, q, MU, ZERO, ZERO, FRICTIONAL, f, s, mismatch, INTERFACE,
+                   NAMES)
+    return old, new
+
+
+def _lam(dp: float = 0.0, dq: float = 0.0) -> np.ndarray:
+    """p = 1, q = 0.2 on every pair; the stiff interface's p and q times (1 + dp), (1 + dq)."""
+    p, q = np.ones(M), np.full(M, 0.2)
+    p[INTERFACE == 0] *= 1 + dp
+    q[INTERFACE == 0] *= 1 + dq
+    return np.concatenate([p, q])
+
+
+def test_the_right_answer_reads_round_off():
+    old, new = _figures(_compliance(1e-11), _lam())
+    assert max(old.values()) <= 1e-15
+    assert max(new["normal"], new["tangential"], new["consistency"]) <= 1e-12, new
+
+
+@pytest.mark.parametrize("contrast", [1e-10, 1e-11, 1e-12])
+@pytest.mark.parametrize("dp, dq, key", [(0.0, 1e-3, "tangential"), (1e-3, 0.0, "normal"),
+                                         (0.0, -0.44, "tangential")])
+def test_a_wrong_force_on_the_stiff_interface_fails(contrast, dp, dq, key):
+    """q (or p) of the stiff interface 1e-3 off (and 44% off, the old run's error): the
+    run-wide check reads round-off (it passed the old run at 1e-12); the per-pair one
+    fails, at the stiff interface."""
+    old, new = _figures(_compliance(contrast), _lam(dp, dq))
+    assert max(old.values()) < 1e-9, old  # blind: measured against the soft motion
+    assert new[key] > 1e-5, new  # q 1e-3 off is 2e-4 of the interface's force scale p
+    assert new["interface"] == "stiff" and new["pair"] in (0, 1)
+    assert new["by_interface"]["soft"][key] <= 1e-12
+    text = kkt_pairs_warning(new, 1)
+    assert text is not None and "interface 'stiff'" in text and key in text
+
+
+def test_sensitivity_reaches_round_off():
+    """An error of 1e-5 of q on the stiff interface (2e-6 of its force scale) still
+    fails: the check sees what is above PAIR_WARN of the pair's own scale."""
+    _, new = _figures(_compliance(1e-11), _lam(dq=1e-5))
+    assert new["tangential"] > PAIR_WARN
+
+
+def test_consistency_per_pair():
+    """The LCP's kinematics off by 1e-3 of the stiff pairs' own motion: invisible against
+    the largest displacement (1e-14 of it), a failing `consistency` per pair."""
+    c = _compliance(1e-11)
+    lam = _lam()
+    kin = np.zeros(2 * M)
+    kin[M:M + 2] = 1e-3 * np.diagonal(c)[M:M + 2]  # LCP says the stiff pairs moved
+    _, new = _figures(c, lam, kin_from=kin)
+    assert new["consistency"] == pytest.approx(1e-3, rel=1e-6)
+    assert new["by_interface"]["soft"]["consistency"] == 0.0
+
+
+def test_slip_direction_and_bound():
+    """A slipping pair must carry q = -sign(slip) F; a stuck one stay within F."""
+    f, s = np.ones(1), np.ones(2)
+    one = np.ones(1)
+    args = (one * 0.3, np.zeros(1), np.zeros(1), np.ones(1, dtype=bool), f, s)
+    # slipping +1 with q = -0.3 (right), +0.3 (wrong sense), 0.1 (inside the cone)
+    assert pair_residuals(one * 0, one, one, -0.3 * one, *args)[1][0] == pytest.approx(0.0)
+    assert pair_residuals(one * 0, one, one, 0.3 * one, *args)[1][0] == pytest.approx(0.6)
+    assert pair_residuals(one * 0, one, one, 0.1 * one, *args)[1][0] == pytest.approx(0.4)
+    # stuck beyond the bound; open but pressed; penetrating
+    assert pair_residuals(one * 0, one * 0, one, 0.5 * one, *args)[1][0] == pytest.approx(0.2)
+    assert pair_residuals(one * 0.5, one * 0, one, 0 * one, *args)[0][0] == pytest.approx(0.5)
+    assert pair_residuals(-0.1 * one, one * 0, one, 0 * one, *args)[0][0] == pytest.approx(0.1)
+
+
+def test_round_off_of_a_body_reads_below_the_warning():
+    """hard/shear_off.toml: the bond's end pair moves 1e-13 as much as its block under the
+    interface's forces, and round-off of the block's solve (eps x its max |u|) moved it by
+    2e-19: 1.7e-3 of its own scale. With the body's displacement in the round-off floor
+    it reads below PAIR_WARN; a real error above that floor still fails."""
+    node_body = np.array([0, 0, 1, 1])  # nodes 0, 1 (pair's slave side and far node)
+    u = np.array([0.0, 1e-19, 1e-3, 0.0, 0.0, 0.0, 0.0, 0.0])  # body 0's far node moves
+    ub = body_scale(u, node_body)
+    assert ub.tolist() == [1e-3] * 4 + [0.0] * 4
+    g = sp.csr_matrix(([1.0, -1.0, 1.0, -1.0], ([0, 0, 1, 1], [1, 5, 0, 4])), shape=(2, 8))
+    floor = kinematic_floor(abs(g), ub, np.zeros(1), np.zeros(1))
+    c_diag = np.array([1e-16, 1e-16])
+    f, s = pair_scales(c_diag, np.zeros(1, dtype=int), np.ones((1, 1)), 1.0, floor)
+    r_n, _ = pair_residuals(np.array([-2e-19]), np.zeros(1), np.ones(1), np.zeros(1),
+                            MU[:1], np.zeros(1), np.zeros(1), np.ones(1, bool), f, s)
+    assert r_n[0] <= PAIR_WARN
+    _, s0 = pair_scales(c_diag, np.zeros(1, dtype=int), np.ones((1, 1)), 1.0, 0.0 * floor)
+    assert 2e-19 / s0[0] > PAIR_WARN  # without the body's round-off: a false alarm
+    r_bad, _ = pair_residuals(np.array([-1e-12]), np.zeros(1), np.ones(1), np.zeros(1),
+                              MU[:1], np.zeros(1), np.zeros(1), np.ones(1, bool), f, s)
+    assert r_bad[0] > PAIR_WARN
+
+
+def test_iterative_solves_raise_the_floor_of_the_displacements_only():
+    """With iterative linear solves at a relative residual of 1e-12, |G| ub carries that
+    (not eps): hard/shear_off.toml with cg + gamg read 2.9e-6 on its end pairs before.
+    The initial gap and the previous slip are data: their round-off stays eps."""
+    g_abs = sp.csr_matrix(np.array([[1.0, 1.0], [1.0, 0.0]]))
+    ub = np.array([1e-3, 1e-3])
+    direct = kinematic_floor(g_abs, ub, np.array([1.0]), np.array([0.0]))
+    iterative = kinematic_floor(g_abs, ub, np.array([1.0]), np.array([0.0]), 1e-12)
+    eps64 = ROUNDOFF_ULPS * EPS
+    np.testing.assert_allclose(direct, [eps64 * (2e-3 + 1.0), eps64 * 1e-3])
+    np.testing.assert_allclose(iterative, [1e-12 * 2e-3 + eps64, 1e-12 * 1e-3])
+
+
+def test_round_off_forces_and_fixed_pairs_read_below_the_warning():
+    """hard/pull_off.toml pulled off: open pairs carry q = 4e-16 beside loads of 4.5;
+    two_blocks.toml's end pairs (both sides prescribed) have a compliance of 1e-35 and
+    move by 1e-34: both round-off, both below PAIR_WARN."""
+    interface = np.zeros(2, dtype=int)
+    forces = np.stack([np.zeros(2), np.array([4e-16, 0.0])])
+    f, s = pair_scales(np.array([1e-3, 1e-3, 1e-3, 1e-3]), interface, forces, 4.5,
+                       np.zeros(4))
+    _, r_t = pair_residuals(np.full(2, 1e-3), np.zeros(2), np.zeros(2), forces[1],
+                            np.full(2, 0.3), np.zeros(2), np.zeros(2), np.ones(2, bool), f, s)
+    assert r_t.max() <= PAIR_WARN
+    f, s = pair_scales(np.array([1.0, 1.0, 1e-35, 1.0]), interface, np.ones((1, 2)), 1.0,
+                       np.zeros(4))
+    assert s[2] == pytest.approx(1e-12)  # the LCP's stiff tie, not the round-off 1e-35
+    _, r_t = pair_residuals(np.zeros(2), np.array([1.8e-34, 0.0]), np.ones(2), np.zeros(2),
+                            np.zeros(2), np.zeros(2), np.zeros(2), np.zeros(2, bool), f, s)
+    assert r_t.max() == 0.0
+
+
+def test_warning_text_and_nan():
+    ok = {"normal": 1e-9, "tangential": 0.0, "consistency": 1e-7, "interface": "a", "pair": 0}
+    assert kkt_pairs_warning(ok, 2) is None
+    bad = ok | {"tangential": float("nan")}
+    assert "tangential nan" in kkt_pairs_warning(bad, 2)
+    empty = pair_law(*(np.zeros(0),) * 7, np.zeros(0, bool), np.zeros(0), np.zeros(0),
+                     np.zeros(0), np.zeros(0, int), [])
+    assert empty == {"normal": 0.0, "tangential": 0.0, "consistency": 0.0, "by_interface": {}}
+    assert kkt_pairs_warning(empty, 1) is None
