@@ -73,7 +73,8 @@ def pair_scales_of(setup, result: StepSolution, u: np.ndarray, node_body: np.nda
                             solve_rel)
     forces = np.stack([result.lam[:m], result.lam[m:], result.a, result.c])
     f_run = max(float(np.abs(forces).max(initial=0.0)), result.f_scale)
-    f, s = pair_scales(result.compliance_diag, pr.interface, forces, f_run, floor)
+    f, s = pair_scales(result.compliance_diag, pr.interface, forces, f_run, floor,
+                       solve_rel)
     return setup.g @ u, f, s
 
 

@@ -70,9 +70,14 @@ def kinematic_floor(g_abs, ub: np.ndarray, g0: np.ndarray, tau_prev: np.ndarray,
 
 
 def pair_scales(c_diag: np.ndarray, interface: np.ndarray, forces: np.ndarray,
-                f_run: float, floor: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+                f_run: float, floor: np.ndarray,
+                solve_rel: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """(F (m,), s (2m,)): each pair's force scale, its interface's largest |force| (at
-    least FORCE_FLOOR f_run), and its kinematic scales (normal rows, then tangential):
+    least FORCE_FLOOR f_run, or solve_rel / PAIR_WARN f_run where the linear solves'
+    relative residual solve_rel (iterative, else 0) is larger than ROUNDOFF_ULPS eps: the
+    forces carry it as the displacements do; bonded.toml at --mesh-size 0.8 with -ksp_type
+    cg -pc_type gamg -ksp_atol 1e-12, pulled off, leaves q = 8.8e-12 on open pairs, which
+    read 2.7e-6 against FORCE_FLOOR), and its kinematic scales (normal rows, then tangential):
     C_ii F, the motion its interface's forces make at it, or floor / PAIR_WARN where the
     round-off `floor` (2m,) is above PAIR_WARN of that, so that a residual at round-off
     reads at most PAIR_WARN. c_diag (2m,) the compliance diagonal; interface (m,) int;
@@ -88,7 +93,8 @@ def pair_scales(c_diag: np.ndarray, interface: np.ndarray, forces: np.ndarray,
     n_itf = int(interface.max(initial=-1)) + 1
     size = np.abs(forces).max(axis=0, initial=0.0)
     biggest = np.array([size[interface == k].max(initial=0.0) for k in range(n_itf)])
-    f = np.maximum(biggest[interface] if m else np.zeros(0), FORCE_FLOOR * f_run)
+    force_floor = max(FORCE_FLOOR, solve_rel / PAIR_WARN)
+    f = np.maximum(biggest[interface] if m else np.zeros(0), force_floor * f_run)
     s = np.maximum(comp * np.concatenate([f, f]), floor / PAIR_WARN)
     return f, s
 
