@@ -26,6 +26,7 @@ from petsc4py import PETSc
 
 from app.assembly.solve import LOOSE_RESIDUAL, REFINED_RESIDUAL, LinearSolver
 from app.driver.contact import _iterative_hint
+from app.driver.linear import case_scales
 from app.errors import SolveError
 from tests.support import CONFIGS, cleared_petsc_options, read_summary, run_cli
 
@@ -220,3 +221,20 @@ def test_a_small_load_with_a_large_history_is_judged_against_the_forces_it_appli
         assert r.returncode == 0, r.stderr
         energy.append(read_summary(tmp_path / name)["steps"][-1]["strain_energy"])
     assert energy[0] == pytest.approx(energy[1], rel=1e-9)
+
+
+def test_a_case_is_judged_against_the_forces_of_the_steps_it_acts_in():
+    """case_scales: a load acting together with large ones is judged against their
+    forces; the same load acting in a step of its own is judged against its own size
+    (judged against the run's largest forces, a residual of 5e-4 of a traction of 0.38
+    would pass as round-off of a clamp's 3.2e9 applied in another step)."""
+    loads = [np.full(4, 3.2e9 / 2), np.full(4, 0.38 / 2)]
+    together, run = case_scales(loads, [np.array([1.0, 1.0]), np.array([1.0, 1.0])])
+    assert together == pytest.approx([3.2e9, 3.2e9]) and run == pytest.approx(3.2e9)
+    apart, run = case_scales(loads, [np.array([1.0, 0.0]), np.array([0.0, 1.0])])
+    assert apart == pytest.approx([3.2e9, 0.38]) and run == pytest.approx(3.2e9)
+    tiny, _ = case_scales([np.full(4, 0.5), np.full(4, 5e-14)],
+                          [np.array([1.0]), np.array([1e13])])  # 1e-13 x 1e13 = 1
+    assert tiny == pytest.approx([1.0, 1e-13])
+    idle, _ = case_scales(loads, [np.array([1.0, 1.0]), np.zeros(2)])
+    assert idle == pytest.approx([3.2e9, 0.38])

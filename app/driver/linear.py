@@ -108,18 +108,25 @@ def unit_solutions(ctx: RunContext, model: Model, system: LinearSystem) -> UnitS
 def case_scales(loads: list[np.ndarray], histories: list[np.ndarray]
                 ) -> tuple[list[float], float]:
     """(per load case the scale its unit solve's residual is judged against, the run's
-    force scale): loads (2n,) each at factor 1, histories (n_steps,) each. The run's scale
-    is the largest |b_k| x max|history_k| (the forces the steps apply); a case's is that
-    over its own largest factor, so that a residual accepted as round-off
-    (`app.assembly.solve.ROUND_OFF_RESIDUAL`) stays round-off of the run's forces once the
-    steps multiply it. Judged against the other cases' |b| at factor 1 (before), a load of
-    1e-13 with history [1e13] was solved by -ksp_atol 1e-12 as x = 0 and dropped without
-    a word. A case whose factors are all 0 is judged against its own |b|."""
-    peaks = [float(np.abs(h).max(initial=0.0)) for h in histories]
-    sizes = [float(np.linalg.norm(b)) for b in loads]
-    run = max((s * p for s, p in zip(sizes, peaks, strict=True)), default=0.0)
-    return [max(run / p, s) if p > 0 else s
-            for s, p in zip(sizes, peaks, strict=True)], run
+    force scale): loads (2n,) each at factor 1, histories (n_steps,) each. A step applies
+    forces of size T(t) = max_j |b_j| |h_j(t)|; case k's scale is the smallest
+    T(t) / |h_k(t)| over the steps where it acts, so that a residual accepted as round-off
+    (`app.assembly.solve.ROUND_OFF_RESIDUAL`) stays round-off of the forces of every step
+    that multiplies it. The run's scale is max_t T(t). Judged against the other cases' |b|
+    at factor 1 (before), a load of 1e-13 with history [1e13] was solved by -ksp_atol 1e-12
+    as x = 0 and dropped without a word; judged against the run's largest forces, a load
+    acting in a step of its own would be judged against another step's forces. A case
+    whose factors are all 0 is judged against its own |b|."""
+    sizes = np.array([float(np.linalg.norm(b)) for b in loads])
+    if not sizes.size:
+        return [], 0.0
+    factors = np.abs(np.stack(histories))  # (cases, steps)
+    totals = (sizes[:, None] * factors).max(axis=0)  # T(t)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.where(factors > 0, totals[None, :] / factors, np.inf)
+    scales = ratio.min(axis=1, initial=np.inf)
+    scales = np.where(np.isfinite(scales), np.maximum(scales, sizes), sizes)
+    return [float(x) for x in scales], float(totals.max(initial=0.0))
 
 
 def warn_solve_accuracy(ctx: RunContext, solver: LinearSolver) -> None:
