@@ -111,3 +111,24 @@ def test_lcp_scaling_judges_a_diagonal_in_its_own_units():
     soft = np.array([[1e-3, 5e-4], [5e-4, 1e-30]])
     d = _symmetric_scaling(soft)
     assert d[1] ** 2 == pytest.approx(1.0 / 5e-4)  # the column's largest entry
+
+
+def test_lcp_scaling_ignores_a_round_off_row_in_another_columns_reach():
+    """A floating mode that slides no pair has a round-off diagonal (Z ~ 1e-35) beside its
+    coupling V to a pair's p (0.5): that row is itself round-off, so it must not make the p
+    column's diagonal (a compliance 1e-3) look like round-off of its couplings (before:
+    the p column fell back to its largest entry 0.5, 500x its diagonal, and Lemke pivoted
+    where the scaled start was the answer). The mode's own column still uses its largest
+    entry, and the contrast case (a genuine 2e-15 diagonal beside mu) keeps its own."""
+    big = np.array([[1e-3, 2e-4, 0.5],
+                    [2e-4, 2e-3, 0.3],
+                    [-0.5, -0.3, 1e-35]])
+    d = _symmetric_scaling(big)
+    np.testing.assert_allclose((d * d)[:2] * big.diagonal()[:2], 1.0, rtol=1e-12)
+    assert d[2] ** 2 == pytest.approx(1.0 / 0.5)
+    contrast = np.array([[2e-15, 0.0, 0.4],
+                         [0.3, 1e15, 0.0],
+                         [-0.4, 0.0, 1e-35]])
+    d = _symmetric_scaling(contrast)
+    np.testing.assert_allclose((d * d)[:2] * contrast.diagonal()[:2], 1.0, rtol=1e-12)
+    assert d[2] ** 2 == pytest.approx(1.0 / 0.4)

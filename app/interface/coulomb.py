@@ -107,6 +107,20 @@ def _rejudged(res, ms: np.ndarray, qs: np.ndarray, qsize: np.ndarray) -> None:
                         "bond's strength cancels)")
 
 
+def _reach(big: np.ndarray, inv: np.ndarray, skip: np.ndarray | None = None) -> np.ndarray:
+    """(n,): each column's largest M_ij^2 / M_ii over the rows i with inv_i = 1 / M_ii > 0,
+    leaving out the entries where skip(i0, i1) (a (rows, n) bool block) is True."""
+    n = big.shape[0]
+    reach = np.zeros(n)
+    for i0, i1 in row_blocks(n):  # (no n x n temporary)
+        blk = big[i0:i1]
+        r = blk * blk * inv[i0:i1, None]
+        if skip is not None:
+            r[skip(i0, i1)] = 0.0
+        np.maximum(reach, r.max(axis=0), out=reach)
+    return reach
+
+
 def _symmetric_scaling(big: np.ndarray) -> np.ndarray:
     """d (n,): the symmetric scaling of the LCP matrix big (n, n), 1 / sqrt(ref) with ref
     its diagonal entry where that is not round-off, else the column's largest |entry| (1
@@ -116,16 +130,26 @@ def _symmetric_scaling(big: np.ndarray) -> np.ndarray:
     diagonal entry: compliance for p, whose column also holds mu and dimensionless
     couplings. Compared with those directly (before), the p columns of an interface whose
     compliance was below 1e-12 (E ~ 1e15 on unit geometry) were scaled by mu and lost
-    their forces (configs/hard/tangential_contrast.toml, floating: p 11% off)."""
+    their forces (configs/hard/tangential_contrast.toml, floating: p 11% off).
+
+    A row whose own diagonal is round-off by that test (a floating mode that slides no
+    pair: Z ~ 1e-35 beside V ~ 1) is left out of the reach of the columns whose diagonal
+    is larger relative to their largest entry than its own: of such a pair of rows it is
+    the round-off one (before: it made the p columns fall back to their largest entry, up
+    to 7e5 times their diagonal, and Lemke pivoted 10-12 times instead of 0)."""
     n = big.shape[0]
     diag = np.abs(np.diagonal(big))
     inv = np.divide(1.0, diag, out=np.zeros(n), where=diag > 0)
-    reach = np.zeros(n)
-    for i0, i1 in row_blocks(n):  # (no n x n temporary)
-        blk = big[i0:i1]
-        np.maximum(reach, (blk * blk * inv[i0:i1, None]).max(axis=0), out=reach)
     colmax = absmax(big, axis=0) if n else np.zeros(0)
-    ref = np.where(diag > 1e-12 * reach, diag, colmax)
+    reach = _reach(big, inv)
+    own = diag > 1e-12 * reach
+    suspect = (diag > 0) & ~own
+    if suspect.any():
+        rel = np.divide(diag, colmax, out=np.zeros(n), where=colmax > 0)
+        reach = _reach(big, inv, lambda i0, i1: suspect[i0:i1, None]
+                       & (rel[i0:i1, None] < rel[None, :]))
+        own = diag > 1e-12 * reach
+    ref = np.where(own, diag, colmax)
     return 1.0 / np.sqrt(np.where(ref > 0, ref, 1.0))
 
 
