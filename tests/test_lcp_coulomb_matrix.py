@@ -132,3 +132,26 @@ def test_lcp_scaling_ignores_a_round_off_row_in_another_columns_reach():
     d = _symmetric_scaling(contrast)
     np.testing.assert_allclose((d * d)[:2] * contrast.diagonal()[:2], 1.0, rtol=1e-12)
     assert d[2] ** 2 == pytest.approx(1.0 / 0.4)
+
+
+def test_stick_forces_of_equal_rows_sum_to_round_off():
+    """Two equal pairs (interface 1's first pair and its copy) and a zero pair, all held
+    in stick (mu = 100): only the sums of the equal pairs' p and q are unique, and they
+    must solve C [p; q] = -[gap_free; tau_free] like any force. The stiff tie on the null
+    space (k0 = 1e9 x the stiffness) summed into H carried round-off eps x k0 into the
+    sum: q's was 1.9e-7 off the least-squares answer and the motion residual 2.6e-8 of
+    the free motion; with the tie kept apart (`CoulombMatrix.apply_h`) 3.7e-10 and 5e-11."""
+    c, m = _model(1.0, extra_rows=True)
+    gap_free = -1e-3 * np.array([1.0, 2.0, 1.5, 1.0, 1.2, 0.8, 1.0, 0.0])
+    tau_free = 1e-4 * np.array([1.0, -2.0, 0.5, 1.0, -1.0, 0.3, 1.0, 0.0])
+    mu = np.full(m, 100.0)
+    lcp = ContactLCP(c.copy(), mu, np.ones(m, dtype=bool))
+    sol = lcp.solve(gap_free, tau_free, np.zeros(m), np.zeros(m), np.zeros(m), mu,
+                    np.zeros(0))
+    assert sol.status == "solved" and lcp.dependent_tangential == 2
+    rhs = np.r_[gap_free, tau_free]
+    ref = np.linalg.lstsq(c, -rhs, rcond=1e-13)[0]
+    a, b = 0, 2 * K_PAIRS
+    assert sol.q[a] + sol.q[b] == pytest.approx(ref[m + a] + ref[m + b], rel=1e-8)
+    assert sol.p[a] + sol.p[b] == pytest.approx(ref[a] + ref[b], rel=1e-9)
+    assert np.abs(c @ np.r_[sol.p, sol.q] + rhs).max() < 1e-9 * np.abs(rhs).max()

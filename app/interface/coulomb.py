@@ -177,6 +177,7 @@ class ContactLCP:
         self.nm, self.tm = cm.nm, cm.tm
         self.tm_all = np.zeros((m, 0)) if t_modes is None else t_modes
         self.h, self.bm, self.v, self.w, self.z = cm.h, cm.bm, cm.v, cm.w, cm.z
+        self.apply_h = cm.apply_h  # H x with the null-space tie apart (exact sums)
         # the frictional pairs tied here are dependent directions too (zero rows of C_tt;
         # `tangential_stiffness` gets them tied, so it does not count them)
         self.dependent_tangential = cm.dependent + int(self.fixed_t[cm.fric].sum())
@@ -280,7 +281,7 @@ class ContactLCP:
         f = self.fric
         cnt_f = self.c[: self.m, self.m:][:, f]
         xi = dtau[f] + cnt_f.T @ a
-        hxi = self.h @ xi
+        hxi = self.apply_h(xi)
         qg = gap_free - self.c[: self.m, : self.m] @ a + cnt_f @ hxi
         eq = e0 - self.nm.T @ a + self.tm.T @ hxi
         return np.concatenate([qg, base[f] + hxi, base[f] - hxi, -eq, eq])
@@ -333,7 +334,7 @@ class ContactLCP:
         if self.mf:
             cnt_f = self.c[:m, m:][:, f]
             rhs = free[1][f] - cnt_f.T @ p + sp_ - sm_ - self.tm @ alpha
-            q[f] = self.h @ rhs
+            q[f] = self.apply_h(rhs)
             splus[f], sminus[f] = sp_, sm_
         cn = self.c[:m]
         ct = self.c[m:]
