@@ -139,8 +139,8 @@ def test_stick_forces_of_equal_rows_sum_to_round_off():
     in stick (mu = 100): only the sums of the equal pairs' p and q are unique, and they
     must solve C [p; q] = -[gap_free; tau_free] like any force. The stiff tie on the null
     space (k0 = 1e9 x the stiffness) summed into H carried round-off eps x k0 into the
-    sum: q's was 1.9e-7 off the least-squares answer and the motion residual 2.6e-8 of
-    the free motion; with the tie kept apart (`CoulombMatrix.apply_h`) 3.7e-10 and 5e-11."""
+    sum: q's was 1.9e-7 off the least-squares answer and the motion residual 1.3e-8 of
+    the free motion; with the tie kept apart (`CoulombMatrix.apply_h`) 3.7e-10 and 2.3e-11."""
     c, m = _model(1.0, extra_rows=True)
     gap_free = -1e-3 * np.array([1.0, 2.0, 1.5, 1.0, 1.2, 0.8, 1.0, 0.0])
     tau_free = 1e-4 * np.array([1.0, -2.0, 0.5, 1.0, -1.0, 0.3, 1.0, 0.0])

@@ -135,8 +135,9 @@ def _symmetric_scaling(big: np.ndarray) -> np.ndarray:
     A row whose own diagonal is round-off by that test (a floating mode that slides no
     pair: Z ~ 1e-35 beside V ~ 1) is left out of the reach of the columns whose diagonal
     is larger relative to their largest entry than its own: of such a pair of rows it is
-    the round-off one (before: it made the p columns fall back to their largest entry, up
-    to 7e5 times their diagonal, and Lemke pivoted 10-12 times instead of 0)."""
+    the round-off one (before: it made p columns fall back to their largest entry, 216
+    times their diagonal on configs/hard/squeezed.toml turned by 90 deg, whose first step
+    took 26 Lemke pivots instead of 6)."""
     n = big.shape[0]
     diag = np.abs(np.diagonal(big))
     inv = np.divide(1.0, diag, out=np.zeros(n), where=diag > 0)
