@@ -111,3 +111,47 @@ def test_lcp_scaling_judges_a_diagonal_in_its_own_units():
     soft = np.array([[1e-3, 5e-4], [5e-4, 1e-30]])
     d = _symmetric_scaling(soft)
     assert d[1] ** 2 == pytest.approx(1.0 / 5e-4)  # the column's largest entry
+
+
+def test_lcp_scaling_ignores_a_round_off_row_in_another_columns_reach():
+    """A floating mode that slides no pair has a round-off diagonal (Z ~ 1e-35) beside its
+    coupling V to a pair's p (0.5): that row is itself round-off, so it must not make the p
+    column's diagonal (a compliance 1e-3) look like round-off of its couplings (before:
+    the p column fell back to its largest entry 0.5, 500x its diagonal, and Lemke pivoted
+    where the scaled start was the answer). The mode's own column still uses its largest
+    entry, and the contrast case (a genuine 2e-15 diagonal beside mu) keeps its own."""
+    big = np.array([[1e-3, 2e-4, 0.5],
+                    [2e-4, 2e-3, 0.3],
+                    [-0.5, -0.3, 1e-35]])
+    d = _symmetric_scaling(big)
+    np.testing.assert_allclose((d * d)[:2] * big.diagonal()[:2], 1.0, rtol=1e-12)
+    assert d[2] ** 2 == pytest.approx(1.0 / 0.5)
+    contrast = np.array([[2e-15, 0.0, 0.4],
+                         [0.3, 1e15, 0.0],
+                         [-0.4, 0.0, 1e-35]])
+    d = _symmetric_scaling(contrast)
+    np.testing.assert_allclose((d * d)[:2] * contrast.diagonal()[:2], 1.0, rtol=1e-12)
+    assert d[2] ** 2 == pytest.approx(1.0 / 0.4)
+
+
+def test_stick_forces_of_equal_rows_sum_to_round_off():
+    """Two equal pairs (interface 1's first pair and its copy) and a zero pair, all held
+    in stick (mu = 100): only the sums of the equal pairs' p and q are unique, and they
+    must solve C [p; q] = -[gap_free; tau_free] like any force. The stiff tie on the null
+    space (k0 = 1e9 x the stiffness) summed into H carried round-off eps x k0 into the
+    sum: q's was 1.9e-7 off the least-squares answer and the motion residual 1.3e-8 of
+    the free motion; with the tie kept apart (`CoulombMatrix.apply_h`) 3.7e-10 and 2.3e-11."""
+    c, m = _model(1.0, extra_rows=True)
+    gap_free = -1e-3 * np.array([1.0, 2.0, 1.5, 1.0, 1.2, 0.8, 1.0, 0.0])
+    tau_free = 1e-4 * np.array([1.0, -2.0, 0.5, 1.0, -1.0, 0.3, 1.0, 0.0])
+    mu = np.full(m, 100.0)
+    lcp = ContactLCP(c.copy(), mu, np.ones(m, dtype=bool))
+    sol = lcp.solve(gap_free, tau_free, np.zeros(m), np.zeros(m), np.zeros(m), mu,
+                    np.zeros(0))
+    assert sol.status == "solved" and lcp.dependent_tangential == 2
+    rhs = np.r_[gap_free, tau_free]
+    ref = np.linalg.lstsq(c, -rhs, rcond=1e-13)[0]
+    a, b = 0, 2 * K_PAIRS
+    assert sol.q[a] + sol.q[b] == pytest.approx(ref[m + a] + ref[m + b], rel=1e-8)
+    assert sol.p[a] + sol.p[b] == pytest.approx(ref[a] + ref[b], rel=1e-9)
+    assert np.abs(c @ np.r_[sol.p, sol.q] + rhs).max() < 1e-9 * np.abs(rhs).max()

@@ -166,3 +166,23 @@ def test_without_the_cache_each_solve_reads_M_afresh():
     assert np.array_equal(res.debonded_step, res2.debonded_step)
     np.testing.assert_allclose(res.solution.p, res2.solution.p, rtol=0,
                                atol=1e-12 * np.abs(res2.solution.p).max())
+
+
+def test_the_z_scale_memo_keeps_a_few_scalings_only():
+    """`_z_scale` keeps max |D M D| per scaling D, and D depends on the violating rows of
+    the check (`_floor_D`: a round-off diagonal's column is scaled by its largest entry on
+    those rows), so a run with many distinct row sets made as many entries of n x 8 bytes
+    each (before: 40 here). The memo keeps the most recent few, and gives the same value
+    as a fresh computation."""
+    rng = np.random.default_rng(3)
+    n = 30
+    M = rng.standard_normal((n, n))
+    cache = MatrixCache(M)
+    q, z = np.full(n, -1e6), np.zeros(n)  # |q~| / max |M~| decides: M~ is read
+    for _ in range(40):
+        D = 1.0 + rng.random(n)
+        got = lemke_module._z_scale(M, q, z, np.zeros(0), D, cache)
+        assert got == lemke_module._z_scale(M, q, z, np.zeros(0), D, None)
+    kept = [key for key in cache._memo if key[0] == "absmax"]
+    assert 1 <= len(kept) <= lemke_module._ABSMAX_KEEP < 40
+    assert cache.misses["absmax"] == 40

@@ -107,6 +107,20 @@ def _rejudged(res, ms: np.ndarray, qs: np.ndarray, qsize: np.ndarray) -> None:
                         "bond's strength cancels)")
 
 
+def _reach(big: np.ndarray, inv: np.ndarray, skip: np.ndarray | None = None) -> np.ndarray:
+    """(n,): each column's largest M_ij^2 / M_ii over the rows i with inv_i = 1 / M_ii > 0,
+    leaving out the entries where skip(i0, i1) (a (rows, n) bool block) is True."""
+    n = big.shape[0]
+    reach = np.zeros(n)
+    for i0, i1 in row_blocks(n):  # (no n x n temporary)
+        blk = big[i0:i1]
+        r = blk * blk * inv[i0:i1, None]
+        if skip is not None:
+            r[skip(i0, i1)] = 0.0
+        np.maximum(reach, r.max(axis=0), out=reach)
+    return reach
+
+
 def _symmetric_scaling(big: np.ndarray) -> np.ndarray:
     """d (n,): the symmetric scaling of the LCP matrix big (n, n), 1 / sqrt(ref) with ref
     its diagonal entry where that is not round-off, else the column's largest |entry| (1
@@ -116,16 +130,27 @@ def _symmetric_scaling(big: np.ndarray) -> np.ndarray:
     diagonal entry: compliance for p, whose column also holds mu and dimensionless
     couplings. Compared with those directly (before), the p columns of an interface whose
     compliance was below 1e-12 (E ~ 1e15 on unit geometry) were scaled by mu and lost
-    their forces (configs/hard/tangential_contrast.toml, floating: p 11% off)."""
+    their forces (configs/hard/tangential_contrast.toml, floating: p 11% off).
+
+    A row whose own diagonal is round-off by that test (a floating mode that slides no
+    pair: Z ~ 1e-35 beside V ~ 1) is left out of the reach of the columns whose diagonal
+    is larger relative to their largest entry than its own: of such a pair of rows it is
+    the round-off one (before: it made p columns fall back to their largest entry, 216
+    times their diagonal on configs/hard/squeezed.toml turned by 90 deg, whose first step
+    took 26 Lemke pivots instead of 6)."""
     n = big.shape[0]
     diag = np.abs(np.diagonal(big))
     inv = np.divide(1.0, diag, out=np.zeros(n), where=diag > 0)
-    reach = np.zeros(n)
-    for i0, i1 in row_blocks(n):  # (no n x n temporary)
-        blk = big[i0:i1]
-        np.maximum(reach, (blk * blk * inv[i0:i1, None]).max(axis=0), out=reach)
     colmax = absmax(big, axis=0) if n else np.zeros(0)
-    ref = np.where(diag > 1e-12 * reach, diag, colmax)
+    reach = _reach(big, inv)
+    own = diag > 1e-12 * reach
+    suspect = (diag > 0) & ~own
+    if suspect.any():
+        rel = np.divide(diag, colmax, out=np.zeros(n), where=colmax > 0)
+        reach = _reach(big, inv, lambda i0, i1: suspect[i0:i1, None]
+                       & (rel[i0:i1, None] < rel[None, :]))
+        own = diag > 1e-12 * reach
+    ref = np.where(own, diag, colmax)
     return 1.0 / np.sqrt(np.where(ref > 0, ref, 1.0))
 
 
@@ -153,6 +178,7 @@ class ContactLCP:
         self.nm, self.tm = cm.nm, cm.tm
         self.tm_all = np.zeros((m, 0)) if t_modes is None else t_modes
         self.h, self.bm, self.v, self.w, self.z = cm.h, cm.bm, cm.v, cm.w, cm.z
+        self.apply_h = cm.apply_h  # H x with the null-space tie apart (exact sums)
         # the frictional pairs tied here are dependent directions too (zero rows of C_tt;
         # `tangential_stiffness` gets them tied, so it does not count them)
         self.dependent_tangential = cm.dependent + int(self.fixed_t[cm.fric].sum())
@@ -256,7 +282,7 @@ class ContactLCP:
         f = self.fric
         cnt_f = self.c[: self.m, self.m:][:, f]
         xi = dtau[f] + cnt_f.T @ a
-        hxi = self.h @ xi
+        hxi = self.apply_h(xi)
         qg = gap_free - self.c[: self.m, : self.m] @ a + cnt_f @ hxi
         eq = e0 - self.nm.T @ a + self.tm.T @ hxi
         return np.concatenate([qg, base[f] + hxi, base[f] - hxi, -eq, eq])
@@ -309,7 +335,7 @@ class ContactLCP:
         if self.mf:
             cnt_f = self.c[:m, m:][:, f]
             rhs = free[1][f] - cnt_f.T @ p + sp_ - sm_ - self.tm @ alpha
-            q[f] = self.h @ rhs
+            q[f] = self.apply_h(rhs)
             splus[f], sminus[f] = sp_, sm_
         cn = self.c[:m]
         ct = self.c[m:]

@@ -83,10 +83,28 @@ class CoulombMatrix:
     nm: np.ndarray
     tm: np.ndarray
     dependent: int
+    h_range: np.ndarray | None = None
+    tie: np.ndarray | None = None
+
+    def apply_h(self, x: np.ndarray) -> np.ndarray:
+        """H x (x (mf,) or (mf, k)) as h_range x + tie (tie^T x) (`tangential_parts`): the
+        summed force of dependent rows exact to round-off, not to eps x the tie."""
+        if self.tie is None or self.tie.shape[1] == 0:
+            return self.h @ x
+        return self.h_range @ x + self.tie @ (self.tie.T @ x)
 
 
 def tangential_stiffness(ctt: np.ndarray) -> tuple[np.ndarray, int]:
-    """(H, n_dependent): H = C_tt^-1, (mf, mf), and the number of dependent directions.
+    """(H, n_dependent): H = C_tt^-1, (mf, mf), and the number of dependent directions
+    (`tangential_parts` summed)."""
+    h_range, tie, dependent = tangential_parts(ctt)
+    h = h_range + tie @ tie.T if tie.shape[1] else h_range
+    return 0.5 * (h + h.T), dependent
+
+
+def tangential_parts(ctt: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
+    """(H_range, tie, n_dependent) with H = H_range + tie tie^T = C_tt^-1 (mf, mf), tie
+    (mf, n_null) = sqrt(k0) D^-1/2 N0 (empty without a null space).
 
     C_tt is singular when tangential rows of G are dependent on the free DOFs: a pair
     whose tangential motion is fixed by supports (a zero or round-off row: `fixed_rows`,
@@ -100,7 +118,10 @@ def tangential_stiffness(ctt: np.ndarray) -> tuple[np.ndarray, int]:
     S^+ = V diag(1/lambda) V^T + k0 N0 N0^T on S's eigenvectors, k0 = NULL_STIFFNESS_REL x
     the largest kept 1/lambda: a stiff tie on the null space N0, so the LCP stays regular
     and picks one of the equivalent force splits, while the displacements, which come
-    from C, are exact. The count includes the fixed rows.
+    from C, are exact. The count includes the fixed rows. The tie is kept apart: summed
+    into H, its entries (k0 / 2 on the two rows of a pair of equal rows) carry round-off
+    eps x k0, and the summed force of such rows was exact to only 1.5e-7 (eps x 1e9);
+    products with H taken part by part (`CoulombMatrix.apply_h`) keep it to round-off.
     """
     ctt = 0.5 * (ctt + ctt.T)
     if not np.isfinite(ctt).all():
@@ -113,15 +134,16 @@ def tangential_stiffness(ctt: np.ndarray) -> tuple[np.ndarray, int]:
     if fixed.any():
         ctt = tie_fixed(ctt, np.flatnonzero(fixed), tie)
     root = np.sqrt(np.diagonal(ctt))
-    hs, dependent = _unit_diagonal_inverse(ctt / root[:, None] / root[None, :])
+    hs, ns, dependent = _unit_diagonal_inverse(ctt / root[:, None] / root[None, :])
     h = hs / root[:, None] / root[None, :]
-    return 0.5 * (h + h.T), dependent + int(fixed.sum())
+    return 0.5 * (h + h.T), ns / root[:, None], dependent + int(fixed.sum())
 
 
-def _unit_diagonal_inverse(s: np.ndarray) -> tuple[np.ndarray, int]:
-    """(S^+, n_null) of a symmetric positive semidefinite S with unit diagonal: S^-1 by
-    Cholesky when its smallest pivot^2 is above DEPENDENT_REL, else from the eigenvectors
-    with a stiff tie on the null space (see `tangential_stiffness`)."""
+def _unit_diagonal_inverse(s: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
+    """(S^+ on the range, sqrt(k0) N0 (n, n_null), n_null) of a symmetric positive
+    semidefinite S with unit diagonal: S^-1 by Cholesky when its smallest pivot^2 is
+    above DEPENDENT_REL, else from the eigenvectors with a stiff tie k0 N0 N0^T on the
+    null space (see `tangential_stiffness`)."""
     try:
         fac = cho_factor(s)
         ok = float(np.diag(fac[0]).min()) ** 2 > DEPENDENT_REL
@@ -131,7 +153,7 @@ def _unit_diagonal_inverse(s: np.ndarray) -> tuple[np.ndarray, int]:
     except np.linalg.LinAlgError:
         ok = False
     if ok:
-        return h, 0
+        return h, np.zeros((s.shape[0], 0)), 0
     try:
         lam, vec = np.linalg.eigh(s)
     except np.linalg.LinAlgError:
@@ -141,7 +163,7 @@ def _unit_diagonal_inverse(s: np.ndarray) -> tuple[np.ndarray, int]:
     keep = lam > DEPENDENT_REL * float(lam.max())  # lam.max() >= 1: unit diagonal
     vk, vn = vec[:, keep], vec[:, ~keep]
     k0 = NULL_STIFFNESS_REL / float(lam[keep].min())
-    return (vk / lam[keep]) @ vk.T + k0 * (vn @ vn.T), int((~keep).sum())
+    return (vk / lam[keep]) @ vk.T, np.sqrt(k0) * vn, int((~keep).sum())
 
 
 def coulomb_matrix(c: np.ndarray, mu: np.ndarray, frictional: np.ndarray,
@@ -157,13 +179,18 @@ def coulomb_matrix(c: np.ndarray, mu: np.ndarray, frictional: np.ndarray,
     r = 0 if n_modes is None else n_modes.shape[1]
     nm = np.zeros((m, 0)) if n_modes is None else n_modes
     tm = np.zeros((mf, 0)) if t_modes is None else t_modes[f]
-    h, dependent = tangential_stiffness(ctt) if mf else (np.zeros((0, 0)), 0)
-    bm = cnt @ h  # (m, mf)
+    h_range, tie, dependent = tangential_parts(ctt) if mf else \
+        (np.zeros((0, 0)), np.zeros((0, 0)), 0)
+    h = h_range + tie @ tie.T if tie.shape[1] else h_range
+    h = 0.5 * (h + h.T)
+    # the products part by part: the tie's round-off (eps x k0) stays in the H block
+    bm = cnt @ h_range + (cnt @ tie) @ tie.T if tie.shape[1] else cnt @ h  # (m, mf)
     a = cnn - bm @ cnt.T
     a = 0.5 * (a + a.T)
     d = np.zeros((mf, m))
     d[np.arange(mf), f] = mu[f]
-    v, w = nm - bm @ tm, h @ tm
+    w = h_range @ tm + tie @ (tie.T @ tm) if tie.shape[1] else h @ tm
+    v = nm - bm @ tm
     z = tm.T @ w
     n = m + 2 * mf + 2 * r
     edges = [0, m, m + mf, m + 2 * mf, m + 2 * mf + r, n]
@@ -173,4 +200,5 @@ def coulomb_matrix(c: np.ndarray, mu: np.ndarray, frictional: np.ndarray,
     for bi, row in enumerate(blocks):
         for bj, blk in enumerate(row):
             big[edges[bi]:edges[bi + 1], edges[bj]:edges[bj + 1]] = blk
-    return CoulombMatrix(big, edges, h, bm, v, w, z, f, nm, tm, dependent)
+    return CoulombMatrix(big, edges, h, bm, v, w, z, f, nm, tm, dependent,
+                         h_range if tie.shape[1] else None, tie if tie.shape[1] else None)

@@ -89,15 +89,22 @@ _SETTLE_REL = 1e-14
 size pass without the row size (so `residual` stays a round-off figure)."""
 _WARM_CRASH = 5
 """Block pivoting iterations tried from a warm-start basis that does not solve the LCP."""
+_ABSMAX_KEEP = 4
+"""The scalings D whose max |D M D| `_z_scale` keeps (the most recent): D depends on the
+check's violating rows (`_floor_D`), so a run could add an entry of n x 8 bytes per
+distinct set of them."""
+
 _NEAR = 1e-6
 """A warm-start basis whose answer on a kept block solver (`_try_given`) fails the final
 check by less than this relative violation is tried again with a fresh LU (the bordered
 solve's round-off could be what fails); one that fails by more does not solve the LCP."""
 
 
-def _memo(cache: MatrixCache | None, key: tuple, compute: Callable[[], Any]) -> Any:
-    """compute(), kept in the cache under key when there is one (for this M)."""
-    return compute() if cache is None else cache.get(key, compute)
+def _memo(cache: MatrixCache | None, key: tuple, compute: Callable[[], Any],
+          keep: int | None = None) -> Any:
+    """compute(), kept in the cache under key when there is one (for this M); keep: see
+    `MatrixCache.get`."""
+    return compute() if cache is None else cache.get(key, compute, keep)
 
 
 def _validate(M, q, sample: bool = False, cache: MatrixCache | None = None
@@ -231,7 +238,7 @@ def _z_scale(M: np.ndarray, q: np.ndarray, z: np.ndarray, row_max: np.ndarray,
         return z_max  # max |M~| >= known, so max |q~| / max |M~| <= z_max
     m_max = _memo(cache, ("absmax", D.tobytes()), lambda: max(
         (float(_absmax(D[i0:i1, None] * M[i0:i1] * D)) for i0, i1 in _row_blocks(q.size)),
-        default=0.0))
+        default=0.0), keep=_ABSMAX_KEEP)
     return max(z_max, q_max / m_max if m_max > 0 else 0.0)
 
 

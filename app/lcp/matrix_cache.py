@@ -45,14 +45,22 @@ class MatrixCache:
         self.hits: Counter[str] = Counter()
         self.misses: Counter[str] = Counter()
 
-    def get(self, key: Hashable, compute: Callable[[], Any]) -> Any:
-        """The entry `key` (a tuple whose first item names its kind), computed once."""
+    def get(self, key: Hashable, compute: Callable[[], Any], keep: int | None = None) -> Any:
+        """The entry `key` (a tuple whose first item names its kind), computed once.
+        keep: at most this many entries of the kind are kept, the most recently used
+        (for kinds keyed on data that can take many values over a run)."""
         kind = key[0] if isinstance(key, tuple) else str(key)
         if key in self._memo:
             self.hits[kind] += 1
+            if keep is not None:  # most recently used last
+                self._memo[key] = self._memo.pop(key)
             return self._memo[key]
         self.misses[kind] += 1
         value = self._memo[key] = compute()
+        if keep is not None:
+            mine = [k for k in self._memo if isinstance(k, tuple) and k[0] == kind]
+            for k in mine[:-keep]:
+                del self._memo[k]
         return value
 
 
