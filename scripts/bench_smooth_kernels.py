@@ -34,6 +34,7 @@ from pathlib import Path
 
 import numpy as np
 from app_runner import ENV, ROOT
+from bench_indent_ratio import quadratic_bspline_weights
 
 sys.path.insert(0, str(ROOT))
 from app.contact import mortar_smooth  # noqa: E402
@@ -72,15 +73,9 @@ KERNELS: dict[str, Callable[[np.ndarray], np.ndarray] | None] = {
 def bspline_weights(eta: np.ndarray, has_prev: np.ndarray, has_next: np.ndarray,
                     lengths: np.ndarray | None = None) -> np.ndarray:
     """The first master: the uniform quadratic B-spline, knots at the segments' midpoints,
-    a missing neighbour reflected (2 x_a - x_b) and folded into a and b."""
-    left = eta < 0.5
-    u = np.where(left, eta + 0.5, eta - 0.5)
-    b0, b1, b2 = 0.5 * (1 - u) ** 2, 0.5 * (1 + 2 * u - 2 * u * u), 0.5 * u * u
-    hp, hn = has_prev[:, None], has_next[:, None]
-    zero = np.zeros_like(eta)
-    w_a = np.where(left, b1 + np.where(hp, 0, 2 * b0), b0 - np.where(hn, 0, b2))
-    w_b = np.where(left, b2 - np.where(hp, 0, b0), b1 + np.where(hn, 0, 2 * b2))
-    return np.stack([np.where(left & hp, b0, zero), w_a, w_b, np.where(~left & hn, b2, zero)])
+    a missing neighbour reflected (2 x_a - x_b) and folded into a and b (the weights of
+    `bench_indent_ratio.quadratic_bspline_weights`; lengths unused)."""
+    return quadratic_bspline_weights(eta, has_prev, has_next)
 
 
 def install(name: str) -> None:
