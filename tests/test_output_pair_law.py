@@ -220,3 +220,27 @@ def test_warning_text_and_nan():
                      np.zeros(0), np.zeros(0, int), [])
     assert empty == {"normal": 0.0, "tangential": 0.0, "consistency": 0.0, "by_interface": {}}
     assert kkt_pairs_warning(empty, 1) is None
+
+
+def test_force_round_off_of_a_long_slide_reads_below_the_warning():
+    """bonded.toml pulled off, then the lifted block slid 27 (ux history extended to
+    1000): the open pairs' q is recovered from a tangential motion of 27 through
+    H ~ 1 / C_tt, so it carries round-off eps x 27 / C_tt (6.8e-12 at C_tt = 5.8e-3), far
+    above FORCE_FLOOR of the run's forces (380: 5.3e-6), and read 1.26e-6 with a
+    warning. The force a pair's kinematic round-off makes through its own compliance
+    (floor / C_ii) is round-off of its forces too. A real force there (1e-3 of the run's)
+    still fails."""
+    interface = np.zeros(1, dtype=int)
+    c_diag = np.array([5.8e-3, 5.8e-3])
+    g_abs = sp.csr_matrix(np.array([[1.0, 1.0], [1.0, 1.0]]))
+    floor = kinematic_floor(g_abs, np.array([30.0, 30.0]), np.array([0.016]), np.zeros(1))
+
+    def tangential(q: float) -> float:
+        forces = np.stack([np.zeros(1), np.array([q])])
+        f, s = pair_scales(c_diag, interface, forces, 380.0, floor)
+        return pair_residuals(np.full(1, 0.016), np.full(1, 27.0), np.zeros(1),
+                              np.array([q]), np.full(1, 0.3), np.zeros(1), np.zeros(1),
+                              np.ones(1, bool), f, s)[1][0]
+
+    assert tangential(6.8e-12) <= 0.1 * PAIR_WARN
+    assert tangential(0.38) > 1e3 * PAIR_WARN

@@ -95,6 +95,11 @@ def pair_scales(c_diag: np.ndarray, interface: np.ndarray, forces: np.ndarray,
     biggest = np.array([size[interface == k].max(initial=0.0) for k in range(n_itf)])
     force_floor = max(FORCE_FLOOR, solve_rel / PAIR_WARN)
     f = np.maximum(biggest[interface] if m else np.zeros(0), force_floor * f_run)
+    # the force its kinematic round-off makes through its own compliance: the LCP's
+    # forces come from its kinematics (q = H (...), H ~ 1 / C_tt), so they carry it
+    with np.errstate(divide="ignore", invalid="ignore"):
+        own = np.where(comp > 0, floor / (PAIR_WARN * comp), 0.0)
+    f = np.maximum(f, np.maximum(own[:m], own[m:]))
     s = np.maximum(comp * np.concatenate([f, f]), floor / PAIR_WARN)
     return f, s
 
