@@ -244,3 +244,28 @@ def test_force_round_off_of_a_long_slide_reads_below_the_warning():
 
     assert tangential(6.8e-12) <= 0.1 * PAIR_WARN
     assert tangential(0.38) > 1e3 * PAIR_WARN
+
+
+def test_a_strong_bond_does_not_set_the_motion_scale():
+    """bonded.toml with a = c = 1e12 (forces of 1 to 380): with the bond's a and c in the
+    motion's scale, s = C_ii 1e12 and p or q 1e-3 off read 7e-14 per pair (the run-wide
+    KKT read 1.0). The motion is judged against the pairs' own forces and the loads
+    (`motion`); the force residuals (p + a, |q| - mu p - c) keep a and c in their scale."""
+    c = _compliance(1.0)
+    lam_true = np.concatenate([np.ones(M), np.full(M, 0.2)])
+    bond = np.full(M, 1e12)
+    floor = ROUNDOFF_ULPS * EPS * (np.abs(c) @ np.abs(lam_true))
+
+    def worst(lam: np.ndarray, motion) -> float:
+        gap, tau, _ = _answer(c, lam, lam_true)
+        forces = np.stack([lam[:M], lam[M:], bond, bond])
+        f, s = pair_scales(np.diagonal(c), INTERFACE, forces, 1e12, floor, 0.0,
+                           None if motion is None else (forces[:2], 1.0))
+        out = pair_law(gap, tau, lam[:M], lam[M:], MU, bond, bond, FRICTIONAL, f, s,
+                       np.zeros(2 * M), INTERFACE, NAMES)
+        return max(out["normal"], out["tangential"])
+
+    wrong = lam_true * np.concatenate([np.full(M, 1 + 1e-3), np.ones(M)])
+    assert worst(wrong, None) < 1e-12  # blind with the bond in the scale
+    assert worst(wrong, "pq") > 1e-4
+    assert worst(lam_true, "pq") <= 1e-12
