@@ -269,3 +269,19 @@ def test_a_strong_bond_does_not_set_the_motion_scale():
     assert worst(wrong, None) < 1e-12  # blind with the bond in the scale
     assert worst(wrong, "pq") > 1e-4
     assert worst(lam_true, "pq") <= 1e-12
+
+
+def test_a_fixed_tangential_row_does_not_blind_the_normal_check():
+    """A pair whose tangential motion the supports fix (C_tt round-off, 1e-35: the LCP
+    ties it) and whose normal compliance is 1e-3: the force its tangential round-off
+    makes through the tie is no scale for its gap (judged so, a gap error of 1e-3 of its
+    own motion read 1e-7); the normal check keeps C_nn F."""
+    interface = np.zeros(2, dtype=int)
+    c_diag = np.array([1e-3, 1e-3, 1e-35, 1e-3])
+    g_abs = sp.csr_matrix(np.eye(4))
+    floor = kinematic_floor(g_abs, np.full(4, 1e-3), np.zeros(2), np.zeros(2))
+    forces = np.stack([np.ones(2), np.zeros(2)])
+    f, s = pair_scales(c_diag, interface, forces, 1.0, floor)
+    r_n, _ = pair_residuals(np.array([-1e-6, 0.0]), np.zeros(2), np.ones(2), np.zeros(2),
+                            np.zeros(2), np.zeros(2), np.zeros(2), np.zeros(2, bool), f, s)
+    assert r_n[0] > 1e-4

@@ -91,19 +91,23 @@ def pair_scales(c_diag: np.ndarray, interface: np.ndarray, forces: np.ndarray,
     1e-3 off (read 7e-14; the run-wide KKT read 1.0))."""
     m = interface.size
     comp = np.abs(c_diag).copy()
+    tied = np.zeros(2 * m, dtype=bool)
     for block in (slice(0, m), slice(m, 2 * m)):
         rows, _ = fixed_rows(comp[block])
         top = float(comp[block].max(initial=0.0))
         comp[block][rows] = np.maximum(comp[block][rows], FIXED_COMPLIANCE_REL * top)
+        tied[block][rows] = True
     force_floor = max(FORCE_FLOOR, solve_rel / PAIR_WARN)
     # the force its kinematic round-off makes through its own compliance: the LCP's
-    # forces come from its kinematics (q = H (...), H ~ 1 / C_tt), so they carry it
+    # forces come from its kinematics (q = H (...), H ~ 1 / C_tt), so they carry it (not
+    # through a tied row's stiff tie: its force is the tie's, no scale of the pair's)
     with np.errstate(divide="ignore", invalid="ignore"):
-        own = np.where(comp > 0, floor / (PAIR_WARN * comp), 0.0)
-    own = np.maximum(own[:m], own[m:])
-    f = np.maximum(_interface_max(forces, interface, force_floor * f_run), own)
-    fk = f if motion is None else np.maximum(
-        _interface_max(motion[0], interface, force_floor * motion[1]), own)
+        own = np.where((comp > 0) & ~tied, floor / (PAIR_WARN * comp), 0.0)
+    f = np.maximum(_interface_max(forces, interface, force_floor * f_run),
+                   np.maximum(own[:m], own[m:]))
+    # the motion: C_ii x the forces (floor / PAIR_WARN is the own floor of its row)
+    fk = _interface_max(forces, interface, force_floor * f_run) if motion is None else \
+        _interface_max(motion[0], interface, force_floor * motion[1])
     s = np.maximum(comp * np.concatenate([fk, fk]), floor / PAIR_WARN)
     return f, s
 
