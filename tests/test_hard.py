@@ -213,6 +213,35 @@ def test_the_refinement_sees_a_mismatch_on_the_stiff_interface(tmp_path, monkeyp
           f", kkt_pairs consistency {st['kkt_pairs']['consistency']:.1e}")
 
 
+def test_a_wrong_force_under_a_strong_bond_is_seen(tmp_path, monkeypatch):
+    """bonded.toml with a = c = 1e12 (it never debonds; forces of 1 to 380): p 1e-3 off
+    in each LCP answer, its kinematics and the displacement recovered from those forces.
+    With the bond's a and c in the pairs' motion scale (C_ii x 1e12) kkt_pairs read
+    7.5e-14 (the run-wide KKT 1.0); now 4.5e-3 with a warning. Untouched, 3.8e-14."""
+    from app.interface.steps import ContactStepper
+
+    solve_ = ContactStepper._solve
+
+    def wrong(self, *args):
+        out = solve_(self, *args)
+        if out.solved:
+            d = np.zeros(2 * self.m)
+            d[: self.m] = 1e-3 * out.lam[: self.m]
+            out.lam = out.lam + d
+            out.kinematics = out.kinematics + self.lcp.c @ d
+        return out
+
+    raw = tomllib.loads((CONFIGS / "bonded.toml").read_text())
+    apply_overrides(raw, ["interface.bond.a=1e12", "interface.bond.c=1e12"])
+    cfg = parse_config(raw, CONFIGS / "bonded.toml")
+    right = run(cfg, RunOptions(out=tmp_path / "right", quiet=True))
+    assert max(st["kkt_pairs"][k] for st in right["steps"] for k in PAIR_KEYS) <= PAIR_WARN
+    monkeypatch.setattr(ContactStepper, "_solve", wrong)
+    s = run(cfg, RunOptions(out=tmp_path / "wrong", quiet=True))
+    assert max(st["kkt_pairs"]["normal"] for st in s["steps"]) > 1e-4
+    assert any("own scale" in w for w in s["warnings"])
+
+
 def test_an_unbalanced_floating_body_shows_in_its_balance(tmp_path, monkeypatch):
     """q of the stiff interface 1e-3 off in every LCP answer, the re-solves included: the
     refinement moves the error into the floating core's equilibrium (the pins of its

@@ -220,3 +220,68 @@ def test_warning_text_and_nan():
                      np.zeros(0), np.zeros(0, int), [])
     assert empty == {"normal": 0.0, "tangential": 0.0, "consistency": 0.0, "by_interface": {}}
     assert kkt_pairs_warning(empty, 1) is None
+
+
+def test_force_round_off_of_a_long_slide_reads_below_the_warning():
+    """bonded.toml pulled off, then the lifted block slid 27 (ux history extended to
+    1000): the open pairs' q is recovered from a tangential motion of 27 through
+    H ~ 1 / C_tt, so it carries round-off eps x 27 / C_tt (6.8e-12 at C_tt = 5.8e-3), far
+    above FORCE_FLOOR of the run's forces (380: 5.3e-6), and read 1.26e-6 with a
+    warning. The force a pair's kinematic round-off makes through its own compliance
+    (floor / C_ii) is round-off of its forces too. A real force there (1e-3 of the run's)
+    still fails."""
+    interface = np.zeros(1, dtype=int)
+    c_diag = np.array([5.8e-3, 5.8e-3])
+    g_abs = sp.csr_matrix(np.array([[1.0, 1.0], [1.0, 1.0]]))
+    floor = kinematic_floor(g_abs, np.array([30.0, 30.0]), np.array([0.016]), np.zeros(1))
+
+    def tangential(q: float) -> float:
+        forces = np.stack([np.zeros(1), np.array([q])])
+        f, s = pair_scales(c_diag, interface, forces, 380.0, floor)
+        return pair_residuals(np.full(1, 0.016), np.full(1, 27.0), np.zeros(1),
+                              np.array([q]), np.full(1, 0.3), np.zeros(1), np.zeros(1),
+                              np.ones(1, bool), f, s)[1][0]
+
+    assert tangential(6.8e-12) <= 0.1 * PAIR_WARN
+    assert tangential(0.38) > 1e3 * PAIR_WARN
+
+
+def test_a_strong_bond_does_not_set_the_motion_scale():
+    """bonded.toml with a = c = 1e12 (forces of 1 to 380): with the bond's a and c in the
+    motion's scale, s = C_ii 1e12 and p or q 1e-3 off read 7e-14 per pair (the run-wide
+    KKT read 1.0). The motion is judged against the pairs' own forces and the loads
+    (`motion`); the force residuals (p + a, |q| - mu p - c) keep a and c in their scale."""
+    c = _compliance(1.0)
+    lam_true = np.concatenate([np.ones(M), np.full(M, 0.2)])
+    bond = np.full(M, 1e12)
+    floor = ROUNDOFF_ULPS * EPS * (np.abs(c) @ np.abs(lam_true))
+
+    def worst(lam: np.ndarray, motion) -> float:
+        gap, tau, _ = _answer(c, lam, lam_true)
+        forces = np.stack([lam[:M], lam[M:], bond, bond])
+        f, s = pair_scales(np.diagonal(c), INTERFACE, forces, 1e12, floor, 0.0,
+                           None if motion is None else (forces[:2], 1.0))
+        out = pair_law(gap, tau, lam[:M], lam[M:], MU, bond, bond, FRICTIONAL, f, s,
+                       np.zeros(2 * M), INTERFACE, NAMES)
+        return max(out["normal"], out["tangential"])
+
+    wrong = lam_true * np.concatenate([np.full(M, 1 + 1e-3), np.ones(M)])
+    assert worst(wrong, None) < 1e-12  # blind with the bond in the scale
+    assert worst(wrong, "pq") > 1e-4
+    assert worst(lam_true, "pq") <= 1e-12
+
+
+def test_a_fixed_tangential_row_does_not_blind_the_normal_check():
+    """A pair whose tangential motion the supports fix (C_tt round-off, 1e-35: the LCP
+    ties it) and whose normal compliance is 1e-3: the force its tangential round-off
+    makes through the tie is no scale for its gap (judged so, a gap error of 1e-3 of its
+    own motion read 1e-7); the normal check keeps C_nn F."""
+    interface = np.zeros(2, dtype=int)
+    c_diag = np.array([1e-3, 1e-3, 1e-35, 1e-3])
+    g_abs = sp.csr_matrix(np.eye(4))
+    floor = kinematic_floor(g_abs, np.full(4, 1e-3), np.zeros(2), np.zeros(2))
+    forces = np.stack([np.ones(2), np.zeros(2)])
+    f, s = pair_scales(c_diag, interface, forces, 1.0, floor)
+    r_n, _ = pair_residuals(np.array([-1e-6, 0.0]), np.zeros(2), np.ones(2), np.zeros(2),
+                            np.zeros(2), np.zeros(2), np.zeros(2), np.zeros(2, bool), f, s)
+    assert r_n[0] > 1e-4

@@ -194,7 +194,9 @@ class StepSolution:
     and u_scale the problem's force and displacement scales (the largest load, the
     largest unit-load contact motion or initial gap); compliance_diag (2m,) the diagonal
     of the compliance C (normal rows, then tangential), each pair's own scale for the
-    per-pair law check (`app.output.pair_law`); info the step's summary.json entries.
+    per-pair law check (`app.output.pair_law`); load_scale the part of f_scale from the
+    loads alone (without the bond's a and c: the per-pair kinematic scale); info the
+    step's summary.json entries.
     """
 
     status: str
@@ -211,6 +213,7 @@ class StepSolution:
     f_scale: float = 0.0
     u_scale: float = 0.0
     compliance_diag: np.ndarray | None = None
+    load_scale: float = 0.0
     info: dict = field(default_factory=dict)
 
     @property
@@ -277,8 +280,8 @@ class ContactStepper:
                     np.abs(pr.g0).max(initial=0.0), 1e-300)
         self.tol = 1e-7 * scale
         self.u_scale = scale if scale > 1e-300 else 0.0  # the KKT check's floor
-        self.f_scale = max(max((np.abs(b).sum() for b in rhs), default=0.0),
-                           np.abs(self.hist.a).max(initial=0.0),
+        self.load_scale = max((np.abs(b).sum() for b in rhs), default=0.0)
+        self.f_scale = max(self.load_scale, np.abs(self.hist.a).max(initial=0.0),
                            np.abs(self.hist.c).max(initial=0.0))
 
     def refine(self, step: int, cases, correction: np.ndarray) -> StepSolution | None:
@@ -416,5 +419,6 @@ class ContactStepper:
         out.state, out.debonded_step = res.state, res.debonded_step
         out.tau_prev, out.slip, out.f_scale = tau_prev, self.slip.copy(), self.f_scale
         out.u_scale, out.compliance_diag = self.u_scale, self.c_diag
+        out.load_scale = self.load_scale
         out.a, out.c = self.hist.a.copy(), self.hist.c.copy()
         return out

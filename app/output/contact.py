@@ -64,7 +64,7 @@ def pair_scales_of(setup, result: StepSolution, u: np.ndarray, node_body: np.nda
                    solve_rel: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(G u (2m,), F (m,), s (2m,)): the step's kinematics from u (2n,) and each pair's
     own force and kinematic scales (`app.output.pair_law.pair_scales`) from the LCP
-    result (lam, compliance_diag, a, c, tau_prev, f_scale); node_body (n,) body index of
+    result (lam, compliance_diag, a, c, tau_prev, f_scale, load_scale); node_body (n,) body index of
     each node; solve_rel the linear solves' relative residual if iterative (else 0). No
     solve: O(nnz(G) + n + m)."""
     pr = setup.pairs
@@ -73,8 +73,10 @@ def pair_scales_of(setup, result: StepSolution, u: np.ndarray, node_body: np.nda
                             solve_rel)
     forces = np.stack([result.lam[:m], result.lam[m:], result.a, result.c])
     f_run = max(float(np.abs(forces).max(initial=0.0)), result.f_scale)
+    # the motion's scale from the pairs' own forces and the loads, not the bond's a, c
+    lam_run = max(float(np.abs(result.lam).max(initial=0.0)), result.load_scale)
     f, s = pair_scales(result.compliance_diag, pr.interface, forces, f_run, floor,
-                       solve_rel)
+                       solve_rel, (forces[:2], lam_run))
     return setup.g @ u, f, s
 
 

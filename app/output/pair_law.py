@@ -70,8 +70,9 @@ def kinematic_floor(g_abs, ub: np.ndarray, g0: np.ndarray, tau_prev: np.ndarray,
 
 
 def pair_scales(c_diag: np.ndarray, interface: np.ndarray, forces: np.ndarray,
-                f_run: float, floor: np.ndarray,
-                solve_rel: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+                f_run: float, floor: np.ndarray, solve_rel: float = 0.0,
+                motion: tuple[np.ndarray, float] | None = None
+                ) -> tuple[np.ndarray, np.ndarray]:
     """(F (m,), s (2m,)): each pair's force scale, its interface's largest |force| (at
     least FORCE_FLOOR f_run, or solve_rel / PAIR_WARN f_run where the linear solves'
     relative residual solve_rel (iterative, else 0) is larger than ROUNDOFF_ULPS eps: the
@@ -83,20 +84,40 @@ def pair_scales(c_diag: np.ndarray, interface: np.ndarray, forces: np.ndarray,
     reads at most PAIR_WARN. c_diag (2m,) the compliance diagonal; interface (m,) int;
     forces (k, m) the force arrays that set the scale (p, q, a, c). A pair whose
     compliance is round-off (`fixed_rows`: the supports fix its motion; 1e-35 on
-    two_blocks.toml's end pairs) is judged with the stiff tie the LCP gives it."""
+    two_blocks.toml's end pairs) is judged with the stiff tie the LCP gives it.
+    motion: (forces (k, m), f_run) that set the kinematic scale in place of `forces` and
+    `f_run` (the pairs' own p and q and the loads, not the bond's a and c: a bond of
+    a = c = 1e12 on bonded.toml, forces of 1 to 380, made s = C_ii 1e12 and hid p or q
+    1e-3 off (read 7e-14; the run-wide KKT read 1.0))."""
     m = interface.size
     comp = np.abs(c_diag).copy()
+    tied = np.zeros(2 * m, dtype=bool)
     for block in (slice(0, m), slice(m, 2 * m)):
         rows, _ = fixed_rows(comp[block])
         top = float(comp[block].max(initial=0.0))
         comp[block][rows] = np.maximum(comp[block][rows], FIXED_COMPLIANCE_REL * top)
+        tied[block][rows] = True
+    force_floor = max(FORCE_FLOOR, solve_rel / PAIR_WARN)
+    # the force its kinematic round-off makes through its own compliance: the LCP's
+    # forces come from its kinematics (q = H (...), H ~ 1 / C_tt), so they carry it (not
+    # through a tied row's stiff tie: its force is the tie's, no scale of the pair's)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        own = np.where((comp > 0) & ~tied, floor / (PAIR_WARN * comp), 0.0)
+    f = np.maximum(_interface_max(forces, interface, force_floor * f_run),
+                   np.maximum(own[:m], own[m:]))
+    # the motion: C_ii x the forces (floor / PAIR_WARN is the own floor of its row)
+    fk = _interface_max(forces, interface, force_floor * f_run) if motion is None else \
+        _interface_max(motion[0], interface, force_floor * motion[1])
+    s = np.maximum(comp * np.concatenate([fk, fk]), floor / PAIR_WARN)
+    return f, s
+
+
+def _interface_max(forces: np.ndarray, interface: np.ndarray, least: float) -> np.ndarray:
+    """(m,) each pair's interface's largest |force| over forces (k, m), at least least."""
     n_itf = int(interface.max(initial=-1)) + 1
     size = np.abs(forces).max(axis=0, initial=0.0)
     biggest = np.array([size[interface == k].max(initial=0.0) for k in range(n_itf)])
-    force_floor = max(FORCE_FLOOR, solve_rel / PAIR_WARN)
-    f = np.maximum(biggest[interface] if m else np.zeros(0), force_floor * f_run)
-    s = np.maximum(comp * np.concatenate([f, f]), floor / PAIR_WARN)
-    return f, s
+    return np.maximum(biggest[interface] if interface.size else np.zeros(0), least)
 
 
 def pair_residuals(gap: np.ndarray, dtau: np.ndarray, p: np.ndarray, q: np.ndarray,
