@@ -103,10 +103,10 @@ def pair_scales(c_diag: np.ndarray, interface: np.ndarray, forces: np.ndarray,
     # through a tied row's stiff tie: its force is the tie's, no scale of the pair's)
     with np.errstate(divide="ignore", invalid="ignore"):
         own = np.where((comp > 0) & ~tied, floor / (PAIR_WARN * comp), 0.0)
-    f = np.maximum(_interface_max(forces, interface, force_floor * f_run),
-                   np.maximum(own[:m], own[m:]))
+    f_itf = _interface_max(forces, interface, force_floor * f_run)
+    f = np.maximum(f_itf, np.maximum(own[:m], own[m:]))
     # the motion: C_ii x the forces (floor / PAIR_WARN is the own floor of its row)
-    fk = _interface_max(forces, interface, force_floor * f_run) if motion is None else \
+    fk = f_itf if motion is None else \
         _interface_max(motion[0], interface, force_floor * motion[1])
     s = np.maximum(comp * np.concatenate([fk, fk]), floor / PAIR_WARN)
     return f, s
