@@ -206,3 +206,27 @@ def test_the_sweep_line_of_a_job_ended_by_another_ranks_failure_says_failed(tmp_
         monkeypatch.setattr(status, "_STOP_STATUS", [state])
         assert sweep_mod._write_completed(sweep).startswith(f"sweep: {state}; its 1 rows")
     assert [r["status"] for r in read_csv(tmp_path / "sweep.csv")] == ["completed", "not run"]
+
+
+def test_every_quantity_of_a_sweep_panel_is_drawn_visibly():
+    """The zone-lengths panel's fifth quantity (bonded length) was drawn with a line 0.2 pt
+    wide and markers 1 pt across (widths and sizes fell by a fixed step per quantity), so
+    the bonded length of `bonded.toml --sweep interface.bond.c=...` hardly showed."""
+    from app.plotting import pyplot
+    from app.studies.sweep import PANELS, _sweep_panel
+
+    plt = pyplot()
+    title, cols = max(PANELS, key=lambda p: len(p[1]))
+    assert len(cols) >= 5
+    rows = [{"k": k, **{c: float(i + k) for i, c in enumerate(cols)}} for k in (1.0, 2.0)]
+    fig, ax = plt.subplots()
+    try:
+        _sweep_panel(ax, title, list(cols), [rows], "k", "the last step")
+        widths = [line.get_linewidth() for line in ax.lines]
+        sizes = [line.get_markersize() for line in ax.lines]
+    finally:
+        plt.close(fig)
+    assert len(widths) == len(cols)
+    assert min(widths) >= 0.8 and min(sizes) >= 3.0
+    assert widths == sorted(widths, reverse=True)  # thick first: coinciding curves all show
+    assert sizes == sorted(sizes, reverse=True)

@@ -334,6 +334,14 @@ def plot_sweep(rows: list[dict], keys: list[str], out: Path, at_step: int = 0) -
     return paths
 
 
+def _size(i: int, n: int, first: float, last: float, step: float) -> float:
+    """Line width or marker size [pt] of quantity i of n: from `first` down by `step` per
+    quantity, thick first so that coinciding curves all show, the step shrunk so that the
+    n-th is no smaller than `last` (before: 0.2 pt lines, 1 pt markers for the fifth
+    quantity, the bonded length)."""
+    return first - i * min(step, (first - last) / max(n - 1, 1))
+
+
 def _sweep_panel(ax, title: str, cols: list[str], groups: list[list[dict]], key: str,
                  when: str) -> None:
     """One panel: the columns `cols` (colours) of every group (line styles) against key."""
@@ -345,8 +353,9 @@ def _sweep_panel(ax, title: str, cols: list[str], groups: list[list[dict]], key:
         for i, c in enumerate(cols):
             y = np.array([r.get(c, math.nan) for r in rr], dtype=float)
             if not np.all(np.isnan(y)):
-                ax.plot(x, y, marker=MARKERS[i % len(MARKERS)], ms=7 - 1.5 * i, mfc="none",
-                        color=f"C{i}", ls=STYLES[j % len(STYLES)], lw=2.2 - 0.5 * i)
+                ax.plot(x, y, marker=MARKERS[i % len(MARKERS)], ms=_size(i, len(cols), 7, 3, 1.5),
+                        mfc="none", color=f"C{i}", ls=STYLES[j % len(STYLES)],
+                        lw=_size(i, len(cols), 2.2, 0.8, 0.5))
     handles = [Line2D([], [], color=f"C{i}", marker=MARKERS[i % len(MARKERS)], mfc="none",
                       label=c.replace("_length", "").replace("_", " "))
                for i, c in enumerate(cols)]
