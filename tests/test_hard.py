@@ -55,6 +55,7 @@ def check_law(s: dict, out: Path) -> float:
         if own is not None:
             assert max(own[k] for k in PAIR_KEYS) <= PAIR_WARN, own
     assert not [w for w in s.get("warnings", []) if "own scale" in w], s["warnings"]
+    assert not [w for w in s.get("warnings", []) if "out of balance" in w], s["warnings"]
     return worst
 
 
@@ -254,6 +255,16 @@ def test_an_unbalanced_floating_body_shows_in_its_balance(tmp_path, monkeypatch)
     core = s["steps"][0]["balance"]["bodies"]["core"]
     assert core["relative_residual"] > 1e-5, core
     assert s["steps"][0]["balance"]["bodies"]["top"]["relative_residual"] < 1e-12
+
+
+def test_an_unbalanced_floating_body_warns(tmp_path, monkeypatch):
+    """The case above: the core's 9.1e-5 is above BALANCE_WARN (1e-6), so the run says
+    so, once, on stderr and in summary.json `warnings`; before, the figure alone."""
+    _wrong_stiff_q(monkeypatch, 1e-3, consistent=False)
+    s, out = solve(tmp_path, "tangential_contrast")
+    warned = [w for w in s.get("warnings", []) if "out of balance" in w]
+    assert len(warned) == 1, s.get("warnings")
+    assert warned[0].startswith("step 1: body 'core' is out of balance"), warned
 
 
 def test_iterative_solves_pass_the_per_pair_check(tmp_path):

@@ -22,6 +22,7 @@ from app.driver.model import Model
 from app.driver.rank0_io import on_rank0
 from app.driver.rank0_solve import on_rank0_solve
 from app.mesh.model import Mesh
+from app.output.balance_warning import balance_warning
 from app.output.contact import contact_arrays, kkt_pairs_check
 from app.output.kkt_warning import kkt_warning
 from app.output.pair_law import kkt_pairs_warning
@@ -93,6 +94,9 @@ def write_step(ctx: RunContext, model: Model, output: StepOutput, step: int, u: 
             contact_data = on_rank0_solve(_contact_output, ctx, model, output, solved, u, info)
         info.update(output.reactions(step, u, None if solved is None else
                                      model.contact.g.T @ solved.result.lam))
+        unbalanced = balance_warning(info["balance"], info["step"])
+        if unbalanced is not None:
+            ctx.warn(unbalanced, ("balance",))
         if model.floating is not None:  # the floating bodies' motion (rigid_modes is not)
             info["rigid_motion"] = rigid_motion(mesh.points, mesh.node_body(), mesh.body_names,
                                                 list(dict.fromkeys(model.floating.bodies)), u)
