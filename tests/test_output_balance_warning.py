@@ -23,3 +23,10 @@ def test_an_unbalanced_body_is_named():
 
 def test_nan_warns():
     assert balance_warning(_balance(top=float("nan")), 3) is not None
+
+
+def test_loose_iterative_solves_are_named_as_the_cause():
+    text = balance_warning(_balance(block=1.2e-6), 13, solve_rel=3.85e-7)
+    assert "iterative linear solves (relative residual up to 3.85e-07)" in text
+    assert "report it" not in text
+    assert "report it" in balance_warning(_balance(block=1.2e-6), 13, solve_rel=1e-12)

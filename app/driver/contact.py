@@ -64,10 +64,12 @@ def condense(ctx: RunContext, model: Model, system: LinearSystem,
 
 def solve_contact_step(ctx: RunContext, model: Model, system: LinearSystem,
                        stepper: ContactStepper | None, step: int,
-                       u_free: np.ndarray) -> ContactStep:
+                       u_free: np.ndarray, step_force: float | None = None) -> ContactStep:
     """Load step `step` (0-based): the LCP, the displacement, and up to MAX_REFINEMENTS
     consistency re-solves while |G u - LCP kinematics| halves. SolveError (with the
-    summary written) when the LCP has no solution."""
+    summary written) when the LCP has no solution. step_force: the size of the forces
+    the step applies (`UnitSolutions.step_forces`), against which the recoveries'
+    residuals are judged (None: the run's largest forces, as before)."""
     with ctx.phase("lcp"):
         result = collective(lambda: stepper.step(step, model.cases))  # on every rank
     if not result.solved:
@@ -76,7 +78,7 @@ def solve_contact_step(ctx: RunContext, model: Model, system: LinearSystem,
     refinements, previous = 0, np.inf
     while True:
         with ctx.phase("recovery"):
-            u = _displacement(model, system, u_free, result)
+            u = _displacement(model, system, u_free, result, step_force)
             miss, rel, worst, again = _consistency(ctx, model, u, result, refinements,
                                                    previous, solve_rel(system.solver))
             if not again:  # the step's answer: its checks, in the same phase
@@ -159,10 +161,13 @@ def _stripe_warnings(ctx: RunContext, model: Model, result: StepSolution, step: 
 
 
 def _displacement(model: Model, system: LinearSystem, u_free: np.ndarray,
-                  result: StepSolution) -> np.ndarray:
-    """u_free + K^-1 G^T lambda (+ the floating modes' amplitudes)."""
+                  result: StepSolution, step_force: float | None = None) -> np.ndarray:
+    """u_free + K^-1 G^T lambda (+ the floating modes' amplitudes); step_force: the
+    step's force scale that the recovery's residual is judged against. Judged against
+    the run's largest forces (before), a step of small forces after one of large forces
+    accepted a residual far above its own forces' round-off (-ksp_atol)."""
     u = u_free + contact_displacement(model.contact.g, result.lam, system.solver,
-                                      system.k, model.fixed_all, to_numpy_all)
+                                      system.k, model.fixed_all, to_numpy_all, step_force)
     if model.floating is not None and model.floating.r.shape[1]:
         u += model.floating.r @ result.alpha
     return u
