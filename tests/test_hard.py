@@ -283,6 +283,18 @@ def test_iterative_solves_pass_the_per_pair_check(tmp_path):
     assert not [w for w in s.get("warnings", []) if "own scale" in w]
 
 
+def test_mortar_smooth_shear_off_end_pairs_consistency_is_round_off(tmp_path):
+    """mortar-smooth's end pairs on hard/shear_off.toml: both sides prescribed (C = 5e-29,
+    tied in the LCP), their G rows keep coefficients of 1e-13 on free nodes, so u moves
+    them by 1.4e-18 through the pairs' forces, which the LCP's tie leaves out. Judged on
+    the u side's round-off alone, `consistency` read 6.8e-7 at step 1, near the 1e-6
+    warning; with the tied row's dropped coupling (`tied_coupling`) 6.4e-8."""
+    s, out = solve(tmp_path, "shear_off", 'interface.bond.discretisation="mortar-smooth"')
+    worst = max(st["kkt_pairs"]["consistency"] for st in s["steps"])
+    assert worst < 1e-7, worst
+    assert sum(st["consistency_refinements"] for st in s["steps"]) == 0
+
+
 def test_tolerances_scale_with_the_data(tmp_path):
     """Stiffness and loads times 1e9 or 1e-9: the same states and displacements."""
     ref, out0 = solve(tmp_path, "contrast", tag="1")

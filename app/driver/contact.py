@@ -21,7 +21,7 @@ from app.driver.rank0_solve import on_rank0_solve
 from app.errors import SolveError
 from app.interface.steps import ContactStepper, StepSolution
 from app.interface.weak_modes import slide_warning
-from app.output.contact import pair_scales_of
+from app.output.contact import consistency_scales, pair_scales_of
 from app.output.pair_law import EPS, PAIR_WARN, ROUNDOFF_ULPS
 from app.output.status import writing
 from app.parallel import collective, to_numpy_all
@@ -166,8 +166,13 @@ def _displacement(model: Model, system: LinearSystem, u_free: np.ndarray,
     step's force scale that the recovery's residual is judged against. Judged against
     the run's largest forces (before), a step of small forces after one of large forces
     accepted a residual far above its own forces' round-off (-ksp_atol)."""
-    u = u_free + contact_displacement(model.contact.g, result.lam, system.solver,
-                                      system.k, model.fixed_all, to_numpy_all, step_force)
+    g = model.contact.g
+    u_contact = contact_displacement(g, result.lam, system.solver, system.k, model.fixed_all,
+                                     to_numpy_all, step_force)
+    # lam . G K^-1 G^T lam: the bound of the motion a tied pair's dropped compliance row
+    # makes (`app.output.pair_law.tied_coupling`)
+    result.contact_work = max(float(result.lam @ (g @ u_contact)), 0.0)
+    u = u_free + u_contact
     if model.floating is not None and model.floating.r.shape[1]:
         u += model.floating.r @ result.alpha
     return u
@@ -210,7 +215,7 @@ def _consistency(ctx: RunContext, model: Model, u: np.ndarray, result: StepSolut
         # each pair against its own scale (`app.output.pair_law`): a stiff interface
         # beside a soft one moves 1e-11 as much, far below CONSISTENCY_TOL of max |u|
         _, _, s = pair_scales_of(model.contact, result, u, model.mesh.node_body(), accuracy)
-        own = float((np.abs(miss) / s).max(initial=0.0))
+        own = float((np.abs(miss) / consistency_scales(result, s)).max(initial=0.0))
         worst = max(rel / CONSISTENCY_TOL if largest > floor else 0.0, own / PAIR_WARN)
         again = worst > 1.0 and refinements < MAX_REFINEMENTS and worst < 0.5 * previous
         return miss, rel, worst, again
