@@ -63,7 +63,8 @@ def test_a_step_without_load_costs_no_consistency_re_solve(tmp_path):
 
 
 def test_the_lcp_data_round_off_is_that_of_its_largest_term():
-    """lcp_data_round_off: 64 eps x the largest of |g0 + G u_free|, |G u_free| tangential,
+    """lcp_data_round_off: 64 eps x the largest of |G| |u_free| (the free motion's terms,
+    not their sum: a row whose terms cancel still carries their round-off), |g0|,
     |tau_prev| and C_ii a, C_ii c."""
     import numpy as np
     import scipy.sparse as sp
@@ -78,6 +79,8 @@ def test_the_lcp_data_round_off_is_that_of_its_largest_term():
     unit = ROUNDOFF_ULPS * EPS
     assert lcp_data_round_off(g, np.zeros(2), np.array([0.01]), res) == unit * 0.01
     assert lcp_data_round_off(g, np.array([0.0, -3.0]), np.array([0.01]), res) == unit * 3
+    both = sp.csr_matrix(np.array([[1.0, -1.0], [0.0, 0.0]]))  # both sides move by 2: G u 0
+    assert lcp_data_round_off(both, np.array([2.0, 2.0]), np.zeros(1), res) == unit * 4
     res.c = np.array([5e3])  # a bond of strength 5e3 through C_tt = 1e-3: motion 5
     assert lcp_data_round_off(g, np.zeros(2), np.array([0.01]), res) == unit * 5
     res.tau_prev = np.array([7.0])

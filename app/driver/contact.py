@@ -179,16 +179,15 @@ def _displacement(model: Model, system: LinearSystem, u_free: np.ndarray,
 
 
 def lcp_data_round_off(g, u_free: np.ndarray, g0: np.ndarray, result: StepSolution) -> float:
-    """The round-off of the step's LCP kinematic data, ROUNDOFF_ULPS eps x their largest
-    size: the free gap and tangential motion (g0 + G u_free), tau_prev, and the motion of
-    the bonds' a and c through each pair's compliance (C_ii a, C_ii c). A mismatch G u -
-    LCP kinematics below it is round-off of the LCP's own data, which a re-solve (that
-    adds the mismatch to that data) cannot reduce. g (2m, 2n); u_free (2n,); g0 (m,)."""
-    m = g0.size
-    free = g @ u_free
-    free[:m] += g0
+    """The round-off of the step's LCP kinematic data, ROUNDOFF_ULPS eps x the largest of
+    their terms: the free motion's (|G| |u_free|), the initial gap g0, tau_prev, and the
+    motion of the bonds' a and c through each pair's compliance (C_ii a, C_ii c). A
+    mismatch G u - LCP kinematics below it is round-off of the LCP's own data, which a
+    re-solve (that adds the mismatch to that data) cannot reduce. g (2m, 2n) sparse;
+    u_free (2n,); g0 (m,)."""
     diag = np.abs(result.compliance_diag) if result.compliance_diag is not None else 0.0
-    sizes = [np.abs(free), np.abs(result.tau_prev) if result.tau_prev is not None else 0.0]
+    sizes = [abs(g) @ np.abs(u_free), np.abs(g0),
+             np.abs(result.tau_prev) if result.tau_prev is not None else 0.0]
     if result.a is not None and result.c is not None:
         sizes.append(diag * np.abs(np.concatenate([result.a, result.c])))
     return ROUNDOFF_ULPS * EPS * max(float(np.max(x, initial=0.0)) for x in sizes)
