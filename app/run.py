@@ -57,7 +57,8 @@ def _phases(ctx: RunContext) -> dict:
         u = superpose(ctx, model, unit.u, step)
         solved = None
         if model.contact is not None:              # the LCP, the consistency refinement
-            solved = solve_contact_step(ctx, model, system, stepper, step, u)
+            solved = solve_contact_step(ctx, model, system, stepper, step, u,
+                                        unit.step_forces[step])
             u = solved.u
         write_step(ctx, model, output, step, u, solved, started)
     return finish(ctx, model, output, u)           # closed-form errors, final summary

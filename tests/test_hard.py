@@ -55,6 +55,7 @@ def check_law(s: dict, out: Path) -> float:
         if own is not None:
             assert max(own[k] for k in PAIR_KEYS) <= PAIR_WARN, own
     assert not [w for w in s.get("warnings", []) if "own scale" in w], s["warnings"]
+    assert not [w for w in s.get("warnings", []) if "out of balance" in w], s["warnings"]
     return worst
 
 
@@ -256,6 +257,16 @@ def test_an_unbalanced_floating_body_shows_in_its_balance(tmp_path, monkeypatch)
     assert s["steps"][0]["balance"]["bodies"]["top"]["relative_residual"] < 1e-12
 
 
+def test_an_unbalanced_floating_body_warns(tmp_path, monkeypatch):
+    """The case above: the core's 9.1e-5 is above BALANCE_WARN (1e-6), so the run says
+    so, once, on stderr and in summary.json `warnings`; before, the figure alone."""
+    _wrong_stiff_q(monkeypatch, 1e-3, consistent=False)
+    s, out = solve(tmp_path, "tangential_contrast")
+    warned = [w for w in s.get("warnings", []) if "out of balance" in w]
+    assert len(warned) == 1, s.get("warnings")
+    assert warned[0].startswith("step 1: body 'core' is out of balance"), warned
+
+
 def test_iterative_solves_pass_the_per_pair_check(tmp_path):
     """hard/shear_off.toml with -ksp_type cg -pc_type gamg: the displacements carry the
     solves' relative residual (1e-12), not eps; judged against eps, the bond's end pairs
@@ -270,6 +281,18 @@ def test_iterative_solves_pass_the_per_pair_check(tmp_path):
     worst = max(st["kkt_pairs"][k] for st in s["steps"] for k in PAIR_KEYS)
     assert worst <= PAIR_WARN, worst  # measured 2.3e-8
     assert not [w for w in s.get("warnings", []) if "own scale" in w]
+
+
+def test_mortar_smooth_shear_off_end_pairs_consistency_is_round_off(tmp_path):
+    """mortar-smooth's end pairs on hard/shear_off.toml: both sides prescribed (C = 5e-29,
+    tied in the LCP), their G rows keep coefficients of 1e-13 on free nodes, so u moves
+    them by 1.4e-18 through the pairs' forces, which the LCP's tie leaves out. Judged on
+    the u side's round-off alone, `consistency` read 6.8e-7 at step 1, near the 1e-6
+    warning; with the tied row's dropped coupling (`tied_coupling`) 6.4e-8."""
+    s, out = solve(tmp_path, "shear_off", 'interface.bond.discretisation="mortar-smooth"')
+    worst = max(st["kkt_pairs"]["consistency"] for st in s["steps"])
+    assert worst < 1e-7, worst
+    assert sum(st["consistency_refinements"] for st in s["steps"]) == 0
 
 
 def test_tolerances_scale_with_the_data(tmp_path):

@@ -25,6 +25,7 @@ from app.output.pair_law import (
     pair_law,
     pair_residuals,
     pair_scales,
+    tied_coupling,
 )
 
 M = 4  # pairs 0, 1 on the stiff interface, 2, 3 on the soft one
@@ -285,3 +286,31 @@ def test_a_fixed_tangential_row_does_not_blind_the_normal_check():
     r_n, _ = pair_residuals(np.array([-1e-6, 0.0]), np.zeros(2), np.ones(2), np.zeros(2),
                             np.zeros(2), np.zeros(2), np.zeros(2), np.zeros(2, bool), f, s)
     assert r_n[0] > 1e-4
+
+
+def test_a_tied_rows_dropped_coupling_is_bounded_and_read_below_the_warning():
+    """A pair both of whose sides are prescribed but whose G row keeps coefficients of
+    1e-13 on free nodes (mortar-smooth's end pair on hard/shear_off.toml: C_ii = 5e-29):
+    the LCP ties the row and drops its coupling (C lam)_i, which u keeps. That motion is at
+    most sqrt(C_ii lam . C lam) (Cauchy-Schwarz in the K^-1 inner product), so judged on
+    that bound it reads at most PAIR_WARN; the other rows are not touched, and a mismatch
+    far above the bound still fails."""
+    rng = np.random.default_rng(5)
+    a = rng.standard_normal((6, 6))
+    k_inv = a @ a.T + 6 * np.eye(6)  # SPD, 6 free DOFs
+    g = np.zeros((4, 6))  # rows n0, n1, t0, t1 of two pairs
+    g[0, :2] = [1e-13, -2e-13]  # pair 0 normal: fixed but for round-off coefficients
+    g[1] = rng.standard_normal(6)
+    g[2, 2:4] = [3e-13, 1e-13]  # pair 0 tangential
+    g[3] = rng.standard_normal(6)
+    c = g @ k_inv @ g.T
+    lam = np.array([0.0, 0.13, 0.0, 0.02])
+    work = float(lam @ c @ lam)
+    bound = tied_coupling(np.diagonal(c), work)
+    assert bound[1] == 0.0 and bound[3] == 0.0  # real compliance: not tied
+    dropped = c @ lam  # what u carries on the tied rows and the LCP leaves out
+    assert abs(dropped[0]) <= bound[0] and abs(dropped[2]) <= bound[2]
+    assert abs(dropped[0]) > 1e-3 * bound[0]  # and the bound is not loose by far
+    mismatch = np.array([dropped[0], 0.0, dropped[2], 0.0])
+    assert (np.abs(mismatch) / (bound / PAIR_WARN))[[0, 2]].max() <= PAIR_WARN
+    assert 1e3 * bound[0] / (bound[0] / PAIR_WARN) > PAIR_WARN

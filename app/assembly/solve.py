@@ -38,7 +38,8 @@ ACCEPTED_RESIDUAL = 1e-6
 
 ROUND_OFF_RESIDUAL = 1e-12
 """A residual |b - K x| at most this times the scale of the run's right-hand sides of its
-kind (`LinearSolver.solve`'s `scale`: the loads' norm for load and recovery solves) is
+kind (`LinearSolver.solve`'s `scale`: for a load case the forces of the steps it acts
+in, for a step's contact-force recovery that step's forces, `app.driver.linear`) is
 round-off of the problem and accepted whatever |b| is: a recovery of round-off contact
 forces (|b| = 5.9e-12 on bonded.toml at --mesh-size 0.8, loads 23.1) was solved by
 -ksp_atol 1e-12 as x = 0, relative residual 1, and stopped the run. The default

@@ -16,15 +16,18 @@ if TYPE_CHECKING:
 
 def contact_displacement(g: sp.csr_matrix, lam: np.ndarray, solver: LinearSolver,
                          k: PETSc.Mat, fixed: np.ndarray,
-                         to_numpy_all: Callable[[PETSc.Vec], np.ndarray]) -> np.ndarray:
+                         to_numpy_all: Callable[[PETSc.Vec], np.ndarray],
+                         scale: float | None = None) -> np.ndarray:
     """K^-1 G^T lambda (2n,) with the stored factorization (one solve, no refactorization);
-    lam (2m,) the pair forces (normal rows, then tangential)."""
+    lam (2m,) the pair forces (normal rows, then tangential); scale: the size of the
+    forces of the step (`LinearSolver.solve`'s: a residual below 1e-12 of it is
+    round-off), None for the run's largest."""
     b = g.T @ lam
     b[fixed] = 0.0
     r0, r1 = k.getOwnershipRange()
     vec = k.createVecLeft()
     vec.setArray(b[r0:r1])
-    x = solver.solve(vec, forces=lam)
+    x = solver.solve(vec, forces=lam, scale=scale)
     out = to_numpy_all(x)
     x.destroy()
     vec.destroy()

@@ -21,8 +21,8 @@ from app.driver.rank0_solve import on_rank0_solve
 from app.errors import SolveError
 from app.interface.steps import ContactStepper, StepSolution
 from app.interface.weak_modes import slide_warning
-from app.output.contact import pair_scales_of
-from app.output.pair_law import PAIR_WARN
+from app.output.contact import consistency_scales, pair_scales_of
+from app.output.pair_law import EPS, PAIR_WARN, ROUNDOFF_ULPS
 from app.output.status import writing
 from app.parallel import collective, to_numpy_all
 
@@ -64,10 +64,12 @@ def condense(ctx: RunContext, model: Model, system: LinearSystem,
 
 def solve_contact_step(ctx: RunContext, model: Model, system: LinearSystem,
                        stepper: ContactStepper | None, step: int,
-                       u_free: np.ndarray) -> ContactStep:
+                       u_free: np.ndarray, step_force: float | None = None) -> ContactStep:
     """Load step `step` (0-based): the LCP, the displacement, and up to MAX_REFINEMENTS
     consistency re-solves while |G u - LCP kinematics| halves. SolveError (with the
-    summary written) when the LCP has no solution."""
+    summary written) when the LCP has no solution. step_force: the size of the forces
+    the step applies (`UnitSolutions.step_forces`), against which the recoveries'
+    residuals are judged (None: the run's largest forces, as before)."""
     with ctx.phase("lcp"):
         result = collective(lambda: stepper.step(step, model.cases))  # on every rank
     if not result.solved:
@@ -76,9 +78,9 @@ def solve_contact_step(ctx: RunContext, model: Model, system: LinearSystem,
     refinements, previous = 0, np.inf
     while True:
         with ctx.phase("recovery"):
-            u = _displacement(model, system, u_free, result)
+            u = _displacement(model, system, u_free, result, step_force)
             miss, rel, worst, again = _consistency(ctx, model, u, result, refinements,
-                                                   previous, solve_rel(system.solver))
+                                                   previous, solve_rel(system.solver), u_free)
             if not again:  # the step's answer: its checks, in the same phase
                 _answer_checks(ctx, model, result, step, refinements, rel, u)
         if not again:
@@ -159,30 +161,61 @@ def _stripe_warnings(ctx: RunContext, model: Model, result: StepSolution, step: 
 
 
 def _displacement(model: Model, system: LinearSystem, u_free: np.ndarray,
-                  result: StepSolution) -> np.ndarray:
-    """u_free + K^-1 G^T lambda (+ the floating modes' amplitudes)."""
-    u = u_free + contact_displacement(model.contact.g, result.lam, system.solver,
-                                      system.k, model.fixed_all, to_numpy_all)
+                  result: StepSolution, step_force: float | None = None) -> np.ndarray:
+    """u_free + K^-1 G^T lambda (+ the floating modes' amplitudes); step_force: the
+    step's force scale that the recovery's residual is judged against. Judged against
+    the run's largest forces (before), a step of small forces after one of large forces
+    accepted a residual far above its own forces' round-off (-ksp_atol)."""
+    g = model.contact.g
+    u_contact = contact_displacement(g, result.lam, system.solver, system.k, model.fixed_all,
+                                     to_numpy_all, step_force)
+    # lam . G K^-1 G^T lam: the bound of the motion a tied pair's dropped compliance row
+    # makes (`app.output.pair_law.tied_coupling`)
+    result.contact_work = max(float(result.lam @ (g @ u_contact)), 0.0)
+    u = u_free + u_contact
     if model.floating is not None and model.floating.r.shape[1]:
         u += model.floating.r @ result.alpha
     return u
 
 
+def lcp_data_round_off(g, u_free: np.ndarray, g0: np.ndarray, result: StepSolution) -> float:
+    """The round-off of the step's LCP kinematic data, ROUNDOFF_ULPS eps x the largest of
+    their terms: the free motion's (|G| |u_free|), the initial gap g0, tau_prev, and the
+    motion of the bonds' a and c through each pair's compliance (C_ii a, C_ii c). A
+    mismatch G u - LCP kinematics below it is round-off of the LCP's own data, which a
+    re-solve (that adds the mismatch to that data) cannot reduce. g (2m, 2n) sparse;
+    u_free (2n,); g0 (m,)."""
+    diag = np.abs(result.compliance_diag) if result.compliance_diag is not None else 0.0
+    sizes = [abs(g) @ np.abs(u_free), np.abs(g0),
+             np.abs(result.tau_prev) if result.tau_prev is not None else 0.0]
+    if result.a is not None and result.c is not None:
+        sizes.append(diag * np.abs(np.concatenate([result.a, result.c])))
+    return ROUNDOFF_ULPS * EPS * max(float(np.max(x, initial=0.0)) for x in sizes)
+
+
 def _consistency(ctx: RunContext, model: Model, u: np.ndarray, result: StepSolution,
-                 refinements: int, previous: float, accuracy: float):
+                 refinements: int, previous: float, accuracy: float,
+                 u_free: np.ndarray | None = None):
     """(G u - LCP kinematics on rank 0, its size relative to max |u|, the larger of that
     over CONSISTENCY_TOL and of each pair's against its own scale over PAIR_WARN, whether
     to re-solve: that measure above 1 and halved since the last solve). accuracy: the
-    linear solves' relative residual if iterative, else 0 (`solve_rel`)."""
+    linear solves' relative residual if iterative, else 0 (`solve_rel`). The run-wide
+    part counts only where max |G u - kinematics| is above the round-off of the LCP's
+    data (`lcp_data_round_off`, u_free the step's free displacement): at a step with no
+    load u is round-off (multibody.toml with every load at 0: max |u| 4.1e-16, the
+    mismatch 3.4e-18 = 8.4e-3 of it) and the re-solve was wasted."""
     def measure():
         miss = mismatch(model.contact.g, u, result)
         scale = max(np.abs(u).max(initial=0.0), 1e-300)
-        rel = float(np.abs(miss).max(initial=0.0) / scale)
+        largest = float(np.abs(miss).max(initial=0.0))
+        rel = largest / scale
+        floor = 0.0 if u_free is None else lcp_data_round_off(
+            model.contact.g, u_free, model.contact.pairs.g0, result)
         # each pair against its own scale (`app.output.pair_law`): a stiff interface
         # beside a soft one moves 1e-11 as much, far below CONSISTENCY_TOL of max |u|
         _, _, s = pair_scales_of(model.contact, result, u, model.mesh.node_body(), accuracy)
-        own = float((np.abs(miss) / s).max(initial=0.0))
-        worst = max(rel / CONSISTENCY_TOL, own / PAIR_WARN)
+        own = float((np.abs(miss) / consistency_scales(result, s)).max(initial=0.0))
+        worst = max(rel / CONSISTENCY_TOL if largest > floor else 0.0, own / PAIR_WARN)
         again = worst > 1.0 and refinements < MAX_REFINEMENTS and worst < 0.5 * previous
         return miss, rel, worst, again
 

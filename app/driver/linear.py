@@ -43,10 +43,13 @@ class LinearSystem:
 @dataclass
 class UnitSolutions:
     """Per load case: u = K^-1 b at factor 1 (2n,), and b itself with the Dirichlet lifting
-    and zero on prescribed DOFs (the load on the floating modes)."""
+    and zero on prescribed DOFs (the load on the floating modes); per step, its forces."""
 
     u: list[np.ndarray]
     rhs: list[np.ndarray]
+    step_forces: list[float] | None = None
+    """(n_steps,) T(t), the size (2-norm) of the largest load case's forces at each step
+    (`step_force_scales`): a step's recoveries are judged against it."""
 
 
 def assemble_and_factor(ctx: RunContext, model: Model) -> LinearSystem:
@@ -102,7 +105,18 @@ def unit_solutions(ctx: RunContext, model: Model, system: LinearSystem) -> UnitS
                                                   model.fixed_all)) from None
             unit.append(to_numpy_all(x))
     warn_solve_accuracy(ctx, system.solver)
-    return UnitSolutions(unit, rhs)
+    return UnitSolutions(unit, rhs, step_force_scales(
+        loads, [c.history for c in model.cases], ctx.cfg.n_steps))
+
+
+def step_force_scales(loads: list[np.ndarray], histories: list[np.ndarray],
+                      n_steps: int) -> list[float]:
+    """T(t) = max_j |b_j| |h_j(t)| per step (n_steps,): the size of the forces step t
+    applies; loads (2n,) each at factor 1, histories (n_steps,) each (0 without loads)."""
+    if not loads:
+        return [0.0] * n_steps
+    sizes = np.array([float(np.linalg.norm(b)) for b in loads])
+    return [float(x) for x in (sizes[:, None] * np.abs(np.stack(histories))).max(axis=0)]
 
 
 def case_scales(loads: list[np.ndarray], histories: list[np.ndarray]
@@ -121,7 +135,7 @@ def case_scales(loads: list[np.ndarray], histories: list[np.ndarray]
     if not sizes.size:
         return [], 0.0
     factors = np.abs(np.stack(histories))  # (cases, steps)
-    totals = (sizes[:, None] * factors).max(axis=0)  # T(t)
+    totals = np.array(step_force_scales(loads, histories, factors.shape[1]))  # T(t)
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = np.where(factors > 0, totals[None, :] / factors, np.inf)
     scales = ratio.min(axis=1, initial=np.inf)

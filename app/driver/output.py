@@ -12,16 +12,18 @@ import numpy as np
 from petsc4py import PETSc
 
 from app.assembly.loads import LoadCase, support_dofs, unique_names
+from app.assembly.solve import LinearSolver
 from app.assembly.stiffness import node_ownership
 from app.config import Config
 from app.discretisation.bulk import Discretisation, element_fields, element_operators
-from app.driver.contact import ContactStep
+from app.driver.contact import ContactStep, solve_rel
 from app.driver.context import RunContext, write_summary
 from app.driver.linear import LinearSystem
 from app.driver.model import Model
 from app.driver.rank0_io import on_rank0
 from app.driver.rank0_solve import on_rank0_solve
 from app.mesh.model import Mesh
+from app.output.balance_warning import balance_warning
 from app.output.contact import contact_arrays, kkt_pairs_check
 from app.output.kkt_warning import kkt_warning
 from app.output.pair_law import kkt_pairs_warning
@@ -46,13 +48,14 @@ class StepOutput:
     """Per-run output state: this rank's elements (owned by their first node), the writer
     (rank 0), the reactions function, the last step's contact arrays (rank 0) and, in runs
     of several steps, the strain matrices of my_elements (`element_operators`, formed at
-    the first step)."""
+    the first step); solver: the run's linear solver (its accuracy, for the warnings)."""
 
     my_elements: np.ndarray
     writer: ResultWriter | None
     reactions: Callable[[int, np.ndarray, np.ndarray | None], dict]
     last_contact: dict | None = None
     operators: list | None = None
+    solver: LinearSolver | None = None
 
 
 def open_output(ctx: RunContext, model: Model, system: LinearSystem) -> StepOutput:
@@ -68,7 +71,7 @@ def open_output(ctx: RunContext, model: Model, system: LinearSystem) -> StepOutp
             on_failure(lambda: restore_steps(writer, len(ctx.summary["steps"])))
     with ctx.phase("setup"):
         reactions = _reaction_setup(mesh, ctx.cfg, model.cases, system.probe)
-    return StepOutput(my_elements, writer, reactions)
+    return StepOutput(my_elements, writer, reactions, solver=system.solver)
 
 
 def superpose(ctx: RunContext, model: Model, unit: list[np.ndarray], step: int) -> np.ndarray:
@@ -93,6 +96,10 @@ def write_step(ctx: RunContext, model: Model, output: StepOutput, step: int, u: 
             contact_data = on_rank0_solve(_contact_output, ctx, model, output, solved, u, info)
         info.update(output.reactions(step, u, None if solved is None else
                                      model.contact.g.T @ solved.result.lam))
+        unbalanced = balance_warning(info["balance"], info["step"],
+                                     0.0 if output.solver is None else solve_rel(output.solver))
+        if unbalanced is not None:
+            ctx.warn(unbalanced, ("balance",))
         if model.floating is not None:  # the floating bodies' motion (rigid_modes is not)
             info["rigid_motion"] = rigid_motion(mesh.points, mesh.node_body(), mesh.body_names,
                                                 list(dict.fromkeys(model.floating.bodies)), u)

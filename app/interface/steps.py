@@ -195,8 +195,10 @@ class StepSolution:
     largest unit-load contact motion or initial gap); compliance_diag (2m,) the diagonal
     of the compliance C (normal rows, then tangential), each pair's own scale for the
     per-pair law check (`app.output.pair_law`); load_scale the part of f_scale from the
-    loads alone (without the bond's a and c: the per-pair kinematic scale); info the
-    step's summary.json entries.
+    loads alone (without the bond's a and c: the per-pair kinematic scale); contact_work
+    lam . G K^-1 G^T lam >= 0 (force x length), the pair forces' work through the motion
+    they make, set by the driver's recovery (`app.output.pair_law.tied_coupling`); info
+    the step's summary.json entries.
     """
 
     status: str
@@ -214,6 +216,7 @@ class StepSolution:
     u_scale: float = 0.0
     compliance_diag: np.ndarray | None = None
     load_scale: float = 0.0
+    contact_work: float = 0.0
     info: dict = field(default_factory=dict)
 
     @property

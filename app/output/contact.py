@@ -6,7 +6,14 @@ from __future__ import annotations
 import numpy as np
 
 from app.interface.steps import StepSolution
-from app.output.pair_law import body_scale, kinematic_floor, pair_law, pair_scales
+from app.output.pair_law import (
+    PAIR_WARN,
+    body_scale,
+    kinematic_floor,
+    pair_law,
+    pair_scales,
+    tied_coupling,
+)
 
 
 def contact_arrays(setup, result: StepSolution, u: np.ndarray,
@@ -80,6 +87,16 @@ def pair_scales_of(setup, result: StepSolution, u: np.ndarray, node_body: np.nda
     return setup.g @ u, f, s
 
 
+def consistency_scales(result: StepSolution, s: np.ndarray) -> np.ndarray:
+    """(2m,) the scales of the `consistency` residual G u - LCP kinematics: s
+    (`pair_scales_of`), and on a tied row at least the motion its dropped compliance row
+    can make over PAIR_WARN (`app.output.pair_law.tied_coupling`)."""
+    if result.compliance_diag is None:
+        return s
+    return np.maximum(s, tied_coupling(result.compliance_diag, result.contact_work)
+                      / PAIR_WARN)
+
+
 def kkt_pairs_check(setup, result: StepSolution, u: np.ndarray, node_body: np.ndarray,
                     names: list[str], solve_rel: float = 0.0) -> dict:
     """summary `steps[k].kkt_pairs`: the law and the consistency with the LCP judged on
@@ -92,7 +109,7 @@ def kkt_pairs_check(setup, result: StepSolution, u: np.ndarray, node_body: np.nd
     p, q = result.lam[:m], result.lam[m:]
     return pair_law(pr.g0 + gu[:m], gu[m:] - result.tau_prev, p, q, setup.mu, result.a,
                     result.c, setup.frictional, f, s, gu - result.kinematics, pr.interface,
-                    names)
+                    names, consistency_scales(result, s))
 
 
 def kkt_check(gap: np.ndarray, tau: np.ndarray, tau_prev: np.ndarray, p: np.ndarray,

@@ -69,6 +69,24 @@ def kinematic_floor(g_abs, ub: np.ndarray, g0: np.ndarray, tau_prev: np.ndarray,
     return size
 
 
+def tied_coupling(c_diag: np.ndarray, work: float) -> np.ndarray:
+    """(2m,) on the rows that the LCP ties (`fixed_rows`: both sides prescribed, the
+    compliance round-off), the largest motion their dropped compliance row can make,
+    sqrt(C_ii work) with work = lam . C lam (C = G K^-1 G^T, a Gram matrix in the K^-1
+    inner product, so |(C lam)_i| <= sqrt(C_ii) sqrt(lam . C lam)); 0 on the other rows.
+    The LCP's kinematics of a tied row leave that coupling out (its tie), the displacement
+    field keeps it: on hard/shear_off.toml with mortar-smooth, an end pair (C_ii = 5e-29,
+    G coefficients of 1e-13 on free nodes) moved 1.4e-18 in u and not in the LCP, and its
+    `consistency` read 6.8e-7 against the u side's round-off alone. c_diag (2m,)."""
+    m = c_diag.size // 2
+    comp = np.abs(c_diag)
+    out = np.zeros(2 * m)
+    for block in (slice(0, m), slice(m, 2 * m)):
+        rows, _ = fixed_rows(comp[block])
+        out[block][rows] = np.sqrt(comp[block][rows] * max(work, 0.0))
+    return out
+
+
 def pair_scales(c_diag: np.ndarray, interface: np.ndarray, forces: np.ndarray,
                 f_run: float, floor: np.ndarray, solve_rel: float = 0.0,
                 motion: tuple[np.ndarray, float] | None = None
@@ -141,14 +159,16 @@ def pair_residuals(gap: np.ndarray, dtau: np.ndarray, p: np.ndarray, q: np.ndarr
 def pair_law(gap: np.ndarray, dtau: np.ndarray, p: np.ndarray, q: np.ndarray,
              mu: np.ndarray, a: np.ndarray, c: np.ndarray, frictional: np.ndarray,
              f: np.ndarray, s: np.ndarray, mismatch: np.ndarray, interface: np.ndarray,
-             names: list[str]) -> dict:
+             names: list[str], s_consistency: np.ndarray | None = None) -> dict:
     """summary `steps[k].kkt_pairs`: the largest per-pair `normal`, `tangential` and
-    `consistency` residuals (mismatch (2m,): G u - the LCP's kinematics, over s), where
-    the worst one is (`interface`, `pair` its 0-based index in the step file's /contact),
-    and the same three per interface (`by_interface`)."""
+    `consistency` residuals (mismatch (2m,): G u - the LCP's kinematics, over
+    s_consistency, s if None), where the worst one is (`interface`, `pair` its 0-based
+    index in the step file's /contact), and the same three per interface
+    (`by_interface`)."""
     r_n, r_t = pair_residuals(gap, dtau, p, q, mu, a, c, frictional, f, s)
     m = p.size
-    miss = np.abs(mismatch) / np.maximum(s, 1e-300)
+    sc = s if s_consistency is None else s_consistency
+    miss = np.abs(mismatch) / np.maximum(sc, 1e-300)
     r_c = np.maximum(miss[:m], miss[m:])
     worst = np.maximum(np.maximum(r_n, r_t), r_c)
     out = {"normal": _max(r_n), "tangential": _max(r_t), "consistency": _max(r_c)}
