@@ -114,6 +114,10 @@ def _write(tmp_path: Path, text: str) -> Path:
 
 
 BASE = CANTILEVER.read_text()
+SHAPE = ('[body.shape]\ntype = "rectangle"\norigin = [0.0, -0.5]\nwidth = 10.0\nheight = 1.0\n'
+         'structured = true\n[body.curves]\nleft = "clamp"\nright = "tip_edge"\n')
+NO_SHAPE = BASE.replace(SHAPE, "")  # for a mesh.file (a body shape is then an error)
+assert NO_SHAPE != BASE
 
 
 def _bad_input_cases(tmp_path: Path) -> list[tuple[list[str], str]]:
@@ -132,11 +136,12 @@ def _bad_input_cases(tmp_path: Path) -> list[tuple[list[str], str]]:
         (BASE.replace("E = 1000.0\nnu", "E = -5.0\nnu"), "E must be > 0"),
         (BASE.replace("nu = 0.3\n[body", "nu = 0.5\n[body"), "nu must lie in (-1, 0.5)"),
         (BASE.replace("sd = 4", "sd = 5"), "analysis.sd"),
-        (BASE.replace("[mesh]\nsize = 0.125", f'[mesh]\nsize = 0.125\nfile = "{tri}"'),
+        (NO_SHAPE.replace("[mesh]\nsize = 0.125", f'[mesh]\nsize = 0.125\nfile = "{tri}"'),
          "triangle"),
-        (BASE.replace("[mesh]\nsize = 0.125",
-                      f'[mesh]\nsize = 0.125\nfile = "{tmp_path / "nope.msh"}"'), "nope.msh"),
-        (BASE.replace("[mesh]\nsize = 0.125", f'[mesh]\nsize = 0.125\nfile = "{unreadable}"'),
+        (NO_SHAPE.replace("[mesh]\nsize = 0.125",
+                          f'[mesh]\nsize = 0.125\nfile = "{tmp_path / "nope.msh"}"'), "nope.msh"),
+        (NO_SHAPE.replace("[mesh]\nsize = 0.125",
+                          f'[mesh]\nsize = 0.125\nfile = "{unreadable}"'),
          "garbage.msh"),
         (BASE + "\n[[support]]\non = \"clamp\"\nux = \"undefined_name * x\"\n",
          "undefined_name"),

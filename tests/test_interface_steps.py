@@ -286,3 +286,51 @@ def test_an_inaccurate_answer_is_judged_again_against_the_terms_of_its_constant(
     assert (res.status == "solved") == solved
     assert ("accepted against" in res.message) == solved
     assert res.residual <= 1e-9 if solved else res.residual == 0.0  # (the given one kept)
+
+
+@pytest.mark.parametrize("bonded", [True, False])
+def test_a_stiff_body_on_a_soft_one_keeps_its_bond_and_its_contact(tmp_path, bonded):
+    """two_blocks.toml with the upper block 1e7 times stiffer than the lower: the load on
+    it barely moves the contact freely (the problem's displacement scale), its contact
+    forces move it by 4e-3. The gaps, round-off of those terms (1e-10), were judged
+    against 1e-7 of the free motion: a bond of 100 under a pressure of 10 debonded at 10 of
+    11 pairs, and without a bond pairs that carry p = 12 read 'open'."""
+    from support import CONFIGS, read_summary, run_cli
+
+    sets = ["--set", "body.upper.E=1e10", "--set", "interface.interface.mu=0.5"]
+    if bonded:
+        sets += ["--set", "interface.interface.a=100.0", "--set", "interface.interface.c=100.0"]
+    res = run_cli(["run", str(CONFIGS / "two_blocks.toml"), "--out", str(tmp_path / "o"),
+                   "--quiet", *sets], timeout=120)
+    assert res.returncode == 0, res.stderr
+    step = read_summary(tmp_path / "o")["steps"][0]
+    face = step["interfaces"]["interface"]
+    assert face["normal_force"] == pytest.approx(20.0, rel=1e-9)
+    if bonded:
+        assert face["debonded_pairs"] == 0 and face["states"]["bonded"] == 11
+    else:
+        assert face["states"]["open"] == 0 and face["states"]["bonded"] == 0
+    import h5py
+
+    with h5py.File(tmp_path / "o" / "step_0001.h5") as f:
+        p, state = f["contact/p"][()], f["contact/state"][()]
+    assert not np.any((state == OPEN) & (p > 1e-6 * p.max()))
+
+
+def test_the_state_tolerance_follows_the_solutions_motion_terms():
+    """A floating slave held by two pairs under a load e0 on its mode: the gaps are the sum
+    of terms of 0.045 that cancel; the problem's own tolerance (1e-20 here) is below their
+    round-off, the solution's motion sets it."""
+    from app.interface.steps import STATE_REL, state_tolerance
+
+    c = np.diag([0.1, 0.3, 1.0, 1.0])
+    lcp = ContactLCP(c, np.zeros(2), np.zeros(2, bool), np.ones((2, 1)), np.zeros((2, 1)))
+    hist = _history(2)
+    res = solve_step(lcp, hist, 1, np.array([1e-13, 1e-13]), np.zeros(2), np.zeros(2),
+                     np.array([-0.6]), 1e-20, 1e-20)
+    assert res.status == "solved"
+    sol = res.solution
+    assert sol.p.sum() == pytest.approx(0.6) and sol.motion == pytest.approx(0.045)
+    assert state_tolerance(1e-20, sol) == pytest.approx(STATE_REL * sol.motion)
+    assert state_tolerance(1.0, sol) == 1.0
+    assert not np.any(res.state == OPEN)

@@ -289,6 +289,19 @@ def test_gmsh_keys_with_a_mesh_file_are_an_error(key: str, value) -> None:
         parse_scene(cfg)
 
 
+@pytest.mark.parametrize("key, value", [
+    ("shape", {"type": "rectangle", "origin": [0.0, 0.0], "width": 3.0, "height": 1.0}),
+    ("curves", {"bottom": "floor"}),
+])
+def test_body_geometry_with_a_mesh_file_is_an_error(key: str, value) -> None:
+    """Before: ignored without a word: a config whose [body.shape] (width 3 here) or
+    [body.curves] differed from the .msh ran the file's mesh, as if they applied."""
+    cfg = {"mesh": {"file": "two.msh"}, "body": [{"name": "left", key: value}]}
+    with pytest.raises(InputError, match=f"body 'left': {key} does not apply to a mesh read "
+                                         "from mesh.file"):
+        parse_scene(cfg)
+
+
 def test_build_mesh_reads_file(tmp_path: Path) -> None:
     write_msh(tmp_path / "two.msh")
     cfg = {"mesh": {"file": "two.msh"}, "points": {"corner": [2.0, 1.0]},

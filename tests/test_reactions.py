@@ -208,3 +208,23 @@ def test_interface_resultants_of_a_swapped_interface_are_the_configured_slaves()
          "tangent": np.array([[1.0, 0.0], [1.0, 0.0]]), "interface": np.array([0, 1])}
     out = interface_resultants(c, ["a", "b"], swapped={"b"})
     assert out == {"a": {"force": [0.5, 1.0]}, "b": {"force": [-0.0, -2.0]}}
+
+
+def test_a_load_on_a_point_group_names_what_to_do_instead():
+    """Before: `load on 'tip': unknown curve 'tip' (mesh curves: [...])`, though [points]
+    named 'tip': a point load is not a load kind, and the message did not say so."""
+    import numpy as np
+    import pytest
+
+    from app.assembly.loads import load_vector
+    from app.config import Load
+    from app.errors import InputError
+    from app.mesh.model import Mesh
+
+    mesh = Mesh(points=np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]),
+                quads=np.array([[0, 1, 2, 3]]), body=np.array([0]), body_names=["b"],
+                curves={"top": np.array([[2, 3]])}, point_groups={"tip": np.array([2])})
+    load = Load(on="tip", kind="total_force", value=[0.0, -5.0], history=None)
+    with pytest.raises(InputError, match="'tip' is a point group, and a \\[\\[load\\]\\] "
+                                         "acts on a curve .*name a curve \\(\\['top'\\]\\)"):
+        load_vector(mesh, None, load)

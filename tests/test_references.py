@@ -88,3 +88,21 @@ def test_hertz_centre_off_the_interface_is_an_input_error():
     for x0 in (1e308, 0.3, -0.21):
         with pytest.raises(InputError, match="lies outside interface 'contact'"):
             pressure_errors({"radius": 1.0, "center_x": x0}, run)
+
+
+@pytest.mark.parametrize("thickness", [0.5, 1.0, 2.0])
+def test_timoshenko_load_is_per_unit_thickness_like_the_configs_loads(thickness):
+    """cantilever.toml's traction integrates to P per unit thickness and the run multiplies
+    it by the thickness, so the beam's tip deflection does not depend on the thickness and
+    its energy is proportional to it. The reference took reference.P as the total force:
+    at thickness 2 it halved both (tip error 98%, energy error 295% on a right answer)."""
+    from app.closed_form import timoshenko_cantilever
+
+    one = timoshenko_cantilever(10.0, 0.0, P=1.0, L=10.0, D=1.0, E=1e3, nu=0.3)
+    run = RunFigures(E=1e3, nu=0.3, plane="strain", thickness=thickness,
+                     strain_energy=one["strain_energy"] * thickness,
+                     point_values={"tip": {"ux": 0.0, "uy": one["tip_deflection"]}})
+    out = reference("timoshenko").compare({"type": "timoshenko", "P": 1.0, "L": 10.0,
+                                           "D": 1.0, "point": "tip"}, run)
+    assert out["tip_deflection_rel_error"] < 1e-12
+    assert out["strain_energy_rel_error"] < 1e-12

@@ -171,3 +171,27 @@ def test_hourglass_mode_slides_agree_on_one_and_two_ranks(tmp_path):
         assert abs(x[3] - y[3]) <= 1e-9 * width, (x, y)
     for s in runs:
         assert not any(w.startswith("body ") for w in s.get("warnings", []))
+
+
+def test_a_block_dragged_into_gross_slip_is_loaded_by_its_friction():
+    """A block dragged over a foundation by a roller on its top (ux prescribed) is free to
+    tilt about its top's centre, 1 above the contact: a uniform slide and a linear gap.
+    Its friction's moment (q uniform, every pair slipping) is balanced by a lopsided
+    pressure, so the interface's net force on the tilt is 0, and the tilt was taken for an
+    unloaded mode: the drag's slide (0.06 over a width 2.2) read as the mode sliding the
+    contact, with the warning that the discretisation moves it (hunt: /tmp config, README
+    "Input checks"). The friction alone loads it: no unloaded combination is left."""
+    x = np.linspace(-1.0, 1.0, 11)
+    length = np.full(x.size, 0.2)
+    mu = 0.3
+    p = 1.0 + mu * x.size / (x**2).sum() * x  # sum(p x) + sum(q) = 0
+    q = -mu * p
+    case = dict(p=p, q=q, tau=np.full(x.size, 0.06), interface=np.zeros(x.size, np.int64),
+                length=length, n_modes=x[:, None], t_modes=np.ones((x.size, 1)),
+                frictional=np.ones(x.size, dtype=bool))
+    assert abs((p * x).sum() + q.sum()) < 1e-12
+    assert held_mode_slides(**case, groups=[np.array([0])]) == []
+    # the same tilt with no friction force (a frictionless roll) is still checked
+    still = dict(case, q=np.zeros(x.size), p=np.ones(x.size))
+    (h,) = held_mode_slides(**still, groups=[np.array([0])])
+    assert h.ratio == pytest.approx(0.06 / 2.2) and h.ratio > SLIDE_WARN

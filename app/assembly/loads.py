@@ -19,6 +19,13 @@ from app.mesh.model import Mesh, orient_boundary_edges
 
 
 def _curve(mesh: Mesh, name: str, where: str) -> np.ndarray:
+    """The edges (k, 2) of a named curve; a point group or an unknown name is a one-line
+    error (a point group read `unknown curve 'tip'` before, though [points] named it)."""
+    if name in mesh.point_groups and name not in mesh.curves:
+        raise InputError(
+            f"{where}: '{name}' is a point group, and a [[load]] acts on a curve (traction, "
+            f"pressure or total_force over its length): name a curve ({sorted(mesh.curves)}),"
+            " or prescribe the point's displacement with a [[support]]")
     if name not in mesh.curves:
         raise InputError(
             f"{where}: unknown curve {name!r} (mesh curves: {sorted(mesh.curves)})"

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from app.interface.coulomb import ContactLCP, ContactSolution
+from app.interface.coulomb import ContactLCP, ContactSolution, motion_size
 from app.lcp import lemke
 from app.lcp.solvers import LCPSolver
 
@@ -159,8 +159,9 @@ class CandidateLCP:
         p[idx], q[idx] = s.p, s.q
         lam = np.concatenate([s.p, s.q])
         cl = self._cols @ lam
-        gap = gap_free + cl[:m] + self.nm @ s.alpha
-        tau = tau_free + cl[m:] + self.tm_all @ s.alpha
+        na, ta = self.nm @ s.alpha, self.tm_all @ s.alpha
+        gap = gap_free + cl[:m] + na
+        tau = tau_free + cl[m:] + ta
         splus, sminus = np.zeros(m), np.zeros(m)
         splus[idx], sminus[idx] = s.slip_plus, s.slip_minus
         gap[idx], tau[idx] = s.gap, s.tau
@@ -177,5 +178,6 @@ class CandidateLCP:
             fr = self.fric_rank[slipping]
             basis[m + fr] = splus[slipping] > 0
             basis[m + self.mf + fr] = sminus[slipping] > 0
+        motion = max(s.motion, motion_size(gap_free, cl, na, tau_free, ta))
         return ContactSolution(p, q, gap, tau, splus, sminus, s.alpha, s.pivots, s.status,
-                               basis, s.residual, s.message)
+                               basis, s.residual, s.message, motion)

@@ -56,6 +56,15 @@ class ContactSolution:
     basis: np.ndarray | None
     residual: float = 0.0  # Lemke's relative check residual (scaled LCP)
     message: str = ""  # Lemke's own summary of the solve
+    motion: float = 0.0  # largest term of the gap and tau sums (length): their round-off size
+
+
+def motion_size(*terms: np.ndarray) -> float:
+    """The largest |entry| of the terms that gap and tau add up (free motion, C lam, the
+    modes' motion): the size whose round-off the LCP's kinematics carry. A stiff
+    body loaded on a soft one moves by its contact forces and modes, not its free motion:
+    their terms are large and cancel to a gap of round-off (see `app.interface.steps`)."""
+    return max((float(np.abs(x).max(initial=0.0)) for x in terms), default=0.0)
 
 
 UNSHIFTED_PIVOTS = 8
@@ -340,12 +349,14 @@ class ContactLCP:
         cn = self.c[:m]
         ct = self.c[m:]
         lam = np.concatenate([p, q])
-        gap = gap_free + cn @ lam + self.nm @ alpha
-        tau = tau_free + ct @ lam
+        terms = (gap_free, cn @ lam, self.nm @ alpha, tau_free, ct @ lam)
+        gap = terms[0] + terms[1] + terms[2]
+        tau = terms[3] + terms[4]
         if self.r:
-            tau = tau + self.tm_all @ alpha
+            terms += (self.tm_all @ alpha,)
+            tau = tau + terms[-1]
         return ContactSolution(p, q, gap, tau, splus, sminus, alpha, res.pivots, res.status,
-                               res.basis, res.residual, res.message)
+                               res.basis, res.residual, res.message, motion_size(*terms))
 
     def _unshifted(self, basis: np.ndarray, a: np.ndarray, gap_free: np.ndarray,
                    tau_free: np.ndarray, tau_prev: np.ndarray, c: np.ndarray,

@@ -77,6 +77,22 @@ class InterfaceHistory:
     warm: WarmStart = field(default_factory=WarmStart)
 
 
+STATE_REL = 1e-7
+"""A pair opens (gap) or slips (slip variables) when that is above STATE_REL x the larger of
+the problem's displacement scale and the step's own motion terms (`ContactSolution.motion`).
+The scale alone is the unit load cases' contact motion: a load on a stiff body pressed on a
+soft one barely moves the contact freely (1e-11 for E = 1e12 on E = 1e3), while its contact
+forces and rigid modes move it by 8e-3 and leave gaps of 1e-10 of round-off; a tolerance of
+1e-7 x 1e-11 read them as open, and a bond of 100 under tractions of 10 debonded at every
+pair (two_blocks.toml with the upper E = 1e10; 3 of 11 pairs at E = 1e8 over 1e3)."""
+
+
+def state_tolerance(tol: float, sol: ContactSolution) -> float:
+    """The gap and slip tolerance of one solution: tol (STATE_REL x the problem's scale)
+    or STATE_REL x the solution's motion terms, whichever is larger."""
+    return max(tol, STATE_REL * sol.motion)
+
+
 CONTACT_REL = 1e-10
 """A pair counts in an interface's contact_length when its normal force exceeds this x
 the problem's force scale (the round-off forces, 1e-15 of it, of a zone at zero load
@@ -132,7 +148,8 @@ def solve_step(lcp: ContactLCP, hist: InterfaceHistory, step: int, gap_free: np.
 
     def ended(sol: ContactSolution, iterations: int, status: str) -> StepResult:
         """The result of a step that stops without an answer (the history kept)."""
-        return StepResult(sol, classify(sol, bonded, tol_gap, tol_slip, frictionless,
+        return StepResult(sol, classify(sol, bonded, state_tolerance(tol_gap, sol),
+                                        state_tolerance(tol_slip, sol), frictionless,
                                         hist.tau_prev), debonded_step, iterations, pivots,
                           time.perf_counter() - t0, 0.0, status)
 
@@ -141,7 +158,8 @@ def solve_step(lcp: ContactLCP, hist: InterfaceHistory, step: int, gap_free: np.
         pivots += sol.pivots
         if sol.status != "solved":
             return ended(sol, it, sol.status)
-        new = _newly_debonded(sol, bonded, frictionless, hist.tau_prev, tol_gap, tol_slip)
+        new = _newly_debonded(sol, bonded, frictionless, hist.tau_prev,
+                              state_tolerance(tol_gap, sol), state_tolerance(tol_slip, sol))
         if not new.any():
             break
         bonded &= ~new
@@ -154,7 +172,8 @@ def solve_step(lcp: ContactLCP, hist: InterfaceHistory, step: int, gap_free: np.
         sol.message = (f"{max_iterations} solves left pairs to debond (the last solve's "
                        "newly debonded pairs still carried their bond)")
         return ended(sol, max_iterations, "debonding did not settle")
-    state = classify(sol, bonded, tol_gap, tol_slip, frictionless, hist.tau_prev)
+    state = classify(sol, bonded, state_tolerance(tol_gap, sol),
+                     state_tolerance(tol_slip, sol), frictionless, hist.tau_prev)
     dissipation = float(pair_dissipation(sol).sum())
     _commit(hist, sol, a, c, bonded, debonded_step)
     return StepResult(sol, state, debonded_step, it, pivots, time.perf_counter() - t0,

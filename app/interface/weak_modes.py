@@ -63,16 +63,23 @@ class HeldModeSlide:
 
 
 def unloaded_combinations(forces: np.ndarray, interface: np.ndarray, seen: np.ndarray,
-                          net_tol: float = NET_TOL) -> np.ndarray:
+                          net_tol: float = NET_TOL, tangential: np.ndarray | None = None
+                          ) -> np.ndarray:
     """Orthonormal basis (r_b, k) of the combinations within `seen` (r_b, w) that no
     interface loads. forces (m2, r_b): per constraint row, its force times the row's
-    change per unit mode amplitude (p N or q T); interface (m2,) the row's interface."""
+    change per unit mode amplitude (p N or q T); interface (m2,) the row's interface;
+    tangential (m2,) bool, the q T rows: an interface's friction that loads a combination
+    which its own normal forces hold (net 0 over the interface: a block dragged over a
+    foundation tilts by the friction's moment) loads it, so the normal and the tangential
+    rows are judged apart as well, each against the interface's gross force."""
     rows = []
     for i in np.unique(interface):
         f = forces[interface == i] @ seen
         gross = np.abs(forces[interface == i]).sum()
         if gross > 0:
             rows.append(f.sum(axis=0) / gross)
+            if tangential is not None:
+                rows.append(f[tangential[interface == i]].sum(axis=0) / gross)
     if not rows:
         return seen
     _, s, vt = np.linalg.svd(np.array(rows), full_matrices=True)
@@ -101,7 +108,7 @@ def held_mode_slides(p: np.ndarray, q: np.ndarray, tau: np.ndarray, interface: n
             continue
         forces = np.vstack([p[:, None] * nb, q[:, None] * tb])
         free = unloaded_combinations(forces, np.concatenate([interface, interface]), seen,
-                                     net_tol)
+                                     net_tol, np.repeat([False, True], p.size))
         if free.shape[1] == 0:
             continue
         for i in np.unique(interface[carries]):

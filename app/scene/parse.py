@@ -215,6 +215,11 @@ def _body(b: dict, i: int, size: float, need_shapes: bool, named: dict[str, np.n
     where = f"body '{name}': "
     bsize = _number(b, "size", where) if "size" in b else size
     if not need_shapes:
+        for key, table in (("shape", "[body.shape]"), ("curves", "[body.curves]")):
+            if key in b:  # (ignored without a word before: a shape unlike the file's ran)
+                raise InputError(f"{where}{key} does not apply to a mesh read from mesh.file: "
+                                 "the .msh gives the geometry and its physical groups the "
+                                 f"curves; remove {table} (or mesh.file to build the shape)")
         return BodySpec(name, bsize, {}, False, [])
     if "shape" not in b:
         raise InputError(f"{where}shape is missing: add a [body.shape] table with a type")
