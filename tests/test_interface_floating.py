@@ -44,8 +44,8 @@ def test_multibody_1sd_coarse_solves(tmp_path):
     modes) had its pins on the bond's slave nodes, whose master (the foundation) is twice
     as coarse: two tangential combinations moved no free DOF, C was singular, the
     null-space tie put 1e12 into the modes' block, and Lemke ended 'inaccurate' after 264
-    pivots (exit 2). The same answer solves the old pins' LCP (kinematics equal to 1e-16):
-    the step had a solution."""
+    pivots (exit 2). The answer found now also solves the old pins' LCP: the step had a
+    solution."""
     s = _run(tmp_path / "r1", 1)
     assert s["status"] == "completed" and len(s["steps"]) == 4
     f_scale = 0.0
