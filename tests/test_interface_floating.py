@@ -10,7 +10,7 @@ import pytest
 import scipy.sparse as sps
 from support import CONFIGS, kkt_violations, read_summary, run_cli
 
-from app.interface.floating import _pins
+from app.interface.floating import FloatingModes, _pins, held_text
 
 PAIR_KEYS = ("normal", "tangential", "consistency")  # summary steps[k].kkt_pairs
 
@@ -73,3 +73,32 @@ def test_multibody_1sd_coarse_agrees_on_two_ranks(tmp_path):
                 u, v = x[key][()], y[key][()]
                 assert np.abs(u - v).max() <= 1e-10 * np.abs(u).max(), (step, key)
             assert np.array_equal(x["contact/state"][()], y["contact/state"][()])
+
+
+def test_held_text_counts_zero_energy_modes_and_names_rigid_ones():
+    """A failed step's line names rigid modes held only by contact one by one and counts a
+    body's zero-energy (hourglass) modes: multibody --sd 1 at 0.8 listed 21 of them."""
+    nan = np.full((3, 3), np.nan)
+    rigid = np.eye(3)[:, :1]
+    names = ["b1: translation x", "blk: zero-energy mode 1", "blk: zero-energy mode 2",
+             "cyl: zero-energy mode 1"]
+    fm = FloatingModes(np.zeros((4, 4)), np.arange(4), names, ["b1", "blk", "blk", "cyl"],
+                       np.hstack([rigid, nan]))
+    assert held_text(fm) == ("b1: translation x, blk: 2 zero-energy modes, "
+                             "cyl: 1 zero-energy mode")
+
+
+def test_no_equilibrium_of_hourglass_modes_suggests_hourglass_free_smoothing(tmp_path):
+    """multibody --sd 1 --mesh-size 1.6: the modes' equilibrium with the forces in their
+    friction cones is infeasible (no static equilibrium). The line counts the zero-energy
+    modes per body and points to --sd 2 (which completes there), fem-q4 or a finer mesh."""
+    out = tmp_path / "out"
+    res = run_cli(["run", str(CONFIGS / "multibody.toml"), "--sd", "1", "--mesh-size", "1.6",
+                   "--out", str(out), "--quiet"])
+    assert res.returncode == 2
+    (line,) = res.stderr.strip().splitlines()
+    assert line.startswith("error: no static equilibrium at step 1")
+    assert "held only by contact: block1: 8 zero-energy modes" in line
+    assert "zero-energy mode 1," not in line and "--sd 2 or more" in line
+    s = read_summary(out)
+    assert s["status"] == "failed" and "--sd 2 or more" in s["error"]

@@ -110,6 +110,30 @@ class FloatingModes:
     centroids: np.ndarray | None = None
 
 
+HOURGLASS_HINT = ("CS-FEM-1SD leaves zero-energy (hourglass) modes that only the contact "
+                  "holds, and those may have no equilibrium: use --sd 2 or more "
+                  "(hourglass-free smoothing), --method fem-q4, or a finer mesh")
+"""What a failed contact step adds when zero-energy (hourglass) modes are held by contact."""
+
+
+def held_text(floating: FloatingModes) -> str:
+    """The modes held only by contact for an error line: rigid modes by name ('b1:
+    translation x'); a body's zero-energy (hourglass) modes counted ('block1: 12
+    zero-energy modes'), as 21 of them listed one by one made the line unreadable."""
+    zero = np.zeros(len(floating.names), dtype=bool) if floating.rigid is None else \
+        np.isnan(floating.rigid).any(axis=0)
+    out, counted = [], set()
+    for name, body, z in zip(floating.names, floating.bodies or floating.names, zero,
+                             strict=True):
+        if not z:
+            out.append(name)
+        elif body not in counted:
+            counted.add(body)
+            k = sum(1 for b, zz in zip(floating.bodies, zero, strict=True) if zz and b == body)
+            out.append(f"{body}: {k} zero-energy mode{'s' if k > 1 else ''}")
+    return ", ".join(out)
+
+
 def floating_modes(mesh: Mesh, cfg: Config, fixed: np.ndarray,
                    contact: ContactSetup | None, disc=None) -> FloatingModes | None:
     """Zero-energy modes per body left by the supports; bodies without contact must have
