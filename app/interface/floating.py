@@ -7,6 +7,7 @@ free mode and no contact is an error that names it. Plain numpy on the mesh (ran
 
 from __future__ import annotations
 
+from collections import Counter
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
@@ -122,14 +123,14 @@ def held_text(floating: FloatingModes) -> str:
     zero-energy modes'), as 21 of them listed one by one made the line unreadable."""
     zero = np.zeros(len(floating.names), dtype=bool) if floating.rigid is None else \
         np.isnan(floating.rigid).any(axis=0)
-    out, counted = [], set()
-    for name, body, z in zip(floating.names, floating.bodies or floating.names, zero,
-                             strict=True):
+    bodies = floating.bodies or floating.names
+    count = Counter(b for b, z in zip(bodies, zero, strict=True) if z)
+    out = []
+    for name, body, z in zip(floating.names, bodies, zero, strict=True):
         if not z:
             out.append(name)
-        elif body not in counted:
-            counted.add(body)
-            k = sum(1 for b, zz in zip(floating.bodies, zero, strict=True) if zz and b == body)
+        elif body in count:
+            k = count.pop(body)
             out.append(f"{body}: {k} zero-energy mode{'s' if k > 1 else ''}")
     return ", ".join(out)
 
@@ -203,15 +204,14 @@ def _pins(rb: np.ndarray, dofs: np.ndarray, contact: ContactSetup | None,
     a DOF off the body and off the supports and earlier pins `fixed` (a pin there leaves
     every pair a compliance) and that leave the contact rows as independent as they were
     (not `_rank_keepers`); else among the latter alone; else among all. A pin on a pair's
-    node gave that pair a zero compliance,
-    whose motion came from the modes alone: the stiff tie of `_fixed_pairs` (1e-12 of the
-    largest compliance) on it then acted as a penalty: q of an interface 1e11 times stiffer
-    than another was 18% off (configs/hard/tangential_contrast.toml; 0.19% at 1e9, 40% at
-    1e12); with the core one element thick (--mesh-size 0.5, every DOF of the core a
-    contact DOF), p 3% and q 10% off at 1e11. Pins on the slave nodes of a bond whose
-    master is coarser left its rows dependent (C singular, the null-space tie of
-    `app.lcp.coulomb_matrix` on them, 1e12 in the modes' block): Lemke failed
-    (configs/multibody.toml --sd 1 --mesh-size 0.8)."""
+    node gave that pair a zero compliance, whose motion came from the modes alone: the
+    stiff tie of `_fixed_pairs` (1e-12 of the largest compliance) on it then acted as a
+    penalty: q of an interface 1e11 times stiffer than another was 18% off
+    (configs/hard/tangential_contrast.toml; 0.19% at 1e9, 40% at 1e12); with the core one
+    element thick (--mesh-size 0.5, every DOF of the core a contact DOF), p 3% and q 10%
+    off at 1e11. Pins on the slave nodes of a bond whose master is coarser left its rows
+    dependent (C singular, the null-space tie of `app.lcp.coulomb_matrix` on them, 1e12 in
+    the modes' block): Lemke failed (configs/multibody.toml --sd 1 --mesh-size 0.8)."""
     r = rb.shape[1]
     if contact is not None and r:
         g = contact.g.tocsr()
