@@ -19,6 +19,7 @@ from app.driver.linear import LinearSystem, UnitSolutions, warn_solve_accuracy
 from app.driver.model import Model
 from app.driver.rank0_solve import on_rank0_solve
 from app.errors import SolveError
+from app.interface.floating import HOURGLASS_HINT, held_text
 from app.interface.steps import ContactStepper, StepSolution
 from app.interface.weak_modes import slide_warning
 from app.output.contact import consistency_scales, pair_scales_of
@@ -243,7 +244,9 @@ def _fail(ctx: RunContext, model: Model, step: int, result: StepSolution,
     summary["timings"] = ctx.timer.reduced()
     done = f"steps 1..{step} are written in {ctx.out}" if step else "no step completed"
     held = "" if model.floating is None else (
-        "; held only by contact: " + ", ".join(model.floating.names))
+        "; held only by contact: " + held_text(model.floating))
+    if model.floating is not None and "zero-energy" in held:
+        held += "; " + HOURGLASS_HINT
     head = ("no static equilibrium" if result.status in ("secondary ray", "unbalanced load")
             else "the contact problem could not be solved")
     reason = f"{head} at step {step + 1}: {result.message}{held}{_iterative_hint(solver)}; {done}"

@@ -7,11 +7,14 @@ free mode and no contact is an error that names it. Plain numpy on the mesh (ran
 
 from __future__ import annotations
 
+from collections import Counter
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import numpy as np
 import scipy.linalg as sla
+import scipy.sparse as sps
+from scipy.sparse.csgraph import connected_components
 
 from app.assembly.sequential_factor import SequentialCholesky
 from app.config import Config
@@ -108,6 +111,30 @@ class FloatingModes:
     centroids: np.ndarray | None = None
 
 
+HOURGLASS_HINT = ("CS-FEM-1SD leaves zero-energy (hourglass) modes that only the contact "
+                  "holds, and those may have no equilibrium: use --sd 2 or more "
+                  "(hourglass-free smoothing), --method fem-q4, or a finer mesh")
+"""What a failed contact step adds when zero-energy (hourglass) modes are held by contact."""
+
+
+def held_text(floating: FloatingModes) -> str:
+    """The modes held only by contact for an error line: rigid modes by name ('b1:
+    translation x'); a body's zero-energy (hourglass) modes counted ('block1: 12
+    zero-energy modes'), as 21 of them listed one by one made the line unreadable."""
+    zero = np.zeros(len(floating.names), dtype=bool) if floating.rigid is None else \
+        np.isnan(floating.rigid).any(axis=0)
+    bodies = floating.bodies or floating.names
+    count = Counter(b for b, z in zip(bodies, zero, strict=True) if z)
+    out = []
+    for name, body, z in zip(floating.names, bodies, zero, strict=True):
+        if not z:
+            out.append(name)
+        elif body in count:
+            k = count.pop(body)
+            out.append(f"{body}: {k} zero-energy mode{'s' if k > 1 else ''}")
+    return ", ".join(out)
+
+
 def floating_modes(mesh: Mesh, cfg: Config, fixed: np.ndarray,
                    contact: ContactSetup | None, disc=None) -> FloatingModes | None:
     """Zero-energy modes per body left by the supports; bodies without contact must have
@@ -143,7 +170,9 @@ def floating_modes(mesh: Mesh, cfg: Config, fixed: np.ndarray,
             if rb.shape[1] == 0:
                 continue
         dofs = np.stack([2 * nodes, 2 * nodes + 1], axis=1).ravel()
-        pins.append(_pins(rb, dofs, contact, fixed))
+        # the pins of the bodies before count as fixed (their contact rows' DOFs are no
+        # longer free)
+        pins.append(_pins(rb, dofs, contact, np.concatenate([fixed, *pins])))
         full = np.zeros((2 * mesh.n_nodes, rb.shape[1]))
         full[dofs] = rb
         cols.append(full)
@@ -172,17 +201,21 @@ def _pins(rb: np.ndarray, dofs: np.ndarray, contact: ContactSetup | None,
     """DOFs (r,) of a body (its DOFs `dofs`, its modes rb (len(dofs), r)) that pin the
     modes: chosen by QR with column pivoting (well spread), among the DOFs that no contact
     row touches when they pin every mode; else among the DOFs whose contact rows all keep
-    a DOF off the body and off the supports `fixed` (a pin there leaves every pair a
-    compliance); else among all. A pin on a pair's node gave that pair a zero compliance,
-    whose motion came from the modes alone: the stiff tie of `_fixed_pairs` (1e-12 of the
-    largest compliance) on it then acted as a penalty: q of an interface 1e11 times stiffer
-    than another was 18% off (configs/hard/tangential_contrast.toml; 0.19% at 1e9, 40% at
-    1e12); with the core one element thick (--mesh-size 0.5, every DOF of the core a
-    contact DOF), p 3% and q 10% off at 1e11."""
+    a DOF off the body and off the supports and earlier pins `fixed` (a pin there leaves
+    every pair a compliance) and that leave the contact rows as independent as they were
+    (not `_rank_keepers`); else among the latter alone; else among all. A pin on a pair's
+    node gave that pair a zero compliance, whose motion came from the modes alone: the
+    stiff tie of `_fixed_pairs` (1e-12 of the largest compliance) on it then acted as a
+    penalty: q of an interface 1e11 times stiffer than another was 18% off
+    (configs/hard/tangential_contrast.toml; 0.19% at 1e9, 40% at 1e12); with the core one
+    element thick (--mesh-size 0.5, every DOF of the core a contact DOF), p 3% and q 10%
+    off at 1e11. Pins on the slave nodes of a bond whose master is coarser left its rows
+    dependent (C singular, the null-space tie of `app.lcp.coulomb_matrix` on them, 1e12 in
+    the modes' block): Lemke failed (configs/multibody.toml --sd 1 --mesh-size 0.8)."""
     r = rb.shape[1]
     if contact is not None and r:
         g = contact.g.tocsr()
-        for allowed in (~np.isin(dofs, g.indices), _pin_safe(g, dofs, fixed)):
+        for allowed in _pin_candidates(g, dofs, fixed):
             if allowed.sum() >= r:
                 _, rr, piv = sla.qr(rb[allowed].T, pivoting=True, mode="economic")
                 d = np.abs(np.diag(rr))
@@ -190,6 +223,16 @@ def _pins(rb: np.ndarray, dofs: np.ndarray, contact: ContactSetup | None,
                     return dofs[allowed][piv[:r]]
     _, _, piv = sla.qr(rb.T, pivoting=True, mode="economic")
     return dofs[piv[:r]]
+
+
+def _pin_candidates(g: sp.csr_matrix, dofs: np.ndarray, fixed: np.ndarray | None):
+    """The candidate masks of `_pins` in turn ((len(dofs),) bool each), each computed
+    only when the one before cannot pin the modes (the rank test is dense)."""
+    yield ~np.isin(dofs, g.indices)
+    safe = _pin_safe(g, dofs, fixed)
+    free = ~_rank_keepers(g, dofs, fixed, safe)
+    yield safe & free
+    yield free
 
 
 def _pin_safe(g: sp.csr_matrix, dofs: np.ndarray, fixed: np.ndarray | None) -> np.ndarray:
@@ -209,6 +252,68 @@ def _pin_safe(g: sp.csr_matrix, dofs: np.ndarray, fixed: np.ndarray | None) -> n
     keeps = np.bincount(rows[live], weights=elsewhere[g.indices[live]],
                         minlength=g.shape[0]) > 0
     return ~np.isin(dofs, g.indices[live & ~keeps[rows]])
+
+
+RANK_REL = 1e-10
+"""Singular values below this x the largest are round-off in `_rank_keepers` (the rows of
+G scaled to a largest entry of 1)."""
+
+
+def _live_rows(g: sp.csr_matrix) -> sp.csr_matrix:
+    """g (2m, 2n) with each row scaled to a largest |entry| of 1 and its round-off entries
+    (at most PIN_ROUND_OFF of the row's largest) dropped."""
+    top = np.asarray(abs(g).max(axis=1).todense()).ravel()
+    out = sps.diags(1.0 / np.maximum(top, 1e-300)) @ g
+    out.data[np.abs(out.data) <= PIN_ROUND_OFF] = 0.0
+    out.eliminate_zeros()
+    return out.tocsr()
+
+
+def _rank_keepers(g: sp.csr_matrix, dofs: np.ndarray, fixed: np.ndarray | None,
+                  safe: np.ndarray) -> np.ndarray:
+    """(len(dofs),) bool: DOFs of a body to leave unpinned so that the contact rows of g
+    (2m, 2n) keep their rank on the free DOFs, as C = G K^-1 G^T keeps its rank. With E
+    the rows of g on the free DOFs off the body (off `fixed`) and Y a basis of E's left
+    null space, the DOFs whose columns of Y^T G_body span its range, taken first among the
+    DOFs that are not `safe` (never pins): no combination of rows that moved a free DOF
+    stops moving one when the other DOFs are pinned. The rows are those linked to the body
+    through shared free DOFs (the others cannot cancel with them); dense on those rows.
+    Pins on the slave nodes of a bond to a coarser master left its rows dependent."""
+    live = _live_rows(g)
+    on_body = np.zeros(g.shape[1], dtype=bool)
+    on_body[dofs] = True
+    off = ~on_body
+    if fixed is not None:
+        off[fixed] = False
+    ge = live[:, np.flatnonzero(off)].tocsr()
+    link = (abs(ge) @ abs(ge).T).tocsr()
+    _, label = connected_components(link, directed=False)
+    touch = np.diff(live[:, dofs].tocsr().indptr) > 0
+    rows = np.flatnonzero(np.isin(label, label[touch]))
+    keep = np.zeros(dofs.size, dtype=bool)
+    if not touch.any():
+        return keep
+    e = ge[rows]
+    e = e[:, np.flatnonzero(np.diff(e.tocsc().indptr) > 0)].toarray()
+    b = live[rows][:, dofs].toarray()  # (rows, len(dofs))
+    if e.shape[1]:
+        u, sv, _ = np.linalg.svd(e, full_matrices=True)
+        rank = int(np.sum(sv > RANK_REL * sv.max()))
+        b = u[:, rank:].T @ b  # the row combinations that move no free DOF off the body
+    top = float(np.abs(b).max(initial=0.0))
+    for part in (~safe, safe):  # the unsafe DOFs first: they are no pins anyway
+        idx = np.flatnonzero(part)
+        if idx.size == 0 or not top > 0:
+            continue
+        rest = b[:, idx]
+        kept = np.flatnonzero(keep)
+        if kept.size:  # less what the columns kept so far span
+            qk, rk = np.linalg.qr(b[:, kept])
+            qk = qk[:, np.abs(np.diag(rk)) > RANK_REL * top]
+            rest = rest - qk @ (qk.T @ rest)
+        _, rr, piv = sla.qr(rest, pivoting=True, mode="economic")
+        keep[idx[piv[: int(np.sum(np.abs(np.diag(rr)) > RANK_REL * top))]]] = True
+    return keep
 
 
 def _check_held(mesh: Mesh, cfg: Config, fixed: np.ndarray,
