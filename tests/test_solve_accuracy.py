@@ -270,3 +270,18 @@ def test_step_force_scales_are_each_steps_own():
                               3)
     assert steps == pytest.approx([3.2e9, 0.38, 0.0])
     assert step_force_scales([], [], 2) == [0.0, 0.0]
+
+
+def test_a_step_without_load_is_judged_against_the_runs_forces(tmp_path):
+    """two_blocks.toml pressed at step 1 and unloaded at step 2 (T = 0) under cg + gamg
+    with -ksp_atol 1e-12: step 2's contact forces are round-off, which the KSP solves as
+    x = 0 (relative residual 1). Judged against the step's own forces, 0, that stopped the
+    run; a step that applies no forces is judged against the run's largest, as before."""
+    r = run_cli(["run", str(CONFIGS / "two_blocks.toml"), "--quiet", "--out", str(tmp_path),
+                 "--set", "analysis.steps=2", "--set", "load.0.history=[1.0,0.0]",
+                 "--set", "interface.interface.mu=0.3", "-ksp_type", "cg", "-pc_type", "gamg",
+                 "-ksp_atol", "1e-12"])
+    assert r.returncode == 0, r.stderr
+    s = read_summary(tmp_path)
+    assert s["status"] == "completed" and len(s["steps"]) == 2
+    assert s["steps"][1]["strain_energy"] < 1e-12 * s["steps"][0]["strain_energy"]

@@ -5,6 +5,7 @@ recovered from the stored factorization."""
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -26,6 +27,9 @@ from app.output.contact import consistency_scales, pair_scales_of
 from app.output.pair_law import EPS, PAIR_WARN, ROUNDOFF_ULPS
 from app.output.status import writing
 from app.parallel import collective, to_numpy_all
+
+if TYPE_CHECKING:
+    import scipy.sparse as sp
 
 CONSISTENCY_TOL = 1e-9
 """Largest |G u - LCP kinematics| / max |u| accepted without a refinement re-solve."""
@@ -166,10 +170,14 @@ def _displacement(model: Model, system: LinearSystem, u_free: np.ndarray,
     """u_free + K^-1 G^T lambda (+ the floating modes' amplitudes); step_force: the
     step's force scale that the recovery's residual is judged against. Judged against
     the run's largest forces (before), a step of small forces after one of large forces
-    accepted a residual far above its own forces' round-off (-ksp_atol)."""
+    accepted a residual far above its own forces' round-off (-ksp_atol). A step that
+    applies no forces (0) has no scale of its own: its contact forces come from earlier
+    steps or the initial gaps, and are judged against the run's largest forces (judged
+    against 0, two_blocks.toml unloaded at step 2 with -ksp_atol 1e-12 stopped on its
+    round-off contact forces, solved as x = 0: relative residual 1)."""
     g = model.contact.g
     u_contact = contact_displacement(g, result.lam, system.solver, system.k, model.fixed_all,
-                                     to_numpy_all, step_force)
+                                     to_numpy_all, step_force or None)
     # lam . G K^-1 G^T lam: the bound of the motion a tied pair's dropped compliance row
     # makes (`app.output.pair_law.tied_coupling`)
     result.contact_work = max(float(result.lam @ (g @ u_contact)), 0.0)
@@ -179,7 +187,8 @@ def _displacement(model: Model, system: LinearSystem, u_free: np.ndarray,
     return u
 
 
-def lcp_data_round_off(g, u_free: np.ndarray, g0: np.ndarray, result: StepSolution) -> float:
+def lcp_data_round_off(g: sp.csr_matrix, u_free: np.ndarray, g0: np.ndarray,
+                       result: StepSolution) -> float:
     """The round-off of the step's LCP kinematic data, ROUNDOFF_ULPS eps x the largest of
     their terms: the free motion's (|G| |u_free|), the initial gap g0, tau_prev, and the
     motion of the bonds' a and c through each pair's compliance (C_ii a, C_ii c). A

@@ -178,6 +178,7 @@ class CandidateLCP:
             fr = self.fric_rank[slipping]
             basis[m + fr] = splus[slipping] > 0
             basis[m + self.mf + fr] = sminus[slipping] > 0
-        motion = max(s.motion, motion_size(gap_free, cl, na, tau_free, ta))
+        motion = motion_size(gap_free, cl[:m], na, tau_free, cl[m:], ta)
+        motion[idx] = np.maximum(motion[idx], s.motion)
         return ContactSolution(p, q, gap, tau, splus, sminus, s.alpha, s.pivots, s.status,
                                basis, s.residual, s.message, motion)

@@ -79,7 +79,7 @@ class InterfaceHistory:
 
 STATE_REL = 1e-7
 """A pair opens (gap) or slips (slip variables) when that is above STATE_REL x the larger of
-the problem's displacement scale and the step's own motion terms (`ContactSolution.motion`).
+the problem's displacement scale and the pair's own motion terms (`ContactSolution.motion`).
 The scale alone is the unit load cases' contact motion: a load on a stiff body pressed on a
 soft one barely moves the contact freely (1e-11 for E = 1e12 on E = 1e3), while its contact
 forces and rigid modes move it by 8e-3 and leave gaps of 1e-10 of round-off; a tolerance of
@@ -87,10 +87,12 @@ forces and rigid modes move it by 8e-3 and leave gaps of 1e-10 of round-off; a t
 pair (two_blocks.toml with the upper E = 1e10; 3 of 11 pairs at E = 1e8 over 1e3)."""
 
 
-def state_tolerance(tol: float, sol: ContactSolution) -> float:
-    """The gap and slip tolerance of one solution: tol (STATE_REL x the problem's scale)
-    or STATE_REL x the solution's motion terms, whichever is larger."""
-    return max(tol, STATE_REL * sol.motion)
+def state_tolerance(tol: float, sol: ContactSolution) -> np.ndarray:
+    """(m,) the gap and slip tolerance of each pair of one solution: tol (STATE_REL x the
+    problem's scale) or STATE_REL x the pair's own motion terms, whichever is larger. The
+    largest terms of the whole problem instead masked a bond's opening beside a soft
+    contact (`app.interface.coulomb.motion_size`)."""
+    return np.maximum(tol, STATE_REL * np.asarray(sol.motion, dtype=float))
 
 
 CONTACT_REL = 1e-10
