@@ -289,3 +289,24 @@ def test_a_name_of_the_wrong_type_is_not_reported_missing(path, value, needle):
     del_raw = copy.deepcopy(PATCH)
     del del_raw[path[0]][path[1]][path[2]]
     assert f"missing key {path[2]}" in _error(del_raw)
+
+
+def test_a_mesh_far_from_the_origin_is_not_degenerate():
+    """Element areas are taken about each element's first corner: with the shoelace of
+    absolute coordinates a 0.2 square at (1e8, 3e7) read 12.5 times its area (0.46 at
+    1e7, 5e-4 at 1e6), and a valid mesh moved there (a .msh in projected map
+    coordinates) stopped with `inverted or degenerate`; smaller ones flipped no sign but
+    the area was wrong."""
+    from app.discretisation.bulk import check_elements
+    from app.mesh.model import orient_ccw
+    from app.scene.geometry import polygon_areas
+
+    xs = np.linspace(0.0, 1.0, 6)
+    pts = np.array([[x, y] for y in xs for x in xs]) + [1e8, 3e7]
+    idx = np.arange(36).reshape(6, 6)
+    quads = np.column_stack([idx[:-1, :-1].ravel(), idx[:-1, 1:].ravel(),
+                             idx[1:, 1:].ravel(), idx[1:, :-1].ravel()])
+    np.testing.assert_allclose(polygon_areas(pts[quads]), 0.04, rtol=1e-7)
+    np.testing.assert_array_equal(orient_ccw(pts, quads), quads)
+    np.testing.assert_array_equal(orient_ccw(pts, quads[:, ::-1]), quads)
+    check_elements(_mesh(pts, quads))

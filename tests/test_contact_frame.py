@@ -65,14 +65,15 @@ def test_flat_on_flat_at_an_angle_is_frame_independent(name, deg):
                                atol=1e-12)
 
 
-@pytest.mark.parametrize("name", [n for n in DISCRETISATIONS if n != "node-to-segment"])
+@pytest.mark.parametrize("name", list(DISCRETISATIONS))
 def test_partly_covered_slave_node_gets_its_covered_length(name):
     """A wider slave (the foundation) under a narrower master: the slave nodes at the
     master's ends face it over half their tributary length. Their pair length (the
     divisor of p, and the length that multiplies the bond strength c and adhesion a) is
     that half, so the lengths add up to the contact length; it was the whole tributary
     length (0.75 for a block 0.5 wide), which doubled the strength of the bond's edge
-    pair and halved its p."""
+    pair and halved its p. Node-to-segment kept the whole tributary length until helper
+    `hunt2` (bonded.toml swapped: bond force 8.4 for c x 2 = 8, first debond at step 12)."""
     mesh = stacked(4, 3, x_up=(0.25, 0.75), x_low=(0.0, 1.0))
     spec = SimpleNamespace(name="t", slave="low_top", master="up_bottom", search_distance=0.1,
                            penetration_tol=None, interference=False)

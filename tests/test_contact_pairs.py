@@ -204,6 +204,24 @@ def test_slave_end_aligned_with_master_end_kept():
     assert p.n_pairs == 8
 
 
+@pytest.mark.parametrize("deg", [0.0, 30.0, -89.99])
+@pytest.mark.parametrize("x_up, nx_up, expect", [
+    ((-0.25, 1.25), 6, [0.125, 0.25, 0.25, 0.25, 0.125]),  # master ends at slave nodes
+    ((-0.3, 1.3), 4, [0.3, 0.4, 0.3]),  # master ends inside the slave's half edges
+])
+def test_overhanging_slave_counts_only_the_length_facing_the_master(deg, x_up, nx_up, expect):
+    """A slave wider than its master: the half edges of the kept end nodes that lie
+    beyond the master's free ends face nothing, so the pair lengths (the divisor of p and
+    the multiplier of c and a) add up to the master's width 1; they were the whole
+    tributary lengths (1.5 and 1.4), as with mortar before its covered length."""
+    mesh, _ = rotate(stacked(5, nx_up, x_up=x_up), deg)
+    p = contact_pairs(mesh, "up_bottom", "low_top", 0.1)
+    order = np.argsort(rotate(Mesh(p.position, mesh.quads[:0], mesh.body[:0], [], {}),
+                              -deg)[0].points[:, 0])
+    np.testing.assert_allclose(p.length[order], expect, atol=1e-12)
+    np.testing.assert_allclose(p.length.sum(), 1.0, atol=1e-12)
+
+
 def test_tributary_lengths_sum_to_curve_length():
     rng = np.random.default_rng(1)
     xs = np.sort(np.concatenate([[0.0, 1.0], rng.uniform(0, 1, 11)]))

@@ -312,6 +312,7 @@ def contact_pairs(mesh: Mesh, slave: str, master: str, search_distance: float, *
 
     nodes, trib = tributary_length(pts, s_edges)
     m_degree = np.bincount(m_edges.ravel(), minlength=mesh.n_nodes)
+    trib = covered_tributary(pts, s_edges, m_edges, seg_len, m_degree, sd)
     keep_s = m_degree[nodes] == 0
     nodes, trib = nodes[keep_s], trib[keep_s]
     xs = pts[nodes]
@@ -326,6 +327,44 @@ def contact_pairs(mesh: Mesh, slave: str, master: str, search_distance: float, *
                         slave=nodes[k].astype(np.int64), master=m_edges[sg[k]].copy(),
                         xi=xi[k], normal=nrm[k], tangent=t[k], g0=g0[k],
                         position=xs[k].copy(), length=trib[k])
+
+
+def covered_tributary(pts: np.ndarray, s_edges: np.ndarray, m_edges: np.ndarray,
+                      seg_len: np.ndarray, m_degree: np.ndarray, sd: float) -> np.ndarray:
+    """Tributary lengths of the slave-curve nodes (in `tributary_length`'s order, length)
+    counting only what faces the master: a half edge (node to edge midpoint) whose midpoint
+    projects beyond a free master end (a node of one master edge) by more than XI_EPS
+    counts up to the line through that end normal to the end segment (none of it if the
+    node is beyond too). Elsewhere the whole half edge counts, bit for bit as
+    `tributary_length`, so the lengths add up to the covered length of a slave that
+    overhangs its master.
+
+    pts (n, 2); s_edges (k, 2) slave edges; m_edges (j, 2) oriented master edges and
+    seg_len (j,) their lengths; m_degree (n_nodes,) master edges per node; sd the
+    search distance (length).
+    """
+    s_edges = np.asarray(s_edges, dtype=np.int64)
+    xs0, xs1 = pts[s_edges[:, 0]], pts[s_edges[:, 1]]
+    mid = 0.5 * (xs0 + xs1)
+    half = 0.5 * np.linalg.norm(xs1 - xs0, axis=1)
+    frac = np.ones((s_edges.shape[0], 2))
+    seg, xr, _ = closest_segments(mid, pts[m_edges[:, 0]], pts[m_edges[:, 1]],
+                                  sd + float(half.max()))
+    sg = np.where(seg >= 0, seg, 0)
+    a_end = (seg >= 0) & (xr < -XI_EPS) & (m_degree[m_edges[sg, 0]] == 1)
+    b_end = (seg >= 0) & (xr > 1 + XI_EPS) & (m_degree[m_edges[sg, 1]] == 1)
+    out = np.flatnonzero(a_end | b_end)
+    if out.size:
+        end = np.where(a_end[out], m_edges[sg[out], 0], m_edges[sg[out], 1])
+        other = np.where(a_end[out], m_edges[sg[out], 1], m_edges[sg[out], 0])
+        t_out = (pts[end] - pts[other]) / seg_len[sg[out], None]  # (o, 2) outwards
+        s_mid = np.einsum("ij,ij->i", mid[out] - pts[end], t_out)  # > 0: beyond
+        for k, xk in enumerate((xs0, xs1)):
+            s_node = np.einsum("ij,ij->i", xk[out] - pts[end], t_out)
+            frac[out, k] = np.minimum(np.maximum(-s_node, 0.0) / (s_mid - s_node), 1.0)
+    nodes, inv = np.unique(s_edges.ravel(), return_inverse=True)
+    return np.bincount(inv.ravel(), weights=(half[:, None] * frac).ravel(),
+                       minlength=nodes.size)
 
 
 def no_slave_error(label: str, slave: str, master: str, sd: float) -> InputError:

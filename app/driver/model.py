@@ -90,6 +90,8 @@ def build_model(ctx: RunContext) -> Model:
             check_dense_contact(contact.g, fixed, BYTES_PER_DOF * 2 * mesh.n_nodes,
                                 machine_memory(), opts.allow_large)  # before S is formed
         ctx.summary["n_pairs"] = contact.pairs.n_pairs
+        for text in contact.warnings:
+            ctx.warn(text)
         ctx.summary["contact_interfaces"] = contact.described
     with ctx.phase("floating_modes"):  # with CS-FEM-1SD: the hourglass eigen-solve
         floating = floating_modes(mesh, cfg, fixed, contact, disc)
