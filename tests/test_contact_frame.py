@@ -81,3 +81,38 @@ def test_partly_covered_slave_node_gets_its_covered_length(name):
     x = rows.pairs.position[:, 0]
     np.testing.assert_allclose(np.sort(x), [0.25, 0.5, 0.75])
     np.testing.assert_allclose(rows.pairs.length[np.argsort(x)], [0.125, 0.25, 0.125])
+
+
+def moved(shift) -> Mesh:
+    """stacked(4, 8) with the upper block's bottom tilted by 1/64 (touching at x = 0),
+    moved by `shift`. Every coordinate is a multiple of 1/512, so the moved points are
+    exact (moved - shift == unmoved bit for bit): the scene is the same geometry, and
+    any difference in its rows is the contact code's own round-off."""
+    mesh = stacked(4, 8, gap=0.0)
+    up = mesh.node_body() == 1
+    pts = mesh.points.copy()
+    pts[up, 1] += pts[up, 0] / 64
+    return Mesh(pts + np.asarray(shift, dtype=float), mesh.quads, mesh.body,
+                mesh.body_names, mesh.curves)
+
+
+@pytest.mark.parametrize("name", list(DISCRETISATIONS))
+@pytest.mark.parametrize("shift", [(1e6, 3e5), (1e8, -3e7)])
+def test_moved_scene_gives_the_same_rows(name, shift):
+    """The mortar integrals come from coordinate differences: moved by 1e6, g0 differed
+    by 5.7e-11 (3.7e-9 of g0), the weights of G by 1.7e-10 (the Gauss points' eta and the
+    weighted gap x_j - sum w x_l were formed from absolute coordinates); now to 1e-12 of
+    their size (bit for bit on this scene)."""
+    a = DISCRETISATIONS[name](moved((0.0, 0.0)), itf(), 0)
+    mesh = moved(shift)
+    assert np.array_equal(mesh.points - np.asarray(shift), moved((0.0, 0.0)).points)
+    b = DISCRETISATIONS[name](mesh, itf(), 0)
+    g_scale = np.abs(a.pairs.g0).max()
+    assert g_scale > 0.01
+    np.testing.assert_allclose(b.pairs.g0, a.pairs.g0, rtol=0, atol=1e-12 * g_scale)
+    np.testing.assert_allclose(b.g_normal, a.g_normal, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(b.g_tangent, a.g_tangent, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(b.pairs.normal, a.pairs.normal, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(b.pairs.length, a.pairs.length, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(b.pairs.position - np.asarray(shift), a.pairs.position,
+                               rtol=0, atol=0)

@@ -485,3 +485,22 @@ def test_cache_keys_change_only_for_scenes_with_interior_named_points(tmp_path: 
     build_mesh(scene, cache_dir=tmp_path / "b")
     files = list((tmp_path / "b").glob("mesh-*.npz"))
     assert len(files) == 1 and files[0].name != f"mesh-{plain_key(scene)}.npz"
+
+
+@pytest.mark.parametrize("shift", [(1e6, 3e5), (1e8, 3e7), (-1e8, 3e7)])
+def test_polygon_areas_do_not_depend_on_the_position(shift) -> None:
+    """A square of side 0.125 and a thin quad, moved by 1e8: the shoelace sums
+    x_i y_(i+1) - x_(i+1) y_i of absolute coordinates carried the round-off of |x|^2
+    (3e15 x eps ~ 0.7, above the area): the moved elements read inverted or degenerate
+    (`check_elements`: scripts/check_invariance.py ... --xf shift=1e8:3e7 failed) and
+    `orient_boundary_edges` flipped a master curve (node-to-segment gaps of the wrong
+    sign). Formed relative to the first vertex, they equal the unmoved areas."""
+    from app.scene.geometry import polygon_areas
+
+    quads = np.array([[[0, 0], [0.125, 0], [0.125, 0.125], [0, 0.125]],
+                      [[0, 0], [1, 0], [1, 1 / 1024], [0, 1 / 1024]]], dtype=float)
+    moved = quads + np.asarray(shift)
+    assert np.array_equal(moved - np.asarray(shift), quads)  # exact: the same geometry
+    np.testing.assert_allclose(polygon_areas(moved), [1 / 64, 1 / 1024], rtol=1e-15)
+    np.testing.assert_allclose(polygon_areas(moved[:, ::-1]), [-1 / 64, -1 / 1024],
+                               rtol=1e-15)

@@ -229,11 +229,14 @@ def segment_overlaps(xs1: np.ndarray, xs2: np.ndarray, ns1: np.ndarray, ns2: np.
     lo, hi = lo[k], hi[k]
     s = 0.5 * (lo + hi)[:, None] + 0.5 * (hi - lo)[:, None] * _GAUSS_S  # (p, g)
     w = (0.5 * (hi - lo) * np.linalg.norm(x2[k] - x1[k], axis=1))[:, None] * _GAUSS_W
-    xg = x1[k, None] + s[..., None] * (x2[k] - x1[k])[:, None]
+    # the Gauss points relative to the master segment's start, from coordinate
+    # differences: x1 + s (x2 - x1) - pa carried the round-off of |x|, not of the
+    # segments (eta, so the weights, moved by 1e-10 when the scene was moved by 1e6)
+    rg = (x1[k] - pa[k])[:, None] + s[..., None] * (x2[k] - x1[k])[:, None]
     ng = n1[k, None] + s[..., None] * (n2[k] - n1[k])[:, None]
     dm = (pb[k] - pa[k])[:, None]
     den = _cross(dm, ng)
-    eta = np.clip(_cross(xg - pa[k, None], ng) / np.where(den == 0, np.nan, den), 0, 1)
+    eta = np.clip(_cross(rg, ng) / np.where(den == 0, np.nan, den), 0, 1)
     return k, s, w, np.nan_to_num(eta, nan=0.5)
 
 
@@ -374,14 +377,29 @@ def _initial_gaps(geo: SlaveGeometry, itf, sd: float, w: sp.csr_matrix, basis: M
     """Initial weighted gaps g0 (q,) (length) of the rows w (q, n); with a master basis
     other than the linear trace and no `interference`, no overlap that the linear trace
     does not have (`no_made_overlap`)."""
-    nrm = geo.normal[geo.nodes]
-    g0 = np.einsum("ij,ij->i", nrm, geo.pts[geo.nodes] - w @ geo.pts)
+    g0 = weighted_gaps(geo.pts, geo.nodes, geo.normal[geo.nodes], w)
     if getattr(basis, "label", "linear") != "linear" and not itf.interference:
         w_lin, _ = _covered_weights(geo.pts, geo.nodes, geo.s_edges, geo.m_edges, geo.found,
                                     geo.normal, itf, sd,
                                     linear_master(*geo.master_basis_args()), multipliers)
-        g0 = no_made_overlap(g0, np.einsum("ij,ij->i", nrm, geo.pts[geo.nodes] - w_lin @ geo.pts))
+        g0 = no_made_overlap(g0, weighted_gaps(geo.pts, geo.nodes, geo.normal[geo.nodes],
+                                               w_lin))
     return g0
+
+
+def weighted_gaps(pts: np.ndarray, nodes: np.ndarray, nrm: np.ndarray,
+                  w: sp.csr_matrix) -> np.ndarray:
+    """(q,) weighted gaps n_j . (x_j - sum_l w_jl x_l) (length) of the rows w (q, n) whose
+    nonzero rows sum to 1, at the slave nodes `nodes` (q,) with normals nrm (q, 2).
+
+    Formed as n_j . sum_l w_jl (x_j - x_l), from coordinate differences: x_j - w x carried
+    the round-off of the coordinates (eps |x|, 2.3e-10 with the scene moved by 1e6)
+    instead of that of the gaps. A zero row (an uncovered node) reads 0 (it is dropped)."""
+    w = w.tocsr()
+    row = np.repeat(np.arange(w.shape[0]), np.diff(w.indptr))
+    rel = pts[nodes[row]] - pts[w.indices]  # (nnz, 2)
+    terms = w.data * np.einsum("ij,ij->i", nrm[row], rel)
+    return np.bincount(row, weights=terms, minlength=w.shape[0])
 
 
 def _kept_rows(geo: SlaveGeometry, k: np.ndarray, w: sp.csr_matrix, g0: np.ndarray,
@@ -523,8 +541,7 @@ def _nodal_gap(x: np.ndarray, xa: np.ndarray, xb: np.ndarray, xi: np.ndarray) ->
     """Signed distance (q,) of the points x (q, 2) to the lines xa -> xb (q, 2) at their
     closest points xa + xi (xb - xa): open > 0 (master body on the left of xa -> xb)."""
     d = xb - xa
-    xp = xa + xi[:, None] * d
-    return _cross(x - xp, d) / np.linalg.norm(d, axis=1)
+    return _cross((x - xa) - xi[:, None] * d, d) / np.linalg.norm(d, axis=1)
 
 
 def _padded_rows(w: sp.csr_matrix, pairs: ContactPairs):

@@ -412,8 +412,9 @@ def _project_slaves(xs: np.ndarray, pts: np.ndarray, m_edges: np.ndarray,
     t = (xb - xa) / seg_len[:, None]
     t = t[sg]
     nrm = np.column_stack([t[:, 1], -t[:, 0]])
-    xp = (1 - xi)[:, None] * xa[sg] + xi[:, None] * xb[sg]
-    g0 = np.einsum("ij,ij->i", nrm, xs - xp)
+    # from coordinate differences (xs - xp with xp = (1 - xi) xa + xi xb carried the
+    # round-off of |x|, not of the gap)
+    g0 = np.einsum("ij,ij->i", nrm, (xs - xa[sg]) - xi[:, None] * (xb - xa)[sg])
     keep = found & ~beyond & (dist <= sd) & (g0 <= sd)
     return keep, sg, xi, t, nrm, g0
 

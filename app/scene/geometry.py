@@ -128,8 +128,9 @@ def length_value(d: dict, key: str, where: str) -> float:
 def polygon_areas(xy: np.ndarray) -> np.ndarray:
     """Signed (shoelace) areas of polygons xy (..., k, 2); positive when counter-clockwise.
 
-    Taken about each polygon's first vertex: the products of absolute coordinates lose
-    the area far from the origin (a 0.2 square at (1e8, 3e7) read 12.5 x its area)."""
-    x = xy[..., 0] - xy[..., :1, 0]
-    y = xy[..., 1] - xy[..., :1, 1]
+    Formed relative to each polygon's first vertex: with absolute coordinates the products
+    carried the round-off of |x|^2, and a scene moved by (1e8, 3e7) read its elements as
+    inverted (and its boundary edges flipped, `app.mesh.model.orient_boundary_edges`)."""
+    rel = xy - xy[..., :1, :]
+    x, y = rel[..., 0], rel[..., 1]
     return 0.5 * np.sum(x * np.roll(y, -1, axis=-1) - np.roll(x, -1, axis=-1) * y, axis=-1)
