@@ -11,7 +11,6 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import numpy as np
-import scipy.linalg as sla
 
 from app.assembly.sequential_factor import SequentialCholesky
 from app.config import Config
@@ -184,12 +183,34 @@ def _pins(rb: np.ndarray, dofs: np.ndarray, contact: ContactSetup | None,
         g = contact.g.tocsr()
         for allowed in (~np.isin(dofs, g.indices), _pin_safe(g, dofs, fixed)):
             if allowed.sum() >= r:
-                _, rr, piv = sla.qr(rb[allowed].T, pivoting=True, mode="economic")
-                d = np.abs(np.diag(rr))
+                piv, d = pivot_rows(rb[allowed])
                 if d[r - 1] > PIN_RANK_REL * d[0]:
-                    return dofs[allowed][piv[:r]]
-    _, _, piv = sla.qr(rb.T, pivoting=True, mode="economic")
-    return dofs[piv[:r]]
+                    return dofs[allowed][piv]
+    return dofs[pivot_rows(rb)[0]]
+
+
+PIVOT_TIE = 1e-6
+"""Rows whose remaining norm is within this fraction of the largest tie in `pivot_rows`."""
+
+
+def pivot_rows(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Rows (r,) of a (k, r) chosen as QR with column pivoting of a.T chooses them, and
+    their remaining norms (r,), with ties (within PIVOT_TIE) going to the lowest row: a
+    mirror-symmetric mesh has rows of equal norm, which LAPACK's pivoting separated by
+    round-off, so the pins (and the amplitudes `rigid_modes`) differed between 1 and 2
+    ranks (hard/floating_gravity.toml --sd 1: DOFs 727, 728 against 710, 781)."""
+    res = np.array(a, dtype=float)
+    r = a.shape[1]
+    piv, d = np.zeros(r, dtype=np.int64), np.zeros(r)
+    for j in range(r):  # r steps, each O(k r): vectorised over the rows
+        norms = np.linalg.norm(res, axis=1)
+        i = int(np.argmax(norms >= (1.0 - PIVOT_TIE) * norms.max()))
+        piv[j], d[j] = i, norms[i]
+        if norms[i] == 0.0:
+            break
+        q = res[i] / norms[i]
+        res -= np.outer(res @ q, q)
+    return piv, d
 
 
 def _pin_safe(g: sp.csr_matrix, dofs: np.ndarray, fixed: np.ndarray | None) -> np.ndarray:
