@@ -139,3 +139,17 @@ def test_the_basis_is_the_same_whichever_solver_found_it(monkeypatch):
     np.testing.assert_allclose(dense.T @ dense, np.eye(5), atol=1e-12)
     again = bulk.canonical_basis(dense @ np.linalg.qr(np.arange(25.0).reshape(5, 5) ** 2)[0])
     np.testing.assert_allclose(again, dense, atol=1e-10)
+
+
+def test_the_count_stops_early_above_max_modes(monkeypatch):
+    """With max_modes the block stops doubling once it holds more modes than that: a
+    200 x 1 strip (204 modes) gives 64 of them, each of zero energy."""
+    mesh = strip(200, 100.0)
+    monkeypatch.setattr(bulk, "DENSE_EIG_MAX_DOFS", 10)
+    modes = zero_energy_modes(mesh, ONE_SD, 0, NO_SUPPORT, max_modes=32)
+    assert modes.shape == (804, 64)
+    k = bulk.element_matrices(mesh, ONE_SD, np.arange(200))
+    dofs = np.stack([2 * mesh.quads, 2 * mesh.quads + 1], axis=-1).reshape(200, 8)
+    energy = np.einsum("eim,eij,ejm->m", modes[dofs], k, modes[dofs])
+    assert energy.max() <= 1e-12 * np.abs(k).max()
+    assert zero_energy_modes(mesh, ONE_SD, 0, NO_SUPPORT).shape == (804, 204)

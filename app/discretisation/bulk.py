@@ -182,14 +182,17 @@ def superlu_factor(matrix) -> Factor:
 
 
 def zero_energy_modes(mesh: Mesh, disc, body: int, fixed: np.ndarray,
-                      factorize: Factorize = superlu_factor) -> np.ndarray:
+                      factorize: Factorize = superlu_factor,
+                      max_modes: int | None = None) -> np.ndarray:
     """Null space of one body's stiffness with its supports, (2 n_body_nodes, r).
 
     Rigid modes and, for CS-FEM-1SD, hourglass modes. Dense eigen-decomposition for small
     bodies, shift-invert block subspace iteration otherwise, its one factorization by
     `factorize` (the run passes MUMPS, `app.assembly.sequential_factor`). The columns are
     `canonical_basis` of the null space (the same whichever solver found it). Rows follow
-    the body's nodes in ascending order, x and y interleaved.
+    the body's nodes in ascending order, x and y interleaved. With `max_modes`, the
+    iterative route stops once it has found more than that many (then the columns are
+    some of the modes, more than max_modes).
     """
     import scipy.sparse as sp
 
@@ -214,18 +217,21 @@ def zero_energy_modes(mesh: Mesh, disc, body: int, fixed: np.ndarray,
         w, v = np.linalg.eigh(kff.toarray())
         modes = v[:, w < NULL_REL * w[-1]]
     else:
-        modes = _null_space_iterative(kff, scale, factorize, mesh.body_names[body])
+        modes = _null_space_iterative(kff, scale, factorize, mesh.body_names[body],
+                                      max_modes)
     out = np.zeros((n, modes.shape[1]))
     out[free] = canonical_basis(modes)
     return out
 
 
-def _null_space_iterative(kff, scale: float, factorize: Factorize, name: str) -> np.ndarray:
+def _null_space_iterative(kff, scale: float, factorize: Factorize, name: str,
+                          max_modes: int | None = None) -> np.ndarray:
     """Orthonormal eigenvectors of the sparse symmetric PSD kff (n, n) with eigenvalues
     below NULL_REL scale, (n, r), by block shift-invert subspace iteration about
     -NULL_SHIFT scale: one factorization of the shifted (positive definite) matrix; the block
-    starts at NULL_BLOCK_FIRST columns and doubles while every Ritz pair is zero-energy.
-    Raises SolveError naming the body `name` when the iteration does not settle."""
+    starts at NULL_BLOCK_FIRST columns and doubles while every Ritz pair is zero-energy
+    (and, with max_modes, while it holds at most that many). Raises SolveError naming the
+    body `name` when the iteration does not settle."""
     import scipy.sparse as sp
 
     n = kff.shape[0]
@@ -237,7 +243,7 @@ def _null_space_iterative(kff, scale: float, factorize: Factorize, name: str) ->
         while True:
             x = np.hstack([found, rng.standard_normal((n, p - found.shape[1]))])
             found = _subspace_iteration(kff, scale, factor, x, name)
-            if found.shape[1] < p or p == n:
+            if found.shape[1] < p or p == n or (max_modes is not None and p > max_modes):
                 return found
             p = min(n, 2 * p)
     finally:

@@ -136,7 +136,9 @@ def floating_modes(mesh: Mesh, cfg: Config, fixed: np.ndarray,
         labels = mode_names(modes, centroid) if modes.shape[1] else []
         coef = modes
         if hourglass:  # rigid and hourglass modes together, from the body stiffness
-            rb = zero_energy_modes(mesh, disc, b, fixed, factorize=SequentialCholesky)
+            rb = zero_energy_modes(mesh, disc, b, fixed, factorize=SequentialCholesky,
+                                   max_modes=FLOATING_MODES_MAX)
+            _check_mode_count(mesh.body_names[b], rb.shape[1], disc.label)
             labels = [f"zero-energy mode {i + 1}" for i in range(rb.shape[1])]
             coef = np.full((3, rb.shape[1]), np.nan)
             if rb.shape[1] == 0:
@@ -154,6 +156,26 @@ def floating_modes(mesh: Mesh, cfg: Config, fixed: np.ndarray,
         return None
     return FloatingModes(np.hstack(cols), np.concatenate(pins).astype(np.int64), names,
                          bodies, np.hstack(rigid), np.array(centres))
+
+
+FLOATING_MODES_MAX = 32
+"""Zero-energy modes (rigid and hourglass) a body held only by contact may have. More is a
+mesh that CS-FEM-1SD leaves without stiffness, a strip one element thick (n x 1 elements:
+n + 4 modes), and the LCP then fails or runs for ever: multibody.toml's block1 as a strip
+of [10,1] (14 modes) completes; [20,1], [30,1], [50,1], [150,1] stop with Lemke
+'inaccurate' (step 1), [300,1] at step 2 after 6910 pivots, [600,1] ran past 900 s."""
+
+
+def _check_mode_count(name: str, count: int, label: str) -> None:
+    """One line naming the body when it has more than FLOATING_MODES_MAX modes (count: the
+    modes found, all of them or, when the eigen-solve stopped early, more than the most)."""
+    if count > FLOATING_MODES_MAX:
+        raise SolveError(
+            f"body '{name}' has more than {FLOATING_MODES_MAX} zero-energy modes (at least "
+            f"{count}) under {label}, held only by contact: its mesh has hourglass modes "
+            "of nearly every element (one element thick?); use --sd 2 or more "
+            "(hourglass-free smoothing), --method fem-q4 or a mesh at least two elements "
+            "thick")
 
 
 PIN_RANK_REL = 1e-6

@@ -1,5 +1,6 @@
-"""The pins of floating modes (`app.interface.floating.pivot_rows`) and the amplitudes
-`rigid_modes` they define: the same on 1 and 2 ranks. Before, LAPACK's column pivoting
+"""Bodies held only by contact (`app.interface.floating`): how many zero-energy modes they
+may have, the pins of their modes (`pivot_rows`) and the amplitudes `rigid_modes` those
+define, the same on 1 and 2 ranks. Before, LAPACK's column pivoting
 split the equal-norm rows of a mirror-symmetric mesh by round-off, and the eigen-solver's
 basis of the 1SD null space was arbitrary: hard/floating_gravity.toml with --sd 1 had
 `rigid_modes` 1.81 (then 0.475 with the basis fixed) apart between 1 and 2 ranks, with
@@ -52,3 +53,18 @@ def test_hourglass_amplitudes_agree_on_one_and_two_ranks(tmp_path):
     assert len(one) == 6 and one.keys() == two.keys()
     a, b = np.array(list(one.values())), np.array(list(two.values()))
     assert np.abs(a - b).max() <= 1e-9 * np.abs(a).max(), (one, two)
+
+
+def test_a_strip_one_element_thick_under_1sd_stops_early_with_one_line(tmp_path):
+    """multibody.toml's block1 as 150 x 1 elements has 154 zero-energy modes under
+    CS-FEM-1SD. Before, the run spent 5.5 s finding them, then Lemke ended 'inaccurate'
+    (12 s in all); at 600 x 1, 380 s in the eigen-solve, then an exception."""
+    r = run_cli(["run", str(CONFIGS / "multibody.toml"), "--sd", "1", "--set",
+                 "body.block1.shape.divisions=[150,1]", "--out", str(tmp_path), "--quiet"])
+    assert r.returncode == 2, r.stderr
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: body 'block1' has more than 32 "
+                                                   "zero-energy modes (at least 64)"), lines
+    assert "--sd 2" in lines[0] and "fem-q4" in lines[0] and "Traceback" not in r.stderr
+    summary = read_summary(tmp_path)
+    assert summary["status"] == "failed" and "block1" in summary["error"]
