@@ -153,3 +153,11 @@ def test_the_count_stops_early_above_max_modes(monkeypatch):
     energy = np.einsum("eim,eij,ejm->m", modes[dofs], k, modes[dofs])
     assert energy.max() <= 1e-12 * np.abs(k).max()
     assert zero_energy_modes(mesh, ONE_SD, 0, NO_SUPPORT).shape == (804, 204)
+
+
+def test_a_body_with_every_dof_supported_has_no_modes():
+    """hard/tangential_contrast.toml --sd 1 --mesh-size 4: a body whose every DOF is
+    supported ended in a traceback (the largest entry of an empty diagonal)."""
+    mesh = distorted_grid(2, 2)
+    every = np.arange(2 * mesh.n_nodes)
+    assert zero_energy_modes(mesh, ONE_SD, 0, every).shape == (2 * mesh.n_nodes, 0)
