@@ -106,3 +106,58 @@ def test_a_factor_with_destroy_is_destroyed(monkeypatch):
     monkeypatch.setattr(bulk, "DENSE_EIG_MAX_DOFS", 10)
     modes = zero_energy_modes(distorted_grid(14, 12), ONE_SD, 0, NO_SUPPORT, factorize=Spy)
     assert modes.shape[1] == 5 and destroyed == [True]
+
+
+def strip(n: int, aspect: float) -> Mesh:
+    """A strip one element thick: n elements of length 1 / n and height aspect / n."""
+    x = np.linspace(0.0, 1.0, n + 1)
+    pts = np.vstack([np.column_stack([x, np.zeros(n + 1)]),
+                     np.column_stack([x, np.full(n + 1, aspect / n)])])
+    i = np.arange(n)
+    quads = np.column_stack([i, i + 1, n + 2 + i, n + 1 + i])
+    return Mesh(pts, quads, np.zeros(n, dtype=np.int64), ["strip"])
+
+
+def test_a_slender_strip_keeps_its_softest_bending_mode_out(monkeypatch):
+    """A 1SD strip of n x 1 elements has n + 4 zero-energy modes (each element adds 5 and
+    shares 4 DOFs, 3 strains). Its softest bending mode, 5.5e-10 of the largest
+    eigenvalue here (multibody.toml's block1 at divisions [600,1]: 5.6e-10), is not one:
+    the dense route took it for one (25 modes, cut at 1e-9), and shift-invert Lanczos
+    about -1e-8 scale did not converge on the 600 x 1 strip (380 s, then an exception)."""
+    dense, iterative = both_routes(monkeypatch, strip(20, 3000.0))
+    assert dense.shape == iterative.shape == (84, 24)
+    np.testing.assert_allclose(projector(iterative), projector(dense), atol=1e-8)
+
+
+def test_the_basis_is_the_same_whichever_solver_found_it(monkeypatch):
+    """`canonical_basis`: the columns themselves (not only their span) agree between the
+    dense and iterative routes, so the amplitudes of hourglass modes in summary.json
+    `rigid_modes` do not depend on the eigen-solver's arbitrary basis (1 and 2 ranks
+    differed by 1.81 relative on hard/floating_gravity.toml with --sd 1)."""
+    dense, iterative = both_routes(monkeypatch, distorted_grid(14, 12))
+    np.testing.assert_allclose(iterative, dense, atol=1e-8)
+    np.testing.assert_allclose(dense.T @ dense, np.eye(5), atol=1e-12)
+    again = bulk.canonical_basis(dense @ np.linalg.qr(np.arange(25.0).reshape(5, 5) ** 2)[0])
+    np.testing.assert_allclose(again, dense, atol=1e-10)
+
+
+def test_the_count_stops_early_above_max_modes(monkeypatch):
+    """With max_modes the block stops doubling once it holds more modes than that: a
+    200 x 1 strip (204 modes) gives 64 of them, each of zero energy."""
+    mesh = strip(200, 100.0)
+    monkeypatch.setattr(bulk, "DENSE_EIG_MAX_DOFS", 10)
+    modes = zero_energy_modes(mesh, ONE_SD, 0, NO_SUPPORT, max_modes=32)
+    assert modes.shape == (804, 64)
+    k = bulk.element_matrices(mesh, ONE_SD, np.arange(200))
+    dofs = np.stack([2 * mesh.quads, 2 * mesh.quads + 1], axis=-1).reshape(200, 8)
+    energy = np.einsum("eim,eij,ejm->m", modes[dofs], k, modes[dofs])
+    assert energy.max() <= 1e-12 * np.abs(k).max()
+    assert zero_energy_modes(mesh, ONE_SD, 0, NO_SUPPORT).shape == (804, 204)
+
+
+def test_a_body_with_every_dof_supported_has_no_modes():
+    """hard/tangential_contrast.toml --sd 1 --mesh-size 4: a body whose every DOF is
+    supported ended in a traceback (the largest entry of an empty diagonal)."""
+    mesh = distorted_grid(2, 2)
+    every = np.arange(2 * mesh.n_nodes)
+    assert zero_energy_modes(mesh, ONE_SD, 0, every).shape == (2 * mesh.n_nodes, 0)

@@ -45,6 +45,20 @@ class SequentialCholesky:
         self._ksp.solve(self._b, self._x)
         return self._x.array.copy()
 
+    def solve_block(self, rhs: np.ndarray) -> np.ndarray:
+        """A^-1 rhs for a block of right-hand sides (n, p): one MUMPS solve of them all."""
+        n, p = rhs.shape
+        b = PETSc.Mat().createDense((n, p), array=np.asfortranarray(rhs, dtype=float),
+                                    comm=PETSc.COMM_SELF)
+        x = PETSc.Mat().createDense((n, p), comm=PETSc.COMM_SELF)
+        x.setUp()
+        try:
+            self._ksp.getPC().getFactorMatrix().matSolve(b, x)
+            return x.getDenseArray().copy()
+        finally:
+            b.destroy()
+            x.destroy()
+
     def destroy(self) -> None:
         """Free the factor now (not at garbage collection)."""
         for obj in (self._ksp, self._mat, self._x, self._b):

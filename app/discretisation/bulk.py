@@ -18,7 +18,7 @@ from app.discretisation.elements import (
     stiffness_blocks,
 )
 from app.discretisation.methods import BulkMethod, bulk_method, cell_gradients, strain_matrices
-from app.errors import InputError
+from app.errors import InputError, SolveError
 from app.mesh.model import Mesh
 
 
@@ -132,13 +132,35 @@ def element_fields(mesh: Mesh, disc: Discretisation, u: np.ndarray, elements: np
 
 
 # Free DOFs up to which a body's null space comes from a dense eigh (n^3: 0.1 s at 500,
-# 14 s at 3000 on one core here); above, shift-invert Lanczos (about 0.3 s at 3000).
+# 14 s at 3000 on one core here); above, shift-invert block subspace iteration.
 DENSE_EIG_MAX_DOFS = 500
 
-LANCZOS_FIRST_K = 4
-"""Eigenpairs Lanczos asks for first, doubled while every one found is zero-energy: each
-pair asked beyond the null space is a slowly converging smallest non-zero one (a
-67,813-DOF body with 3 modes: 4.8 s for 4 pairs, 8.4 s for 12)."""
+NULL_BLOCK_FIRST = 8
+"""Block size the subspace iteration starts with, doubled while every Ritz pair of the
+block is zero-energy (a CS-FEM-1SD strip one element thick has n_elements + 4 modes)."""
+
+NULL_REL = 1e-12
+"""An eigenvalue (Ritz value) below this x the stiffness's scale is zero energy. Exact
+null vectors reach 1e-16 to 1e-15; a slender body's softest bending mode falls as
+(length / thickness)^4 per element: a CS-FEM-1SD strip of n x 1 elements of
+multibody.toml's block1 has lambda_1 = 1.1e-5, 1.4e-7, 8.9e-9 of the largest eigenvalue
+at n = 50, 150, 300 (5.6e-10 at 600: below the 1e-9 used before, which took it for a
+zero-energy mode)."""
+
+NULL_SHIFT = 1e-11
+"""The shift-invert factorizes K + NULL_SHIFT scale I: each application divides a mode's
+non-null part by lambda / (NULL_SHIFT scale), at least 50 for lambda_1 above 5e-10 scale
+(with 1e-8 before, 0.95 at the 600 x 1 strip: the eigen-solve did not converge)."""
+
+NULL_RESIDUAL = 1e-13
+"""The iteration stops when every zero-energy Ritz vector v has |K v| below this x the
+scale and their count is stable (exact null vectors reach about 1e-15)."""
+
+NULL_MAX_ITERATIONS = 12
+"""Shift-inverted applications per block before the iteration is given up as unsettled."""
+
+MODE_SEED = 20240917
+"""Seed of the fixed vectors that start the iteration and fix the basis (`canonical_basis`)."""
 
 
 class Factor(Protocol):
@@ -160,13 +182,17 @@ def superlu_factor(matrix) -> Factor:
 
 
 def zero_energy_modes(mesh: Mesh, disc, body: int, fixed: np.ndarray,
-                      factorize: Factorize = superlu_factor) -> np.ndarray:
+                      factorize: Factorize = superlu_factor,
+                      max_modes: int | None = None) -> np.ndarray:
     """Null space of one body's stiffness with its supports, (2 n_body_nodes, r).
 
     Rigid modes and, for CS-FEM-1SD, hourglass modes. Dense eigen-decomposition for small
-    bodies, shift-invert Lanczos otherwise, its one factorization by `factorize` (the run
-    passes MUMPS, `app.assembly.sequential_factor`). Rows follow the body's nodes in
-    ascending order, x and y interleaved.
+    bodies, shift-invert block subspace iteration otherwise, its one factorization by
+    `factorize` (the run passes MUMPS, `app.assembly.sequential_factor`). The columns are
+    `canonical_basis` of the null space (the same whichever solver found it). Rows follow
+    the body's nodes in ascending order, x and y interleaved. With `max_modes`, the
+    iterative route stops once it has found more than that many (then the columns are
+    some of the modes, more than max_modes).
     """
     import scipy.sparse as sp
 
@@ -182,6 +208,8 @@ def zero_energy_modes(mesh: Mesh, disc, body: int, fixed: np.ndarray,
                                     np.tile(ld, (1, 8)).ravel())), shape=(n, n)).tocsr()
     gdofs = np.stack([2 * nodes, 2 * nodes + 1], axis=1).ravel()
     free = np.flatnonzero(~np.isin(gdofs, fixed))
+    if free.size == 0:  # every DOF supported (a one-element body at a coarse mesh size)
+        return np.zeros((n, 0))
     kff = k[free][:, free]
     scale = abs(kff.diagonal()).max()
     if not (np.isfinite(kff.data).all() and np.isfinite(scale) and scale > 0):
@@ -189,35 +217,81 @@ def zero_energy_modes(mesh: Mesh, disc, body: int, fixed: np.ndarray,
                          "zero (Young's modulus out of range?)")
     if free.size <= DENSE_EIG_MAX_DOFS:
         w, v = np.linalg.eigh(kff.toarray())
-        keep = w < 1e-9 * w[-1]
-        modes = v[:, keep]
+        modes = v[:, w < NULL_REL * w[-1]]
     else:
-        modes = _null_space_lanczos(kff, scale, factorize)
+        modes = _null_space_iterative(kff, scale, factorize, mesh.body_names[body],
+                                      max_modes)
     out = np.zeros((n, modes.shape[1]))
-    out[free] = modes
+    out[free] = canonical_basis(modes)
     return out
 
 
-def _null_space_lanczos(kff, scale: float, factorize: Factorize) -> np.ndarray:
-    """Eigenvectors of the sparse symmetric kff (n, n) with eigenvalues below 1e-9 scale,
-    (n, r), by shift-invert Lanczos about -1e-8 scale: one factorization of the shifted
-    (positive definite) matrix, more eigenpairs asked for while every one found is below
-    the bound."""
+def _null_space_iterative(kff, scale: float, factorize: Factorize, name: str,
+                          max_modes: int | None = None) -> np.ndarray:
+    """Orthonormal eigenvectors of the sparse symmetric PSD kff (n, n) with eigenvalues
+    below NULL_REL scale, (n, r), by block shift-invert subspace iteration about
+    -NULL_SHIFT scale: one factorization of the shifted (positive definite) matrix; the block
+    starts at NULL_BLOCK_FIRST columns and doubles while every Ritz pair is zero-energy
+    (and, with max_modes, while it holds at most that many). Raises SolveError naming the
+    body `name` when the iteration does not settle."""
     import scipy.sparse as sp
-    import scipy.sparse.linalg as sla_sparse
 
     n = kff.shape[0]
-    shift = -1e-8 * scale
-    factor = factorize(kff - shift * sp.identity(n, format="csr"))
-    inv = sla_sparse.LinearOperator(kff.shape, matvec=factor.solve, dtype=float)
-    k = min(n - 2, LANCZOS_FIRST_K)
+    factor = factorize(kff + NULL_SHIFT * scale * sp.identity(n, format="csr"))
+    rng = np.random.default_rng(MODE_SEED)
+    found = np.zeros((n, 0))
+    p = min(n, NULL_BLOCK_FIRST)
     try:
         while True:
-            w, v = sla_sparse.eigsh(kff, k=k, sigma=shift, which="LM", OPinv=inv)
-            modes = v[:, w < 1e-9 * scale]
-            if modes.shape[1] < k or k == n - 2:
-                return modes
-            k = min(n - 2, 2 * k)
+            x = np.hstack([found, rng.standard_normal((n, p - found.shape[1]))])
+            found = _subspace_iteration(kff, scale, factor, x, name)
+            if found.shape[1] < p or p == n or (max_modes is not None and p > max_modes):
+                return found
+            p = min(n, 2 * p)
     finally:
         if hasattr(factor, "destroy"):
             factor.destroy()
+
+
+def _subspace_iteration(kff, scale: float, factor: Factor, x: np.ndarray,
+                        name: str) -> np.ndarray:
+    """Zero-energy Ritz vectors (n, r) of kff from the start block x (n, p), iterated with
+    the shifted inverse `factor` until their residuals |kff v| are below NULL_RESIDUAL
+    scale and their count is stable."""
+    count = -1
+    for _ in range(NULL_MAX_ITERATIONS):
+        q, _ = np.linalg.qr(_solve_block(factor, x))
+        kq = kff @ q
+        w, s = np.linalg.eigh(q.T @ kq)
+        null = w < NULL_REL * scale
+        v, kv = q @ s[:, null], kq @ s[:, null]
+        res = np.linalg.norm(kv, axis=0).max(initial=0.0)
+        if res <= NULL_RESIDUAL * scale and null.sum() == count:
+            return v
+        count, x = int(null.sum()), q @ s
+    raise SolveError(f"the zero-energy modes of body '{name}' did not converge ({count} "
+                     f"found, residual {res / scale:.1e} of its stiffness after "
+                     f"{NULL_MAX_ITERATIONS} iterations): use --sd 2 or more "
+                     "(hourglass-free smoothing) or --method fem-q4")
+
+
+def _solve_block(factor: Factor, x: np.ndarray) -> np.ndarray:
+    """factor^-1 x for a block x (n, p): `solve_block` when the factor has one."""
+    if hasattr(factor, "solve_block"):
+        return factor.solve_block(x)
+    return np.column_stack([factor.solve(c) for c in x.T])
+
+
+def canonical_basis(modes: np.ndarray) -> np.ndarray:
+    """An orthonormal basis (n, r) of the span of `modes` (n, r) that depends on the span
+    only: the projections of fixed seeded vectors (MODE_SEED), orthonormalised in order
+    (QR, positive diagonal). An eigen-solver returns some basis of a repeated (zero)
+    eigenvalue; this one is the same whichever it was, so the amplitudes of the modes are
+    too."""
+    n, r = modes.shape
+    if r == 0:
+        return modes
+    q0, _ = np.linalg.qr(modes)
+    x = np.random.default_rng(MODE_SEED).standard_normal((n, r))
+    q, rr = np.linalg.qr(q0 @ (q0.T @ x))
+    return q * np.where(np.diag(rr) < 0, -1.0, 1.0)
