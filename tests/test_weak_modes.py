@@ -106,6 +106,16 @@ def test_entries_name_the_rotation_centre_and_warn_once_above_the_threshold():
     assert describe(np.array([1.0, 0.0]), None, None, ["r", "ty"]) == "r"
 
 
+def test_a_rotation_centre_within_the_fits_resolution_of_zero_reads_zero():
+    """multibody.toml's cylinder read 'x=-1.42e-09' (round-off of the pattern fit, whose
+    resolution is PATTERN_RCOND = 1e-8) where the centre is x = 0."""
+    centroid = np.array([0.0, 1.0])
+    off = np.array([[0.0], [-5e-9], [1.0]])  # tx, ty, th: centre x = 0 - ty / th = 5e-9
+    assert describe(np.array([1.0]), off, centroid, ["r"]) == "rotation about (x=0, y=1)"
+    real = np.array([[0.0], [-5e-7], [1.0]])  # 5e-7: above the resolution, shown
+    assert describe(np.array([1.0]), real, centroid, ["r"]) == "rotation about (x=5e-07, y=1)"
+
+
 def _run(tmp_path, name: str, *args: str, ranks: int = 1):
     out = tmp_path / name
     r = run_cli(["run", str(CONFIGS / "hertz.toml"), "--out", str(out), "--quiet", *args],

@@ -128,7 +128,8 @@ def held_mode_slides(p: np.ndarray, q: np.ndarray, tau: np.ndarray, interface: n
 def describe(v: np.ndarray, coefficients: np.ndarray | None, centroid: np.ndarray | None,
              names: list[str]) -> str:
     """Words for a combination v (r_b,) of a body's modes: the rigid motion it is ('rotation
-    about (x=.., y=..)', coordinates below 1e-9 of the centroid's size shown as 0) when the
+    about (x=.., y=..)', coordinates below PATTERN_RCOND of the centroid's size, the fit's
+    own resolution, shown as 0) when the
     modes' rigid coefficients (3, r_b) about the body `centroid` are known, else the name of
     its dominant mode."""
     if coefficients is None or centroid is None or not np.isfinite(coefficients).all():
@@ -137,7 +138,7 @@ def describe(v: np.ndarray, coefficients: np.ndarray | None, centroid: np.ndarra
     if abs(th) <= 1e-6 * max(abs(tx), abs(ty), 1e-300):
         return mode_names(np.array([[tx], [ty], [th]]), centroid)[0]
     x0, y0 = centroid[0] - ty / th, centroid[1] + tx / th
-    tiny = 1e-9 * max(np.abs(centroid).max(), 1.0)
+    tiny = PATTERN_RCOND * max(np.abs(centroid).max(), 1.0)
     x0, y0 = (0.0 if abs(c) < tiny else float(c) for c in (x0, y0))
     return f"rotation about (x={x0:.4g}, y={y0:.4g})"
 
