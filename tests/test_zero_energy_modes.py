@@ -3,11 +3,10 @@
 DOFs goes to the iterative route (shift-invert Lanczos at first, now a block shift-invert
 subspace iteration; the tests named `lanczos` test that route), which finds the same
 modes as the dense eigen-decomposition, however many. Before, bodies up to 3000 free
-DOFs were decomposed
-densely: the 1SD run of hertz_halfspace.toml at level 1 (`--refine 1`, a cylinder of
-about 2,900 free DOFs) spent 11.0 of its 12.2 s there (0.5 s with Lanczos), and a
-study's 1SD times zigzagged (12.8 s at level 1, 2.8 s at level 2); and Lanczos asked for
-12 eigenpairs only, so a body with more zero-energy modes lost the rest."""
+DOFs were decomposed densely: the 1SD run of hertz_halfspace.toml at level 1 (`--refine
+1`, a cylinder of about 2,900 free DOFs) spent 11.0 of its 12.2 s there (0.5 s with
+Lanczos), and a study's 1SD times zigzagged (12.8 s at level 1, 2.8 s at level 2); and
+Lanczos asked for 12 eigenpairs only, so a body with more zero-energy modes lost the rest."""
 
 import numpy as np
 from test_discretisation import distorted_grid
