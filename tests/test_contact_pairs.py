@@ -208,6 +208,9 @@ def test_slave_end_aligned_with_master_end_kept():
 @pytest.mark.parametrize("x_up, nx_up, expect", [
     ((-0.25, 1.25), 6, [0.125, 0.25, 0.25, 0.25, 0.125]),  # master ends at slave nodes
     ((-0.3, 1.3), 4, [0.3, 0.4, 0.3]),  # master ends inside the slave's half edges
+    # master ends between an edge's midpoint and its (dropped) outer node: the end
+    # pairs count up to the ends (they read 0.3 each, 0.9 in all, before)
+    ((-0.1, 1.1), 4, [0.35, 0.3, 0.35]),
 ])
 def test_overhanging_slave_counts_only_the_length_facing_the_master(deg, x_up, nx_up, expect):
     """A slave wider than its master: the half edges of the kept end nodes that lie
@@ -437,3 +440,20 @@ def test_vectorised_large_search():
     np.testing.assert_allclose(x, p.position[:, 0], atol=1e-14)
     assert g.shape == (400_000, 2 * mesh.n_nodes)
     assert elapsed < 5.0, f"pair search took {elapsed:.2f} s"
+
+
+def test_one_slave_on_two_masters_meeting_inside_an_edge_counts_all_of_it():
+    """A slave curve over two masters side by side, [0, 1] and [1, 2], meeting inside a
+    slave edge (nodes at 0.9 and 1.2): each interface's lengths reach the joint, so each
+    adds up to its master's width 1. Before, the second read 0.9: the parts between the
+    joint and the edge's midpoint (1.05), and between 1.95 and its far end 2 (the slave
+    node at 2.1 is dropped), counted for no node."""
+    low_a = block(np.linspace(0.0, 1.0, 5), np.linspace(-0.5, 0.0, 3))
+    low_b = block(np.linspace(1.0, 2.0, 5), np.linspace(-0.5, 0.0, 3))
+    up = block(np.linspace(0.0, 2.1, 8), np.linspace(0.0, 0.5, 3))
+    mesh = scene({"a": low_a, "b": low_b, "up": up})
+    pa = contact_pairs(mesh, "up_bottom", "a_top", 0.1)
+    pb = contact_pairs(mesh, "up_bottom", "b_top", 0.1)
+    assert pa.n_pairs + pb.n_pairs == 7
+    np.testing.assert_allclose(pa.length.sum(), 1.0, atol=1e-12)
+    np.testing.assert_allclose(pb.length.sum(), 1.0, atol=1e-12)

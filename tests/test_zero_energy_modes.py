@@ -1,11 +1,12 @@
 """The null space of a body's stiffness (rigid and 1SD hourglass modes,
 `app.discretisation.bulk.zero_energy_modes`): a body of more than a few hundred free
-DOFs goes to shift-invert Lanczos, which finds the same modes as the dense
-eigen-decomposition, however many. Before, bodies up to 3000 free DOFs were decomposed
-densely: the 1SD run of hertz_halfspace.toml at level 1 (`--refine 1`, a cylinder of
-about 2,900 free DOFs) spent 11.0 of its 12.2 s there (0.5 s with Lanczos), and a
-study's 1SD times zigzagged (12.8 s at level 1, 2.8 s at level 2); and Lanczos asked for
-12 eigenpairs only, so a body with more zero-energy modes lost the rest."""
+DOFs goes to the iterative route (shift-invert Lanczos at first, now a block shift-invert
+subspace iteration; the tests named `lanczos` test that route), which finds the same
+modes as the dense eigen-decomposition, however many. Before, bodies up to 3000 free
+DOFs were decomposed densely: the 1SD run of hertz_halfspace.toml at level 1 (`--refine
+1`, a cylinder of about 2,900 free DOFs) spent 11.0 of its 12.2 s there (0.5 s with
+Lanczos), and a study's 1SD times zigzagged (12.8 s at level 1, 2.8 s at level 2); and
+Lanczos asked for 12 eigenpairs only, so a body with more zero-energy modes lost the rest."""
 
 import numpy as np
 from test_discretisation import distorted_grid
@@ -161,3 +162,33 @@ def test_a_body_with_every_dof_supported_has_no_modes():
     mesh = distorted_grid(2, 2)
     every = np.arange(2 * mesh.n_nodes)
     assert zero_energy_modes(mesh, ONE_SD, 0, every).shape == (2 * mesh.n_nodes, 0)
+
+
+def graded(g: float) -> Mesh:
+    """distorted_grid(14, 12) with x mapped to exp(g x / max x): element widths growing
+    geometrically by e^g across the body (aspect ratios up to ~1e3-1e4), so that its
+    softest non-zero eigenvalues come down to 1e-12 of its stiffness's scale."""
+    base = distorted_grid(14, 12)
+    p = base.points.copy()
+    p[:, 0] = np.exp(g * p[:, 0] / p[:, 0].max())
+    return Mesh(p, base.quads, np.zeros(len(base.quads), dtype=np.int64), ["graded"])
+
+
+def test_both_routes_count_the_same_modes_near_the_cut(monkeypatch):
+    """Graded by e^6, the body's sixth eigenvalue is 2.0e-12 of its largest diagonal entry
+    and below 1e-12 of its largest eigenvalue: the dense route cut at NULL_REL x the
+    largest eigenvalue (6 modes), the iterative one at NULL_REL x the diagonal (5), so
+    the count depended on the body's size (DENSE_EIG_MAX_DOFS). Both cut at the latter."""
+    dense, iterative = both_routes(monkeypatch, graded(6.0))
+    assert dense.shape[1] == iterative.shape[1] == 5
+
+
+def test_a_mode_just_under_the_cut_settles(monkeypatch):
+    """Graded by e^6.5 and e^7, a mode lies between NULL_RESIDUAL and NULL_REL x scale:
+    counted as zero energy, its |K v| (= its eigenvalue) never fell below NULL_RESIDUAL,
+    and the iteration stopped with `did not converge`; the eigen-residual |K v - w v|
+    settles, with the dense route's count."""
+    for g, count in ((6.5, 6), (7.0, 7)):
+        dense, iterative = both_routes(monkeypatch, graded(g))
+        assert dense.shape[1] == iterative.shape[1] == count
+        np.testing.assert_allclose(projector(iterative), projector(dense), atol=2e-2)

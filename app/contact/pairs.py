@@ -335,7 +335,11 @@ def covered_tributary(pts: np.ndarray, s_edges: np.ndarray, m_edges: np.ndarray,
     counting only what faces the master: a half edge (node to edge midpoint) whose midpoint
     projects beyond a free master end (a node of one master edge) by more than XI_EPS
     counts up to the line through that end normal to the end segment (none of it if the
-    node is beyond too). Elsewhere the whole half edge counts, bit for bit as
+    node is beyond too); an edge whose other node projects beyond a free end (that node is
+    dropped) counts from the node up to that line, past the midpoint if the line is (else
+    the part between them faced the master and counted for no node: a slave overhanging
+    by less than half an edge, or one slave on two masters that meet inside an edge, read
+    lengths 10% short). Elsewhere the whole half edge counts, bit for bit as
     `tributary_length`, so the lengths add up to the covered length of a slave that
     overhangs its master.
 
@@ -344,27 +348,41 @@ def covered_tributary(pts: np.ndarray, s_edges: np.ndarray, m_edges: np.ndarray,
     search distance (length).
     """
     s_edges = np.asarray(s_edges, dtype=np.int64)
-    xs0, xs1 = pts[s_edges[:, 0]], pts[s_edges[:, 1]]
-    mid = 0.5 * (xs0 + xs1)
-    half = 0.5 * np.linalg.norm(xs1 - xs0, axis=1)
+    xs = (pts[s_edges[:, 0]], pts[s_edges[:, 1]])
+    mid = 0.5 * (xs[0] + xs[1])
+    half = 0.5 * np.linalg.norm(xs[1] - xs[0], axis=1)
     frac = np.ones((s_edges.shape[0], 2))
-    seg, xr, _ = closest_segments(mid, pts[m_edges[:, 0]], pts[m_edges[:, 1]],
-                                  sd + float(half.max()))
+    ends = (pts, m_edges, seg_len, m_degree, sd + 2.0 * float(half.max()))
+    out, s_mid, s_node = _beyond_free_end(mid, xs, *ends)
+    for k in (0, 1):
+        frac[out, k] = np.minimum(np.maximum(-s_node[k], 0.0) / (s_mid - s_node[k]), 1.0)
+    for j in (0, 1):  # node j beyond: node 1 - j's share reaches the end line
+        out, s_j, (s_k,) = _beyond_free_end(xs[j], (xs[1 - j],), *ends)
+        frac[out, 1 - j] = 2.0 * np.clip(-s_k / (s_j - s_k), 0.0, 1.0)
+    nodes, inv = np.unique(s_edges.ravel(), return_inverse=True)
+    return np.bincount(inv.ravel(), weights=(half[:, None] * frac).ravel(),
+                       minlength=nodes.size)
+
+
+def _beyond_free_end(probe: np.ndarray, others: tuple[np.ndarray, ...], pts: np.ndarray,
+                     m_edges: np.ndarray, seg_len: np.ndarray, m_degree: np.ndarray,
+                     reach: float) -> tuple[np.ndarray, np.ndarray, list[np.ndarray]]:
+    """The points of probe (k, 2) whose closest master segment (within reach) they project
+    beyond a free end of by more than XI_EPS: their indices out (o,), their distances
+    s (o,) > 0 past that end along the end segment's outward tangent, and those of the
+    matching points of each array in others ((k, 2) each) as a list of (o,) (length)."""
+    seg, xr, _ = closest_segments(probe, pts[m_edges[:, 0]], pts[m_edges[:, 1]], reach)
     sg = np.where(seg >= 0, seg, 0)
     a_end = (seg >= 0) & (xr < -XI_EPS) & (m_degree[m_edges[sg, 0]] == 1)
     b_end = (seg >= 0) & (xr > 1 + XI_EPS) & (m_degree[m_edges[sg, 1]] == 1)
     out = np.flatnonzero(a_end | b_end)
-    if out.size:
-        end = np.where(a_end[out], m_edges[sg[out], 0], m_edges[sg[out], 1])
-        other = np.where(a_end[out], m_edges[sg[out], 1], m_edges[sg[out], 0])
-        t_out = (pts[end] - pts[other]) / seg_len[sg[out], None]  # (o, 2) outwards
-        s_mid = np.einsum("ij,ij->i", mid[out] - pts[end], t_out)  # > 0: beyond
-        for k, xk in enumerate((xs0, xs1)):
-            s_node = np.einsum("ij,ij->i", xk[out] - pts[end], t_out)
-            frac[out, k] = np.minimum(np.maximum(-s_node, 0.0) / (s_mid - s_node), 1.0)
-    nodes, inv = np.unique(s_edges.ravel(), return_inverse=True)
-    return np.bincount(inv.ravel(), weights=(half[:, None] * frac).ravel(),
-                       minlength=nodes.size)
+    end = np.where(a_end[out], m_edges[sg[out], 0], m_edges[sg[out], 1])
+    other = np.where(a_end[out], m_edges[sg[out], 1], m_edges[sg[out], 0])
+    t_out = (pts[end] - pts[other]) / seg_len[sg[out], None]  # (o, 2) outwards
+    def past(x: np.ndarray) -> np.ndarray:
+        return np.einsum("ij,ij->i", x[out] - pts[end], t_out)
+
+    return out, past(probe), [past(x) for x in others]
 
 
 def no_slave_error(label: str, slave: str, master: str, sd: float) -> InputError:

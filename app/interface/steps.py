@@ -107,10 +107,11 @@ def pair_dissipation(sol: ContactSolution) -> np.ndarray:
     return -sol.q * (sol.slip_plus - sol.slip_minus)
 
 
-def classify(sol: ContactSolution, bonded: np.ndarray, tol_gap: float,
-             tol_slip: float, frictionless: np.ndarray | None = None,
+def classify(sol: ContactSolution, bonded: np.ndarray, tol_gap: float | np.ndarray,
+             tol_slip: float | np.ndarray, frictionless: np.ndarray | None = None,
              tau_prev: np.ndarray | None = None) -> np.ndarray:
-    """State code per pair from a solution.
+    """State code per pair from a solution; tol_gap, tol_slip (length) scalars or per
+    pair (m,) (`state_tolerance`).
 
     Frictional pairs slip when the LCP's slip variables are positive; frictionless pairs
     (`frictionless` mask, no tangential unknowns) slip when their relative tangential
@@ -192,7 +193,8 @@ def _commit(hist: InterfaceHistory, sol: ContactSolution, a: np.ndarray, c: np.n
 
 
 def _newly_debonded(sol: ContactSolution, bonded: np.ndarray, frictionless: np.ndarray,
-                    tau_prev: np.ndarray, tol_gap: float, tol_slip: float) -> np.ndarray:
+                    tau_prev: np.ndarray, tol_gap: float | np.ndarray,
+                    tol_slip: float | np.ndarray) -> np.ndarray:
     """(m,) bool: the bonded pairs that the solution opens (gap > tol_gap) or slides (slip
     variables, or for pairs without tangential unknowns the tangential motion since
     tau_prev, above tol_slip)."""
