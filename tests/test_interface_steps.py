@@ -414,3 +414,28 @@ def test_a_stiff_floating_bond_on_a_soft_block_holds_at_a_contrast_of_1e9(tmp_pa
     order = np.argsort(x)
     assert np.all(p > 0.0)
     assert np.abs(p[order] - p[order][::-1]).max() <= 1e-5 * p.max()
+
+
+def test_the_uncondensed_re_solve_gives_lemkes_answer_on_an_accurate_basis():
+    """`ContactLCP._polished` on the basis of a well-conditioned solve with a pair stuck,
+    one slipping each way, one open and one at its adhesion returns Lemke's p, q and states
+    (the sign conventions of its rows); the gate leaves such an answer alone."""
+    m, mu, a = 5, 0.3, np.array([0.0, 0.0, 0.0, 0.0, 1.0])  # pair 4: a bond pulled off
+    block = np.eye(m) + 0.1 * np.ones((m, m))  # coupled pairs, each block definite
+    c = np.block([[CN * block, np.zeros((m, m))], [np.zeros((m, m)), CT * block]])
+    lcp = ContactLCP(c, np.full(m, mu), np.ones(m, bool), None, None)
+    gap_free = np.array([-1e-3, -1e-3, -1e-3, 1e-3, 5e-3])
+    tau_free = np.array([1e-5, 1e-2, -1e-2, 0.0, 0.0])
+    tau_prev, cc, e0 = np.zeros(m), 2.0 * a, np.zeros(0)
+    sol = lcp.solve(gap_free, tau_free, tau_prev, a, cc, np.full(m, mu), e0)
+    assert sol.status == "solved"
+    assert not lcp._off_basis(sol, np.asarray(sol.basis, bool), tau_prev)
+    free = lcp._free_motion(gap_free, tau_free, tau_prev)
+    got = lcp._polished(np.asarray(sol.basis, bool), free, a, cc, np.full(m, mu), e0)
+    assert got is not None
+    p, q, _, sp_b, sm_b = got
+    np.testing.assert_allclose(p, sol.p, rtol=1e-9, atol=1e-12 * np.abs(sol.p).max())
+    np.testing.assert_allclose(q, sol.q, rtol=1e-9, atol=1e-12 * np.abs(sol.p).max())
+    assert list(sp_b) == list(sol.slip_plus > 0) and list(sm_b) == list(sol.slip_minus > 0)
+    assert sp_b[1] and sm_b[2] and not (sp_b[0] or sm_b[0])
+    assert p[3] == 0.0 and p[4] == pytest.approx(-1.0) and np.all(p[:3] > 0)
