@@ -385,3 +385,57 @@ def test_a_stiff_bond_beside_a_soft_contact_debonds_as_it_does_alone(tmp_path, s
     if soft:
         assert faces["soft"]["normal_force"] == pytest.approx(200.0, rel=1e-9)
         assert faces["soft"]["states"]["open"] == 0
+
+
+@pytest.mark.parametrize("ranks", [1, 2])
+def test_a_stiff_floating_bond_on_a_soft_block_holds_at_a_contrast_of_1e9(tmp_path, ranks):
+    """two_blocks.toml, the upper block floating, E = 1e12 on 1e3, bonded (a = c = 100)
+    under a pressure of 10. The tangential compliance has two directions of the stiff
+    body's size (7e-13 beside 4e-4): the LCP's condensed form (H = C_tt^-1) cancels terms
+    of H's size, and Lemke's answer striped p -100..119 with gaps of 3e-9 that read open:
+    6 of 11 pairs debonded without a word. Re-solved on its basis from C itself
+    (`ContactLCP._polished`): all pairs bonded, p > 0 and mirror-symmetric as the scene
+    is, to 1e-5 of the largest (measured 1.6e-6; Lemke's own answer at E = 1e10, not
+    re-solved, is symmetric to 2.3e-3). On 2 ranks the same (p 4e-7 apart from 1 rank)."""
+    import h5py
+    from support import CONFIGS, read_summary, run_cli
+
+    sets = ["--set", "body.upper.E=1e12", "--set", "interface.interface.a=100.0",
+            "--set", "interface.interface.c=100.0", "--set", "interface.interface.mu=0.5",
+            "--set", 'support=[{on="lower_base",ux=0.0,uy=0.0}]']
+    res = run_cli(["run", str(CONFIGS / "two_blocks.toml"), "--out", str(tmp_path / "o"),
+                   "--quiet", *sets], ranks=ranks, timeout=120)
+    assert res.returncode == 0, res.stderr
+    face = read_summary(tmp_path / "o")["steps"][0]["interfaces"]["interface"]
+    assert face["normal_force"] == pytest.approx(20.0, rel=1e-9)
+    assert face["debonded_pairs"] == 0 and face["states"]["bonded"] == 11
+    with h5py.File(tmp_path / "o" / "step_0001.h5") as f:
+        p, x = f["contact/p"][()], f["contact/x"][()]
+    order = np.argsort(x)
+    assert np.all(p > 0.0)
+    assert np.abs(p[order] - p[order][::-1]).max() <= 1e-5 * p.max()
+
+
+def test_the_uncondensed_re_solve_gives_lemkes_answer_on_an_accurate_basis():
+    """`ContactLCP._polished` on the basis of a well-conditioned solve with a pair stuck,
+    one slipping each way, one open and one at its adhesion returns Lemke's p, q and states
+    (the sign conventions of its rows); the gate leaves such an answer alone."""
+    m, mu, a = 5, 0.3, np.array([0.0, 0.0, 0.0, 0.0, 1.0])  # pair 4: a bond pulled off
+    block = np.eye(m) + 0.1 * np.ones((m, m))  # coupled pairs, each block definite
+    c = np.block([[CN * block, np.zeros((m, m))], [np.zeros((m, m)), CT * block]])
+    lcp = ContactLCP(c, np.full(m, mu), np.ones(m, bool), None, None)
+    gap_free = np.array([-1e-3, -1e-3, -1e-3, 1e-3, 5e-3])
+    tau_free = np.array([1e-5, 1e-2, -1e-2, 0.0, 0.0])
+    tau_prev, cc, e0 = np.zeros(m), 2.0 * a, np.zeros(0)
+    sol = lcp.solve(gap_free, tau_free, tau_prev, a, cc, np.full(m, mu), e0)
+    assert sol.status == "solved"
+    assert not lcp._off_basis(sol, np.asarray(sol.basis, bool), tau_prev)
+    free = lcp._free_motion(gap_free, tau_free, tau_prev)
+    got = lcp._polished(np.asarray(sol.basis, bool), free, a, cc, np.full(m, mu), e0)
+    assert got is not None
+    p, q, _, sp_b, sm_b = got
+    np.testing.assert_allclose(p, sol.p, rtol=1e-9, atol=1e-12 * np.abs(sol.p).max())
+    np.testing.assert_allclose(q, sol.q, rtol=1e-9, atol=1e-12 * np.abs(sol.p).max())
+    assert list(sp_b) == list(sol.slip_plus > 0) and list(sm_b) == list(sol.slip_minus > 0)
+    assert sp_b[1] and sm_b[2] and not (sp_b[0] or sm_b[0])
+    assert p[3] == 0.0 and p[4] == pytest.approx(-1.0) and np.all(p[:3] > 0)

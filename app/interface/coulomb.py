@@ -72,6 +72,15 @@ def motion_size(*terms: np.ndarray) -> np.ndarray:
     return np.abs(np.stack(terms)).max(axis=0)
 
 
+POLISH_REL = 1e-9
+"""`ContactLCP._polished` keeps its answer when it leaves the basis's signs by at most this
+times the pair's own force and motion terms (round-off of the solve, not a wrong basis)."""
+
+POLISH_GATE = 1e-8
+"""`ContactLCP._off_basis`: a closed pair's gap or a sticking pair's tangential motion above
+this times its motion terms calls for `ContactLCP._polished` (below the state tolerance,
+1e-7, of `app.interface.steps`, so that no such round-off reaches the pair states)."""
+
 UNSHIFTED_PIVOTS = 8
 """Block pivots `ContactLCP._unshifted` tries on Lemke's final basis before keeping z."""
 
@@ -351,10 +360,26 @@ class ContactLCP:
             rhs = free[1][f] - cnt_f.T @ p + sp_ - sm_ - self.tm @ alpha
             q[f] = self.apply_h(rhs)
             splus[f], sminus[f] = sp_, sm_
-        cn = self.c[:m]
-        ct = self.c[m:]
+        sol = self._solution(p, q, alpha, gap_free, tau_free, splus, sminus, res)
+        if res.status == "solved" and res.basis is not None and \
+                self._off_basis(sol, np.asarray(res.basis, dtype=bool), tau_prev):
+            polished = self._polished(np.asarray(res.basis, dtype=bool), free, a, c, mu, e0)
+            if polished is not None:  # slip variables from the polished motion
+                p, q, alpha, sp_b, sm_b = polished
+                moved = self._solution(p, q, alpha, gap_free, tau_free, splus, sminus,
+                                       res).tau - tau_prev
+                splus = np.where(sp_b, np.maximum(moved, 0.0), 0.0)
+                sminus = np.where(sm_b, np.maximum(-moved, 0.0), 0.0)
+                sol = self._solution(p, q, alpha, gap_free, tau_free, splus, sminus, res)
+        return sol
+
+    def _solution(self, p: np.ndarray, q: np.ndarray, alpha: np.ndarray,
+                  gap_free: np.ndarray, tau_free: np.ndarray, splus: np.ndarray,
+                  sminus: np.ndarray, res) -> ContactSolution:
+        """The ContactSolution of forces (p, q, alpha): gap and tau recovered from C."""
+        m = self.m
         lam = np.concatenate([p, q])
-        terms = (gap_free, cn @ lam, self.nm @ alpha, tau_free, ct @ lam)
+        terms = (gap_free, self.c[:m] @ lam, self.nm @ alpha, tau_free, self.c[m:] @ lam)
         gap = terms[0] + terms[1] + terms[2]
         tau = terms[3] + terms[4]
         if self.r:
@@ -362,6 +387,117 @@ class ContactLCP:
             tau = tau + terms[-1]
         return ContactSolution(p, q, gap, tau, splus, sminus, alpha, res.pivots, res.status,
                                res.basis, res.residual, res.message, motion_size(*terms))
+
+    def _off_basis(self, sol: ContactSolution, basis: np.ndarray,
+                   tau_prev: np.ndarray) -> bool:
+        """Whether Lemke's answer contradicts its own basis by more than POLISH_GATE of a
+        pair's motion terms: a closed pair (p + a basic) with a gap, or a frictional pair
+        without a basic slip variable that moved tangentially. Round-off of the condensed
+        LCP (`_polished`); elsewhere Lemke's answer is kept as it is."""
+        m, f, e = self.m, self.fric, self.edges
+        tol = POLISH_GATE * np.asarray(sol.motion, dtype=float)
+        stick = np.zeros(m, dtype=bool)
+        stick[f] = ~basis[e[1]: e[2]] & ~basis[e[2]: e[3]]
+        moved = np.abs(sol.tau - tau_prev)
+        return bool((basis[:m] & (np.abs(sol.gap) > tol)).any() or
+                    (stick & (moved > tol)).any())
+
+    def _polished(self, basis: np.ndarray, free: tuple[np.ndarray, np.ndarray],
+                  a: np.ndarray, c: np.ndarray, mu: np.ndarray,
+                  e0: np.ndarray) -> tuple[np.ndarray, ...] | None:
+        """(p, q, alpha, slip+ mask, slip- mask) from the compliance C itself, not the
+        LCP's condensed form (q = H x, H = C_tt^-1), on Lemke's final basis corrected by up
+        to UNSHIFTED_PIVOTS block pivots. Where C_tt has near-null directions (a stiff body
+        bonded on a soft one: eigenvalues 7e-13 beside 4e-4 at a contrast of 1e9) the
+        condensed matrix cancels terms of H's size: Lemke's p, its residual round-off, was
+        striped by the full adhesion (pair forces -20..24 for 1.4..2, two pairs at p = -a
+        in its basis), gaps of 3e-9 read open and the bond broke. Per pair: gap = 0
+        (closed) or p = -a (open); stick tau = tau_prev, slip+/- q = -+(c + mu p), q = 0
+        without tangential unknowns; and the balance N^T p + T^T q = -e0. None (Lemke's
+        answer kept) when a system is singular or the pivots do not settle."""
+        m, f, e = self.m, self.fric, self.edges
+        fric = np.zeros(m, dtype=bool)
+        fric[f] = True
+        closed = basis[:m].copy()
+        sp_b = np.zeros(m, dtype=bool)
+        sm_b = np.zeros(m, dtype=bool)
+        sp_b[f], sm_b[f] = basis[e[1]: e[2]], basis[e[2]: e[3]]
+        sm_b &= ~sp_b
+        for _ in range(UNSHIFTED_PIVOTS):
+            x = self._on_states(closed, sp_b, sm_b, fric, free, a, c, mu, e0)
+            if x is None:
+                return None
+            flips = self._basis_errors(x, closed, sp_b, sm_b, fric, free, a, c, mu)
+            if flips is None:
+                return (*x, sp_b, sm_b)
+            closed ^= flips[0]
+            sp_b, sm_b = flips[1], flips[2]
+        return None
+
+    def _on_states(self, closed: np.ndarray, sp_b: np.ndarray, sm_b: np.ndarray,
+                   fric: np.ndarray, free: tuple[np.ndarray, np.ndarray], a: np.ndarray,
+                   c: np.ndarray, mu: np.ndarray,
+                   e0: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """(p, q, alpha) of the linear system of one set of pair states (`_polished`),
+        solved with unit diagonal scaling; None when singular or not finite."""
+        m, r = self.m, self.r
+        gap_free, dtau = free
+        stick = fric & ~sp_b & ~sm_b
+        slipping = sp_b | sm_b
+        k = np.zeros((2 * m + r, 2 * m + r))
+        rhs = np.zeros(2 * m + r)
+        ident = np.eye(m)
+        k[:m, : 2 * m] = np.where(closed[:, None], self.c[:m], 0.0)
+        k[:m, :m] += np.where(closed[:, None], 0.0, ident)
+        k[:m, 2 * m:] = np.where(closed[:, None], self.nm, 0.0)
+        rhs[:m] = np.where(closed, -gap_free, -a)
+        sign = np.where(sp_b, -1.0, 1.0)
+        k[m: 2 * m, : 2 * m] = np.where(stick[:, None], self.c[m:], 0.0)
+        k[m: 2 * m, 2 * m:] = np.where(stick[:, None], self.tm_all, 0.0)
+        k[m: 2 * m, m: 2 * m] += np.where(stick[:, None], 0.0, ident)
+        k[m: 2 * m, :m] -= np.where(slipping[:, None], (sign * mu)[:, None] * ident, 0.0)
+        rhs[m: 2 * m] = np.where(stick, dtau, np.where(slipping, sign * c, 0.0))
+        k[2 * m:, : 2 * m] = np.vstack([self.nm, self.tm_all]).T
+        rhs[2 * m:] = -e0
+        size = np.sqrt(np.abs(np.diagonal(k)))
+        size = np.where(size > 0, size, np.sqrt(np.abs(k).max(axis=0) + 1e-300))
+        try:
+            x = np.linalg.solve(k / size[:, None] / size[None, :], rhs / size) / size
+        except np.linalg.LinAlgError:
+            return None
+        if not np.isfinite(x).all():
+            return None
+        return x[:m], x[m: 2 * m], x[2 * m:]
+
+    def _basis_errors(self, x: tuple[np.ndarray, np.ndarray, np.ndarray],
+                      closed: np.ndarray, sp_b: np.ndarray, sm_b: np.ndarray,
+                      fric: np.ndarray, free: tuple[np.ndarray, np.ndarray], a: np.ndarray,
+                      c: np.ndarray, mu: np.ndarray
+                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """None when x = (p, q, alpha) keeps the states' signs, each to POLISH_REL of the
+        pair's own terms (p + a >= 0 closed, gap >= 0 open, |q| <= c + mu p stick, slip in
+        its sign slipping); else (normal flips, new slip+ mask, new slip- mask)."""
+        m = self.m
+        p, q, alpha = x
+        lam = np.concatenate([p, q])
+        gap_terms = (free[0], self.c[:m] @ lam, self.nm @ alpha)
+        tau_terms = (free[1], self.c[m:] @ lam, self.tm_all @ alpha)
+        gap = gap_terms[0] + gap_terms[1] + gap_terms[2]
+        slip = tau_terms[1] + tau_terms[2] - free[1]  # tau - tau_prev
+        ftol = POLISH_REL * (np.abs(a) + np.abs(c) + np.abs(p) + np.abs(q)
+                             + np.abs(mu * p) + 1e-300)
+        gtol = POLISH_REL * (motion_size(*gap_terms) + 1e-300)
+        ttol = POLISH_REL * (motion_size(*tau_terms) + 1e-300)
+        bound = c + mu * p
+        stick = fric & ~sp_b & ~sm_b
+        flip_n = (closed & (p + a < -ftol)) | (~closed & (gap < -gtol))
+        over = stick & (np.abs(q) > bound + ftol)
+        back = (sp_b & (slip < -ttol)) | (sm_b & (slip > ttol))
+        if not (flip_n.any() or over.any() or back.any()):
+            return None
+        new_sp = (sp_b & ~back) | (over & (q < 0))
+        new_sm = (sm_b & ~back) | (over & (q > 0))
+        return flip_n, new_sp, new_sm
 
     def _unshifted(self, basis: np.ndarray, a: np.ndarray, gap_free: np.ndarray,
                    tau_free: np.ndarray, tau_prev: np.ndarray, c: np.ndarray,
