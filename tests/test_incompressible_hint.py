@@ -35,3 +35,19 @@ def test_the_cantilever_at_nu_near_one_half(tmp_path):
                  "--set", "support.0.uy=0.0"])  # residual 5e-4
     assert r.returncode == 2
     assert "lambda/mu = 5e+09" in r.stderr.strip().splitlines()[-1]
+
+
+def test_a_mode_count_that_fails_leaves_the_solve_message(monkeypatch):
+    """The zero-energy count only words the message of a failed solve: when its own
+    eigen-solve does not settle, the solve's message and the hint stay."""
+    import app.driver.linear as linear
+    from app.errors import SolveError
+
+    def unsettled(*args, **kwargs):
+        raise SolveError("the zero-energy modes of body 'beam' did not converge")
+
+    monkeypatch.setattr(linear, "zero_energy_modes", unsettled)
+    disc = Discretisation("cs-fem", 4, "strain", 1.0, np.array([1000.0]), np.array([0.49999999]))
+    text = singular_message(disc, MESH, "linear solve is inaccurate", np.zeros(0, np.int64))
+    assert text.startswith("linear solve is inaccurate: check that every body is held")
+    assert "nearly incompressible" in text
