@@ -429,7 +429,8 @@ def test_the_uncondensed_re_solve_gives_lemkes_answer_on_an_accurate_basis():
     tau_prev, cc, e0 = np.zeros(m), 2.0 * a, np.zeros(0)
     sol = lcp.solve(gap_free, tau_free, tau_prev, a, cc, np.full(m, mu), e0)
     assert sol.status == "solved"
-    assert not lcp._off_basis(sol, np.asarray(sol.basis, bool), tau_prev)
+    assert not lcp._off_basis(sol, np.asarray(sol.basis, bool), tau_prev, cc,
+                           np.full(m, mu))
     free = lcp._free_motion(gap_free, tau_free, tau_prev)
     got = lcp._polished(np.asarray(sol.basis, bool), free, a, cc, np.full(m, mu), e0)
     assert got is not None
@@ -439,3 +440,51 @@ def test_the_uncondensed_re_solve_gives_lemkes_answer_on_an_accurate_basis():
     assert list(sp_b) == list(sol.slip_plus > 0) and list(sm_b) == list(sol.slip_minus > 0)
     assert sp_b[1] and sm_b[2] and not (sp_b[0] or sm_b[0])
     assert p[3] == 0.0 and p[4] == pytest.approx(-1.0) and np.all(p[:3] > 0)
+
+
+def test_a_stiff_floating_block_sticking_on_a_soft_one_keeps_every_pair_closed(tmp_path):
+    """two_blocks.toml, the upper block floating, E = 1e12 on 1e3, mu = 0.5, no bond. The
+    mortar maps 11 slave pairs onto 9 master nodes, so force patterns the soft block does
+    not see open or close a pair by the stiff block's own compliance only (5.6e-12 for
+    p = 9 here). With the re-solve's sign test at 1e-9 of the motion terms (8e-3) that
+    penetration passed as round-off: pair 8 stayed open at p = 0, p ran 0..18.9 (48%
+    asymmetric) and the run completed with kkt 6.8e-10, where E = 1e11 and the bonded
+    scene at 1e12 give 9.06..13.7, symmetric. Now as those: all p > 0, mirror-symmetric."""
+    import h5py
+    from support import CONFIGS, read_summary, run_cli
+
+    sets = ["--set", "body.upper.E=1e12", "--set", "interface.interface.mu=0.5",
+            "--set", 'support=[{on="lower_base",ux=0.0,uy=0.0}]']
+    res = run_cli(["run", str(CONFIGS / "two_blocks.toml"), "--out", str(tmp_path / "o"),
+                   "--quiet", *sets], timeout=120)
+    assert res.returncode == 0, res.stderr
+    face = read_summary(tmp_path / "o")["steps"][0]["interfaces"]["interface"]
+    assert face["states"]["stick"] == 11
+    with h5py.File(tmp_path / "o" / "step_0001.h5") as f:
+        p, x = f["contact/p"][()], f["contact/x"][()]
+    order = np.argsort(x)
+    assert np.all(p > 0.5 * p.max())
+    assert np.abs(p[order] - p[order][::-1]).max() <= 1e-5 * p.max()
+
+
+def test_a_stiff_floating_block_under_a_tangential_cycle_keeps_its_friction_bound(tmp_path):
+    """two_blocks.toml, the upper block floating (held only by contact), mu = 0.5, a
+    pressure of 10 and a tangential force 0, 3, 6, 3, -3, -6. At E = 1e11 on 1e3 Lemke's
+    answer at step 3 read a sticking pair with |q| 3.3e-5 over mu p (`kkt` 3.3e-5) and 6
+    sticking pairs where E = 1e6 has 5 and one more slipping: the re-solve's gate looked
+    at gaps and motion only. Now it re-solves that step too: its states are those of 1e6
+    and its `kkt` below 1e-9."""
+    from support import CONFIGS, read_summary, run_cli
+
+    sets = ["--set", "interface.interface.mu=0.5", "--set", "analysis.steps=6", "--set",
+            'support=[{on="lower_base",ux=0.0,uy=0.0},{on="lower_sides",ux=0.0}]', "--set",
+            'load=[{on="upper_top",pressure=10.0,history=[1.0,1.0,1.0,1.0,1.0,1.0]},'
+            '{on="upper_top",total_force=[6.0,0.0],history=[0.0,0.5,1.0,0.5,-0.5,-1.0]}]']
+    steps = {}
+    for e in ("1e6", "1e11"):
+        res = run_cli(["run", str(CONFIGS / "two_blocks.toml"), "--out", str(tmp_path / e),
+                       "--quiet", "--set", f"body.upper.E={e}", *sets], timeout=120)
+        assert res.returncode == 0, res.stderr
+        steps[e] = read_summary(tmp_path / e)["steps"]
+    assert steps["1e11"][2]["states"] == steps["1e6"][2]["states"]
+    assert max(steps["1e11"][2]["kkt"].values()) <= 1e-9
