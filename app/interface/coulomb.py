@@ -345,7 +345,9 @@ class ContactLCP:
         res.pivots = pivots
         if res.status == "inaccurate":
             _rejudged(res, ms, qs, d * self.row_scale * qsize)
-        if self.r and res.status in ("secondary ray", "inaccurate"):
+        # (frictionless, M is copositive-plus and the ray proves there is no solution)
+        if self.r and (res.status == "inaccurate" or
+                       (res.status == "secondary ray" and self.mf)):
             res = self._searched(res, ms, qs)
         m, f, e = self.m, self.fric, self.edges
         z = d * res.z
