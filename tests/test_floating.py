@@ -14,9 +14,10 @@ import sys
 import numpy as np
 import pytest
 import scipy.linalg as sla
+import scipy.sparse as sps
 from support import CONFIGS, ROOT, mpi_env, read_summary, run_cli
 
-from app.interface.floating import pivot_rows
+from app.interface.floating import _rank_keepers, pivot_rows
 
 
 def test_pivot_rows_chooses_as_lapack_on_distinct_rows():
@@ -35,6 +36,22 @@ def test_tied_rows_go_to_the_lowest_whatever_the_round_off():
         a = base.copy()
         a[3] *= 1.0 + eps
         assert pivot_rows(a)[0][0] == 1
+
+
+def test_rank_keepers_break_ties_as_the_pins_do():
+    """`_rank_keepers` chooses by the pins' rule (`pivot_rows`: ties to the lowest DOF).
+    A contact row on four DOFs of a body, equal to round-off (a mirror-symmetric mesh):
+    one DOF keeps its rank, DOF 10 whichever entry the round-off makes largest. Before,
+    LAPACK's pivoted QR took the largest, DOF 11, 12 or 13 as the round-off fell."""
+    dofs = np.array([10, 11, 12, 13])
+    keepers = []
+    for k in range(4):
+        row = np.ones(4)
+        row[k] *= 1.0 + 4e-16 * (k > 0)
+        g = sps.csr_matrix((row, (np.zeros(4, dtype=int), dofs)), shape=(1, 16))
+        keep = _rank_keepers(g, dofs, None, np.zeros(4, dtype=bool))
+        keepers.append(dofs[keep].tolist())
+    assert keepers == [[10]] * 4
 
 
 @pytest.mark.mpi

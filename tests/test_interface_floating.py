@@ -75,6 +75,45 @@ def test_multibody_1sd_coarse_agrees_on_two_ranks(tmp_path):
             assert np.array_equal(x["contact/state"][()], y["contact/state"][()])
 
 
+def test_multibody_1sd_at_1_2_has_an_equilibrium_that_lemke_missed(tmp_path):
+    """multibody.toml --sd 1 --mesh-size 1.2 stopped with `no static equilibrium at step 1`
+    (Lemke's secondary ray), yet the step's LCP has a solution: with 22 free hourglass
+    amplitudes and friction the LCP is not copositive-plus and the ray proves nothing. The
+    mixed-integer search (`app.lcp.mip`) finds its basis and Lemke solves from it; the
+    hourglass modes slide the contacts (warned)."""
+    out = tmp_path / "out"
+    res = run_cli(["run", str(CONFIGS / "multibody.toml"), "--sd", "1", "--mesh-size", "1.2",
+                   "--out", str(out)])
+    assert res.returncode == 0, res.stderr
+    assert "is held only by contact 'stack' and nothing loads it" in res.stderr
+    s = read_summary(out)
+    assert s["status"] == "completed" and len(s["steps"]) == 4
+    f_scale = 0.0
+    for st in s["steps"]:
+        assert st["balance"]["max_relative_residual"] < 1e-12  # measured 3.3e-13
+        assert max(st["kkt_pairs"][k] for k in PAIR_KEYS) < 1e-11  # measured 1.5e-12
+        f_scale = max(f_scale, st["balance"]["force_scale"])
+    for k in range(1, 5):
+        v = kkt_violations(out, k, f_scale)
+        assert max(v.values()) < 1e-9, (k, v)
+
+
+def test_multibody_1sd_at_1_0_stops_naming_the_search(tmp_path):
+    """multibody.toml --sd 1 --mesh-size 1.0: the step's LCP has solutions only with
+    hourglass amplitudes in the thousands (Lemke on the unscaled matrix: slips to 5.7e3
+    in a scene 6 wide), none with the scaled unknowns below 1e3: the run stops, its
+    line saying that the search found none, and suggesting --sd 2."""
+    out = tmp_path / "out"
+    res = run_cli(["run", str(CONFIGS / "multibody.toml"), "--sd", "1", "--mesh-size", "1.0",
+                   "--out", str(out), "--quiet"])
+    assert res.returncode == 2
+    (line,) = res.stderr.strip().splitlines()
+    assert line.startswith("error: the contact problem could not be solved at step 1")
+    assert "a mixed-integer search found no solution with the scaled unknowns below" in line
+    assert "--sd 2 or more" in line
+    assert read_summary(out)["status"] == "failed"
+
+
 def test_held_text_counts_zero_energy_modes_and_names_rigid_ones():
     """A failed step's line names rigid modes held only by contact one by one and counts a
     body's zero-energy (hourglass) modes: multibody --sd 1 at 0.8 listed 21 of them."""

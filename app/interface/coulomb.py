@@ -35,6 +35,7 @@ from app.errors import SolveError
 from app.lcp import lemke
 from app.lcp.coulomb_matrix import coulomb_matrix, fixed_rows, tie_fixed
 from app.lcp.matrix_cache import MatrixCache
+from app.lcp.mip import complementary_basis
 from app.lcp.result import DEFAULT_TOL
 from app.lcp.scaling import absmax, row_blocks
 from app.lcp.solvers import LCPSolver
@@ -344,6 +345,10 @@ class ContactLCP:
         res.pivots = pivots
         if res.status == "inaccurate":
             _rejudged(res, ms, qs, d * self.row_scale * qsize)
+        # (frictionless, M is copositive-plus and the ray proves there is no solution)
+        if self.r and (res.status == "inaccurate" or
+                       (res.status == "secondary ray" and self.mf)):
+            res = self._searched(res, ms, qs)
         m, f, e = self.m, self.fric, self.edges
         z = d * res.z
         z[: e[1]] -= a  # p on the normal rows
@@ -376,6 +381,24 @@ class ContactLCP:
                 sminus = np.where(sm_b, np.maximum(-moved, 0.0), 0.0)
                 sol = self._solution(p, q, alpha, gap_free, tau_free, splus, sminus, res)
         return sol
+
+    def _searched(self, res, ms: np.ndarray, qs: np.ndarray):
+        """Lemke's failed result `res` on the scaled LCP (ms, qs) of a problem with floating
+        modes, or Lemke's answer from the basis of `complementary_basis` when that solves
+        it. With free mode amplitudes and friction the LCP is not copositive-plus: its
+        secondary ray does not prove that there is no equilibrium (multibody.toml --sd 1
+        --mesh-size 1.2 has one, with 22 hourglass modes held by friction)."""
+        basis, found = complementary_basis(ms, qs)
+        if basis is not None:
+            again = self.solver(ms, qs, basis=basis, cold_start=False, cache=self.cache)
+            if again.status == "solved":
+                again.pivots += res.pivots
+                again.message = (f"{res.message}; {found} (Lemke's ray proves nothing with "
+                                 f"free modes and friction); {again.message}")
+                return again
+            found += f", which Lemke's check did not accept ({again.status})"
+        res.message += f"; {found}"
+        return res
 
     def _solution(self, p: np.ndarray, q: np.ndarray, alpha: np.ndarray,
                   gap_free: np.ndarray, tau_free: np.ndarray, splus: np.ndarray,

@@ -12,7 +12,6 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import numpy as np
-import scipy.linalg as sla
 import scipy.sparse as sps
 from scipy.sparse.csgraph import connected_components
 
@@ -249,21 +248,23 @@ PIVOT_TIE = 1e-6
 """Rows whose remaining norm is within this fraction of the largest tie in `pivot_rows`."""
 
 
-def pivot_rows(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def pivot_rows(a: np.ndarray, stop: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """Rows (r,) of a (k, r) chosen as QR with column pivoting of a.T chooses them, and
     their remaining norms (r,), with ties (within PIVOT_TIE) going to the lowest row: a
     mirror-symmetric mesh has rows of equal norm, which LAPACK's pivoting separated by
     round-off, so the pins (and the amplitudes `rigid_modes`) differed between 1 and 2
-    ranks (hard/floating_gravity.toml --sd 1: DOFs 727, 728 against 710, 781)."""
+    ranks (hard/floating_gravity.toml --sd 1: DOFs 727, 728 against 710, 781). The one
+    pivot rule of this module (`_pins` and `_rank_keepers`). Ends early once the largest
+    remaining norm is at most `stop` (a rank test): the entries left are then 0 in d."""
     res = np.array(a, dtype=float)
     r = a.shape[1]
     piv, d = np.zeros(r, dtype=np.int64), np.zeros(r)
-    for j in range(r):  # r steps, each O(k r): vectorised over the rows
+    for j in range(min(r, a.shape[0])):  # each step O(k r): vectorised over the rows
         norms = np.linalg.norm(res, axis=1)
         i = int(np.argmax(norms >= (1.0 - PIVOT_TIE) * norms.max()))
-        piv[j], d[j] = i, norms[i]
-        if norms[i] == 0.0:
+        if norms[i] <= stop or norms[i] == 0.0:
             break
+        piv[j], d[j] = i, norms[i]
         q = res[i] / norms[i]
         res -= np.outer(res @ q, q)
     return piv, d
@@ -355,8 +356,8 @@ def _rank_keepers(g: sp.csr_matrix, dofs: np.ndarray, fixed: np.ndarray | None,
             qk, rk = np.linalg.qr(b[:, kept])
             qk = qk[:, np.abs(np.diag(rk)) > RANK_REL * top]
             rest = rest - qk @ (qk.T @ rest)
-        _, rr, piv = sla.qr(rest, pivoting=True, mode="economic")
-        keep[idx[piv[: int(np.sum(np.abs(np.diag(rr)) > RANK_REL * top))]]] = True
+        piv, d = pivot_rows(rest.T, stop=RANK_REL * top)  # ties to the lowest DOF
+        keep[idx[piv[d > RANK_REL * top]]] = True
     return keep
 
 
