@@ -21,8 +21,12 @@ MIP_BOUND = 1e3
 MIP_MAX_SIZE = 200
 """LCPs above this size are not searched (binaries: one per unknown)."""
 
-MIP_SECONDS = 60.0
-"""Time limit of one search (HiGHS)."""
+MIP_NODES = 5000
+"""Branch-and-bound nodes of one search (HiGHS): a limit that does not depend on the
+machine's speed. multibody.toml --sd 1 --mesh-size 1.2 needs 352 and 503 (steps 1 and 3)."""
+
+MIP_SECONDS = 600.0
+"""Time limit of one search, a guard against a hang only (the node limit ends it first)."""
 
 BASIC_REL = 1e-9
 """z_i above this x MIP_BOUND is basic in the returned basis."""
@@ -33,7 +37,7 @@ def complementary_basis(m: np.ndarray, q: np.ndarray, bound: float = MIP_BOUND,
     """(basis (n,) bool or None, what the search found, in words) for LCP(m, q), m (n, n)
     and q (n,) scaled to a unit diagonal: z, w = m z + q >= 0, z_i <= bound y_i, w_i <=
     bound (1 - y_i), y binary, least sum(z). None when there is no such solution (within
-    `bound`), the LCP is above MIP_MAX_SIZE or the search ran out of time."""
+    `bound`), the LCP is above MIP_MAX_SIZE or the search ran out of nodes or time."""
     n = q.size
     if n == 0 or n > MIP_MAX_SIZE:
         return None, f"no mixed-integer search (size {n} > {MIP_MAX_SIZE})"
@@ -46,7 +50,7 @@ def complementary_basis(m: np.ndarray, q: np.ndarray, bound: float = MIP_BOUND,
                constraints=LinearConstraint(a, lo, hi),
                integrality=np.concatenate([np.zeros(n), np.ones(n)]),
                bounds=Bounds(np.zeros(2 * n), np.concatenate([inf, np.ones(n)])),
-               options={"time_limit": seconds, "mip_rel_gap": 0.0})
+               options={"node_limit": MIP_NODES, "time_limit": seconds, "mip_rel_gap": 0.0})
     if res.status == 0 and res.x is not None:
         return res.x[:n] > BASIC_REL * bound, "a mixed-integer search found a basis"
     if res.status == 2:
