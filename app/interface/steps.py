@@ -18,6 +18,7 @@ from app.interface.candidates import CandidateLCP, candidate_pairs, lcp_cache
 from app.interface.coulomb import ContactLCP, ContactSolution
 from app.interface.floating import split_modes
 from app.interface.weak_modes import held_mode_entries
+from app.lcp.coulomb_matrix import fixed_rows
 from app.lcp.solvers import lcp_solver
 
 if TYPE_CHECKING:
@@ -272,6 +273,7 @@ class ContactStepper:
         g = setup.g
         self.gu = [g @ uc for uc in unit]  # (2m,) per load case
         self.c_diag = np.diagonal(c_mat).copy()  # each pair's own scale (pair_law)
+        self.fixed_n = fixed_rows(self.c_diag[:m])[0]  # both sides prescribed (normal)
         self.v_keep = self.v_null = None
         self.floating = floating
         if floating is not None and floating.r.shape[1]:
@@ -357,6 +359,32 @@ class ContactStepper:
             e0 = self.v_keep.T @ e0
         return gap_free, tau_free, e0, ""
 
+    def _prescribed_overlap(self, gap_free: np.ndarray) -> str:
+        """Why no contact force can close the step's free gap, or "": a pair whose motion
+        the supports fix on both sides (`fixed_rows`: its force moves nothing) and whose
+        free gap is below -tol (the state tolerance) is pushed into the master by the
+        prescribed displacements themselves. Its stiff tie (`app.lcp.coulomb_matrix.
+        tie_fixed`) turned the overlap into a force of overlap / (1e-12 x the largest
+        compliance): 9.9e10 on `shear_off.toml` with the block's sides moved 1e-4 more
+        down than the base's, a run that completed. A free gap within -tol of 0 reads as
+        closed (set to 0 in `gap_free`): before, an overlap of 1e-13 gave that pair 99."""
+        low = self.fixed_n & (gap_free < 0.0)
+        if not low.any():
+            return ""
+        deep = low & (gap_free < -self.tol)
+        gap_free[low & ~deep] = 0.0
+        if not deep.any():
+            return ""
+        pr = self.setup.pairs
+        k = int(np.flatnonzero(deep)[np.argmin(gap_free[deep])])
+        x, y = pr.position[k]
+        name = self.setup.cfg.interfaces[int(pr.interface[k])].name
+        return (f"the supports push {int(deep.sum())} pair(s) of interface {name!r} into the "
+                f"master, whose both sides they prescribe (deepest {-gap_free[k]:.3g} at the "
+                f"slave node x={x:.6g}, y={y:.6g}): no contact force can separate them; "
+                "make the prescribed displacements of the two bodies agree there (or "
+                "leave one side free)")
+
     def _interface_info(self, sol, state: np.ndarray, debonded: np.ndarray) -> dict:
         """Per-interface figures of a solved step: forces (per unit thickness x thickness),
         max pressure, state counts and zone lengths, debonding."""
@@ -425,6 +453,9 @@ class ContactStepper:
         if correction is not None:
             gap_free += correction[:m]
             tau_free += correction[m:]
+        pressed = self._prescribed_overlap(gap_free)
+        if pressed:
+            return StepSolution("prescribed penetration", pressed)
         tau_prev = self.hist.tau_prev.copy()
         res = solve_step(self.lcp, self.hist, step + 1, gap_free, tau_free, self.setup.mu,
                          e0, self.tol, self.tol)
