@@ -649,3 +649,18 @@ def test_a_round_off_overlap_of_fixed_pairs_carries_no_force(tmp_path):
     n = [x["steps"][0]["interfaces"]["bond"]["normal_force"] for x in (s, ref)]
     assert n[0] == pytest.approx(n[1], rel=1e-8)
     assert n[1] == pytest.approx(0.1262, rel=1e-3)
+
+
+@pytest.mark.parametrize("uy", [1.0, 1e-3])
+def test_the_state_tolerance_does_not_depend_on_how_a_load_is_split(tmp_path, uy):
+    """hard/pull_off.toml pulled to delta = a H / E' (1 + 3e-5) at step 2, written as uy = 1
+    with a history of 1e-3 .. 3e-3 or as uy = 1e-3 with 1 .. 3: the same load, so every pair
+    debonds at step 2 either way (hand figure: sigma > a). Before, the tolerance came from
+    the unit case alone (uy = 1: 1e-7 x its contact motion of order 1), the bond's opening
+    of 5.5e-8 read closed, and the first form held all 17 pairs at p = -a."""
+    d = 2.0 * 0.91 / 1000.0 * (1 + 3e-5)
+    hist = [x / uy for x in (1e-3, d, 3e-3)]
+    s, _ = solve(tmp_path, "pull_off", "analysis.steps=3", f"support.3.uy={uy}",
+                 f"support.3.history={hist}", tag=str(uy))
+    assert [st["interfaces"]["bond"]["debonded_pairs"] for st in s["steps"]] == [0, 17, 17]
+    assert s["steps"][0]["interfaces"]["bond"]["normal_force"] == pytest.approx(-1.098901)

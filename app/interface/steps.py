@@ -80,8 +80,9 @@ class InterfaceHistory:
 
 STATE_REL = 1e-7
 """A pair opens (gap) or slips (slip variables) when that is above STATE_REL x the larger of
-the problem's displacement scale and the pair's own motion terms (`ContactSolution.motion`).
-The scale alone is the unit load cases' contact motion: a load on a stiff body pressed on a
+the problem's displacement scale (the loads' contact motion at their largest history factor,
+`_applied_scale`) and the pair's own motion terms (`ContactSolution.motion`).
+The scale alone is the loads' free contact motion: a load on a stiff body pressed on a
 soft one barely moves the contact freely (1e-11 for E = 1e12 on E = 1e3), while its contact
 forces and rigid modes move it by 8e-3 and leave gaps of 1e-10 of round-off; a tolerance of
 1e-7 x 1e-11 read them as open, and a bond of 100 under tractions of 10 debonded at every
@@ -206,6 +207,18 @@ def _newly_debonded(sol: ContactSolution, bonded: np.ndarray, frictionless: np.n
     return bonded & ((sol.gap > tol_gap) | slipped)
 
 
+def _applied_scale(gu: list[np.ndarray], cases, g0: np.ndarray) -> float:
+    """The largest contact motion the run's loads make, bounded per load case by its
+    largest history factor x its unit motion gu (2m,), or the largest initial gap |g0|;
+    1e-300 when both are 0. With the unit motion alone, the same pull written as uy = 1
+    with a history of 1e-3 .. 3e-3 got a state tolerance 1e3 times that of uy = 1e-3 with
+    1 .. 3: a bond pulled 3e-5 past its strength held at p = -a with its gap open by 5.5e-8
+    below that tolerance, where the other form debonded every pair (hard/pull_off.toml)."""
+    sizes = [float(np.abs(np.asarray(case.history, dtype=float)).max(initial=0.0))
+             * float(np.abs(x).max(initial=0.0)) for case, x in zip(cases, gu, strict=True)]
+    return max(max(sizes, default=0.0), float(np.abs(g0).max(initial=0.0)), 1e-300)
+
+
 @dataclass
 class StepSolution:
     """A load step's contact answer (rank 0; broadcast to every rank).
@@ -306,7 +319,7 @@ class ContactStepper:
         self.slip = np.zeros(m)
         scale = max(max((np.abs(x).max(initial=0.0) for x in self.gu), default=0.0),
                     np.abs(pr.g0).max(initial=0.0), 1e-300)
-        self.tol = 1e-7 * scale
+        self.tol = STATE_REL * _applied_scale(self.gu, cases, pr.g0)
         self.u_scale = scale if scale > 1e-300 else 0.0  # the KKT check's floor
         self.load_scale = max((np.abs(b).sum() for b in rhs), default=0.0)
         self.f_scale = max(self.load_scale, np.abs(self.hist.a).max(initial=0.0),
