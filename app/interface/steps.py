@@ -228,8 +228,9 @@ class StepSolution:
     alpha (r,) floating-mode amplitudes; kinematics (2m,) the LCP's (gap - g0, tau);
     state, debonded_step (m,) int; tau_prev (m,) tau before the step; slip (m,)
     accumulated; a, c (m,) adhesion and strength forces in force at this step; f_scale
-    and u_scale the problem's force and displacement scales (the largest load, the
-    largest unit-load contact motion or initial gap); compliance_diag (2m,) the diagonal
+    and u_scale the problem's force and displacement scales (the largest load; the
+    largest contact motion of a load case at its largest history factor, or initial gap,
+    `_applied_scale`); compliance_diag (2m,) the diagonal
     of the compliance C (normal rows, then tangential), each pair's own scale for the
     per-pair law check (`app.output.pair_law`); load_scale the part of f_scale from the
     loads alone (without the bond's a and c: the per-pair kinematic scale); contact_work
@@ -317,9 +318,8 @@ class ContactStepper:
             debonded_step=np.zeros(m, dtype=np.int64),
             warm=WarmStart(enabled=setup.cfg.warm_start))
         self.slip = np.zeros(m)
-        scale = max(max((np.abs(x).max(initial=0.0) for x in self.gu), default=0.0),
-                    np.abs(pr.g0).max(initial=0.0), 1e-300)
-        self.tol = STATE_REL * _applied_scale(self.gu, cases, pr.g0)
+        scale = _applied_scale(self.gu, cases, pr.g0)
+        self.tol = STATE_REL * scale
         self.u_scale = scale if scale > 1e-300 else 0.0  # the KKT check's floor
         self.load_scale = max((np.abs(b).sum() for b in rhs), default=0.0)
         self.f_scale = max(self.load_scale, np.abs(self.hist.a).max(initial=0.0),
