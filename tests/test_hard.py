@@ -664,3 +664,18 @@ def test_the_state_tolerance_does_not_depend_on_how_a_load_is_split(tmp_path, uy
                  f"support.3.history={hist}", tag=str(uy))
     assert [st["interfaces"]["bond"]["debonded_pairs"] for st in s["steps"]] == [0, 17, 17]
     assert s["steps"][0]["interfaces"]["bond"]["normal_force"] == pytest.approx(-1.098901)
+
+
+@pytest.mark.parametrize("pressure, factor", [(1e12, 1e-11), (10.0, 1.0)])
+def test_the_force_scale_does_not_depend_on_how_a_load_is_split(tmp_path, pressure, factor):
+    """two_blocks.toml's pressure of 10 written as 1e12 x 1e-11: the same load, so the
+    same contact length (2.0, every pair pressed). Before, the force scale came from the
+    unit case alone (1e12 x 2): the pairs' forces of 2 fell below its 1e-10 and the
+    contact length read 0."""
+    raw = tomllib.loads((CONFIGS / "two_blocks.toml").read_text())
+    apply_overrides(raw, [f"load.0.pressure={pressure}", f"load.0.history=[{factor}]"])
+    s = run(parse_config(raw, CONFIGS / "two_blocks.toml"),
+            RunOptions(out=tmp_path / "out", quiet=True))
+    itf = s["steps"][0]["interfaces"]["interface"]
+    assert itf["normal_force"] == pytest.approx(20.0, rel=1e-9)
+    assert itf["contact_length"] == pytest.approx(2.0, rel=1e-12)

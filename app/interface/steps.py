@@ -207,16 +207,19 @@ def _newly_debonded(sol: ContactSolution, bonded: np.ndarray, frictionless: np.n
     return bonded & ((sol.gap > tol_gap) | slipped)
 
 
-def _applied_scale(gu: list[np.ndarray], cases, g0: np.ndarray) -> float:
+def _applied_scale(unit: list[np.ndarray], cases, g0: np.ndarray,
+                   floor: float = 1e-300) -> float:
     """The largest contact motion the run's loads make, bounded per load case by its
-    largest history factor x its unit motion gu (2m,), or the largest initial gap |g0|;
-    1e-300 when both are 0. With the unit motion alone, the same pull written as uy = 1
-    with a history of 1e-3 .. 3e-3 got a state tolerance 1e3 times that of uy = 1e-3 with
-    1 .. 3: a bond pulled 3e-5 past its strength held at p = -a with its gap open by 5.5e-8
-    below that tolerance, where the other form debonded every pair (hard/pull_off.toml)."""
+    largest history factor x its unit motion (`unit`, (2m,) each), or the largest initial
+    gap |g0|; `floor` when both are 0. (With `unit` the cases' summed |load| (1,) and no
+    g0, the loads' force scale.) With the unit motion alone, the same pull written as
+    uy = 1 with a history of 1e-3 .. 3e-3 got a state tolerance 1e3 times that of
+    uy = 1e-3 with 1 .. 3: a bond pulled 3e-5 past its strength held at p = -a with its
+    gap open by 5.5e-8 below that tolerance, where the other form debonded every pair
+    (hard/pull_off.toml); a force of 1e9 x 1e-9 read contact_length 0 where 1 x 1 read 1."""
     sizes = [float(np.abs(np.asarray(case.history, dtype=float)).max(initial=0.0))
-             * float(np.abs(x).max(initial=0.0)) for case, x in zip(cases, gu, strict=True)]
-    return max(max(sizes, default=0.0), float(np.abs(g0).max(initial=0.0)), 1e-300)
+             * float(np.abs(x).max(initial=0.0)) for case, x in zip(cases, unit, strict=True)]
+    return max(max(sizes, default=0.0), float(np.abs(g0).max(initial=0.0)), floor)
 
 
 @dataclass
@@ -321,7 +324,8 @@ class ContactStepper:
         scale = _applied_scale(self.gu, cases, pr.g0)
         self.tol = STATE_REL * scale
         self.u_scale = scale if scale > 1e-300 else 0.0  # the KKT check's floor
-        self.load_scale = max((np.abs(b).sum() for b in rhs), default=0.0)
+        self.load_scale = _applied_scale([np.abs(b).sum(keepdims=True) for b in rhs],
+                                         cases, np.zeros(0), floor=0.0)
         self.f_scale = max(self.load_scale, np.abs(self.hist.a).max(initial=0.0),
                            np.abs(self.hist.c).max(initial=0.0))
 
