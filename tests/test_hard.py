@@ -618,3 +618,64 @@ def test_peel_debonds_from_the_pulled_end_monotonically(tmp_path, disc):
         bound = c["mu"][order] * p + c["c_force"][order]
         assert (np.abs(q) - bound)[held].max(initial=0.0) <= 1e-12
         assert p[gone].min(initial=0.0) >= -1e-12
+
+
+def _block_sides_lowered(off: str) -> list[str]:
+    """shear_off in one step with the block's prescribed sides and top moved `off` further
+    down than the base's: its end pairs, both sides prescribed, overlap by `off`."""
+    one = [f"support.{i}.history=[1]" for i in (1, 3, 5, 7, 9)]
+    low = [f'support.{i}.uy="-ey * (y + 0.5) - {off}"' for i in (6, 8, 10)]
+    return ["analysis.steps=1", *one, *low]
+
+
+@pytest.mark.parametrize("disc", ["mortar", "node-to-segment"])
+def test_a_prescribed_overlap_of_fixed_pairs_is_refused(tmp_path, disc):
+    """The supports push the end pairs of hard/shear_off.toml 1e-4 into the master, both
+    of their sides prescribed: no contact force can separate them. Before, their stiff tie
+    turned the overlap into p = 1.6e12 (normal force 9.9e10 against 0.126) and the run
+    completed; now the step fails and names the pairs and the overlap."""
+    with pytest.raises(SolveError, match=r"supports push 2 pair\(s\) of interface 'bond' "
+                       r"into the master.*deepest 0.0001 at the slave node x=-0.5, y=0"):
+        solve(tmp_path, "shear_off", *_block_sides_lowered("1e-4"),
+              f'interface.bond.discretisation="{disc}"')
+
+
+def test_a_round_off_overlap_of_fixed_pairs_carries_no_force(tmp_path):
+    """The same overlap at 1e-13 (below the state tolerance, 1e-7 of the contact motion)
+    reads as closed: the interface carries the uniform field's 0.1262 as without it (before,
+    99.4: the overlap over the stiff tie)."""
+    s, _ = solve(tmp_path, "shear_off", *_block_sides_lowered("1e-13"))
+    ref, _ = solve(tmp_path, "shear_off", *_block_sides_lowered("0.0"), tag="ref")
+    n = [x["steps"][0]["interfaces"]["bond"]["normal_force"] for x in (s, ref)]
+    assert n[0] == pytest.approx(n[1], rel=1e-8)
+    assert n[1] == pytest.approx(0.1262, rel=1e-3)
+
+
+@pytest.mark.parametrize("uy", [1.0, 1e-3])
+def test_the_state_tolerance_does_not_depend_on_how_a_load_is_split(tmp_path, uy):
+    """hard/pull_off.toml pulled to delta = a H / E' (1 + 3e-5) at step 2, written as uy = 1
+    with a history of 1e-3 .. 3e-3 or as uy = 1e-3 with 1 .. 3: the same load, so every pair
+    debonds at step 2 either way (hand figure: sigma > a). Before, the tolerance came from
+    the unit case alone (uy = 1: 1e-7 x its contact motion of order 1), the bond's opening
+    of 5.5e-8 read closed, and the first form held all 17 pairs at p = -a."""
+    d = 2.0 * 0.91 / 1000.0 * (1 + 3e-5)
+    hist = [x / uy for x in (1e-3, d, 3e-3)]
+    s, _ = solve(tmp_path, "pull_off", "analysis.steps=3", f"support.3.uy={uy}",
+                 f"support.3.history={hist}", tag=str(uy))
+    assert [st["interfaces"]["bond"]["debonded_pairs"] for st in s["steps"]] == [0, 17, 17]
+    assert s["steps"][0]["interfaces"]["bond"]["normal_force"] == pytest.approx(-1.098901)
+
+
+@pytest.mark.parametrize("pressure, factor", [(1e12, 1e-11), (10.0, 1.0)])
+def test_the_force_scale_does_not_depend_on_how_a_load_is_split(tmp_path, pressure, factor):
+    """two_blocks.toml's pressure of 10 written as 1e12 x 1e-11: the same load, so the
+    same contact length (2.0, every pair pressed). Before, the force scale came from the
+    unit case alone (1e12 x 2): the pairs' forces of 2 fell below its 1e-10 and the
+    contact length read 0."""
+    raw = tomllib.loads((CONFIGS / "two_blocks.toml").read_text())
+    apply_overrides(raw, [f"load.0.pressure={pressure}", f"load.0.history=[{factor}]"])
+    s = run(parse_config(raw, CONFIGS / "two_blocks.toml"),
+            RunOptions(out=tmp_path / "out", quiet=True))
+    itf = s["steps"][0]["interfaces"]["interface"]
+    assert itf["normal_force"] == pytest.approx(20.0, rel=1e-9)
+    assert itf["contact_length"] == pytest.approx(2.0, rel=1e-12)

@@ -18,6 +18,7 @@ from app.interface.candidates import CandidateLCP, candidate_pairs, lcp_cache
 from app.interface.coulomb import ContactLCP, ContactSolution
 from app.interface.floating import split_modes
 from app.interface.weak_modes import held_mode_entries
+from app.lcp.coulomb_matrix import fixed_rows
 from app.lcp.solvers import lcp_solver
 
 if TYPE_CHECKING:
@@ -79,8 +80,9 @@ class InterfaceHistory:
 
 STATE_REL = 1e-7
 """A pair opens (gap) or slips (slip variables) when that is above STATE_REL x the larger of
-the problem's displacement scale and the pair's own motion terms (`ContactSolution.motion`).
-The scale alone is the unit load cases' contact motion: a load on a stiff body pressed on a
+the problem's displacement scale (the loads' contact motion at their largest history factor,
+`_applied_scale`) and the pair's own motion terms (`ContactSolution.motion`).
+The scale alone is the loads' free contact motion: a load on a stiff body pressed on a
 soft one barely moves the contact freely (1e-11 for E = 1e12 on E = 1e3), while its contact
 forces and rigid modes move it by 8e-3 and leave gaps of 1e-10 of round-off; a tolerance of
 1e-7 x 1e-11 read them as open, and a bond of 100 under tractions of 10 debonded at every
@@ -205,6 +207,21 @@ def _newly_debonded(sol: ContactSolution, bonded: np.ndarray, frictionless: np.n
     return bonded & ((sol.gap > tol_gap) | slipped)
 
 
+def _applied_scale(unit: list[np.ndarray], cases, g0: np.ndarray,
+                   floor: float = 1e-300) -> float:
+    """The largest contact motion the run's loads make, bounded per load case by its
+    largest history factor x its unit motion (`unit`, (2m,) each), or the largest initial
+    gap |g0|; `floor` when both are 0. (With `unit` the cases' summed |load| (1,) and no
+    g0, the loads' force scale.) With the unit motion alone, the same pull written as
+    uy = 1 with a history of 1e-3 .. 3e-3 got a state tolerance 1e3 times that of
+    uy = 1e-3 with 1 .. 3: a bond pulled 3e-5 past its strength held at p = -a with its
+    gap open by 5.5e-8 below that tolerance, where the other form debonded every pair
+    (hard/pull_off.toml); a force of 1e9 x 1e-9 read contact_length 0 where 1 x 1 read 1."""
+    sizes = [float(np.abs(np.asarray(case.history, dtype=float)).max(initial=0.0))
+             * float(np.abs(x).max(initial=0.0)) for case, x in zip(cases, unit, strict=True)]
+    return max(max(sizes, default=0.0), float(np.abs(g0).max(initial=0.0)), floor)
+
+
 @dataclass
 class StepSolution:
     """A load step's contact answer (rank 0; broadcast to every rank).
@@ -214,8 +231,9 @@ class StepSolution:
     alpha (r,) floating-mode amplitudes; kinematics (2m,) the LCP's (gap - g0, tau);
     state, debonded_step (m,) int; tau_prev (m,) tau before the step; slip (m,)
     accumulated; a, c (m,) adhesion and strength forces in force at this step; f_scale
-    and u_scale the problem's force and displacement scales (the largest load, the
-    largest unit-load contact motion or initial gap); compliance_diag (2m,) the diagonal
+    and u_scale the problem's force and displacement scales (the largest load; the
+    largest contact motion of a load case at its largest history factor, or initial gap,
+    `_applied_scale`); compliance_diag (2m,) the diagonal
     of the compliance C (normal rows, then tangential), each pair's own scale for the
     per-pair law check (`app.output.pair_law`); load_scale the part of f_scale from the
     loads alone (without the bond's a and c: the per-pair kinematic scale); contact_work
@@ -272,6 +290,7 @@ class ContactStepper:
         g = setup.g
         self.gu = [g @ uc for uc in unit]  # (2m,) per load case
         self.c_diag = np.diagonal(c_mat).copy()  # each pair's own scale (pair_law)
+        self.fixed_n = fixed_rows(self.c_diag[:m])[0]  # both sides prescribed (normal)
         self.v_keep = self.v_null = None
         self.floating = floating
         if floating is not None and floating.r.shape[1]:
@@ -302,11 +321,11 @@ class ContactStepper:
             debonded_step=np.zeros(m, dtype=np.int64),
             warm=WarmStart(enabled=setup.cfg.warm_start))
         self.slip = np.zeros(m)
-        scale = max(max((np.abs(x).max(initial=0.0) for x in self.gu), default=0.0),
-                    np.abs(pr.g0).max(initial=0.0), 1e-300)
-        self.tol = 1e-7 * scale
+        scale = _applied_scale(self.gu, cases, pr.g0)
+        self.tol = STATE_REL * scale
         self.u_scale = scale if scale > 1e-300 else 0.0  # the KKT check's floor
-        self.load_scale = max((np.abs(b).sum() for b in rhs), default=0.0)
+        self.load_scale = _applied_scale([np.abs(b).sum(keepdims=True) for b in rhs],
+                                         cases, np.zeros(0), floor=0.0)
         self.f_scale = max(self.load_scale, np.abs(self.hist.a).max(initial=0.0),
                            np.abs(self.hist.c).max(initial=0.0))
 
@@ -356,6 +375,32 @@ class ContactStepper:
                 return gap_free, tau_free, e0, names
             e0 = self.v_keep.T @ e0
         return gap_free, tau_free, e0, ""
+
+    def _prescribed_overlap(self, gap_free: np.ndarray) -> str:
+        """Why no contact force can close the step's free gap, or "": a pair whose motion
+        the supports fix on both sides (`fixed_rows`: its force moves nothing) and whose
+        free gap is below -tol (the state tolerance) is pushed into the master by the
+        prescribed displacements themselves. Its stiff tie (`app.lcp.coulomb_matrix.
+        tie_fixed`) turned the overlap into a force of overlap / (1e-12 x the largest
+        compliance): 9.9e10 on `shear_off.toml` with the block's sides moved 1e-4 more
+        down than the base's, a run that completed. A free gap within -tol of 0 reads as
+        closed (set to 0 in `gap_free`): before, an overlap of 1e-13 gave that pair 99."""
+        low = self.fixed_n & (gap_free < 0.0)
+        if not low.any():
+            return ""
+        deep = low & (gap_free < -self.tol)
+        gap_free[low & ~deep] = 0.0
+        if not deep.any():
+            return ""
+        pr = self.setup.pairs
+        k = int(np.flatnonzero(deep)[np.argmin(gap_free[deep])])
+        x, y = pr.position[k]
+        name = self.setup.cfg.interfaces[int(pr.interface[k])].name
+        return (f"the supports push {int(deep.sum())} pair(s) of interface {name!r} into the "
+                f"master, whose both sides they prescribe (deepest {-gap_free[k]:.3g} at the "
+                f"slave node x={x:.6g}, y={y:.6g}): no contact force can separate them; "
+                "make the prescribed displacements of the two bodies agree there (or "
+                "leave one side free)")
 
     def _interface_info(self, sol, state: np.ndarray, debonded: np.ndarray) -> dict:
         """Per-interface figures of a solved step: forces (per unit thickness x thickness),
@@ -425,6 +470,9 @@ class ContactStepper:
         if correction is not None:
             gap_free += correction[:m]
             tau_free += correction[m:]
+        pressed = self._prescribed_overlap(gap_free)
+        if pressed:
+            return StepSolution("prescribed penetration", pressed)
         tau_prev = self.hist.tau_prev.copy()
         res = solve_step(self.lcp, self.hist, step + 1, gap_free, tau_free, self.setup.mu,
                          e0, self.tol, self.tol)
