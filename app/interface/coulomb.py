@@ -381,16 +381,30 @@ class ContactLCP:
                   gap_free: np.ndarray, tau_free: np.ndarray, splus: np.ndarray,
                   sminus: np.ndarray, res) -> ContactSolution:
         """The ContactSolution of forces (p, q, alpha): gap and tau recovered from C."""
+        gap, tau, gap_terms, tau_terms = self._kinematics(p, q, alpha, gap_free, tau_free)
+        return ContactSolution(p, q, gap, tau, splus, sminus, alpha, res.pivots, res.status,
+                               res.basis, res.residual, res.message,
+                               motion_size(*gap_terms, *tau_terms))
+
+    def _kinematics(self, p: np.ndarray, q: np.ndarray, alpha: np.ndarray,
+                    gap_base: np.ndarray, tau_base: np.ndarray
+                    ) -> tuple[np.ndarray, np.ndarray, tuple, tuple]:
+        """(gap, tau, gap terms, tau terms) of the forces p, q (m,) and mode amplitudes alpha
+        (r,): gap = gap_base + C_n lam + N alpha and tau = tau_base + C_t lam + T alpha
+        (lam = (p, q); summed left to right), and the terms (each (m,)) whose round-off
+        those sums carry (`motion_size`). gap_base: the free gap; tau_base: the free tau
+        (tau), or tau_free - tau_prev (then tau is the step's motion tau - tau_prev)."""
         m = self.m
         lam = np.concatenate([p, q])
-        terms = (gap_free, self.c[:m] @ lam, self.nm @ alpha, tau_free, self.c[m:] @ lam)
-        gap = terms[0] + terms[1] + terms[2]
-        tau = terms[3] + terms[4]
+        gap_terms = (gap_base, self.c[:m] @ lam, self.nm @ alpha)
+        tau_terms = (tau_base, self.c[m:] @ lam)
         if self.r:
-            terms += (self.tm_all @ alpha,)
-            tau = tau + terms[-1]
-        return ContactSolution(p, q, gap, tau, splus, sminus, alpha, res.pivots, res.status,
-                               res.basis, res.residual, res.message, motion_size(*terms))
+            tau_terms += (self.tm_all @ alpha,)
+        gap = gap_terms[0] + gap_terms[1] + gap_terms[2]
+        tau = tau_terms[0] + tau_terms[1]
+        for term in tau_terms[2:]:
+            tau = tau + term
+        return gap, tau, gap_terms, tau_terms
 
     def _off_basis(self, sol: ContactSolution, basis: np.ndarray, tau_prev: np.ndarray,
                    c: np.ndarray, mu: np.ndarray) -> bool:
@@ -487,13 +501,9 @@ class ContactLCP:
         """None when x = (p, q, alpha) keeps the states' signs, each to POLISH_REL of the
         pair's own terms (p + a >= 0 closed, gap >= 0 open, |q| <= c + mu p stick, slip in
         its sign slipping); else (normal flips, new slip+ mask, new slip- mask)."""
-        m = self.m
         p, q, alpha = x
-        lam = np.concatenate([p, q])
-        gap_terms = (free[0], self.c[:m] @ lam, self.nm @ alpha)
-        tau_terms = (free[1], self.c[m:] @ lam, self.tm_all @ alpha)
-        gap = gap_terms[0] + gap_terms[1] + gap_terms[2]
-        slip = tau_terms[1] + tau_terms[2] - free[1]  # tau - tau_prev
+        # free[1] = tau_prev - tau_free: slip = tau - tau_prev
+        gap, slip, gap_terms, tau_terms = self._kinematics(p, q, alpha, free[0], -free[1])
         ftol = POLISH_REL * (np.abs(a) + np.abs(c) + np.abs(p) + np.abs(q)
                              + np.abs(mu * p) + 1e-300)
         gtol = POLISH_REL * (motion_size(*gap_terms) + 1e-300)
