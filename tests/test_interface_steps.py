@@ -442,6 +442,34 @@ def test_the_uncondensed_re_solve_gives_lemkes_answer_on_an_accurate_basis():
     assert p[3] == 0.0 and p[4] == pytest.approx(-1.0) and np.all(p[:3] > 0)
 
 
+@pytest.mark.parametrize("pair, field, off", [(3, "gap", -1e-6), (1, "tau", -1e-6),
+                                               (2, "tau", 1e-6)])
+def test_the_gate_sees_an_open_pair_penetrating_and_a_slip_against_its_sign(pair, field, off):
+    """`ContactLCP._off_basis` on the answer of the accurate solve above, one pair moved
+    by 1e-6 of its motion terms (100 x POLISH_GATE) the way its basis forbids: the open
+    pair 3 into the master (gap < 0 at p = -a), the slip+ pair 1 backwards (tau < tau_prev),
+    the slip- pair 2 forwards. Each calls for the uncondensed re-solve (before: only closed
+    and sticking pairs were judged, and these passed); 1e-10 of the terms (round-off, below
+    the gate) does not."""
+    import dataclasses
+
+    m, mu, a = 5, 0.3, np.array([0.0, 0.0, 0.0, 0.0, 1.0])
+    block = np.eye(m) + 0.1 * np.ones((m, m))
+    c = np.block([[CN * block, np.zeros((m, m))], [np.zeros((m, m)), CT * block]])
+    lcp = ContactLCP(c, np.full(m, mu), np.ones(m, bool), None, None)
+    gap_free = np.array([-1e-3, -1e-3, -1e-3, 1e-3, 5e-3])
+    tau_free = np.array([1e-5, 1e-2, -1e-2, 0.0, 0.0])
+    tau_prev, cc = np.zeros(m), 2.0 * a
+    sol = lcp.solve(gap_free, tau_free, tau_prev, a, cc, np.full(m, mu), np.zeros(0))
+    basis = np.asarray(sol.basis, bool)
+    assert sol.slip_plus[1] > 0 and sol.slip_minus[2] > 0 and not basis[3]
+    for rel, fired in ((off, True), (1e-4 * off, False)):
+        moved = getattr(sol, field).copy()
+        moved[pair] = (0.0 if field == "gap" else tau_prev[pair]) + rel * sol.motion[pair]
+        bad = dataclasses.replace(sol, **{field: moved})
+        assert lcp._off_basis(bad, basis, tau_prev, cc, np.full(m, mu)) is fired
+
+
 def test_a_stiff_floating_block_sticking_on_a_soft_one_keeps_every_pair_closed(tmp_path):
     """two_blocks.toml, the upper block floating, E = 1e12 on 1e3, mu = 0.5, no bond. The
     mortar maps 11 slave pairs onto 9 master nodes, so force patterns the soft block does

@@ -409,22 +409,30 @@ class ContactLCP:
     def _off_basis(self, sol: ContactSolution, basis: np.ndarray, tau_prev: np.ndarray,
                    c: np.ndarray, mu: np.ndarray) -> bool:
         """Whether Lemke's answer contradicts its own basis by more than POLISH_GATE of a
-        pair's motion terms: a closed pair (p + a basic) with a gap, or a frictional pair
-        without a basic slip variable that moved tangentially; or of its forces: such a
-        sticking pair with |q| over its bound c + mu p (c, mu (m,); at a contrast of 1e11
-        one was 3.3e-5 over, `kkt` 3.3e-5, and the load step's states differed from those
-        at 1e6). Round-off of the condensed LCP (`_polished`); elsewhere Lemke's answer is
-        kept as it is."""
+        pair's motion terms: a closed pair (p + a basic) with a gap, an open one (p = -a)
+        with a negative gap, a frictional pair without a basic slip variable that moved
+        tangentially, or one with a single basic slip variable that moved against it
+        (slip+ with tau < tau_prev); or of its forces: such a sticking pair with |q| over
+        its bound c + mu p (c, mu (m,); at a contrast of 1e11 one was 3.3e-5 over, `kkt`
+        3.3e-5, and the load step's states differed from those at 1e6). Round-off of the
+        condensed LCP (`_polished`); elsewhere Lemke's answer is kept as it is. (A
+        slipping pair's q off its cone is not judged here: an open pair's q, F = 0, is
+        round-off of H times its motion, not of its own forces.)"""
         m, f, e = self.m, self.fric, self.edges
         tol = POLISH_GATE * np.asarray(sol.motion, dtype=float)
+        plus, minus = np.zeros(m, dtype=bool), np.zeros(m, dtype=bool)
+        plus[f], minus[f] = basis[e[1]: e[2]], basis[e[2]: e[3]]
         stick = np.zeros(m, dtype=bool)
-        stick[f] = ~basis[e[1]: e[2]] & ~basis[e[2]: e[3]]
-        moved = np.abs(sol.tau - tau_prev)
+        stick[f] = ~plus[f] & ~minus[f]
+        moved = sol.tau - tau_prev
+        back = (plus & ~minus & (moved < -tol)) | (minus & ~plus & (moved > tol))
         bound = c + mu * sol.p
         over = np.abs(sol.q) - bound > POLISH_GATE * (np.abs(c) + np.abs(mu * sol.p)
                                                       + np.abs(sol.q))
-        return bool((basis[:m] & (np.abs(sol.gap) > tol)).any() or
-                    (stick & ((moved > tol) | over)).any())
+        closed = basis[:m]
+        return bool((closed & (np.abs(sol.gap) > tol)).any() or
+                    (~closed & (sol.gap < -tol)).any() or back.any() or
+                    (stick & ((np.abs(moved) > tol) | over)).any())
 
     def _polished(self, basis: np.ndarray, free: tuple[np.ndarray, np.ndarray],
                   a: np.ndarray, c: np.ndarray, mu: np.ndarray,
