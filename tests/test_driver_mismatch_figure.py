@@ -1,6 +1,7 @@
 """`steps[k].lcp_displacement_mismatch` (app/driver/contact.py): max |G u - the LCP's
-kinematics| over the larger of the step's max |u| and the problem's displacement scale,
-so that a step with no load does not read round-off over round-off."""
+kinematics| over the larger of the step's max |u| and the size of the LCP's kinematic
+data (whose round-off the mismatch carries), so that a step with no load does not read
+round-off over round-off."""
 
 from __future__ import annotations
 
@@ -13,7 +14,7 @@ from app.driver.contact import mismatch_figure
 from app.run import RunOptions, run
 
 
-def test_the_figure_is_relative_to_the_larger_of_max_u_and_the_problems_scale():
+def test_the_figure_is_relative_to_the_larger_of_max_u_and_the_lcp_data():
     assert mismatch_figure(1e-15, 0.5, 0.04) == 1e-15 / 0.5
     assert mismatch_figure(1.4e-18, 7.9e-16, 0.04) == 1.4e-18 / 0.04
     assert mismatch_figure(0.0, 0.0, 0.0) == 0.0
@@ -22,9 +23,8 @@ def test_the_figure_is_relative_to_the_larger_of_max_u_and_the_problems_scale():
 def test_an_unloaded_step_after_loaded_ones_reads_round_off(tmp_path):
     """multibody.toml pressed, pushed sideways, then both loads back to 0 (step 3): u is
     round-off (max |u| 7.9e-16) and so is G u - the LCP's kinematics (1.4e-18). Over
-    max |u| that read 1.7e-3; over the problem's displacement scale (the unit load's
-    contact motion, 0.04) 3.5e-17. The loaded steps read as before (their max |u|, 0.06,
-    is the larger scale)."""
+    max |u| that read 1.7e-3; over the LCP's data (its largest initial gap, 0.040)
+    3.5e-17. The loaded steps read as before (their max |u|, 0.06, is the larger)."""
     raw = tomllib.loads((CONFIGS / "multibody.toml").read_text())
     raw["analysis"]["steps"] = 3
     for load, history in zip(raw["load"], ([1.0, 1.0, 0.0], [0.0, 1.0, 0.0]), strict=True):

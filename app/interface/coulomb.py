@@ -411,28 +411,48 @@ class ContactLCP:
         """Whether Lemke's answer contradicts its own basis by more than POLISH_GATE of a
         pair's motion terms: a closed pair (p + a basic) with a gap, an open one (p = -a)
         with a negative gap, a frictional pair without a basic slip variable that moved
-        tangentially, or one with a single basic slip variable that moved against it
-        (slip+ with tau < tau_prev); or of its forces: such a sticking pair with |q| over
-        its bound c + mu p (c, mu (m,); at a contrast of 1e11 one was 3.3e-5 over, `kkt`
-        3.3e-5, and the load step's states differed from those at 1e6). Round-off of the
-        condensed LCP (`_polished`); elsewhere Lemke's answer is kept as it is. (A
-        slipping pair's q off its cone is not judged here: an open pair's q, F = 0, is
-        round-off of H times its motion, not of its own forces.)"""
+        tangentially; or of its forces: such a sticking pair with |q| over its bound
+        c + mu p (c, mu (m,); at a contrast of 1e11 one was 3.3e-5 over, `kkt` 3.3e-5, and
+        the load step's states differed from those at 1e6); or a slipping pair off its
+        side of the cone (`_slip_off`). Round-off of the condensed LCP (`_polished`);
+        elsewhere Lemke's answer is kept as it is."""
         m, f, e = self.m, self.fric, self.edges
-        tol = POLISH_GATE * np.asarray(sol.motion, dtype=float)
+        motion = np.broadcast_to(np.asarray(sol.motion, dtype=float), (m,))
+        tol = POLISH_GATE * motion
         plus, minus = np.zeros(m, dtype=bool), np.zeros(m, dtype=bool)
         plus[f], minus[f] = basis[e[1]: e[2]], basis[e[2]: e[3]]
         stick = np.zeros(m, dtype=bool)
         stick[f] = ~plus[f] & ~minus[f]
         moved = sol.tau - tau_prev
-        back = (plus & ~minus & (moved < -tol)) | (minus & ~plus & (moved > tol))
         bound = c + mu * sol.p
-        over = np.abs(sol.q) - bound > POLISH_GATE * (np.abs(c) + np.abs(mu * sol.p)
-                                                      + np.abs(sol.q))
+        forces = np.abs(c) + np.abs(mu * sol.p) + np.abs(sol.q)
+        over = np.abs(sol.q) - bound > POLISH_GATE * forces
         closed = basis[:m]
         return bool((closed & (np.abs(sol.gap) > tol)).any() or
-                    (~closed & (sol.gap < -tol)).any() or back.any() or
-                    (stick & ((np.abs(moved) > tol) | over)).any())
+                    (~closed & (sol.gap < -tol)).any() or
+                    (stick & ((np.abs(moved) > tol) | over)).any() or
+                    self._slip_off(sol.q, moved, bound, forces, motion, plus, minus).any())
+
+    def _slip_off(self, q: np.ndarray, moved: np.ndarray, bound: np.ndarray,
+                  forces: np.ndarray, motion: np.ndarray, plus: np.ndarray,
+                  minus: np.ndarray) -> np.ndarray:
+        """(m,) bool: the pairs with one basic slip variable (plus: slip+, q = -bound,
+        tau - tau_prev = moved >= 0; minus: slip-) whose answer leaves it by more than
+        POLISH_GATE: moved against it beyond that of the motion terms, or q off -+bound
+        beyond that of the pair's forces plus the force its motion terms make through its
+        own tangential compliance (motion / C_tt,ii: q is recovered as H times motion, so
+        its round-off is of that size where the pair's forces are not, e.g. an open pair's
+        q at bound 0). Node-to-segment at a contrast of 1e10 (two_blocks.toml, the upper
+        block floating, mu = 0.5, a tangential cycle) gave an open pair q = -4.1e-4, `kkt`
+        3.4e-5 and `kkt_pairs` 1.7e-4 with a warning; no gap or motion was off."""
+        m = self.m
+        one = plus ^ minus
+        ctt = np.diagonal(self.c)[m:]
+        reach = np.divide(motion, ctt, out=np.zeros(m), where=ctt > 0)
+        side = np.where(plus, q + bound, q - bound)
+        tol = POLISH_GATE * motion
+        back = np.where(plus, moved < -tol, moved > tol)
+        return one & (back | (np.abs(side) > POLISH_GATE * (forces + reach)))
 
     def _polished(self, basis: np.ndarray, free: tuple[np.ndarray, np.ndarray],
                   a: np.ndarray, c: np.ndarray, mu: np.ndarray,
