@@ -81,9 +81,11 @@ as open at p = 0 and the pressure ran 0..18.9 in place of 9.06..13.7
 (`tests/test_interface_steps.py`)."""
 
 POLISH_GATE = 1e-8
-"""`ContactLCP._off_basis`: a closed pair's gap or a sticking pair's tangential motion above
-this times its motion terms calls for `ContactLCP._polished` (below the state tolerance,
-1e-7, of `app.interface.steps`, so that no such round-off reaches the pair states)."""
+"""`ContactLCP._off_basis`: a closed pair's gap, an open pair's penetration, a sticking
+pair's tangential motion or a slipping pair's motion against its slip above this times its
+motion terms (or a pair's q off its bound by this of its force terms) calls for
+`ContactLCP._polished` (below the state tolerance, 1e-7, of `app.interface.steps`, so that
+no such round-off reaches the pair states)."""
 
 UNSHIFTED_PIVOTS = 8
 """Block pivots `ContactLCP._unshifted` tries on Lemke's final basis before keeping z."""
@@ -117,7 +119,10 @@ def _rejudged(res, ms: np.ndarray, qs: np.ndarray, qsize: np.ndarray) -> None:
     a load exactly at the adhesion's strength makes the balance rows' constant e0 - N^T a
     exactly 0: node-to-segment on pull_off.toml pulled by a traction of a = 2 (the pairs
     at p = -a, a degenerate basis) ended 'inaccurate' with a violation of 9.2e-14 in that
-    row, round-off of its terms (N^T a ~ 2) but 6.7e-8 of Lemke's floor of its size."""
+    row, round-off of its terms (N^T a ~ 2) but 6.7e-8 of Lemke's floor of its size.
+    Kept beside Lemke's check, not in it: that check sees only (M, q), the cancelled terms
+    are this caller's (`_constant_terms`), and passing them would add an argument to
+    `app.lcp.lemke` and to every `LCPSolver`; judged here, the test serves each solver."""
     z = res.z
     if z.size == 0 or not (np.isfinite(z).all() and (z >= 0).all()):
         return
