@@ -442,6 +442,40 @@ def test_the_uncondensed_re_solve_gives_lemkes_answer_on_an_accurate_basis():
     assert p[3] == 0.0 and p[4] == pytest.approx(-1.0) and np.all(p[:3] > 0)
 
 
+@pytest.mark.parametrize("pair, field, off", [(3, "gap", -1e-6), (1, "tau", -1e-6),
+                                               (2, "tau", 1e-6), (1, "q", 1e-6),
+                                               (2, "q", -1e-6)])
+def test_the_gate_sees_an_open_pair_penetrating_and_a_slip_off_its_sign(pair, field, off):
+    """`ContactLCP._off_basis` on the answer of the accurate solve above, one pair moved
+    by 1e-6 (100 x POLISH_GATE) of its terms the way its basis forbids: the open pair 3
+    into the master (gap < 0 at p = -a), the slip+ pair 1 backwards (tau < tau_prev), the
+    slip- pair 2 forwards (of its motion terms), or their q off their side of the cone (of
+    their forces plus motion / C_tt,ii). Each calls for the uncondensed re-solve (before:
+    only closed and sticking pairs were judged, and these passed); 1e-10 (round-off, below
+    the gate) does not."""
+    import dataclasses
+
+    m, mu, a = 5, 0.3, np.array([0.0, 0.0, 0.0, 0.0, 1.0])
+    block = np.eye(m) + 0.1 * np.ones((m, m))
+    c = np.block([[CN * block, np.zeros((m, m))], [np.zeros((m, m)), CT * block]])
+    lcp = ContactLCP(c, np.full(m, mu), np.ones(m, bool), None, None)
+    gap_free = np.array([-1e-3, -1e-3, -1e-3, 1e-3, 5e-3])
+    tau_free = np.array([1e-5, 1e-2, -1e-2, 0.0, 0.0])
+    tau_prev, cc = np.zeros(m), 2.0 * a
+    sol = lcp.solve(gap_free, tau_free, tau_prev, a, cc, np.full(m, mu), np.zeros(0))
+    basis = np.asarray(sol.basis, bool)
+    assert sol.slip_plus[1] > 0 and sol.slip_minus[2] > 0 and not basis[3]
+    scale = {"gap": sol.motion[pair], "tau": sol.motion[pair],
+             "q": cc[pair] + mu * abs(sol.p[pair]) + abs(sol.q[pair]) + sol.motion[pair] / CT
+             / 1.1}  # (C_tt,ii = 1.1 CT)
+    base = {"gap": 0.0, "tau": tau_prev[pair], "q": sol.q[pair]}
+    for rel, fired in ((off, True), (1e-4 * off, False)):
+        moved = getattr(sol, field).copy()
+        moved[pair] = base[field] + rel * scale[field]
+        bad = dataclasses.replace(sol, **{field: moved})
+        assert lcp._off_basis(bad, basis, tau_prev, cc, np.full(m, mu)) is fired
+
+
 def test_a_stiff_floating_block_sticking_on_a_soft_one_keeps_every_pair_closed(tmp_path):
     """two_blocks.toml, the upper block floating, E = 1e12 on 1e3, mu = 0.5, no bond. The
     mortar maps 11 slave pairs onto 9 master nodes, so force patterns the soft block does
@@ -488,3 +522,30 @@ def test_a_stiff_floating_block_under_a_tangential_cycle_keeps_its_friction_boun
         steps[e] = read_summary(tmp_path / e)["steps"]
     assert steps["1e11"][2]["states"] == steps["1e6"][2]["states"]
     assert max(steps["1e11"][2]["kkt"].values()) <= 1e-9
+
+
+def test_a_stiff_floating_block_keeps_its_open_pairs_free_of_friction_node_to_segment(
+        tmp_path):
+    """two_blocks.toml with node-to-segment, the upper block floating, E = 1e10 on 1e3,
+    mu = 0.5, a pressure of 10 and a tangential force cycled 0, 4, 8, 4, 0, -4, -8. At
+    step 7 Lemke's answer gave an open pair (p = 0, bound 0, slip+ basic) q = -4.1e-4,
+    recovered through H = C_tt^-1 (the condensed LCP's round-off), with no gap or motion
+    off its basis: `kkt` 3.4e-5, `kkt_pairs` 1.7e-4 and a warning. Now the gate judges a
+    slipping pair's q against its side of the cone and re-solves: the law to round-off
+    and the states of E = 1e6 (2 stick, 6 slip+, 3 open)."""
+    from support import CONFIGS, read_summary, run_cli
+
+    sets = ["--set", "interface.interface.mu=0.5", "--set", "analysis.steps=7", "--set",
+            'interface.interface.discretisation="node-to-segment"', "--set",
+            'support=[{on="lower_base",ux=0.0,uy=0.0}]', "--set",
+            'load=[{on="upper_top",pressure=10.0},{on="upper_top",total_force=[8.0,0.0],'
+            'history=[0.0,0.5,1.0,0.5,0.0,-0.5,-1.0]}]']
+    steps = {}
+    for e in ("1e6", "1e10"):
+        res = run_cli(["run", str(CONFIGS / "two_blocks.toml"), "--out", str(tmp_path / e),
+                       "--quiet", "--set", f"body.upper.E={e}", *sets], timeout=120)
+        assert res.returncode == 0, res.stderr
+        assert "breaks the interface law" not in res.stderr
+        steps[e] = read_summary(tmp_path / e)["steps"]
+    assert steps["1e10"][6]["states"] == steps["1e6"][6]["states"]
+    assert max(steps["1e10"][6]["kkt_pairs"][k] for k in ("normal", "tangential")) < 1e-8
