@@ -39,6 +39,7 @@ from scipy.spatial import cKDTree
 from app.contact.constraints import ContactConstraints
 from app.contact.pairs import (
     ContactPairs,
+    _beyond_free_end,
     _curve_edges,
     closest_segments,
     master_segments,
@@ -290,8 +291,8 @@ def covered_tests(multipliers: Multipliers, s: np.ndarray, wp: np.ndarray, seg: 
     of the slave parameter) of overlap pieces on slave segments seg (p,) whose ends carry
     a multiplier where carrier (p, 2) is True.
 
-    A segment with one carrier end (the other end's node faces the master over less than
-    MIN_COVER of its support, so it has no row) tests the carrier with 1, the sum of the
+    A segment with one carrier end (the other end's node lies beyond a free master end and
+    has no row, `_covered_weights`) tests the carrier with 1, the sum of the
     two shape functions: the other node's covered share goes to its neighbour, so the
     row sums add up to the covered length. Dual multipliers (`multipliers.consistent`)
     on a segment the master covers only in part are biorthogonal over the covered pieces
@@ -564,10 +565,13 @@ def _covered_weights(geo: SlaveGeometry, itf, sd: float, basis: MasterBasis,
     Integrates the slave edges with a found node against the master segments within sd
     (along geo.normal). Returns w (q, n_nodes), the covered mortar matrix M with its rows
     divided by their sums (rows of uncovered nodes stay zero), cover (q,) those row sums
-    (length), and carrier (q,) bool: the nodes whose support faces the master over at
-    least MIN_COVER of it (int_cov N_j ds >= MIN_COVER D_j, the standard shape function
-    over the covered pieces: geometry, whatever the multipliers); the others carry no
-    multiplier and their covered share goes to their neighbour (`covered_tests`).
+    (length), and carrier (q,) bool: the found nodes whose support faces the master over
+    at least MIN_COVER of it (int_cov N_j ds >= MIN_COVER D_j, the standard shape function
+    over the covered pieces: geometry, whatever the multipliers). A node beyond a free
+    master end that is no carrier gives its covered share to its neighbour
+    (`covered_tests`); any other node keeps its own test function, whether or not it
+    gets a row (a node out of reach over the master: its neighbour's row stays as it
+    was, whatever the lengths of the edges beyond the search zone).
     InputError if no slave edge has a found node.
     A row reads u_j - sum_l w_jl u_l = (sum_k S_jk u_k - sum_l M_jl u_l) / cover_j, S the
     slave integrals int phi_j N_k ds over the same covered pieces (so the row sums stay
@@ -586,19 +590,18 @@ def _covered_weights(geo: SlaveGeometry, itf, sd: float, basis: MasterBasis,
     k, s, wq, eta = segment_overlaps(xs1, xs2, ns1, ns2, xa, xb, e, f)
     ends = se[e[k]]  # (p, 2) slave nodes of the overlapping pieces
     at = np.searchsorted(nodes, ends)
-    # the edges next to the active ones complete the shares of the active edges' nodes
-    rim = geo.s_edges[~active & np.isin(geo.s_edges, se).any(axis=1)]
-    geometric = (_covered_shares(nodes, ends, s, wq)
-                 + _covered_shares(nodes, *_rim_pieces(geo, rim, xa, xb, sd)))
-    carrier = geometric >= MIN_COVER * (1 - COVER_RTOL) * geo.d_len
+    geometric = _covered_shares(nodes, ends, s, wq)  # complete for the found nodes
+    carrier = found & (geometric >= MIN_COVER * (1 - COVER_RTOL) * geo.d_len)
+    # the nodes beyond a free master end without a row give their share to a neighbour
+    tests = carrier | ~_beyond_master_end(geo, float(sd + ls_max(xs1, xs2)))
     ls = np.linalg.norm(xs2 - xs1, axis=1)
-    phi = covered_tests(multipliers, s, wq / ls[e[k], None], e[k], carrier[at])
+    phi = covered_tests(multipliers, s, wq / ls[e[k], None], e[k], tests[at])
     pair, jj, node, val, (k, slave) = piece_integrals(k, s, wq, eta, f, basis, phi)
     n = pts.shape[0]
     mm = _rows(nodes, n, se, pair, jj, node, val, e)
     cover = np.asarray(mm.sum(axis=1)).ravel()
     if not multipliers.slave_mass:
-        slave = slave * ~carrier[at][:, None, :]  # only the nodes without a multiplier
+        slave = slave * ~tests[at][:, None, :]  # only the nodes without a multiplier
     ss = _rows(nodes, n, se, np.repeat(k, 4), np.tile([0, 0, 1, 1], k.size),
                np.repeat(ends, 2, axis=0).reshape(-1), slave.reshape(-1), e)
     if ss.nnz:
@@ -619,17 +622,23 @@ def _covered_shares(nodes: np.ndarray, ends: np.ndarray, s: np.ndarray,
                        minlength=nodes.size)
 
 
-def _rim_pieces(geo: SlaveGeometry, rim: np.ndarray, xa: np.ndarray, xb: np.ndarray,
-                sd: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(ends (p, 2), s (p, g), weights (p, g)) of the overlap pieces of the slave edges
-    rim (r, 2) (no found node) against the master segments xa -> xb within sd."""
-    if rim.shape[0] == 0:
-        return np.zeros((0, 2), dtype=np.int64), np.zeros((0, 1)), np.zeros((0, 1))
-    x1, x2 = geo.pts[rim[:, 0]], geo.pts[rim[:, 1]]
-    e, f = _candidates(x1, x2, xa, xb, sd)
-    k, s, wq, _ = segment_overlaps(x1, x2, geo.normal[rim[:, 0]], geo.normal[rim[:, 1]],
-                                   xa, xb, e, f)
-    return rim[e[k]], s, wq
+def ls_max(xs1: np.ndarray, xs2: np.ndarray) -> float:
+    """The longest of the segments xs1 -> xs2 ((k, 2) each; length)."""
+    return float(np.linalg.norm(xs2 - xs1, axis=1).max(initial=0.0))
+
+
+def _beyond_master_end(geo: SlaveGeometry, reach: float) -> np.ndarray:
+    """(q,) bool: the slave nodes whose closest master segment (within reach) they project
+    beyond a free end of the master curve (by more than XI_EPS, as
+    `app.contact.pairs.covered_tributary`)."""
+    m_edges = geo.m_edges
+    seg_len = np.linalg.norm(geo.pts[m_edges[:, 1]] - geo.pts[m_edges[:, 0]], axis=1)
+    m_degree = np.bincount(m_edges.ravel(), minlength=geo.pts.shape[0])
+    out, _, _ = _beyond_free_end(geo.pts[geo.nodes], (), geo.pts, m_edges, seg_len,
+                                 m_degree, reach)
+    beyond = np.zeros(geo.nodes.size, dtype=bool)
+    beyond[out] = True
+    return beyond
 
 
 def _nodal_gap(x: np.ndarray, xa: np.ndarray, xb: np.ndarray, xi: np.ndarray) -> np.ndarray:
