@@ -14,7 +14,10 @@ n(s) = (1 - s) n_1 + s n_2, each slave Gauss point onto the master segment along
 n(s) (eta = master parameter). Rows are divided by the covered weight sum_l M_jl (= D_j
 when the master covers the node's support), so a row reads
 n_j . (u_j - sum_l w_jl u_l) with sum_l w_jl = 1: gaps stay lengths, the multiplier is the
-force at the slave node and force / (D_j x thickness) its traction.
+force at the slave node and force / (D_j x thickness) its traction. On a slave segment
+the master covers only in part, the dual functions are those biorthogonal over the
+covered pieces, and a node beyond a free master end without a row gives its share to its
+neighbour (`covered_tests`): the row sums add up to the covered length.
 
 Contact normal (choice, see README): the averaged nodal outward normals of both sides
 (nu_s of the slave node, nu_m of the master interpolated at the node's closest point),
