@@ -14,7 +14,10 @@ n(s) = (1 - s) n_1 + s n_2, each slave Gauss point onto the master segment along
 n(s) (eta = master parameter). Rows are divided by the covered weight sum_l M_jl (= D_j
 when the master covers the node's support), so a row reads
 n_j . (u_j - sum_l w_jl u_l) with sum_l w_jl = 1: gaps stay lengths, the multiplier is the
-force at the slave node and force / (D_j x thickness) its traction.
+force at the slave node and force / (D_j x thickness) its traction. On a slave segment
+the master covers only in part, the dual functions are those biorthogonal over the
+covered pieces, and a node beyond a free master end without a row gives its share to its
+neighbour (`covered_tests`): the row sums add up to the covered length.
 
 Contact normal (choice, see README): the averaged nodal outward normals of both sides
 (nu_s of the slave node, nu_m of the master interpolated at the node's closest point),
@@ -39,6 +42,7 @@ from scipy.spatial import cKDTree
 from app.contact.constraints import ContactConstraints
 from app.contact.pairs import (
     ContactPairs,
+    _beyond_free_end,
     _curve_edges,
     closest_segments,
     master_segments,
@@ -198,14 +202,17 @@ class Multipliers:
     slave_mass: False when shape is biorthogonal to the slave's N (dual: the slave part
     of a row is the node itself, D diagonal); True to integrate the slave part
     int shape_j N_k ds over the covered pieces as well (standard functions, banded D).
+    consistent: True for shape functions that must be biorthogonal to N over the covered
+    part of a partly covered slave segment (`covered_tests`), so that D stays diagonal.
     """
 
     name: str
     shape: Callable[[np.ndarray], np.ndarray]
     slave_mass: bool
+    consistent: bool = False
 
 
-DUAL = Multipliers("dual", dual_multipliers, slave_mass=False)
+DUAL = Multipliers("dual", dual_multipliers, slave_mass=False, consistent=True)
 
 
 def segment_overlaps(xs1: np.ndarray, xs2: np.ndarray, ns1: np.ndarray, ns2: np.ndarray,
@@ -242,17 +249,29 @@ def segment_overlaps(xs1: np.ndarray, xs2: np.ndarray, ns1: np.ndarray, ns2: np.
 
 def segment_integrals(xs1: np.ndarray, xs2: np.ndarray, ns1: np.ndarray, ns2: np.ndarray,
                       xa: np.ndarray, xb: np.ndarray, e: np.ndarray, f: np.ndarray,
-                      basis: MasterBasis, multipliers: Multipliers = DUAL) -> tuple:
+                      basis: MasterBasis, multipliers: Multipliers = DUAL,
+                      carrier: np.ndarray | None = None) -> tuple:
     """Mortar integrals of candidate pairs (slave segment e, master segment f).
 
     Arguments as `segment_overlaps`; basis: the master interpolation (`linear_master` or
-    a smoothed one). Returns (pair (r,), j (r,) 0/1 slave end, node (r,) master node id
-    (-1: none), value (r,)) with value = int phi_j N_node ds over the overlap (length),
-    phi = multipliers.shape, and the slave integrals (p, 2, 2) int phi_j N_k ds of the
-    overlapping pairs (k: slave end), in pair order of `pair`'s unique values.
+    a smoothed one); carrier (S, 2) bool: which ends of each slave segment carry a
+    multiplier (None: all; `covered_tests`). Returns (pair (r,), j (r,) 0/1 slave end,
+    node (r,) master node id (-1: none), value (r,)) with value = int phi_j N_node ds over
+    the overlap (length), phi = the test functions of `covered_tests`, and the slave
+    integrals (p, 2, 2) int phi_j N_k ds of the overlapping pairs (k: slave end), in pair
+    order of `pair`'s unique values.
     """
     k, s, w, eta = segment_overlaps(xs1, xs2, ns1, ns2, xa, xb, e, f)
-    phi = multipliers.shape(s)  # (2, p, g)
+    ls = np.linalg.norm(xs2 - xs1, axis=1)
+    ends = (np.ones((xs1.shape[0], 2), dtype=bool) if carrier is None else carrier)[e[k]]
+    phi = covered_tests(multipliers, s, w / ls[e[k], None], e[k], ends)
+    return piece_integrals(k, s, w, eta, f, basis, phi)
+
+
+def piece_integrals(k: np.ndarray, s: np.ndarray, w: np.ndarray, eta: np.ndarray,
+                    f: np.ndarray, basis: MasterBasis, phi: np.ndarray) -> tuple:
+    """`segment_integrals` from the overlaps (k, s, w, eta of `segment_overlaps`) and the
+    test functions phi (2, p, g) at their Gauss points."""
     nodes, big_n = basis(f[k], eta)  # (p, q), (q, p, g)
     val = np.einsum("jpg,lpg,pg->pjl", phi, big_n, w)  # (p, 2, q)
     slave = np.einsum("jpg,lpg,pg->pjl", phi, np.stack([1 - s, s]), w)  # (p, 2, 2)
@@ -261,6 +280,48 @@ def segment_integrals(xs1: np.ndarray, xs2: np.ndarray, ns1: np.ndarray, ns2: np
     jj = np.tile(np.repeat([0, 1], q), k.size)
     node = np.repeat(nodes[:, None, :], 2, axis=1).reshape(-1)
     return pair, jj, node, val.reshape(-1), (k, slave)
+
+
+FULL_COVER_TOL = 1e-12
+"""A slave segment whose covered pieces have measure, centroid and second moment within
+this of the whole segment's (1, 1/2, 1/12) is whole: it keeps the dual functions of
+`dual_multipliers` bit for bit."""
+
+
+def covered_tests(multipliers: Multipliers, s: np.ndarray, wp: np.ndarray, seg: np.ndarray,
+                  carrier: np.ndarray) -> np.ndarray:
+    """Test functions (2, p, g) at the Gauss points s (p, g) (weights wp (p, g) in units
+    of the slave parameter) of overlap pieces on slave segments seg (p,) whose ends carry
+    a multiplier where carrier (p, 2) is True.
+
+    A segment with one carrier end (the other end's node lies beyond a free master end and
+    has no row, `_covered_weights`) tests the carrier with 1, the sum of the
+    two shape functions: the other node's covered share goes to its neighbour, so the
+    row sums add up to the covered length. Dual multipliers (`multipliers.consistent`)
+    on a segment the master covers only in part are biorthogonal over the covered pieces
+    (Cichosz and Bischoff 2011): phi_1 = (1 - c) - g (s - c), phi_2 = c + g (s - c) with c
+    the pieces' centroid, g = c (1 - c) m0 / m2 (m0, m2 their measure and second moment
+    about c), so int_cov phi_j N_k = delta_jk int_cov N_j: D stays diagonal and D_j is
+    the covered part of the node's tributary length (the functions of the whole segment,
+    2 - 3s and 3s - 1, are biorthogonal only over all of it, and a master end inside a
+    segment gave row sums up to 1.16 D_j and an end node 0.5 - 2o + 1.5 o^2 of its half
+    edge for an overhang o)."""
+    phi = multipliers.shape(s)
+    if multipliers.consistent and seg.size:
+        n_seg = int(seg.max()) + 1
+        m0 = np.bincount(seg, weights=wp.sum(axis=1), minlength=n_seg)
+        c = np.bincount(seg, weights=(wp * s).sum(axis=1), minlength=n_seg)
+        c = c / np.where(m0 > 0, m0, 1.0)
+        m2 = np.bincount(seg, weights=(wp * (s - c[seg, None]) ** 2).sum(axis=1),
+                         minlength=n_seg)
+        whole = ((np.abs(m0 - 1) <= FULL_COVER_TOL) & (np.abs(c - 0.5) <= FULL_COVER_TOL)
+                 & (np.abs(12 * m2 - 1) <= FULL_COVER_TOL))
+        g = c * (1 - c) * m0 / np.where(m2 > 0, m2, 1.0)
+        cs, gs = c[seg, None], g[seg, None]
+        part = np.stack([(1 - cs) - gs * (s - cs), cs + gs * (s - cs)])
+        phi = np.where(whole[seg][None, :, None], phi, part)
+    one = carrier.sum(axis=1) == 1
+    return np.where(one[None, :, None], carrier.T[:, :, None].astype(float), phi)
 
 
 def _rows(nodes: np.ndarray, n_nodes: int, s_edges: np.ndarray, pair, jj, node, val,
@@ -357,10 +418,8 @@ def mortar_rows(geo: SlaveGeometry, itf: InterfaceSpec, index: int,
     sd = float(itf.search_distance)
     factory = linear_master if master_basis is None else master_basis
     basis = factory(*geo.master_basis_args())
-    w, cover = _covered_weights(geo.pts, geo.nodes, geo.s_edges, geo.m_edges, geo.found,
-                                geo.normal, itf, sd, basis, multipliers)
+    w, cover, covered = _covered_weights(geo, itf, sd, basis, multipliers)
     g0 = _initial_gaps(geo, itf, sd, w, basis, multipliers)
-    covered = cover >= MIN_COVER * (1 - COVER_RTOL) * geo.d_len
     keep = geo.found & covered & (g0 <= sd)
     if not keep.any():
         raise _none_kept_error(itf, sd, geo.found, covered)
@@ -379,9 +438,8 @@ def _initial_gaps(geo: SlaveGeometry, itf, sd: float, w: sp.csr_matrix, basis: M
     does not have (`no_made_overlap`)."""
     g0 = weighted_gaps(geo.pts, geo.nodes, geo.normal[geo.nodes], w)
     if getattr(basis, "label", "linear") != "linear" and not itf.interference:
-        w_lin, _ = _covered_weights(geo.pts, geo.nodes, geo.s_edges, geo.m_edges, geo.found,
-                                    geo.normal, itf, sd,
-                                    linear_master(*geo.master_basis_args()), multipliers)
+        w_lin, *_ = _covered_weights(geo, itf, sd, linear_master(*geo.master_basis_args()),
+                                     multipliers)
         g0 = no_made_overlap(g0, weighted_gaps(geo.pts, geo.nodes, geo.normal[geo.nodes],
                                                w_lin))
     return g0
@@ -421,10 +479,12 @@ def _kept_rows(geo: SlaveGeometry, k: np.ndarray, w: sp.csr_matrix, g0: np.ndarr
 
 
 def covered_length(d_len: np.ndarray, cover: np.ndarray) -> np.ndarray:
-    """(q,) pair lengths: the covered weight where it is below the tributary length D_j
-    (a slave node facing the master over part of its support), else D_j itself (a fully
-    covered node keeps D_j bit for bit, not its round-off)."""
-    return np.where(cover < d_len * (1 - COVER_RTOL), cover, d_len)
+    """(q,) pair lengths: the covered weight (the row sum int_cov phi_j ds) where it
+    differs from the tributary length D_j (below it: a slave node facing the master over
+    part of its support; above it: a node that took over the covered share of a
+    neighbour without a multiplier, `covered_tests`), else D_j itself (a fully covered
+    node keeps D_j bit for bit, not its round-off)."""
+    return np.where(np.abs(cover - d_len) > d_len * COVER_RTOL, cover, d_len)
 
 
 def no_made_overlap(g0: np.ndarray, g0_linear: np.ndarray) -> np.ndarray:
@@ -500,41 +560,88 @@ def _slave_normals(pts: np.ndarray, s_edges: np.ndarray, m_edges: np.ndarray,
     return found, sg, xi, normal
 
 
-def _covered_weights(pts: np.ndarray, nodes: np.ndarray, s_edges: np.ndarray,
-                     m_edges: np.ndarray, found: np.ndarray, normal: np.ndarray, itf,
-                     sd: float, basis: MasterBasis, multipliers: Multipliers = DUAL
-                     ) -> tuple[sp.csr_matrix, np.ndarray]:
-    """Mortar weights of the slave nodes `nodes` (q,) on the master nodes.
+def _covered_weights(geo: SlaveGeometry, itf, sd: float, basis: MasterBasis,
+                     multipliers: Multipliers = DUAL
+                     ) -> tuple[sp.csr_matrix, np.ndarray, np.ndarray]:
+    """Mortar weights of the slave nodes geo.nodes (q,) on the master nodes.
 
     Integrates the slave edges with a found node against the master segments within sd
-    (normal: (n_nodes, 2) contact normals). Returns w (q, n_nodes), the covered mortar
-    matrix M with its rows divided by their sums (rows of uncovered nodes stay zero), and
-    cover (q,) those row sums (length). InputError if no slave edge has a found node.
-    With multipliers.slave_mass, w also holds the slave part: a row reads
-    u_j - sum_l w_jl u_l = (sum_k S_jk u_k - sum_l M_jl u_l) / cover_j, S the slave
-    integrals over the same covered pieces (so the row sums stay 1).
+    (along geo.normal). Returns w (q, n_nodes), the covered mortar matrix M with its rows
+    divided by their sums (rows of uncovered nodes stay zero), cover (q,) those row sums
+    (length), and carrier (q,) bool: the found nodes whose support faces the master over
+    at least MIN_COVER of it (int_cov N_j ds >= MIN_COVER D_j, the standard shape function
+    over the covered pieces: geometry, whatever the multipliers). A node beyond a free
+    master end that is no carrier gives its covered share to its neighbour
+    (`covered_tests`); any other node keeps its own test function, whether or not it
+    gets a row (a node out of reach over the master: its neighbour's row stays as it
+    was, whatever the lengths of the edges beyond the search zone).
+    InputError if no slave edge has a found node.
+    A row reads u_j - sum_l w_jl u_l = (sum_k S_jk u_k - sum_l M_jl u_l) / cover_j, S the
+    slave integrals int phi_j N_k ds over the same covered pieces (so the row sums stay
+    1): all of them with multipliers.slave_mass, else (dual: S_jk = 0 between carriers)
+    those on the nodes without a multiplier next to a carrier.
     """
-    xa, xb = pts[m_edges[:, 0]], pts[m_edges[:, 1]]
-    active = found[np.searchsorted(nodes, s_edges)].any(axis=1)
-    se = s_edges[active]
+    pts, nodes, found = geo.pts, geo.nodes, geo.found
+    xa, xb = pts[geo.m_edges[:, 0]], pts[geo.m_edges[:, 1]]
+    active = found[np.searchsorted(nodes, geo.s_edges)].any(axis=1)
+    se = geo.s_edges[active]
     if se.shape[0] == 0:
         raise no_slave_error(itf.name, itf.slave, itf.master, sd)
     xs1, xs2 = pts[se[:, 0]], pts[se[:, 1]]
+    ns1, ns2 = geo.normal[se[:, 0]], geo.normal[se[:, 1]]
     e, f = _candidates(xs1, xs2, xa, xb, sd)
-    pair, jj, node, val, (k, slave) = segment_integrals(
-        xs1, xs2, normal[se[:, 0]], normal[se[:, 1]], xa, xb, e, f, basis, multipliers)
+    k, s, wq, eta = segment_overlaps(xs1, xs2, ns1, ns2, xa, xb, e, f)
+    ends = se[e[k]]  # (p, 2) slave nodes of the overlapping pieces
+    at = np.searchsorted(nodes, ends)
+    geometric = _covered_shares(nodes, ends, s, wq)  # complete for the found nodes
+    carrier = found & (geometric >= MIN_COVER * (1 - COVER_RTOL) * geo.d_len)
+    # the nodes beyond a free master end without a row give their share to a neighbour
+    tests = carrier | ~_beyond_master_end(geo, float(sd + ls_max(xs1, xs2)))
+    ls = np.linalg.norm(xs2 - xs1, axis=1)
+    phi = covered_tests(multipliers, s, wq / ls[e[k], None], e[k], tests[at])
+    pair, jj, node, val, (k, slave) = piece_integrals(k, s, wq, eta, f, basis, phi)
     n = pts.shape[0]
     mm = _rows(nodes, n, se, pair, jj, node, val, e)
     cover = np.asarray(mm.sum(axis=1)).ravel()
-    if multipliers.slave_mass:
-        ends = se[e[k]]  # (p, 2) slave nodes of the overlapping pieces
-        ss = _rows(nodes, n, se, np.repeat(k, 4), np.tile([0, 0, 1, 1], k.size),
-                   np.repeat(ends, 2, axis=0).reshape(-1), slave.reshape(-1), e)
+    if not multipliers.slave_mass:
+        slave = slave * ~tests[at][:, None, :]  # only the nodes without a multiplier
+    ss = _rows(nodes, n, se, np.repeat(k, 4), np.tile([0, 0, 1, 1], k.size),
+               np.repeat(ends, 2, axis=0).reshape(-1), slave.reshape(-1), e)
+    if ss.nnz:
         own = sp.csr_matrix((np.ones(nodes.size), (np.arange(nodes.size), nodes)),
                             shape=(nodes.size, n))
-        mm = mm - ss + sp.diags(cover) @ own
+        total = cover if multipliers.slave_mass else np.asarray(ss.sum(axis=1)).ravel()
+        mm = mm - ss + sp.diags(total) @ own
     w = sp.diags(1.0 / np.where(cover > 0, cover, 1.0)) @ mm  # rows sum to 1
-    return w, cover
+    return w, cover, carrier
+
+
+def _covered_shares(nodes: np.ndarray, ends: np.ndarray, s: np.ndarray,
+                    wq: np.ndarray) -> np.ndarray:
+    """(q,) int_cov N_j ds (length) of the slave nodes `nodes` (sorted) over the overlap
+    pieces with slave-segment ends `ends` (p, 2), Gauss points s (p, g), weights wq."""
+    share = np.einsum("jpg,pg->pj", np.stack([1 - s, s]), wq)
+    return np.bincount(np.searchsorted(nodes, ends).ravel(), weights=share.ravel(),
+                       minlength=nodes.size)
+
+
+def ls_max(xs1: np.ndarray, xs2: np.ndarray) -> float:
+    """The longest of the segments xs1 -> xs2 ((k, 2) each; length)."""
+    return float(np.linalg.norm(xs2 - xs1, axis=1).max(initial=0.0))
+
+
+def _beyond_master_end(geo: SlaveGeometry, reach: float) -> np.ndarray:
+    """(q,) bool: the slave nodes whose closest master segment (within reach) they project
+    beyond a free end of the master curve (by more than XI_EPS, as
+    `app.contact.pairs.covered_tributary`)."""
+    m_edges = geo.m_edges
+    seg_len = np.linalg.norm(geo.pts[m_edges[:, 1]] - geo.pts[m_edges[:, 0]], axis=1)
+    m_degree = np.bincount(m_edges.ravel(), minlength=geo.pts.shape[0])
+    out, _, _ = _beyond_free_end(geo.pts[geo.nodes], (), geo.pts, m_edges, seg_len,
+                                 m_degree, reach)
+    beyond = np.zeros(geo.nodes.size, dtype=bool)
+    beyond[out] = True
+    return beyond
 
 
 def _nodal_gap(x: np.ndarray, xa: np.ndarray, xb: np.ndarray, xi: np.ndarray) -> np.ndarray:
