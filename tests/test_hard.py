@@ -643,12 +643,19 @@ def test_a_prescribed_overlap_of_fixed_pairs_is_refused(tmp_path, disc):
 def test_a_round_off_overlap_of_fixed_pairs_carries_no_force(tmp_path):
     """The same overlap at 1e-13 (below the state tolerance, 1e-7 of the contact motion)
     reads as closed: the interface carries the uniform field's 0.1262 as without it (before,
-    99.4: the overlap over the stiff tie)."""
-    s, _ = solve(tmp_path, "shear_off", *_block_sides_lowered("1e-13"))
+    99.4: the overlap over the stiff tie). The field keeps the overlap (the end pairs'
+    gap -1e-13), and the per-pair law and the consistency check allow it: before, both
+    read 0.023 (a false "report it" warning) and the step re-solved once for it."""
+    s, out = solve(tmp_path, "shear_off", *_block_sides_lowered("1e-13"))
     ref, _ = solve(tmp_path, "shear_off", *_block_sides_lowered("0.0"), tag="ref")
     n = [x["steps"][0]["interfaces"]["bond"]["normal_force"] for x in (s, ref)]
     assert n[0] == pytest.approx(n[1], rel=1e-8)
     assert n[1] == pytest.approx(0.1262, rel=1e-3)
+    step = s["steps"][0]
+    assert max(step["kkt_pairs"][k] for k in PAIR_KEYS) <= PAIR_WARN
+    assert step["consistency_refinements"] == 0 and not s.get("warnings")
+    gap = contact(out, 1)["gap"]
+    assert gap.min() == pytest.approx(-1e-13, rel=1e-3)  # the overlap, written as it is
 
 
 @pytest.mark.parametrize("uy", [1.0, 1e-3])
