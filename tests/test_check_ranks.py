@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import importlib.util
 import json
+import subprocess
+import sys
 
 import numpy as np
 
@@ -124,9 +126,9 @@ def test_linked_and_own_copies_of_equal_data_compare_equal(tmp_path):
     assert "contact/p" in check_ranks.h5_datasets(tmp_path / "a" / "step_0002.h5")
 
 
-def _compare(*folders) -> "check_ranks.subprocess.CompletedProcess":
-    return check_ranks.subprocess.run(
-        [check_ranks.sys.executable, str(ROOT / "scripts" / "check_ranks.py"), "--compare",
+def _compare(*folders) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, str(ROOT / "scripts" / "check_ranks.py"), "--compare",
          *map(str, folders)], capture_output=True, text=True, timeout=120)
 
 
