@@ -22,6 +22,7 @@ are only required to stay below `--roundoff` (default 1e-7) on both runs.
     .venv/bin/python scripts/check_ranks.py configs/hertz.toml --ranks 1 3 4 --mesh-size 2.0 \
         --command study --sweep interface.contact.mu=0.0,0.3     # a study: tables and runs
     .venv/bin/python scripts/check_ranks.py --compare OUT_1 OUT_4  # two folders that exist
+    .venv/bin/python scripts/check_ranks.py --compare TREE_A TREE_B  # every output below
 
 A job must also end alike on every rank count: the same exit status, no traceback, one
 `error:` line when it fails, and no hang (`--timeout` seconds, then mpiexec's process group
@@ -434,8 +435,58 @@ def compare_folders(ref: Path, other: Path, tol: float, roundoff: float) -> int:
     ok = not mism and worst[1] <= tol
     print(json.dumps({"ref": str(ref), "other": str(other), "max_rel_diff": headline(diffs),
                       "worst": [worst[0], float(f"{worst[1]:.3g}")], "mismatches": mism[:20],
-                      "n_mismatches": len(mism), "verdict": "ok" if ok else "DIFFERENT"}))
+                      "n_mismatches": len(mism), "verdict": "ok" if ok else "DIFFERENT"}),
+          flush=True)
     return 0 if ok else 1
+
+
+def output_runs(tree: Path) -> list[str]:
+    """The outputs below `tree` (a folder with no summary.json of its own): the relative
+    paths of the folders that hold a summary.json, each a run's or a study's (a study's
+    run folders are its own, not listed apart), sorted."""
+    found = sorted(p.parent for p in tree.rglob("summary.json"))
+    tops: list[Path] = []
+    for folder in found:  # parents sort before their children
+        if not any(top in folder.parents for top in tops):
+            tops.append(folder)
+    return [str(p.relative_to(tree)) for p in tops]
+
+
+def compare_trees(ref: Path, other: Path, tol: float, roundoff: float) -> int:
+    """`--compare` on two folders: two outputs (a run's or a study's, summary.json at the
+    top) compared as one; two trees of outputs, every output below compared with the one
+    at the same relative path (one JSON line each, and one for the outputs found in one
+    tree only). 0 if all agree, 1 if any differ, 2 (one `error:` line) when the folders
+    are neither."""
+    for folder in (ref, other):
+        if not folder.is_dir():
+            return _usage_error(f"{folder} is not a folder")
+    tops = [(f / "summary.json").exists() for f in (ref, other)]
+    if all(tops):
+        return compare_folders(ref, other, tol, roundoff)
+    if any(tops):
+        one, two = (ref, other) if tops[0] else (other, ref)
+        return _usage_error(f"{one} is an output (summary.json at its top) but {two} is not")
+    runs = {f: output_runs(f) for f in (ref, other)}
+    if not runs[ref] and not runs[other]:
+        return _usage_error(f"no summary.json below {ref} or {other}")
+    bad = 0
+    for rel in sorted(set(runs[ref]) & set(runs[other])):
+        bad += compare_folders(ref / rel, other / rel, tol, roundoff)
+    alone = {str(f): sorted(set(runs[f]) - set(runs[g]))
+             for f, g in ((ref, other), (other, ref))}
+    if any(alone.values()):
+        print(json.dumps({"ref": str(ref), "other": str(other), "only_in": alone,
+                          "verdict": "DIFFERENT"}), flush=True)
+        bad += 1
+    return 1 if bad else 0
+
+
+def _usage_error(what: str) -> int:
+    """One `error:` line on stderr for --compare's folders; exit status 2."""
+    print(f"error: --compare {what}: give two output folders (each with summary.json) or "
+          "two folders of outputs (compared by relative path)", file=sys.stderr)
+    return 2
 
 
 def main() -> None:
@@ -455,10 +506,12 @@ def main() -> None:
                     help="study: `python -m app study` (give its options, e.g. --levels 2 "
                          "or --sweep KEY=V1,V2), its tables and every run folder compared")
     ap.add_argument("--compare", type=Path, nargs=2, metavar=("REF", "OTHER"),
-                    help="only compare two output folders that exist (a run's or a study's)")
+                    help="only compare two output folders that exist (a run's or a study's), "
+                         "or two folders of them: every output below, paired by relative "
+                         "path (one JSON line each)")
     a, extra = ap.parse_known_args()  # the rest goes to every run, e.g. --mesh-size 1.0
     if a.compare:
-        sys.exit(compare_folders(*a.compare, a.tol, a.roundoff))
+        sys.exit(compare_trees(*a.compare, a.tol, a.roundoff))
     configs = a.configs or sorted((ROOT / "configs").glob("*.toml")) + sorted(
         (ROOT / "configs" / "hard").glob("*.toml"))
     variants = BULK_VARIANTS if a.variants == "bulk" else [[]]

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import importlib.util
 import json
+import subprocess
+import sys
 
 import numpy as np
 
@@ -122,3 +124,50 @@ def test_linked_and_own_copies_of_equal_data_compare_equal(tmp_path):
     diffs, mism = check_ranks.compare_outputs(tmp_path / "a", tmp_path / "b")
     assert mism == [] and diffs["step:contact/p"] < 1e-15
     assert "contact/p" in check_ranks.h5_datasets(tmp_path / "a" / "step_0002.h5")
+
+
+def _compare(*folders) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, str(ROOT / "scripts" / "check_ranks.py"), "--compare",
+         *map(str, folders)], capture_output=True, text=True, timeout=120)
+
+
+def test_two_trees_of_outputs_compare_every_run_by_relative_path(tmp_path):
+    """`--compare A B` on two folders of runs (no summary.json at their top): before, a
+    traceback (FileNotFoundError on A/summary.json); now every output below is compared
+    with the one at the same relative path, one JSON line each, and a run found in one
+    tree only is named."""
+    for tree in ("a", "b"):
+        _folder(tmp_path / tree / "hard" / "shear_off", 100.0, 1e-13, 1.0, 1)
+        _folder(tmp_path / tree / "pull_off", 50.0, 0.0, 2.0, 1)
+    res = _compare(tmp_path / "a", tmp_path / "b")
+    rows = [json.loads(x) for x in res.stdout.splitlines()]
+    assert res.returncode == 0 and res.stderr == ""
+    assert [r["ref"] for r in rows] == [str(tmp_path / "a" / x)
+                                        for x in ("hard/shear_off", "pull_off")]
+    assert all(r["verdict"] == "ok" for r in rows)
+    _folder(tmp_path / "c" / "hard" / "shear_off", 101.0, 1e-13, 1.0, 1)  # differs
+    _folder(tmp_path / "c" / "bonded", 50.0, 0.0, 2.0, 1)  # pull_off missing, bonded new
+    res = _compare(tmp_path / "a", tmp_path / "c")
+    rows = [json.loads(x) for x in res.stdout.splitlines()]
+    assert res.returncode == 1
+    assert rows[0]["verdict"] == "DIFFERENT" and rows[0]["ref"].endswith("hard/shear_off")
+    assert rows[1]["only_in"] == {str(tmp_path / "a"): ["pull_off"],
+                                  str(tmp_path / "c"): ["bonded"]}
+
+
+def test_compare_of_what_is_no_output_is_one_error_line(tmp_path):
+    """Folders with no output below, a missing folder, or a run against a tree: exit 2 and
+    one `error:` line naming what --compare expects, no traceback."""
+    (tmp_path / "empty1").mkdir()
+    (tmp_path / "empty2").mkdir()
+    _folder(tmp_path / "run", 1.0, 0.0, 1.0, 1)
+    _folder(tmp_path / "tree" / "run", 1.0, 0.0, 1.0, 1)
+    for pair, what in [(("empty1", "empty2"), "no summary.json below"),
+                       (("empty1", "nowhere"), "nowhere is not a folder"),
+                       (("tree", "run"), "is an output (summary.json at its top) but")]:
+        res = _compare(*(tmp_path / x for x in pair))
+        lines = res.stderr.splitlines()
+        assert res.returncode == 2 and res.stdout == "" and len(lines) == 1
+        assert lines[0].startswith("error: --compare ") and what in lines[0]
+        assert "output folders (each with summary.json)" in lines[0]

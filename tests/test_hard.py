@@ -643,12 +643,52 @@ def test_a_prescribed_overlap_of_fixed_pairs_is_refused(tmp_path, disc):
 def test_a_round_off_overlap_of_fixed_pairs_carries_no_force(tmp_path):
     """The same overlap at 1e-13 (below the state tolerance, 1e-7 of the contact motion)
     reads as closed: the interface carries the uniform field's 0.1262 as without it (before,
-    99.4: the overlap over the stiff tie)."""
-    s, _ = solve(tmp_path, "shear_off", *_block_sides_lowered("1e-13"))
+    99.4: the overlap over the stiff tie). The field keeps the overlap (the end pairs'
+    gap -1e-13), and the per-pair law and the consistency check allow it: before, both
+    read 0.023 (a false "report it" warning) and the step re-solved once for it."""
+    s, out = solve(tmp_path, "shear_off", *_block_sides_lowered("1e-13"))
     ref, _ = solve(tmp_path, "shear_off", *_block_sides_lowered("0.0"), tag="ref")
     n = [x["steps"][0]["interfaces"]["bond"]["normal_force"] for x in (s, ref)]
     assert n[0] == pytest.approx(n[1], rel=1e-8)
     assert n[1] == pytest.approx(0.1262, rel=1e-3)
+    step = s["steps"][0]
+    assert max(step["kkt_pairs"][k] for k in PAIR_KEYS) <= PAIR_WARN
+    assert step["consistency_refinements"] == 0 and not s.get("warnings")
+    gap = contact(out, 1)["gap"]
+    assert gap.min() == pytest.approx(-1e-13, rel=1e-3)  # the overlap, written as it is
+
+
+def test_mortar_standard_closes_a_prescribed_corner_overlap_in_its_weighted_gap(tmp_path):
+    """The 1e-4 overlap that mortar and node-to-segment refuse: with mortar-standard the
+    end pair's row (weight N_0 over the end slave segment) reaches the free slave
+    neighbour, so the pair is not fixed on both sides and the run completes. Its answer
+    is the discrete problem's (README "Hard cases", the prescribed overlap): the law holds
+    pair by pair; the end pair is closed and pressed, its weighted gap int N_0 g ds =
+    h (2 g_0 + g_1) / 6 = 0 with the corner's pointwise gap g_0 = -1e-4 (both corners
+    prescribed) and the master linear over the end segment, so the neighbour stands
+    g_1 = -2 g_0 = 2e-4 off the master; the interface's middle, free, meets halfway: its
+    uy is the uniform field's -ey / 2 minus half the overlap."""
+    s, out = solve(tmp_path, "shear_off", *_block_sides_lowered("1e-4"),
+                   'interface.bond.discretisation="mortar-standard"')
+    step = s["steps"][0]
+    assert s["status"] == "completed"
+    assert max(step["kkt_pairs"][k] for k in PAIR_KEYS) <= PAIR_WARN
+    c = contact(out, 1)
+    with h5py.File(out / "mesh.h5") as f:
+        pts, quads, body = f["points"][()], f["quads"][()], f["body"][()]
+    uy = c["u"][:, 1]
+    on = np.abs(pts[:, 1]) < 1e-12
+    master = np.flatnonzero(on & np.isin(np.arange(len(pts)), quads[body == 0]))
+    master = master[np.argsort(pts[master, 0])]
+    order = np.argsort(c["x"])
+    slave = c["slave"][order]
+    gap = uy[slave] - np.interp(pts[slave, 0], pts[master, 0], uy[master])
+    for end, nxt in ((0, 1), (-1, -2)):
+        assert abs(c["gap"][order][end]) <= 1e-12 * 1e-4 and c["p"][order][end] > 0
+        assert gap[end] == pytest.approx(-1e-4, rel=1e-9)
+        assert gap[nxt] == pytest.approx(2e-4, rel=1e-6)
+    mid = master[np.argmin(np.abs(pts[master, 0]))]
+    assert uy[mid] == pytest.approx(-0.5e-4 - 0.5e-4, rel=0.02)
 
 
 @pytest.mark.parametrize("uy", [1.0, 1e-3])

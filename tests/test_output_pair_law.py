@@ -322,3 +322,36 @@ def test_a_tied_rows_dropped_coupling_is_bounded_and_read_below_the_warning():
     assert sc[1] == sc[3] == 1e-30  # the untied rows keep their own scale
     assert (np.abs(mismatch) / sc)[tied].max() <= PAIR_WARN
     assert (1e3 * np.abs(mismatch) / sc)[tied].max() > PAIR_WARN  # far above still fails
+
+
+def test_a_prescribed_overlap_read_as_closed_is_allowed_and_no_more():
+    """hard/shear_off.toml's end pair (both sides prescribed: C_nn round-off, the LCP's
+    stiff tie) with the block's sides 1e-13 lower than the base's: the step reads that
+    overlap as closed (`StepSolution.closed_overlap`) and the field writes gap = -1e-13.
+    Before, judged as a gap, it read 0.023 against the pair's own round-off scale (a false
+    warning); judged with the overlap allowed it reads round-off, while a written gap
+    2e-13 deep with 1e-13 allowed, or 1e-13 deep with none, still fails."""
+    interface = np.zeros(2, dtype=int)
+    c_diag = np.array([1e-35, 1e-3, 1e-35, 1e-3])  # pair 0 fixed on both sides
+    g_abs = sp.csr_matrix(np.eye(4))
+    floor = kinematic_floor(g_abs, np.array([1e-4, 1e-4, 1e-4, 1e-4]), np.zeros(2),
+                            np.zeros(2))
+    forces = np.stack([np.array([0.0, 0.13]), np.zeros(2)])
+    f, s = pair_scales(c_diag, interface, forces, 0.13, floor)
+    closed = np.array([1e-13, 0.0])
+    args = (np.zeros(2), np.zeros(2), np.full(2, 0.3), np.zeros(2), np.zeros(2),
+            np.ones(2, bool), f, s)
+
+    def normal(gap, overlap):
+        return pair_residuals(np.array([gap, 0.0]), args[0], np.array([0.0, 0.13]),
+                              *args[1:], overlap)[0][0]
+
+    assert normal(-1e-13, None) > 1e-3  # the false warning before (0.023 in the run)
+    assert normal(-1e-13 - 1e-19, closed) <= PAIR_WARN  # its own round-off (1.4e-18)
+    assert normal(-2e-13, closed) > 1e-3  # deeper than the overlap read as closed
+    assert normal(-1e-13, np.zeros(2)) > 1e-3  # no overlap read as closed: a violation
+    law = pair_law(np.array([-1e-13, 0.0]), np.zeros(2), np.array([0.0, 0.13]),
+                   np.zeros(2), np.full(2, 0.3), np.zeros(2), np.zeros(2),
+                   np.ones(2, bool), f, s, np.zeros(4), interface, ["bond"],
+                   overlap=closed)
+    assert law["normal"] <= PAIR_WARN

@@ -228,7 +228,8 @@ class StepSolution:
 
     status: "solved", or why not ("secondary ray", "unbalanced load", ...; `message`
     says more). When solved: lam (2m,) pair forces, normal rows then tangential;
-    alpha (r,) floating-mode amplitudes; kinematics (2m,) the LCP's (gap - g0, tau);
+    alpha (r,) floating-mode amplitudes; kinematics (2m,) the LCP's
+    (gap - g0 - closed_overlap, tau);
     state, debonded_step (m,) int; tau_prev (m,) tau before the step; slip (m,)
     accumulated; a, c (m,) adhesion and strength forces in force at this step; f_scale
     and u_scale the problem's force and displacement scales (the largest load; the
@@ -238,8 +239,12 @@ class StepSolution:
     per-pair law check (`app.output.pair_law`); load_scale the part of f_scale from the
     loads alone (without the bond's a and c: the per-pair kinematic scale); contact_work
     lam . G K^-1 G^T lam >= 0 (force x length), the pair forces' work through the motion
-    they make, set by the driver's recovery (`app.output.pair_law.tied_coupling`); info
-    the step's summary.json entries.
+    they make, set by the driver's recovery (`app.output.pair_law.tied_coupling`);
+    closed_overlap (m,) >= 0 the overlap the supports prescribe at pairs fixed on both
+    sides that the step read as closed (within the state tolerance,
+    `ContactStepper._prescribed_overlap`): the LCP solved those pairs at gap 0, the
+    kinematics (and the field) keep the overlap, and the per-pair law allows it
+    (`app.output.pair_law.pair_residuals`); info the step's summary.json entries.
     """
 
     status: str
@@ -258,6 +263,7 @@ class StepSolution:
     compliance_diag: np.ndarray | None = None
     load_scale: float = 0.0
     contact_work: float = 0.0
+    closed_overlap: np.ndarray | None = None
     info: dict = field(default_factory=dict)
 
     @property
@@ -376,22 +382,27 @@ class ContactStepper:
             e0 = self.v_keep.T @ e0
         return gap_free, tau_free, e0, ""
 
-    def _prescribed_overlap(self, gap_free: np.ndarray) -> str:
-        """Why no contact force can close the step's free gap, or "": a pair whose motion
+    def _prescribed_overlap(self, gap_free: np.ndarray) -> tuple[str, np.ndarray]:
+        """(why no contact force can close the step's free gap, or "", the overlap (m,)
+        read as closed, >= 0): a pair whose motion
         the supports fix on both sides (`fixed_rows`: its force moves nothing) and whose
         free gap is below -tol (the state tolerance) is pushed into the master by the
         prescribed displacements themselves. Its stiff tie (`app.lcp.coulomb_matrix.
         tie_fixed`) turned the overlap into a force of overlap / (1e-12 x the largest
         compliance): 9.9e10 on `shear_off.toml` with the block's sides moved 1e-4 more
         down than the base's, a run that completed. A free gap within -tol of 0 reads as
-        closed (set to 0 in `gap_free`): before, an overlap of 1e-13 gave that pair 99."""
+        closed (set to 0 in `gap_free`; that overlap is returned, `StepSolution.
+        closed_overlap`): before, an overlap of 1e-13 gave that pair 99."""
+        closed = np.zeros(self.m)
         low = self.fixed_n & (gap_free < 0.0)
         if not low.any():
-            return ""
+            return "", closed
         deep = low & (gap_free < -self.tol)
-        gap_free[low & ~deep] = 0.0
+        shallow = low & ~deep
+        closed[shallow] = -gap_free[shallow]
+        gap_free[shallow] = 0.0
         if not deep.any():
-            return ""
+            return "", closed
         pr = self.setup.pairs
         k = int(np.flatnonzero(deep)[np.argmin(gap_free[deep])])
         x, y = pr.position[k]
@@ -400,7 +411,7 @@ class ContactStepper:
                 f"master, whose both sides they prescribe (deepest {-gap_free[k]:.3g} at the "
                 f"slave node x={x:.6g}, y={y:.6g}): no contact force can separate them; "
                 "make the prescribed displacements of the two bodies agree there (or "
-                "leave one side free)")
+                "leave one side free)"), closed
 
     def _interface_info(self, sol, state: np.ndarray, debonded: np.ndarray) -> dict:
         """Per-interface figures of a solved step: forces (per unit thickness x thickness),
@@ -470,7 +481,7 @@ class ContactStepper:
         if correction is not None:
             gap_free += correction[:m]
             tau_free += correction[m:]
-        pressed = self._prescribed_overlap(gap_free)
+        pressed, closed = self._prescribed_overlap(gap_free)
         if pressed:
             return StepSolution("prescribed penetration", pressed)
         tau_prev = self.hist.tau_prev.copy()
@@ -479,7 +490,7 @@ class ContactStepper:
         sol = res.solution
         out = StepSolution(res.status, "", np.concatenate([sol.p, sol.q]),
                            sol.alpha if self.v_keep is None else self.v_keep @ sol.alpha,
-                           np.concatenate([sol.gap - pr.g0, sol.tau]))
+                           np.concatenate([sol.gap - pr.g0 - closed, sol.tau]))
         if res.status != "solved":
             out.message = f"Lemke ended with '{res.status}': {sol.message}"
             if self.undetermined:
@@ -495,4 +506,5 @@ class ContactStepper:
         out.u_scale, out.compliance_diag = self.u_scale, self.c_diag
         out.load_scale = self.load_scale
         out.a, out.c = self.hist.a.copy(), self.hist.c.copy()
+        out.closed_overlap = closed
         return out

@@ -109,7 +109,7 @@ def kkt_pairs_check(setup, result: StepSolution, u: np.ndarray, node_body: np.nd
     p, q = result.lam[:m], result.lam[m:]
     return pair_law(pr.g0 + gu[:m], gu[m:] - result.tau_prev, p, q, setup.mu, result.a,
                     result.c, setup.frictional, f, s, gu - result.kinematics, pr.interface,
-                    names, consistency_scales(result, s))
+                    names, consistency_scales(result, s), result.closed_overlap)
 
 
 def kkt_check(gap: np.ndarray, tau: np.ndarray, tau_prev: np.ndarray, p: np.ndarray,

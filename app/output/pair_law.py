@@ -140,14 +140,23 @@ def _interface_max(forces: np.ndarray, interface: np.ndarray, least: float) -> n
 
 def pair_residuals(gap: np.ndarray, dtau: np.ndarray, p: np.ndarray, q: np.ndarray,
                    mu: np.ndarray, a: np.ndarray, c: np.ndarray, frictional: np.ndarray,
-                   f: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+                   f: np.ndarray, s: np.ndarray, overlap: np.ndarray | None = None
+                   ) -> tuple[np.ndarray, np.ndarray]:
     """(r_n, r_t) (m,) each: the normal and tangential residuals of the law (module doc)
     per pair. gap, dtau (slip increment tau - tau_prev) in length; p, q, a, c forces
-    (p compression positive, q along the pair's tangent); f (m,), s (2m,) `pair_scales`."""
+    (p compression positive, q along the pair's tangent); f (m,), s (2m,) `pair_scales`.
+    overlap (m,) >= 0: the overlap the step read as closed (`StepSolution.closed_overlap`:
+    prescribed by the supports at a pair fixed on both sides, within the state
+    tolerance), judged as gap 0: the gap is judged as gap + overlap, so a pair that
+    overlaps by more than that (or by any amount where it is 0) still reads. On
+    hard/shear_off.toml with the block's sides 1e-13 lower than the base's, the written
+    gap of -1e-13 read 0.023 against the end pair's own round-off scale."""
     m = p.size
     tiny = 1e-300
     s_n, s_t = np.maximum(s[:m], tiny), np.maximum(s[m:], tiny)
     f = np.maximum(f, tiny)
+    if overlap is not None:
+        gap = gap + overlap
     r_n = np.abs(np.minimum(gap / s_n, (p + a) / f))
     bound = mu * p + c
     dtau = np.where(frictional, dtau, 0.0)
@@ -159,13 +168,14 @@ def pair_residuals(gap: np.ndarray, dtau: np.ndarray, p: np.ndarray, q: np.ndarr
 def pair_law(gap: np.ndarray, dtau: np.ndarray, p: np.ndarray, q: np.ndarray,
              mu: np.ndarray, a: np.ndarray, c: np.ndarray, frictional: np.ndarray,
              f: np.ndarray, s: np.ndarray, mismatch: np.ndarray, interface: np.ndarray,
-             names: list[str], s_consistency: np.ndarray | None = None) -> dict:
+             names: list[str], s_consistency: np.ndarray | None = None,
+             overlap: np.ndarray | None = None) -> dict:
     """summary `steps[k].kkt_pairs`: the largest per-pair `normal`, `tangential` and
     `consistency` residuals (mismatch (2m,): G u - the LCP's kinematics, over
     s_consistency, s if None), where the worst one is (`interface`, `pair` its 0-based
     index in the step file's /contact), and the same three per interface
-    (`by_interface`)."""
-    r_n, r_t = pair_residuals(gap, dtau, p, q, mu, a, c, frictional, f, s)
+    (`by_interface`). overlap: see `pair_residuals`."""
+    r_n, r_t = pair_residuals(gap, dtau, p, q, mu, a, c, frictional, f, s, overlap)
     m = p.size
     sc = s if s_consistency is None else s_consistency
     miss = np.abs(mismatch) / np.maximum(sc, 1e-300)
