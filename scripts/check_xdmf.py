@@ -13,6 +13,7 @@ For each output folder, opens results.xdmf and contact.xdmf with ParaView's XDMF
   equals the range of the HDF5 dataset of that step.
 A step file holding contact pairs with no contact.xdmf (or any step file with no
 results.xdmf) is a problem, "missing"; a folder with no step yet gets one line, no problem.
+A study's or sweep's folder (`python -m app study`) stands for its run folders.
 Prints one JSON line per folder and file: {"out", "file", "reader", "times", "problems"}.
 Exit 1 if any folder has a problem; a path that is not a run's output folder stops with
 `error:` and exit 2.
@@ -163,6 +164,16 @@ def check(out: Path):
                        "problems": [f"{type(exc).__name__}: {exc}"]}
 
 
+def _study_runs(out: Path) -> list[Path]:
+    """The run folders (OUT/*/summary.json) of a study's or sweep's folder OUT (its own
+    summary.json says `"command": "study"`), sorted; [] for any other path."""
+    try:
+        study = json.loads((out / "summary.json").read_text()).get("command") == "study"
+    except (OSError, ValueError, AttributeError):
+        return []
+    return sorted(p.parent for p in out.glob("*/summary.json")) if study else []
+
+
 def parse_args(argv: list[str]) -> argparse.Namespace:
     """The output folders; a path that is not a folder, or a folder without summary.json,
     results.xdmf or a step file, stops with `error:` and exit 2 (before, it printed
@@ -171,6 +182,7 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     ap.add_argument("out", type=Path, nargs="+", help="output folders of `python -m app run`")
     ap.add_argument("--one", action="store_true", help=argparse.SUPPRESS)  # the child's
     a = ap.parse_args(argv)
+    a.out = [run for out in a.out for run in (_study_runs(out) or [out])]
     for out in a.out:
         if not out.is_dir():
             ap.error(f"{out} is not a folder: give a run's --out folder")

@@ -5,6 +5,7 @@
 from __future__ import annotations
 
 import importlib.util
+import json
 import subprocess
 import sys
 
@@ -67,3 +68,13 @@ def test_a_run_with_contact_but_no_contact_xdmf_is_a_problem(tmp_path):
     rows = list(_module().check(tmp_path))
     assert {r["file"]: r["problems"] for r in rows} == {"results.xdmf": ["missing"],
                                                         "contact.xdmf": ["missing"]}
+
+
+def test_a_study_folder_stands_for_its_run_folders(tmp_path):
+    (tmp_path / "summary.json").write_text(json.dumps({"command": "study", "steps": []}))
+    for run in ("L1_4SD", "L0_4SD"):
+        (tmp_path / run).mkdir()
+        (tmp_path / run / "summary.json").write_text(json.dumps({"status": "completed"}))
+    (tmp_path / "mesh_cache").mkdir()
+    assert _module().parse_args([str(tmp_path)]).out == [tmp_path / "L0_4SD",
+                                                         tmp_path / "L1_4SD"]
