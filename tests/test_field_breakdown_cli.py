@@ -1,6 +1,7 @@
-"""scripts/field_breakdown.py and floor_orders.py on the wrong folder or field: one `error:`
-line and exit 2. Before: a KeyError traceback ('cattaneo') for the default --field q on a
-Hertz study, and a ValueError (max() of nothing) for a folder that is not a study."""
+"""scripts/field_breakdown.py, floor_orders.py, l2_breakdown.py and mindlin_cycle.py on the
+wrong folder or field: one `error:` line and exit 2. Before: a KeyError traceback
+('cattaneo') for the default --field q on a Hertz study, and a ValueError (max() of
+nothing) for a folder that is not a study."""
 
 from __future__ import annotations
 
@@ -49,3 +50,20 @@ def test_a_method_the_study_lacks_is_an_error(tmp_path):
     line = _error(_cli("field_breakdown.py", str(_hertz_study(tmp_path)), "--field", "p",
                        "--reference", "8SD"))
     assert "has no runs of --reference 8SD" in line
+
+
+def test_l2_breakdown_on_a_folder_that_is_not_a_study_is_an_error(tmp_path):
+    """Before: no line and exit 0, as if the study had no levels."""
+    res = _cli("l2_breakdown.py", str(tmp_path / "nothing"))
+    assert res.returncode == 2 and res.stdout == ""
+    assert "is not a study's folder" in res.stderr.strip().splitlines()[-1]
+    res = _cli("l2_breakdown.py", str(_hertz_study(tmp_path)), "--method", "8SD")
+    assert res.returncode == 2
+    assert "has no runs of --method 8SD" in res.stderr.strip().splitlines()[-1]
+
+
+def test_mindlin_cycle_on_a_missing_folder_is_an_error(tmp_path):
+    """Before: a FileNotFoundError traceback."""
+    res = _cli("mindlin_cycle.py", str(tmp_path / "nothing"))
+    assert res.returncode == 2 and "Traceback" not in res.stderr
+    assert "summary.json not found" in res.stderr.strip().splitlines()[-1]
