@@ -1,0 +1,27 @@
+"""Scripts that run the app refuse an input they cannot use before running it: before,
+`oblique_path.py --k 5` (Q / P above mu = 0.2: no equilibrium) ran two scenes and failed
+with the app's `no static equilibrium` (exit 1), and `bench_scale.py` on a missing config
+stopped with a FileNotFoundError traceback."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import pytest
+from support import ROOT
+
+
+@pytest.mark.parametrize("script, args, words", [
+    ("oblique_path.py", ["--k", "5"], "--k 5.0: Q / P must be above 0 and below mu = 0.2"),
+    ("oblique_path.py", ["--k", "0.1", "--steps", "0"], "--steps must be at least 1"),
+    ("bench_scale.py", ["configs/no_such.toml"], "config configs/no_such.toml: [Errno 2]"),
+])
+def test_an_unusable_input_is_an_error_before_any_run(tmp_path, script, args, words):
+    extra = ["--out", str(tmp_path / "o")] if script == "oblique_path.py" else []
+    res = subprocess.run([sys.executable, str(ROOT / "scripts" / script), *args, *extra],
+                         capture_output=True, text=True, timeout=120, cwd=ROOT)
+    assert res.returncode == 2 and "Traceback" not in res.stderr, res.stderr
+    last = res.stderr.strip().splitlines()[-1]
+    assert last.startswith(f"{script}: error: ") and words in last
+    assert not (tmp_path / "o").exists()
