@@ -34,16 +34,19 @@ def test_the_failure_reason_is_the_apps_error_line_once():
     assert failure_reason("Traceback ...\nKeyError: 'x'\n") == "Traceback ...\nKeyError: 'x'"
 
 
-@pytest.mark.parametrize("script, args", [
-    ("bench_hertz.py", ["--mesh-size", "2.0", "--ranks", "2"]),
-    ("bench_bulk.py", ["--mesh-size", "1.0", "--ranks", "1"]),
-    ("bench_refine.py", ["--mesh-size", "1.0", "--splits", "1", "--no-gmsh"]),
+BOGUS = "python -m app: error: unknown option --bogus (PETSc options take a single dash)"
+
+
+@pytest.mark.parametrize("script, args, reason", [
+    ("bench_hertz.py", ["--mesh-size", "2.0", "--ranks", "2", "--bogus"], BOGUS),
+    ("bench_bulk.py", ["--mesh-size", "1.0", "--ranks", "1", "--bogus"], BOGUS),
+    ("bench_refine.py", ["--mesh-size", "1.0", "--splits", "1", "--no-gmsh", "--bogus"], BOGUS),
+    ("bench_recovery.py", ["--config", "configs/no_such.toml", "--repeat", "1"],
+     "error: config file 'configs/no_such.toml' does not exist"),
 ])
-def test_a_failed_run_exits_1_with_the_apps_reason(script, args):
-    res = subprocess.run([sys.executable, str(ROOT / "scripts" / script), *args, "--bogus"],
+def test_a_failed_run_exits_1_with_the_apps_reason(script, args, reason):
+    res = subprocess.run([sys.executable, str(ROOT / "scripts" / script), *args],
                          capture_output=True, text=True, timeout=300, cwd=ROOT,
                          env=mpi_env())
     assert res.returncode == 1, (res.stdout, res.stderr)
-    row = json.loads(res.stdout.splitlines()[0])
-    assert row["error"] == ("python -m app: error: unknown option --bogus (PETSc options "
-                            "take a single dash)")
+    assert json.loads(res.stdout.splitlines()[0])["error"] == reason
