@@ -78,3 +78,14 @@ def test_a_study_folder_stands_for_its_run_folders(tmp_path):
     (tmp_path / "mesh_cache").mkdir()
     assert _module().parse_args([str(tmp_path)]).out == [tmp_path / "L0_4SD",
                                                          tmp_path / "L1_4SD"]
+
+
+def test_compare_xdmf_refuses_a_folder_without_results(tmp_path):
+    """Before: every file and reader reported as differing (`times [] vs ...`), exit 1."""
+    (tmp_path / "b").mkdir()
+    (tmp_path / "b" / "results.xdmf").write_text("<Xdmf/>")
+    res = subprocess.run([sys.executable, str(ROOT / "scripts" / "compare_xdmf.py"),
+                          str(tmp_path / "a"), str(tmp_path / "b")], capture_output=True,
+                         text=True, timeout=120, cwd=ROOT)
+    assert res.returncode == 2 and res.stdout == ""
+    assert "has no results.xdmf" in res.stderr.strip().splitlines()[-1]
