@@ -438,6 +438,22 @@ def compare_folders(ref: Path, other: Path, tol: float, roundoff: float) -> int:
     return 0 if ok else 1
 
 
+def _check_arguments(ap: argparse.ArgumentParser, a: argparse.Namespace) -> None:
+    """What cannot be compared stops with `error:`, exit 2: before, a missing CONFIG failed
+    alike on every rank count and read `ok`, a missing --compare folder was a traceback."""
+    for out in a.compare or []:
+        if not (out / "summary.json").is_file():
+            ap.error(f"--compare {out}: no summary.json there (give two --out folders)")
+    if a.compare:
+        return
+    missing = [str(c) for c in a.configs if not c.is_file()]
+    if missing:
+        ap.error(f"config file {missing[0]!r} does not exist")
+    if len(a.ranks) < 2 or min(a.ranks) < 1:
+        ap.error("--ranks needs the reference count and at least one more, all >= 1 "
+                 "(e.g. --ranks 1 2)")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("configs", nargs="*", type=Path,
@@ -457,6 +473,7 @@ def main() -> None:
     ap.add_argument("--compare", type=Path, nargs=2, metavar=("REF", "OTHER"),
                     help="only compare two output folders that exist (a run's or a study's)")
     a, extra = ap.parse_known_args()  # the rest goes to every run, e.g. --mesh-size 1.0
+    _check_arguments(ap, a)
     if a.compare:
         sys.exit(compare_folders(*a.compare, a.tol, a.roundoff))
     configs = a.configs or sorted((ROOT / "configs").glob("*.toml")) + sorted(
