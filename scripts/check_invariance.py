@@ -136,7 +136,7 @@ def write_msh_points(mesh, pts: np.ndarray, path: Path) -> None:
 def turn_support(s: dict, tf: Transform) -> None:
     ux, uy = s.get("ux"), s.get("uy")
     if isinstance(ux, str) or isinstance(uy, str):
-        raise SystemExit(f"support on {s['on']}: expressions are not transformed")
+        raise ValueError(f"support on {s['on']}: expressions are not transformed")
     if ux is not None and uy is not None:
         s["ux"], s["uy"] = (float(c) for c in tf.vector([ux, uy]) * tf.s)
         return
@@ -149,7 +149,8 @@ def turn_support(s: dict, tf: Transform) -> None:
     elif abs(abs(d[1]) - 1) < 1e-12:
         s["uy"] = float(v * d[1])
     else:
-        raise SystemExit(f"the roller on {s['on']} cannot be turned by {tf.deg} deg")
+        raise ValueError(f"the roller on {s['on']} cannot be turned by {tf.deg:g} deg "
+                         "(only by multiples of 90)")
 
 
 def transformed_config(raw: dict, tf: Transform) -> dict:
@@ -261,6 +262,11 @@ def main() -> int:
             raw = apply_overrides(base, sets)
         except InputError as exc:
             ap.error(str(exc))
+        for tf in transforms:  # a transform the scene cannot take: before any run
+            try:
+                transformed_config(raw, tf)
+            except ValueError as exc:
+                ap.error(f"--xf {tf.text}: {exc}")
         try:
             mesh = build_mesh(parse_scene(raw), base_dir=Path(a.config).parent)
         except InputError as exc:

@@ -33,3 +33,14 @@ def test_a_missing_config_is_an_error(tmp_path):
     res = _cli(tmp_path, str(tmp_path / "no_such.toml"))
     assert res.returncode == 2 and "Traceback" not in res.stderr
     assert "No such file or directory" in res.stderr.strip().splitlines()[-1]
+
+
+def test_a_roller_the_transform_cannot_turn_is_an_error_before_any_run(tmp_path):
+    """patch.toml's rollers with the default --xf (angle=30 first): before, the identity
+    run went ahead and the script stopped with a bare line, exit 1."""
+    res = _cli(tmp_path, str(CONFIGS / "patch.toml"))
+    assert res.returncode == 2 and "Traceback" not in res.stderr
+    assert res.stderr.strip().splitlines()[-1] == (
+        "check_invariance.py: error: --xf angle=30: the roller on lower_sides cannot be "
+        "turned by 30 deg (only by multiples of 90)")
+    assert not (tmp_path / "inv").exists()
