@@ -25,3 +25,17 @@ def test_an_unusable_input_is_an_error_before_any_run(tmp_path, script, args, wo
     last = res.stderr.strip().splitlines()[-1]
     assert last.startswith(f"{script}: error: ") and words in last
     assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("args, words", [
+    (["--configs", "configs/nothing*.toml"], "--configs: no config matches"),
+    (["--families", "nosuch"], "--families: unknown families ['nosuch']; the families: "),
+])
+def test_fuzz_inputs_refuses_what_it_cannot_generate(args, words):
+    """Before: a bare line (`unknown families ['nosuch']`) and exit 1."""
+    res = subprocess.run([sys.executable, str(ROOT / "scripts" / "fuzz_inputs.py"),
+                          "--cases", "1", *args], capture_output=True, text=True,
+                         timeout=120, cwd=ROOT)
+    assert res.returncode == 2 and res.stdout == ""
+    last = res.stderr.strip().splitlines()[-1]
+    assert last.startswith("fuzz_inputs.py: error: ") and words in last
