@@ -1,8 +1,9 @@
 """Scripts that run the app refuse an input they cannot use before running it: before,
 `oblique_path.py --k 5` (Q / P above mu = 0.2: no equilibrium) ran two scenes and failed
 with the app's `no static equilibrium` (exit 1), `bench_scale.py` and `bench_debond.py` on
-a missing config stopped with a FileNotFoundError traceback, and `bench_mortar.py --only
-nosuch` ran nothing and exited 0."""
+a missing config, `bench_warm_start.py --scenes nosuch` and `bench_compliance.py
+--mesh-size -1` stopped with tracebacks, and `bench_mortar.py --only nosuch` ran nothing
+and exited 0."""
 
 from __future__ import annotations
 
@@ -19,6 +20,8 @@ from support import ROOT
     ("bench_scale.py", ["configs/no_such.toml"], "config configs/no_such.toml: [Errno 2]"),
     ("bench_debond.py", ["configs/no_such.toml"], "config configs/no_such.toml: [Errno 2]"),
     ("bench_mortar.py", ["--only", "nosuch"], "argument --only: invalid choice: 'nosuch'"),
+    ("bench_warm_start.py", ["--scenes", "nosuch"], "--scenes nosuch: no configs/nosuch.toml"),
+    ("bench_compliance.py", ["--mesh-size", "-1"], "--mesh-size must be > 0"),
 ])
 def test_an_unusable_input_is_an_error_before_any_run(tmp_path, script, args, words):
     extra = ["--out", str(tmp_path / "o")] if script == "oblique_path.py" else []
