@@ -2,8 +2,9 @@
 `oblique_path.py --k 5` (Q / P above mu = 0.2: no equilibrium) ran two scenes and failed
 with the app's `no static equilibrium` (exit 1), `bench_scale.py` and `bench_debond.py` on
 a missing config, `bench_warm_start.py --scenes nosuch` and `bench_compliance.py
---mesh-size -1` stopped with tracebacks, and `bench_mortar.py --only nosuch` ran nothing
-and exited 0."""
+--mesh-size -1`, `bench_element_fields.py` on a missing config or `--repeat 0` stopped with
+tracebacks, `bench_factorization.py` on a missing config printed a traceback as its rows'
+`error` and exited 0, and `bench_mortar.py --only nosuch` ran nothing and exited 0."""
 
 from __future__ import annotations
 
@@ -22,6 +23,13 @@ from support import ROOT
     ("bench_mortar.py", ["--only", "nosuch"], "argument --only: invalid choice: 'nosuch'"),
     ("bench_warm_start.py", ["--scenes", "nosuch"], "--scenes nosuch: no configs/nosuch.toml"),
     ("bench_compliance.py", ["--mesh-size", "-1"], "--mesh-size must be > 0"),
+    ("bench_element_fields.py", ["--config", "configs/no_such.toml"],
+     "config configs/no_such.toml: [Errno 2]"),
+    ("bench_element_fields.py", ["--config", "configs/patch.toml", "--repeat", "0"],
+     "--repeat must be at least 1"),
+    ("bench_factorization.py", ["--config", "configs/no_such.toml"],
+     "config file 'configs/no_such.toml' does not exist"),
+    ("bench_factorization.py", ["--routes", "nosuch"], "invalid choice: 'nosuch'"),
 ])
 def test_an_unusable_input_is_an_error_before_any_run(tmp_path, script, args, words):
     extra = ["--out", str(tmp_path / "o")] if script == "oblique_path.py" else []
