@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -25,6 +26,16 @@ def app_command(args: list[str], ranks: int = 1, script: str | None = None) -> l
     return [*head, *args]
 
 
+def failure_reason(stderr: str) -> str:
+    """The app's `error: ...` line(s) (`python -m app: error: ...` for argparse's) of a failed
+    run's stderr (once each, in order), else its last 500 characters. Under mpiexec the
+    app's line comes before mpiexec's banner (`... exited with non-zero status ...`),
+    which the last 500 characters held alone."""
+    lines = [x.strip() for x in stderr.splitlines()
+             if re.match(r"(python -m app[\w ]*: )?error: ", x.strip())]
+    return "\n".join(dict.fromkeys(lines)) if lines else stderr.strip()[-500:]
+
+
 def run_app(config: str, args: list[str], ranks: int = 1,
             pairs: tuple[str, ...] = ()) -> dict:
     """Summary of one run, or {"error": last stderr line(s)} when it failed.
@@ -38,7 +49,7 @@ def run_app(config: str, args: list[str], ranks: int = 1,
         cmd = app_command(["run", config, "--out", str(out), "--quiet", *args], ranks)
         res = subprocess.run(cmd, cwd=ROOT, env=ENV, capture_output=True, text=True)
         if res.returncode != 0:
-            return {"error": res.stderr.strip()[-500:]}
+            return {"error": failure_reason(res.stderr)}
         summary = json.loads((out / "summary.json").read_text())
         if pairs:
             from app.output.read import last_step_file, read_pairs

@@ -5,6 +5,9 @@ and prints one JSON line per run with elements, DOFs, assembly seconds, elements
 factorization seconds and the ratio assembly / factorization.
 
     .venv/bin/python scripts/bench_bulk.py --mesh-size 0.003162 --ranks 1 2
+
+Options the script does not know go to the app (e.g. `-ksp_type cg`); a run that fails
+prints its row with `error` (the app's `error:` line) and the script exits 1.
 """
 
 from __future__ import annotations
@@ -23,11 +26,13 @@ def main() -> None:
     ap.add_argument("--ranks", type=int, nargs="+", default=[1, 2])
     ap.add_argument("--sd", type=int, default=4)
     args, extra = ap.parse_known_args()
+    failed = 0
     for ranks in args.ranks:
         s = run_app(args.config, ["--mesh-size", str(args.mesh_size), "--sd", str(args.sd),
                                   *extra], ranks)
         if "error" in s:
-            print(json.dumps({"ranks": ranks, **s}))
+            print(json.dumps({"ranks": ranks, **s}), flush=True)
+            failed += 1
             continue
         t = s["timings"]
         print(json.dumps({
@@ -41,6 +46,7 @@ def main() -> None:
             "output_s": round(t["output"], 3), "total_s": round(t["total"], 3),
             "tip_deflection_rel_error": s.get("reference", {}).get("tip_deflection_rel_error"),
         }), flush=True)
+    raise SystemExit(1 if failed else 0)
 
 
 if __name__ == "__main__":

@@ -39,6 +39,8 @@ def main() -> None:
     ap.add_argument("--pairs", type=int, nargs="+", default=[100, 1000, 3000])
     ap.add_argument("--solve-route-max", type=int, default=100)
     args = ap.parse_args()
+    if not args.mesh_size > 0 or min(args.pairs) < 1 or args.solve_route_max < 0:
+        ap.error("--mesh-size must be > 0, --pairs at least 1, --solve-route-max at least 0")
     comm = PETSc.COMM_WORLD
     rank = comm.getRank()
     cfg = load_config(ROOT / "configs" / "cantilever.toml")

@@ -64,7 +64,10 @@ def main() -> None:
     ap.add_argument("--discretisations", nargs="+", default=["node-to-segment", "mortar"])
     ap.add_argument("--repeat", type=int, default=3)
     args = ap.parse_args()
-    k = n_interfaces(ROOT / args.config)
+    try:
+        k = n_interfaces(ROOT / args.config)
+    except (OSError, ValueError) as exc:  # (TOMLDecodeError is a ValueError)
+        ap.error(f"config {args.config}: {exc}")
     for disc in args.discretisations:
         base = [f"--set=interface.{i}.discretisation=\"{disc}\"" for i in range(k)]
         base += ["--refine", str(args.refine)]

@@ -21,6 +21,7 @@ import numpy as np
 
 from app.config import parse_config
 from app.discretisation.bulk import element_fields, element_operators
+from app.errors import InputError
 from app.run import RunOptions, build_scene_mesh, make_discretisation
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -41,8 +42,13 @@ def main() -> None:
     ap.add_argument("--refine", type=int, default=0)
     ap.add_argument("--repeat", type=int, default=7)
     args = ap.parse_args()
+    if args.repeat < 1 or args.refine < 0:
+        ap.error("--repeat must be at least 1 and --refine at least 0")
     path = Path(args.config)
-    cfg = parse_config(tomllib.loads(path.read_text()), path)
+    try:
+        cfg = parse_config(tomllib.loads(path.read_text()), path)
+    except (OSError, ValueError, InputError) as exc:  # (TOMLDecodeError is a ValueError)
+        ap.error(f"config {args.config}: {exc}")
     opts = RunOptions(out=Path("/dev/null"), quiet=True, refine=args.refine)
     mesh = build_scene_mesh(cfg, opts)
     disc = make_discretisation(cfg, opts)

@@ -34,7 +34,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from app_runner import ENV, ROOT
+from app_runner import ENV, ROOT, failure_reason
 
 if TYPE_CHECKING:
     import numpy as np
@@ -179,7 +179,8 @@ def main() -> None:
     ap.add_argument("--mesh-size", type=float, default=0.0245)
     ap.add_argument("--mesh-cache", default=None)
     ap.add_argument("--ranks", type=int, default=1)
-    ap.add_argument("--routes", nargs="+", default=["plain", "schur", "two"])
+    ap.add_argument("--routes", nargs="+", default=["plain", "schur", "two"],
+                    choices=["plain", "schur", "two"])
     ap.add_argument("--repeat", type=int, default=1,
                     help="run the routes in turn this many times; ratios from each route's "
                          "fastest run")
@@ -188,7 +189,12 @@ def main() -> None:
     if args.route:
         run_route(args)
         return
+    if not (ROOT / args.config).is_file():
+        ap.error(f"config file '{args.config}' does not exist")
+    if args.repeat < 1 or args.ranks < 1 or not args.mesh_size > 0:
+        ap.error("--repeat and --ranks must be at least 1 and --mesh-size above 0")
     results: dict[str, list[dict]] = {}
+    failed = 0
     for _ in range(args.repeat):
         for route in args.routes:
             cmd = [sys.executable, __file__, "--route", route, "--config", args.config,
@@ -199,7 +205,9 @@ def main() -> None:
                 cmd = [shutil.which("mpiexec") or "mpiexec", "-n", str(args.ranks), *cmd]
             res = subprocess.run(cmd, cwd=ROOT, env=ENV, capture_output=True, text=True)
             if res.returncode != 0:
-                print(json.dumps({"route": route, "error": res.stderr.strip()[-500:]}))
+                print(json.dumps({"route": route, "error": failure_reason(res.stderr)}),
+                      flush=True)
+                failed += 1
                 continue
             line = json.loads(res.stdout.strip().splitlines()[-1])
             results.setdefault(route, []).append(line)
@@ -221,6 +229,8 @@ def main() -> None:
             "schur_over_plain_memory_above_assembly": round(
                 mem("schur", True) / mem("plain", True), 3),
         }), flush=True)
+    raise SystemExit(1 if failed else 0)
+
 
 if __name__ == "__main__":
     main()

@@ -110,7 +110,9 @@ def _arguments() -> argparse.Namespace:
     """The command line (see the module docstring)."""
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--only", nargs="+", default=["patch", "hertz", "cattaneo", "multibody",
-                                                   "mu0"])
+                                                   "mu0"],
+                    choices=["patch", "hertz", "cattaneo", "multibody", "mu0", "family"],
+                    help="cases to run (an unknown one is an error; before: nothing, exit 0)")
     ap.add_argument("--hertz-sizes", type=float, nargs="+", default=[0.5, 0.25, 0.125, 0.0625])
     ap.add_argument("--discretisations", nargs="+", choices=DISCS, default=list(DISCS[:2]))
     ap.add_argument("--block2-sizes", type=float, nargs="+", default=[0.08, 0.02],

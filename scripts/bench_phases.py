@@ -18,7 +18,7 @@ import subprocess
 import tempfile
 from pathlib import Path
 
-from app_runner import ENV, ROOT, app_command
+from app_runner import ENV, ROOT, app_command, failure_reason
 
 
 def run(config: Path, extra: list[str], ranks: int) -> dict:
@@ -28,7 +28,7 @@ def run(config: Path, extra: list[str], ranks: int) -> dict:
         res = subprocess.run(cmd, cwd=ROOT, env=ENV, capture_output=True, text=True)
         path = out / "summary.json"
         if not path.exists():
-            return {"error": res.stderr.strip()[-300:]}
+            return {"error": failure_reason(res.stderr)}
         s = json.loads(path.read_text())
     finally:
         shutil.rmtree(out, ignore_errors=True)

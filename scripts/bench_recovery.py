@@ -7,7 +7,8 @@ of S, and C = G_c S^-1 G_c^T is formed by one expression: the code before), each
 own process, and prints one JSON line per run: the
 recovery phase, the total, the peak memory of the compliance and recovery phases (MB), and
 the largest difference of the last step's displacement from the first "dense" run,
-relative to its largest entry.
+relative to its largest entry. A run that fails prints its row with `error` (the app's
+`error:` line) and the script exits 1 (before, 0).
 
     .venv/bin/python scripts/bench_recovery.py [--config C] [--repeat 2] [--ranks 1]
 """
@@ -22,7 +23,7 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
-from app_runner import ENV, ROOT, app_command
+from app_runner import ENV, ROOT, app_command, failure_reason
 
 RUN = """
 import sys
@@ -44,7 +45,7 @@ def run(mode: str, config: str, ranks: int, out: Path) -> dict:
     cmd = app_command([mode, "run", config, "--out", str(out), "--quiet"], ranks, RUN)
     res = subprocess.run(cmd, cwd=ROOT, env=ENV, capture_output=True, text=True)
     if res.returncode != 0:
-        return {"error": res.stderr.strip()[-300:]}
+        return {"error": failure_reason(res.stderr)}
     s = json.loads((out / "summary.json").read_text())
     t, mem = s["timings"], s["peak_memory_mb"]
     return {"n_dofs": s["n_dofs"], "n_pairs": s["n_pairs"], "n_steps": s["n_steps"],
@@ -68,7 +69,7 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=2)
     ap.add_argument("--ranks", type=int, default=1)
     args = ap.parse_args()
-    ref = None
+    ref, failed = None, 0
     for i in range(args.repeat):
         for mode in ("dense", "columns"):
             out = Path(tempfile.mkdtemp(prefix="bench_recovery_"))
@@ -81,7 +82,9 @@ def main() -> None:
                     row["u_diff_rel"] = float(np.abs(u - ref).max() / np.abs(ref).max())
             finally:
                 shutil.rmtree(out, ignore_errors=True)
+            failed += "error" in row
             print(json.dumps(row), flush=True)
+    raise SystemExit(1 if failed else 0)
 
 
 if __name__ == "__main__":

@@ -6,6 +6,9 @@ total seconds, the mesh share of the total and the errors against Hertz.
 
 Split run: `run --mesh-size H*2^N --refine N`; gmsh run: `run --mesh-size H` (both have
 the same element size everywhere, the contact refinement scaled alike).
+
+Options the script does not know go to the app (e.g. `-ksp_type cg`); a run that fails
+prints its row with `error` (the app's `error:` line) and the script exits 1.
 """
 
 from __future__ import annotations
@@ -44,11 +47,13 @@ def main() -> None:
     args, extra = ap.parse_known_args()
     h0 = args.mesh_size * 2**args.splits
     split = ["--mesh-size", f"{h0:.6g}", "--refine", str(args.splits), *extra]
-    print(json.dumps(row("split", split, run_app(args.config, split, args.ranks))), flush=True)
+    rows = [row("split", split, run_app(args.config, split, args.ranks))]
+    print(json.dumps(rows[-1]), flush=True)
     if not args.no_gmsh:
         direct = ["--mesh-size", f"{args.mesh_size:.6g}", *extra]
-        print(json.dumps(row("gmsh", direct, run_app(args.config, direct, args.ranks))),
-              flush=True)
+        rows.append(row("gmsh", direct, run_app(args.config, direct, args.ranks)))
+        print(json.dumps(rows[-1]), flush=True)
+    raise SystemExit(1 if any("error" in r for r in rows) else 0)
 
 
 if __name__ == "__main__":

@@ -111,7 +111,10 @@ def main() -> None:
     ap.add_argument("--args", default="", help="more `app run` arguments, one string")
     args = ap.parse_args()
     config = (ROOT / args.config).resolve()
-    k = n_interfaces(config)
+    try:
+        k = n_interfaces(config)
+    except (OSError, tomllib.TOMLDecodeError) as exc:
+        ap.error(f"config {args.config}: {exc}")
     for disc in args.discretisations:
         extra = [f"--set=interface.{i}.discretisation=\"{disc}\"" for i in range(k)]
         extra += [f"--set={s}" for s in args.sets] + args.args.split()

@@ -22,7 +22,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-from app_runner import ENV, ROOT
+from app_runner import ENV, ROOT, failure_reason
 
 
 def main() -> None:
@@ -41,7 +41,7 @@ def main() -> None:
             cmd = [shutil.which("mpiexec") or "mpiexec", "-n", str(args.ranks), *cmd]
         res = subprocess.run(cmd, cwd=ROOT, env=ENV, capture_output=True, text=True)
         if res.returncode != 0:
-            print(json.dumps({"error": res.stderr.strip()[-500:]}))
+            print(json.dumps({"error": failure_reason(res.stderr)}))
             raise SystemExit(1)
         s = json.loads((out / "summary.json").read_text())
         sizes = {p.name: p.stat().st_size for p in out.glob("*") if p.suffix in (".json",

@@ -26,6 +26,12 @@ def main() -> None:
     ap.add_argument("--scenes", nargs="+", default=["cattaneo", "bonded"])
     ap.add_argument("--mesh-size", type=float, default=None)
     args = ap.parse_args()
+    missing = [sc for sc in args.scenes if not (ROOT / "configs" / f"{sc}.toml").is_file()]
+    if missing:
+        ap.error(f"--scenes {missing[0]}: no configs/{missing[0]}.toml (give the names of "
+                 "configs/*.toml, e.g. cattaneo bonded)")
+    if args.mesh_size is not None and not args.mesh_size > 0:
+        ap.error(f"--mesh-size {args.mesh_size}: must be a number > 0")
     for scene in args.scenes:
         path = ROOT / "configs" / f"{scene}.toml"
         raw = tomllib.loads(path.read_text())

@@ -7,7 +7,9 @@ step_NNNN.h5 files present, numbered 1..k without gaps; both XDMF files are well
 XML listing exactly those steps; every dataset of every step file reads with h5py, through
 its links to an earlier step's copy; no `.tmp` file is left.
 With `--paraview`, each folder is also opened with ParaView (scripts/check_xdmf.py under
-pvpython). One JSON line per trial; exit 1 if any trial has a problem.
+pvpython). One JSON line per trial; exit 1 if any trial has a problem. No CONFIG (without
+`--audit`), a CONFIG that does not exist, or (without `--max-delay`) an unsignalled run
+that does not complete, e.g. an unknown option passed on, stops with `error:`, exit 2.
 
     .venv/bin/python scripts/check_interrupts.py configs/cattaneo.toml --trials 6 --paraview
     .venv/bin/python scripts/check_interrupts.py configs/hertz.toml --earlier --max-delay 1.5
@@ -280,6 +282,15 @@ def trial(config: Path, ranks: int, delay: float, sig: signal.Signals, out: Path
             "line": line[-1] if line else None, "problems": problems}
 
 
+def _check_config(ap: argparse.ArgumentParser, config: Path | None) -> None:
+    """A run needs a CONFIG that exists (as the runs see it, from the project folder):
+    before, a missing one was signalled during start-up and read as a clean trial."""
+    if config is None:
+        ap.error("give a CONFIG to run (or --audit OUT ... to check existing folders)")
+    if not (ROOT / config).is_file():
+        ap.error(f"config file '{config}' does not exist")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("config", type=Path, nargs="?")
@@ -298,6 +309,8 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=10, help="with --delays: trials each")
     ap.add_argument("--signal", default="SIGINT", choices=("SIGINT", "SIGTERM"))
     a, extra = ap.parse_known_args()
+    if not a.audit:
+        _check_config(ap, a.config)
     if a.sweep:
         sys.exit(sweep_trials(a, extra))
     if a.audit:
@@ -310,8 +323,12 @@ def main() -> None:
     rng = random.Random(a.seed)
     if a.max_delay is None:
         t0 = time.monotonic()
-        trial(a.config, a.ranks, 0.0, signal.SIGCONT, a.out / "full", extra)
+        full = trial(a.config, a.ranks, 0.0, signal.SIGCONT, a.out / "full", extra)
         a.max_delay = time.monotonic() - t0
+        if full.get("status") != "completed":  # signals into a failing run test nothing
+            ap.error(f"the unsignalled run of {a.config} that times the trials ended "
+                     f"{full.get('status')!r} ({full.get('error')}): fix the config or "
+                     f"options (its output: {a.out / 'full'})")
     bad = 0
     for i in range(a.trials):
         sig = (signal.SIGINT, signal.SIGTERM)[i % 2]

@@ -13,7 +13,9 @@ penetration_tol times s. Then p, the traction p n + q t (turned back), the state
 and slip- swap under a mirror), the gaps and the strain energy of every step are compared
 with the identity run's, scaled by ts = fscale / s (tractions), s ts / Escale (lengths) and
 ts^2 s^2 / Escale (energy). One line per discretisation and transform; WORST is the largest
-traction difference over max p. A frame change must agree to round-off.
+traction difference over max p. A frame change must agree to round-off. A CONFIG that
+does not read, an --xf item that is not KEY=VALUE of those keys with numbers, or a scene
+the app refuses stops with `error:` and exit 2 before any run.
 """
 
 from __future__ import annotations
@@ -66,9 +68,25 @@ def toml_dumps(d: dict, prefix: str = "") -> str:
 class Transform:
     """x -> s R M x + t and the scales of the answer (see the module docstring)."""
 
+    KEYS = ("angle", "mirror", "scale", "shift", "Escale", "fscale")
+
     def __init__(self, text: str):
-        kv = dict(item.split("=") for item in text.split(",")) if text else {}
+        """text: comma list of KEY=VALUE (KEYS); ValueError naming what is wrong."""
+        kv = dict(item.split("=", 1) for item in text.split(",") if "=" in item) if text else {}
+        bad = [i for i in text.split(",") if "=" not in i or i.split("=")[0] not in self.KEYS]
+        if text and bad:
+            raise ValueError(f"--xf {text}: {bad[0]!r} is not KEY=VALUE with KEY one of "
+                             f"{', '.join(self.KEYS)} (e.g. angle=30 mirror=1 shift=5:-3)")
+        try:
+            self._set(kv)
+        except ValueError:
+            raise ValueError(f"--xf {text}: the values must be numbers (shift=X:Y, "
+                             "mirror=1)") from None
+        if self.s <= 0 or self.e <= 0 or self.f <= 0:
+            raise ValueError(f"--xf {text}: scale, Escale and fscale must be positive")
         self.text = text or "identity"
+
+    def _set(self, kv: dict[str, str]) -> None:
         t = math.radians(float(kv.get("angle", 0.0)))
         self.R = np.array([[math.cos(t), -math.sin(t)], [math.sin(t), math.cos(t)]])
         self.deg = float(kv.get("angle", 0.0))
@@ -76,6 +94,8 @@ class Transform:
         self.mirror = kv.get("mirror") == "1"
         self.s = float(kv.get("scale", 1.0))
         self.t = np.array([float(v) for v in kv.get("shift", "0:0").split(":")])
+        if self.t.shape != (2,):
+            raise ValueError("shift is X:Y")
         self.e = float(kv.get("Escale", 1.0))
         self.f = float(kv.get("fscale", self.s))
         self.ts = self.f / self.s
@@ -116,7 +136,7 @@ def write_msh_points(mesh, pts: np.ndarray, path: Path) -> None:
 def turn_support(s: dict, tf: Transform) -> None:
     ux, uy = s.get("ux"), s.get("uy")
     if isinstance(ux, str) or isinstance(uy, str):
-        raise SystemExit(f"support on {s['on']}: expressions are not transformed")
+        raise ValueError(f"support on {s['on']}: expressions are not transformed")
     if ux is not None and uy is not None:
         s["ux"], s["uy"] = (float(c) for c in tf.vector([ux, uy]) * tf.s)
         return
@@ -129,7 +149,8 @@ def turn_support(s: dict, tf: Transform) -> None:
     elif abs(abs(d[1]) - 1) < 1e-12:
         s["uy"] = float(v * d[1])
     else:
-        raise SystemExit(f"the roller on {s['on']} cannot be turned by {tf.deg} deg")
+        raise ValueError(f"the roller on {s['on']} cannot be turned by {tf.deg:g} deg "
+                         "(only by multiples of 90)")
 
 
 def transformed_config(raw: dict, tf: Transform) -> dict:
@@ -225,7 +246,14 @@ def main() -> int:
     ap.add_argument("--set", action="append", default=[])
     ap.add_argument("--out", default="out/invariance")
     a = ap.parse_args()
-    base = tomllib.loads(Path(a.config).read_text())
+    try:
+        base = tomllib.loads(Path(a.config).read_text())
+    except (OSError, tomllib.TOMLDecodeError) as exc:
+        ap.error(f"config {a.config}: {exc}")
+    try:
+        transforms = [Transform(text) for text in a.xf]
+    except ValueError as exc:
+        ap.error(str(exc))
     for disc in a.discretisations:
         sets = list(a.set)
         if disc is not None:
@@ -234,11 +262,18 @@ def main() -> int:
             raw = apply_overrides(base, sets)
         except InputError as exc:
             ap.error(str(exc))
-        mesh = build_mesh(parse_scene(raw), base_dir=Path(a.config).parent)
+        for tf in transforms:  # a transform the scene cannot take: before any run
+            try:
+                transformed_config(raw, tf)
+            except ValueError as exc:
+                ap.error(f"--xf {tf.text}: {exc}")
+        try:
+            mesh = build_mesh(parse_scene(raw), base_dir=Path(a.config).parent)
+        except InputError as exc:
+            ap.error(str(exc))
         folder = Path(a.out) / (disc or "default")
         ref = run(raw, mesh, Transform(""), folder / "identity")
-        for text in a.xf:
-            tf = Transform(text)
+        for text, tf in zip(a.xf, transforms, strict=True):
             out = run(raw, mesh, tf, folder / text.replace("=", "").replace(",", "_")
                       .replace(":", "_"))
             w = compare(ref, out, tf)

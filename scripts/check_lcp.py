@@ -49,8 +49,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--rounds", type=int, default=20, help="rounds of cases (default 20)")
     ap.add_argument("--seed", type=int, default=0, help="seed of the first round")
     ap.add_argument("--no-large", action="store_true", help="skip the n = 30-420 cases")
-    ap.add_argument("--solver", action="append", choices=sorted(solvers()),
-                    help="only this solver (repeatable; default: all)")
+    names = sorted(solvers())  # metavar: argparse's usage line drops the parentheses of
+    ap.add_argument("--solver", action="append", choices=names, metavar="SOLVER",  # a name
+                    help="only this solver (repeatable; default: all): "
+                         + ", ".join(f"'{n}'" for n in names))
     args = ap.parse_args(argv)
     if args.rounds < 1:
         ap.error("--rounds must be at least 1")

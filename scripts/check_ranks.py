@@ -489,6 +489,23 @@ def _usage_error(what: str) -> int:
     return 2
 
 
+def _check_arguments(ap: argparse.ArgumentParser, a: argparse.Namespace) -> None:
+    """What cannot be compared stops with `error:`, exit 2: before, a missing CONFIG failed
+    alike on every rank count and read `ok`, a missing --compare folder was a traceback
+    (what the folders hold: `compare_trees`)."""
+    for out in a.compare or []:
+        if not out.is_dir():
+            ap.error(f"--compare {out} is not a folder (give two output folders)")
+    if a.compare:
+        return
+    missing = [str(c) for c in a.configs if not c.is_file()]
+    if missing:
+        ap.error(f"config file {missing[0]!r} does not exist")
+    if len(a.ranks) < 2 or min(a.ranks) < 1:
+        ap.error("--ranks needs the reference count and at least one more, all >= 1 "
+                 "(e.g. --ranks 1 2)")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("configs", nargs="*", type=Path,
@@ -510,6 +527,7 @@ def main() -> None:
                          "or two folders of them: every output below, paired by relative "
                          "path (one JSON line each)")
     a, extra = ap.parse_known_args()  # the rest goes to every run, e.g. --mesh-size 1.0
+    _check_arguments(ap, a)
     if a.compare:
         sys.exit(compare_trees(*a.compare, a.tol, a.roundoff))
     configs = a.configs or sorted((ROOT / "configs").glob("*.toml")) + sorted(

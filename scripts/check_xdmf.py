@@ -11,12 +11,17 @@ For each output folder, opens results.xdmf and contact.xdmf with ParaView's XDMF
 - every array the README names is there with its number of components (displacement 3,
   stress 4, the named scalars 1; contact: normal, tangent, displacement 3), and its range
   equals the range of the HDF5 dataset of that step.
+A step file holding contact pairs with no contact.xdmf (or any step file with no
+results.xdmf) is a problem, "missing"; a folder with no step yet gets one line, no problem.
+A study's or sweep's folder (`python -m app study`) stands for its run folders.
 Prints one JSON line per folder and file: {"out", "file", "reader", "times", "problems"}.
-Exit 1 if any folder has a problem.
+Exit 1 if any folder has a problem; a path that is not a run's output folder stops with
+`error:` and exit 2.
 """
 
 from __future__ import annotations
 
+import argparse
 import json
 import re
 import sys
@@ -128,6 +133,12 @@ def array_problems(data, group, name: str, t: float) -> list[str]:
     return problems
 
 
+def _has_contact(out: Path) -> bool:
+    """Does the first step file of OUT hold contact pairs (so contact.xdmf is due)?"""
+    with h5py.File(out / f"step_{step_files(out)[0]:04d}.h5", "r") as f:
+        return "contact" in f
+
+
 def check(out: Path):
     """Every XDMF file of an output folder with both readers, plus the summary's steps:
     yields one row (dict) per finding group, as soon as it is known."""
@@ -137,9 +148,12 @@ def check(out: Path):
         if listed != step_files(out):
             yield {"out": str(out), "file": "summary.json", "problems": [
                 f"summary steps {listed} but step files {step_files(out)}"]}
+    if not any((out / n).exists() for n in ("results.xdmf", "contact.xdmf")) \
+            and not step_files(out):
+        yield {"out": str(out), "file": None, "times": [], "problems": []}  # no step yet
     for name in ("results.xdmf", "contact.xdmf"):
         if not (out / name).exists():
-            if name == "results.xdmf" and step_files(out):
+            if step_files(out) and (name == "results.xdmf" or _has_contact(out)):
                 yield {"out": str(out), "file": name, "problems": ["missing"]}
             continue
         for reader in ("Xdmf3ReaderS", "XDMFReader"):
@@ -150,18 +164,48 @@ def check(out: Path):
                        "problems": [f"{type(exc).__name__}: {exc}"]}
 
 
+def _study_runs(out: Path) -> list[Path]:
+    """The run folders (OUT/*/summary.json) of a study's or sweep's folder OUT (its own
+    summary.json says `"command": "study"`), sorted; [] for any other path."""
+    try:
+        study = json.loads((out / "summary.json").read_text()).get("command") == "study"
+    except (OSError, ValueError, AttributeError):
+        return []
+    return sorted(p.parent for p in out.glob("*/summary.json")) if study else []
+
+
+def parse_args(argv: list[str]) -> argparse.Namespace:
+    """The output folders; a path that is not a folder, or a folder without summary.json,
+    results.xdmf or a step file, stops with `error:` and exit 2 (before, it printed
+    nothing and exited 0: no problem found)."""
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("out", type=Path, nargs="+", help="output folders of `python -m app run`")
+    ap.add_argument("--one", action="store_true", help=argparse.SUPPRESS)  # the child's
+    a = ap.parse_args(argv)
+    a.out = [run for out in a.out for run in (_study_runs(out) or [out])]
+    for out in a.out:
+        if not out.is_dir():
+            ap.error(f"{out} is not a folder: give a run's --out folder")
+        if not ((out / "summary.json").exists() or (out / "results.xdmf").exists()
+                or step_files(out)):
+            ap.error(f"{out} holds no run output (no summary.json, results.xdmf or "
+                     "step_NNNN.h5): give a run's --out folder")
+    return a
+
+
 def main() -> None:
     """Check each folder in a child pvpython: a reader that aborts (a step file listed in
     the XDMF but missing makes ParaView 5.11's XDMF3 reader call abort()) is reported."""
     import shutil
     import subprocess
 
-    if sys.argv[1:2] == ["--one"]:
-        for row in check(Path(sys.argv[2])):
+    a = parse_args(sys.argv[1:])
+    if a.one:
+        for row in check(a.out[0]):
             print(json.dumps(row), flush=True)
         return
     bad = 0
-    for arg in sys.argv[1:]:
+    for arg in map(str, a.out):
         res = subprocess.run([shutil.which("pvpython") or "pvpython", __file__, "--one", arg],
                              capture_output=True, text=True)
         rows = [json.loads(x) for x in res.stdout.splitlines() if x.startswith("{")]

@@ -8,7 +8,8 @@ of OUT_A), fetches the points, the cell count and every point and cell array, an
 compares them. Prints one JSON line per file, reader and time: {"file", "reader", "time",
 "arrays" (their number), "max_abs_diff", "problems"}, then {"max_abs_diff"} over all;
 exit 1 if the arrays or times differ. Used to check that a change of the writer (links to
-one copy, virtual stress components) leaves what ParaView reads unchanged.
+one copy, virtual stress components) leaves what ParaView reads unchanged. A folder
+without results.xdmf, or --times that are not numbers, stops with `error:` and exit 2.
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from pathlib import Path
 
 import numpy as np
 
@@ -71,7 +73,13 @@ def main() -> int:
     ap.add_argument("b")
     ap.add_argument("--times", help="comma-separated times (default: every time of A)")
     args = ap.parse_args()
-    times = [float(t) for t in args.times.split(",")] if args.times else None
+    for out in (args.a, args.b):
+        if not (Path(out) / "results.xdmf").is_file():
+            ap.error(f"{out} has no results.xdmf: give two --out folders of runs")
+    try:
+        times = [float(t) for t in args.times.split(",")] if args.times else None
+    except ValueError:
+        ap.error(f"--times {args.times}: give comma-separated numbers, e.g. 1,2,50")
     worst, bad = 0.0, False
     for row in compare(args.a, args.b, times):
         print(json.dumps(row), flush=True)

@@ -16,7 +16,9 @@ reference run) sampled at the level's pairs, and its parts `floor_<band>`; `floo
 closed-form interpolated L2 of the exact field sampled at the pairs (the floor of
 err_*_l2_interp); and `lockin_rms`, `lockin_max`: q over mu p0 at the end of the normal
 steps (rms over |x| < a, max |q|), which theory says is 0. A last line lists the observed
-orders of every column.
+orders of every column. A folder that is not a study, a missing method, `--field q` on a
+study without Cattaneo's reference (Hertz: `--field p`), or fewer than 2 levels stop with
+`error:` and exit 2.
 """
 
 from __future__ import annotations
@@ -27,6 +29,7 @@ import json
 import re
 import sys
 from pathlib import Path
+from typing import NoReturn
 
 import numpy as np
 
@@ -42,8 +45,15 @@ from app.studies.field_breakdown import field_breakdown, nodal_l2, orders  # noq
 from app.studies.reference_errors import contact_window  # noqa: E402
 
 
+def fail(msg: str) -> NoReturn:
+    """Stop with one `error:` line and exit 2 (bad input, not a crash)."""
+    print(f"error: {msg}", file=sys.stderr)
+    raise SystemExit(2)
+
+
 def runs_of(study: Path, method: str) -> dict[int, Path]:
-    return {int(re.match(r"L(\d+)_", d.name).group(1)): d for d in study.glob(f"L*_{method}")}
+    return {int(m.group(1)): d for d in study.glob(f"L*_{method}")
+            if (m := re.match(r"L(\d+)_", d.name))}
 
 
 def normal_steps(run: Path) -> list[int]:
@@ -102,9 +112,22 @@ def _arguments() -> argparse.Namespace:
 def reference_run(args: argparse.Namespace) -> dict:
     """The reference run (the reference method's finest level): its folder, pairs, the
     exact field and its a, p0, x0, c, the contact window and its earlier contact edges."""
+    if not (args.study / "study.csv").is_file():
+        fail(f"{args.study} is not a study's folder (no study.csv): give the --out folder "
+             "of `python -m app study`")
     refs = runs_of(args.study, args.reference)
+    if not refs:
+        fail(f"{args.study} has no runs of --reference {args.reference} (L<level>_"
+             f"{args.reference}): give a method of the study")
     run = refs[max(refs)]
     s = json.loads((run / "summary.json").read_text())
+    ref = s.get("reference", {})
+    if "hertz" not in ref:
+        fail(f"{run} has no Hertz reference: a study of a contact scene with a "
+             "[reference] table of type hertz or cattaneo is needed")
+    if args.field == "q" and "cattaneo" not in ref:
+        fail(f"--field q needs a Cattaneo study ({run} has no cattaneo reference): use "
+             "--field p")
     pairs = read_pairs(last_step_file(run), 0, ("x", "p", "q", "mu"))
     mu = float(pairs["mu"].max())
     exact, a, p0, x0, c = exact_field(s, args.field, mu)
@@ -142,6 +165,9 @@ def main() -> None:
     args = _arguments()
     ref = reference_run(args)
     study = {(r["level"], r["method"]): r for r in csv.DictReader(open(args.study / "study.csv"))}
+    if len([r for r in runs_of(args.study, args.method).values() if r != ref["run"]]) < 2:
+        fail(f"{args.study} has fewer than 2 levels of --method {args.method} besides the "
+             "reference run: the orders need 2 or more")
     col = "ref_traction_l2" if args.field == "q" else "ref_pressure_l2"
     rows = []
     for level, run in sorted(runs_of(args.study, args.method).items()):

@@ -21,7 +21,7 @@ import sys
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # this checkout's app
-from field_breakdown import reference_run, runs_of  # noqa: E402  (scripts/field_breakdown.py)
+from field_breakdown import fail, reference_run, runs_of  # noqa: E402  (scripts/field_breakdown.py)
 
 from app.closed_form import INTERPOLATED_L2_RANGE  # noqa: E402
 from app.output.read import last_step_file, read_pairs  # noqa: E402
@@ -39,7 +39,10 @@ def main() -> None:
     args = ap.parse_args()
     ref = reference_run(args)
     exact, a, x0, c = ref["exact"], ref["a"], ref["x0"], ref["c"]
-    x = read_pairs(last_step_file(runs_of(args.study, args.method)[0]), 0, ("x",))["x"] - x0
+    level0 = runs_of(args.study, args.method).get(0)
+    if level0 is None:
+        fail(f"{args.study} has no level-0 run of --method {args.method} (L0_{args.method})")
+    x = read_pairs(last_step_file(level0), 0, ("x",))["x"] - x0
     rows = floor_sequence(x, lambda t: exact(t + x0), INTERPOLATED_L2_RANGE * a, args.levels,
                           args.ref_levels)
     for r in rows:

@@ -393,7 +393,8 @@ class Generator:
         if families:
             unknown = set(families) - {f.__name__ for f, _ in self.families}
             if unknown:
-                raise SystemExit(f"unknown families {sorted(unknown)}")
+                raise ValueError(f"--families: unknown families {sorted(unknown)}; the "
+                                 f"families: {', '.join(f.__name__ for f, _ in self.families)}")
             self.families = [(f, w) for f, w in self.families if f.__name__ in families]
 
     def cases(self, n: int) -> list[Case]:
@@ -932,7 +933,7 @@ def select_configs(patterns: list[str]) -> list[str]:
     files = sorted({str(Path(f).resolve().relative_to(ROOT)) for pat in patterns
                     for f in glob.glob(str(ROOT / pat))})
     if not files:
-        raise SystemExit(f"no config matches {patterns}")
+        raise ValueError(f"--configs: no config matches {patterns}")
     return files
 
 
@@ -960,9 +961,12 @@ def main(argv: list[str] | None = None) -> int:
                     help="also run one case of every BUG class found and fixed so far")
     ap.add_argument("--work", default=None, help="folder for the cases (default: a temp dir)")
     args = ap.parse_args(argv)
-    cases = generate_cases(args.seed, args.cases,
-                           select_configs(args.configs or list(DEFAULT_CONFIGS)),
-                           args.families.split(",") if args.families else None)
+    try:  # an unknown family or no matching config: `error:`, exit 2 (before: exit 1)
+        cases = generate_cases(args.seed, args.cases,
+                               select_configs(args.configs or list(DEFAULT_CONFIGS)),
+                               args.families.split(",") if args.families else None)
+    except ValueError as exc:
+        ap.error(str(exc))
     if args.regressions:
         cases += regression_cases()
     work = Path(args.work or tempfile.mkdtemp(prefix="fuzz_inputs_"))

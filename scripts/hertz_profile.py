@@ -3,6 +3,9 @@
     .venv/bin/python scripts/hertz_profile.py OUT [OUT ...] [--reference REF_OUT]
     .venv/bin/python scripts/hertz_profile.py --floor-table
 
+A folder that is not a completed Hertz run (no summary.json, no Hertz reference, no step)
+stops with `error:` and exit 2, as does no OUT without --floor-table.
+
 For each `run --out` folder of a Hertz scene (last step, first interface), in % (of the
 Hertz figures, or of p0 for the wobble):
 - l2_interp, floor: `reference.hertz` of its summary (p interpolated linearly between
@@ -108,12 +111,31 @@ def floor_table() -> None:
         print(json.dumps({"spacing": f"a/{n}", "floor_by_s": row}), flush=True)
 
 
+def unusable(out: Path) -> str | None:
+    """Why OUT is not a completed step of a Hertz run (None if it is one)."""
+    try:
+        s = json.loads((out / "summary.json").read_text())
+    except (OSError, ValueError) as exc:
+        return f"not a run's --out folder ({exc})"
+    if "hertz" not in (s.get("reference") or {}):
+        return "its summary.json has no Hertz reference (a scene with [reference] type hertz)"
+    if not s.get("steps"):
+        return f"no completed step (status {s.get('status')!r})"
+    return None
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("outs", nargs="*")
     ap.add_argument("--reference")
     ap.add_argument("--floor-table", action="store_true")
     args = ap.parse_args()
+    if not args.outs and not args.floor_table:
+        ap.error("give run output folders (OUT ...) or --floor-table")
+    for out in [*args.outs, *([args.reference] if args.reference else [])]:
+        problem = unusable(Path(out))
+        if problem:
+            ap.error(f"{out}: {problem}")
     if args.floor_table:
         floor_table()
     for out in args.outs:

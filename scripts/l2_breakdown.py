@@ -5,7 +5,9 @@ definition for tributary averages, and the interpolated L2 with its floor.
     .venv/bin/python scripts/l2_breakdown.py OUT/study_dir [--method 4SD] [--core 0.95]
 
 Reads OUT/L<level>_<method>/summary.json (the Hertz a, p0 and centre) and the last
-step's contact data; see app/studies/l2_breakdown.py for the definitions.
+step's contact data; see app/studies/l2_breakdown.py for the definitions. A folder that is
+not a study, or a method it did not run, stops with `error:` and exit 2 (before: no line,
+exit 0).
 """
 
 from __future__ import annotations
@@ -41,8 +43,15 @@ def main() -> None:
     ap.add_argument("--method", default="4SD")
     ap.add_argument("--core", type=float, default=0.95, help="core |x| < CORE a")
     args = ap.parse_args()
-    runs = sorted(args.study.glob(f"L*_{args.method}"),
+    if not (args.study / "study.csv").is_file():
+        ap.error(f"{args.study} is not a study's folder (no study.csv): give the --out "
+                 "folder of `python -m app study`")
+    runs = sorted((d for d in args.study.glob(f"L*_{args.method}")
+                   if re.match(r"L\d+_", d.name)),
                   key=lambda d: int(re.match(r"L(\d+)_", d.name).group(1)))
+    if not runs:
+        ap.error(f"{args.study} has no runs of --method {args.method} (L<level>_"
+                 f"{args.method})")
     for run in runs:
         print(json.dumps({"level": int(run.name[1:].split("_")[0]), "method": args.method,
                           **level_row(run, args.core)}), flush=True)

@@ -204,6 +204,9 @@ def main(argv: list[str] | None = None) -> int:
                     help="PNG: the loop Q / (mu P) against delta, and q(x) at --steps")
     ap.add_argument("--steps", type=int, nargs="+", default=[6, 16, 35])
     args = ap.parse_args(argv)
+    if not (args.out / "summary.json").is_file():
+        ap.error(f"{args.out / 'summary.json'} not found: OUT must be the --out folder of a "
+                 "run (configs/mindlin_cycle.toml)")
     res = analyse(args.out, args.radius, args.center_x, args.top_y)
     if args.plot is not None:
         plot(args.out, res, args.steps, args.center_x, args.radius, args.plot)

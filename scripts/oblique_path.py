@@ -21,6 +21,7 @@ import json
 import os
 import subprocess
 import sys
+import tomllib
 from pathlib import Path
 
 import h5py
@@ -58,6 +59,11 @@ def main(argv: list[str] | None = None) -> int:
     src = (ROOT / "configs" / "cattaneo_aligned.toml").read_text()
     if APPROACH not in src or TANGENTIAL not in src:
         raise SystemExit("error: configs/cattaneo_aligned.toml is not the expected scene")
+    mu = float(tomllib.loads(src)["interface"][0]["mu"])
+    if not 0.0 < args.k < mu:  # k >= mu: the tangential load exceeds friction, no equilibrium
+        ap.error(f"--k {args.k}: Q / P must be above 0 and below mu = {mu:g}")
+    if args.steps < 1 or args.refine < 0:
+        ap.error("--steps must be at least 1 and --refine at least 0")
     n = args.steps
     src = src.replace("steps = 6", f"steps = {n}").replace(APPROACH, f"ramp = [1, {n}]")
     args.out.mkdir(parents=True, exist_ok=True)

@@ -90,6 +90,23 @@ def test_hertz_centre_off_the_interface_is_an_input_error():
             pressure_errors({"radius": 1.0, "center_x": x0}, run)
 
 
+def test_a_hertz_centre_on_a_single_pair_at_round_off_is_on_the_interface():
+    """hertz.toml with search_distance = 1e-9 has one pair, at x = -1.8e-16 (the arc's
+    bottom node): reference.center_x = 0 read as outside it, and the run failed after its
+    last step (`... pairs span x = -1.837e-16 to -1.837e-16`). Round-off is inside now."""
+    from app.references.hertz import pressure_errors
+
+    x = np.array([-1.8369701987210297e-16])
+    c = ContactProfile(x=x, p=np.array([4.6e4]), q=0 * x, length=np.array([0.019]),
+                       p_force=np.array([863.0]), q_force=0 * x, stick=np.zeros(1, bool),
+                       mu=0.0, E_star=1.1e5, interface="contact")
+    run = RunFigures(E=2e5, nu=0.3, plane="strain", thickness=1.0, strain_energy=1.0,
+                     point_values={}, contact=c)
+    assert pressure_errors({"radius": 1.0, "center_x": 0.0}, run)["center_x"] == 0.0
+    with pytest.raises(InputError, match="lies outside interface 'contact'"):
+        pressure_errors({"radius": 1.0, "center_x": 1e-6}, run)
+
+
 @pytest.mark.parametrize("thickness", [0.5, 1.0, 2.0])
 def test_timoshenko_load_is_per_unit_thickness_like_the_configs_loads(thickness):
     """cantilever.toml's traction integrates to P per unit thickness and the run multiplies
