@@ -491,11 +491,7 @@ def _usage_error(what: str) -> int:
 
 def _check_arguments(ap: argparse.ArgumentParser, a: argparse.Namespace) -> None:
     """What cannot be compared stops with `error:`, exit 2: before, a missing CONFIG failed
-    alike on every rank count and read `ok`, a missing --compare folder was a traceback
-    (what the folders hold: `compare_trees`)."""
-    for out in a.compare or []:
-        if not out.is_dir():
-            ap.error(f"--compare {out} is not a folder (give two output folders)")
+    alike on every rank count and read `ok`. (--compare's folders: `compare_trees`, one line.)"""
     if a.compare:
         return
     missing = [str(c) for c in a.configs if not c.is_file()]
