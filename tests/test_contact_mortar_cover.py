@@ -267,7 +267,8 @@ def test_a_node_at_a_free_master_end_without_a_row_gives_its_share_away(name, sh
     Before, only a node beyond the end by more than XI_EPS gave its share away: this one
     kept its own test function without a row and lost 0.05 of 1.0 (5%), and a slave
     straddling two masters whose joint lay 1e-6 of an edge before a slave node read
-    p 6.3-13.7 for a uniform 10 (37% off, no straddle warning since `mortarfix`)."""
+    p 9.97-13.71 for a uniform 10 (mortar; 37% off, no straddle warning since
+    `mortarfix`)."""
     mesh = rotate(graded_at_master_end(shift), deg)[0]
     rows = DISCRETISATIONS[name](mesh, itf(), 0)
     covered = 1.0 + min(shift, 0.0)
