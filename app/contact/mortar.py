@@ -41,6 +41,7 @@ from scipy.spatial import cKDTree
 
 from app.contact.constraints import ContactConstraints
 from app.contact.pairs import (
+    XI_EPS,
     ContactPairs,
     _beyond_free_end,
     _curve_edges,
@@ -632,13 +633,17 @@ def ls_max(xs1: np.ndarray, xs2: np.ndarray) -> float:
 
 def _beyond_master_end(geo: SlaveGeometry, reach: float) -> np.ndarray:
     """(q,) bool: the slave nodes whose closest master segment (within reach) they project
-    beyond a free end of the master curve (by more than XI_EPS, as
-    `app.contact.pairs.covered_tributary`)."""
+    at or beyond a free end of the master curve (within XI_EPS of the end segment, or past
+    it). At the end too: a node there (or past it by less than XI_EPS) with less than half
+    its support over the master has no row, and kept its own test function: its covered
+    share counted for no node (0.05 of 1.0 for a node at the end between slave edges of
+    0.3 beyond and 0.1 over the master; 37% off p for a slave straddling two masters whose
+    joint lay 1e-6 of an edge before a slave node)."""
     m_edges = geo.m_edges
     seg_len = np.linalg.norm(geo.pts[m_edges[:, 1]] - geo.pts[m_edges[:, 0]], axis=1)
     m_degree = np.bincount(m_edges.ravel(), minlength=geo.pts.shape[0])
     out, _, _ = _beyond_free_end(geo.pts[geo.nodes], (), geo.pts, m_edges, seg_len,
-                                 m_degree, reach)
+                                 m_degree, reach, eps=-XI_EPS)
     beyond = np.zeros(geo.nodes.size, dtype=bool)
     beyond[out] = True
     return beyond

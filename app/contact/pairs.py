@@ -366,15 +366,17 @@ def covered_tributary(pts: np.ndarray, s_edges: np.ndarray, m_edges: np.ndarray,
 
 def _beyond_free_end(probe: np.ndarray, others: tuple[np.ndarray, ...], pts: np.ndarray,
                      m_edges: np.ndarray, seg_len: np.ndarray, m_degree: np.ndarray,
-                     reach: float) -> tuple[np.ndarray, np.ndarray, list[np.ndarray]]:
+                     reach: float, eps: float = XI_EPS
+                     ) -> tuple[np.ndarray, np.ndarray, list[np.ndarray]]:
     """The points of probe (k, 2) whose closest master segment (within reach) they project
-    beyond a free end of by more than XI_EPS: their indices out (o,), their distances
-    s (o,) > 0 past that end along the end segment's outward tangent, and those of the
-    matching points of each array in others ((k, 2) each) as a list of (o,) (length)."""
+    beyond a free end of by more than eps (segment parameter; -XI_EPS: at the end or
+    beyond it): their indices out (o,), their distances s (o,) past that end along the end
+    segment's outward tangent, and those of the matching points of each array in others
+    ((k, 2) each) as a list of (o,) (length)."""
     seg, xr, _ = closest_segments(probe, pts[m_edges[:, 0]], pts[m_edges[:, 1]], reach)
     sg = np.where(seg >= 0, seg, 0)
-    a_end = (seg >= 0) & (xr < -XI_EPS) & (m_degree[m_edges[sg, 0]] == 1)
-    b_end = (seg >= 0) & (xr > 1 + XI_EPS) & (m_degree[m_edges[sg, 1]] == 1)
+    a_end = (seg >= 0) & (xr < -eps) & (m_degree[m_edges[sg, 0]] == 1)
+    b_end = (seg >= 0) & (xr > 1 + eps) & (m_degree[m_edges[sg, 1]] == 1)
     out = np.flatnonzero(a_end | b_end)
     end = np.where(a_end[out], m_edges[sg[out], 0], m_edges[sg[out], 1])
     other = np.where(a_end[out], m_edges[sg[out], 1], m_edges[sg[out], 0])
