@@ -549,3 +549,37 @@ def test_a_stiff_floating_block_keeps_its_open_pairs_free_of_friction_node_to_se
         steps[e] = read_summary(tmp_path / e)["steps"]
     assert steps["1e10"][6]["states"] == steps["1e6"][6]["states"]
     assert max(steps["1e10"][6]["kkt_pairs"][k] for k in ("normal", "tangential")) < 1e-8
+
+
+def test_a_stiff_floating_block_at_1e11_finds_the_equilibrium_lemkes_ray_missed(tmp_path):
+    """two_blocks.toml with node-to-segment, the upper block floating, mu = 0.5, a
+    pressure of 10 and a tangential force 0, 4, 8 (0.8 mu P). At E = 1e11 on 1e3 step 3
+    stopped with `no static equilibrium` (Lemke's secondary ray, which proves nothing with
+    free modes and friction) where 1e10 and 1e12 complete: the mixed-integer search bounded
+    the slips in Lemke's scaling, 1 / sqrt(H_ii), which the stiff body's compliance sets
+    (11 slave nodes on 9 master nodes), and the answer's scaled slip (2.4e3) lay beyond its
+    1e3. Bounded in each pair's own compliance's units, the search finds it: the states of
+    E = 1e6 and 1e12 (2 stick, 6 slip-, 3 open), p and q as 1e12's to 1e-4 of P."""
+    import h5py
+    from support import CONFIGS, read_summary, run_cli
+
+    sets = ["--set", "interface.interface.mu=0.5", "--set", "analysis.steps=3", "--set",
+            'interface.interface.discretisation="node-to-segment"', "--set",
+            'support=[{on="lower_base",ux=0.0,uy=0.0}]', "--set",
+            'load=[{on="upper_top",pressure=10.0},{on="upper_top",total_force=[8.0,0.0],'
+            'history=[0.0,0.5,1.0]}]']
+    steps, forces = {}, {}
+    for e in ("1e6", "1e11", "1e12"):
+        res = run_cli(["run", str(CONFIGS / "two_blocks.toml"), "--out", str(tmp_path / e),
+                       "--quiet", "--set", f"body.upper.E={e}", *sets], timeout=120)
+        assert res.returncode == 0, res.stderr
+        steps[e] = read_summary(tmp_path / e)["steps"]
+        with h5py.File(tmp_path / e / "step_0003.h5") as f:
+            order = np.argsort(f["contact/x"][()])
+            forces[e] = np.stack([f["contact/p"][()][order], f["contact/q"][()][order]])
+    last = steps["1e11"][2]
+    assert last["states"] == steps["1e6"][2]["states"] == steps["1e12"][2]["states"]
+    assert last["states"]["open"] == 3 and last["states"]["slip-"] == 6
+    assert max(last["kkt"].values()) < 1e-12 and last["balance"]["max_relative_residual"] < 1e-12
+    assert max(last["kkt_pairs"][k] for k in ("normal", "tangential", "consistency")) < 1e-12
+    np.testing.assert_allclose(forces["1e11"], forces["1e12"], atol=1e-4 * 20.0)

@@ -392,8 +392,9 @@ class ContactLCP:
         modes, or Lemke's answer from the basis of `complementary_basis` when that solves
         it. With free mode amplitudes and friction the LCP is not copositive-plus: its
         secondary ray does not prove that there is no equilibrium (multibody.toml --sd 1
-        --mesh-size 1.2 has one, with 22 hourglass modes held by friction)."""
-        basis, found = complementary_basis(ms, qs)
+        --mesh-size 1.2 has one, with 22 hourglass modes held by friction). The search
+        bounds each slip by `_slip_widen` times MIP_BOUND: in its own compliance's units."""
+        basis, found = complementary_basis(ms, qs, widen=self._slip_widen())
         if basis is not None:
             again = self.solver(ms, qs, basis=basis, cold_start=False, cache=self.cache)
             if again.status == "solved":
@@ -404,6 +405,22 @@ class ContactLCP:
             found += f", which Lemke's check did not accept ({again.status})"
         res.message += f"; {found}"
         return res
+
+    def _slip_widen(self) -> np.ndarray:
+        """(n,) the factor sqrt(C_tt,ii) / d_i (>= 1 on the slip unknowns s+-, 1 elsewhere)
+        on the mixed-integer search's bound: a slip s of the pair's own compliance scale
+        sqrt(C_tt,ii) counts 1, as p at sqrt(A_ii) does. Lemke's scaling d = 1 / sqrt(H_ii),
+        H = C_tt^-1, measures the slip by the stiffest direction of C_tt instead: where a
+        stiff floating body's slave nodes outnumber the soft master's (node-to-segment on
+        two_blocks.toml, 11 on 9, E = 1e10..1e12 on 1e3), H_ii grows with E and the
+        answer's scaled slip with sqrt(E) (822, 2.4e3, 7.6e3 at step 3 of a tangential
+        cycle): the bound of 1e3 excluded it at 1e11, where Lemke ended on its ray."""
+        e, f = self.edges, self.fric
+        widen = np.ones(self.size)
+        own = np.sqrt(np.abs(np.diagonal(self.c)[self.m:][f]))
+        for k in (1, 2):
+            widen[e[k]:e[k + 1]] = np.maximum(own / self.scaling[e[k]:e[k + 1]], 1.0)
+        return widen
 
     def _solution(self, p: np.ndarray, q: np.ndarray, alpha: np.ndarray,
                   gap_free: np.ndarray, tau_free: np.ndarray, splus: np.ndarray,
