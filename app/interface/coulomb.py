@@ -73,6 +73,29 @@ def motion_size(*terms: np.ndarray) -> np.ndarray:
     return np.abs(np.stack(terms)).max(axis=0)
 
 
+def pair_kinematics(c_lam: tuple[np.ndarray, np.ndarray], n_modes: np.ndarray,
+                    t_modes: np.ndarray | None, alpha: np.ndarray, gap_base: np.ndarray,
+                    tau_base: np.ndarray) -> tuple[np.ndarray, np.ndarray, tuple, tuple]:
+    """(gap, tau, gap terms, tau terms), (m,) each, of the contact forces' motion c_lam =
+    (C_n lam, C_t lam) (m,) each and the mode amplitudes alpha (r,): gap = gap_base +
+    C_n lam + N alpha and tau = tau_base + C_t lam + T alpha (N = n_modes (m, r), T =
+    t_modes (m, r), None for no term; summed left to right), and the terms whose round-off
+    those sums carry (`motion_size`). gap_base: the free gap; tau_base: the free tau (tau),
+    or tau_free - tau_prev (then tau is the step's motion tau - tau_prev). The one sum of
+    `ContactLCP` and of `app.interface.candidates` (the pairs outside the candidates).
+    The callers form C lam: a BLAS product's last bits depend on the matrix's row count
+    (its row blocking), and each keeps the products its answers were measured with."""
+    gap_terms = (gap_base, c_lam[0], n_modes @ alpha)
+    tau_terms = (tau_base, c_lam[1])
+    if t_modes is not None:
+        tau_terms += (t_modes @ alpha,)
+    gap = gap_terms[0] + gap_terms[1] + gap_terms[2]
+    tau = tau_terms[0] + tau_terms[1]
+    for term in tau_terms[2:]:
+        tau = tau + term
+    return gap, tau, gap_terms, tau_terms
+
+
 POLISH_REL = 1e-12
 """`ContactLCP._polished` keeps its answer when it leaves the basis's signs by at most this
 times the pair's own force and motion terms (round-off of the solve, not a wrong basis).
@@ -434,22 +457,11 @@ class ContactLCP:
     def _kinematics(self, p: np.ndarray, q: np.ndarray, alpha: np.ndarray,
                     gap_base: np.ndarray, tau_base: np.ndarray
                     ) -> tuple[np.ndarray, np.ndarray, tuple, tuple]:
-        """(gap, tau, gap terms, tau terms) of the forces p, q (m,) and mode amplitudes alpha
-        (r,): gap = gap_base + C_n lam + N alpha and tau = tau_base + C_t lam + T alpha
-        (lam = (p, q); summed left to right), and the terms (each (m,)) whose round-off
-        those sums carry (`motion_size`). gap_base: the free gap; tau_base: the free tau
-        (tau), or tau_free - tau_prev (then tau is the step's motion tau - tau_prev)."""
-        m = self.m
-        lam = np.concatenate([p, q])
-        gap_terms = (gap_base, self.c[:m] @ lam, self.nm @ alpha)
-        tau_terms = (tau_base, self.c[m:] @ lam)
-        if self.r:
-            tau_terms += (self.tm_all @ alpha,)
-        gap = gap_terms[0] + gap_terms[1] + gap_terms[2]
-        tau = tau_terms[0] + tau_terms[1]
-        for term in tau_terms[2:]:
-            tau = tau + term
-        return gap, tau, gap_terms, tau_terms
+        """`pair_kinematics` of this LCP's pairs (C with the fixed pairs' ties; C_n lam and
+        C_t lam as two products)."""
+        m, lam = self.m, np.concatenate([p, q])
+        return pair_kinematics((self.c[:m] @ lam, self.c[m:] @ lam), self.nm,
+                               self.tm_all if self.r else None, alpha, gap_base, tau_base)
 
     def _off_basis(self, sol: ContactSolution, basis: np.ndarray, tau_prev: np.ndarray,
                    c: np.ndarray, mu: np.ndarray) -> bool:
