@@ -396,7 +396,8 @@ def test_a_stiff_floating_bond_on_a_soft_block_holds_at_a_contrast_of_1e9(tmp_pa
     6 of 11 pairs debonded without a word. Re-solved on its basis from C itself
     (`ContactLCP._polished`): all pairs bonded, p > 0 and mirror-symmetric as the scene
     is, to 1e-5 of the largest (measured 1.6e-6; Lemke's own answer at E = 1e10, not
-    re-solved, is symmetric to 2.3e-3). On 2 ranks the same (p 4e-7 apart from 1 rank)."""
+    re-solved at a gate of 1e-8, was symmetric to 2.3e-3; re-solved at 1e-10: below).
+    On 2 ranks the same (p 4e-7 apart from 1 rank)."""
     import h5py
     from support import CONFIGS, read_summary, run_cli
 
