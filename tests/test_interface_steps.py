@@ -8,7 +8,7 @@ One or two pairs with a diagonal compliance: gap = gap_free + c_n p, tau = tau_f
 import numpy as np
 import pytest
 
-from app.interface.coulomb import ContactLCP, _rejudged
+from app.interface.coulomb import POLISH_GATE, ContactLCP, _rejudged
 from app.interface.steps import (
     BONDED,
     OPEN,
@@ -396,7 +396,8 @@ def test_a_stiff_floating_bond_on_a_soft_block_holds_at_a_contrast_of_1e9(tmp_pa
     6 of 11 pairs debonded without a word. Re-solved on its basis from C itself
     (`ContactLCP._polished`): all pairs bonded, p > 0 and mirror-symmetric as the scene
     is, to 1e-5 of the largest (measured 1.6e-6; Lemke's own answer at E = 1e10, not
-    re-solved, is symmetric to 2.3e-3). On 2 ranks the same (p 4e-7 apart from 1 rank)."""
+    re-solved at a gate of 1e-8, was symmetric to 2.3e-3; re-solved at 1e-10: below).
+    On 2 ranks the same (p 4e-7 apart from 1 rank)."""
     import h5py
     from support import CONFIGS, read_summary, run_cli
 
@@ -442,17 +443,17 @@ def test_the_uncondensed_re_solve_gives_lemkes_answer_on_an_accurate_basis():
     assert p[3] == 0.0 and p[4] == pytest.approx(-1.0) and np.all(p[:3] > 0)
 
 
-@pytest.mark.parametrize("pair, field, off", [(3, "gap", -1e-6), (1, "tau", -1e-6),
-                                               (2, "tau", 1e-6), (1, "q", 1e-6),
-                                               (2, "q", -1e-6)])
-def test_the_gate_sees_an_open_pair_penetrating_and_a_slip_off_its_sign(pair, field, off):
+@pytest.mark.parametrize("pair, field, sign", [(3, "gap", -1.0), (1, "tau", -1.0),
+                                                (2, "tau", 1.0), (1, "q", 1.0),
+                                                (2, "q", -1.0)])
+def test_the_gate_sees_an_open_pair_penetrating_and_a_slip_off_its_sign(pair, field, sign):
     """`ContactLCP._off_basis` on the answer of the accurate solve above, one pair moved
-    by 1e-6 (100 x POLISH_GATE) of its terms the way its basis forbids: the open pair 3
+    by 100 x POLISH_GATE of its terms the way its basis forbids: the open pair 3
     into the master (gap < 0 at p = -a), the slip+ pair 1 backwards (tau < tau_prev), the
     slip- pair 2 forwards (of its motion terms), or their q off their side of the cone (of
     their forces plus motion / C_tt,ii). Each calls for the uncondensed re-solve (before:
-    only closed and sticking pairs were judged, and these passed); 1e-10 (round-off, below
-    the gate) does not."""
+    only closed and sticking pairs were judged, and these passed); 1e-2 x POLISH_GATE
+    (round-off, below the gate) does not."""
     import dataclasses
 
     m, mu, a = 5, 0.3, np.array([0.0, 0.0, 0.0, 0.0, 1.0])
@@ -469,6 +470,7 @@ def test_the_gate_sees_an_open_pair_penetrating_and_a_slip_off_its_sign(pair, fi
              "q": cc[pair] + mu * abs(sol.p[pair]) + abs(sol.q[pair]) + sol.motion[pair] / CT
              / 1.1}  # (C_tt,ii = 1.1 CT)
     base = {"gap": 0.0, "tau": tau_prev[pair], "q": sol.q[pair]}
+    off = sign * 100.0 * POLISH_GATE
     for rel, fired in ((off, True), (1e-4 * off, False)):
         moved = getattr(sol, field).copy()
         moved[pair] = base[field] + rel * scale[field]
@@ -549,3 +551,87 @@ def test_a_stiff_floating_block_keeps_its_open_pairs_free_of_friction_node_to_se
         steps[e] = read_summary(tmp_path / e)["steps"]
     assert steps["1e10"][6]["states"] == steps["1e6"][6]["states"]
     assert max(steps["1e10"][6]["kkt_pairs"][k] for k in ("normal", "tangential")) < 1e-8
+
+
+def test_a_stiff_floating_block_at_1e11_finds_the_equilibrium_lemkes_ray_missed(tmp_path):
+    """two_blocks.toml with node-to-segment, the upper block floating, mu = 0.5, a
+    pressure of 10 and a tangential force 0, 4, 8 (0.8 mu P). At E = 1e11 on 1e3 step 3
+    stopped with `no static equilibrium` (Lemke's secondary ray, which proves nothing with
+    free modes and friction) where 1e10 and 1e12 complete: the mixed-integer search bounded
+    the slips in Lemke's scaling, 1 / sqrt(H_ii), which the stiff body's compliance sets
+    (11 slave nodes on 9 master nodes), and the answer's scaled slip (2.4e3) lay beyond its
+    1e3. Bounded in each pair's own compliance's units, the search finds it: the states of
+    E = 1e6 and 1e12 (2 stick, 6 slip-, 3 open), p and q as 1e12's to 1e-4 of P."""
+    import h5py
+    from support import CONFIGS, read_summary, run_cli
+
+    sets = ["--set", "interface.interface.mu=0.5", "--set", "analysis.steps=3", "--set",
+            'interface.interface.discretisation="node-to-segment"', "--set",
+            'support=[{on="lower_base",ux=0.0,uy=0.0}]', "--set",
+            'load=[{on="upper_top",pressure=10.0},{on="upper_top",total_force=[8.0,0.0],'
+            'history=[0.0,0.5,1.0]}]']
+    steps, forces = {}, {}
+    for e in ("1e6", "1e11", "1e12"):
+        res = run_cli(["run", str(CONFIGS / "two_blocks.toml"), "--out", str(tmp_path / e),
+                       "--quiet", "--set", f"body.upper.E={e}", *sets], timeout=120)
+        assert res.returncode == 0, res.stderr
+        steps[e] = read_summary(tmp_path / e)["steps"]
+        with h5py.File(tmp_path / e / "step_0003.h5") as f:
+            order = np.argsort(f["contact/x"][()])
+            forces[e] = np.stack([f["contact/p"][()][order], f["contact/q"][()][order]])
+    last = steps["1e11"][2]
+    assert last["states"] == steps["1e6"][2]["states"] == steps["1e12"][2]["states"]
+    assert last["states"]["open"] == 3 and last["states"]["slip-"] == 6
+    assert max(last["kkt"].values()) < 1e-12 and last["balance"]["max_relative_residual"] < 1e-12
+    assert max(last["kkt_pairs"][k] for k in ("normal", "tangential", "consistency")) < 1e-12
+    np.testing.assert_allclose(forces["1e11"], forces["1e12"], atol=1e-4 * 20.0)
+
+
+def test_a_stiff_floating_bonded_mortar_block_at_1e10_is_mirror_symmetric(tmp_path):
+    """two_blocks.toml (mortar), the upper block floating, E = 1e10 on 1e3, bonded (a = c =
+    100), mu = 0.5, a pressure of 10: the scene is mirror-symmetric. Lemke's answer closed
+    the gaps to 1.6e-12 of motion terms near 1e-3, below the re-solve's gate of 1e-8, and p
+    was symmetric to 1.8e-3 of its largest only (the stiff body's compliance turns such
+    gaps into forces). With the gate at 1e-10 it is re-solved: symmetric to 2.1e-9."""
+    import h5py
+    from support import CONFIGS, run_cli
+
+    sets = ["--set", "body.upper.E=1e10", "--set", "interface.interface.a=100.0",
+            "--set", "interface.interface.c=100.0", "--set", "interface.interface.mu=0.5",
+            "--set", 'support=[{on="lower_base",ux=0.0,uy=0.0}]']
+    res = run_cli(["run", str(CONFIGS / "two_blocks.toml"), "--out", str(tmp_path / "o"),
+                   "--quiet", *sets], timeout=120)
+    assert res.returncode == 0, res.stderr
+    with h5py.File(tmp_path / "o" / "step_0001.h5") as f:
+        order = np.argsort(f["contact/x"][()])
+        p = f["contact/p"][()][order]
+    assert np.abs(p - p[::-1]).max() <= 1e-6 * np.abs(p).max()
+
+
+def test_a_stiff_floating_block_at_1e11_under_a_cycle_has_the_forces_of_1e10(tmp_path):
+    """two_blocks.toml with node-to-segment, the upper block floating, mu = 0.3, a pressure
+    of 10 and a tangential force 0, 2.4, 4.8, 2.4, 0 (0.8 mu P). At E = 1e11 on 1e3 step 5
+    had the states of E = 1e10 but p and q 31% off (of the largest p) both 1e10's and 1e12's,
+    `kkt` 2e-9: its gaps' error stayed below the re-solve's gate of 1e-8. With the gate at
+    1e-10 the step is re-solved: 1e10's forces to 1e-6 (measured 9.4e-7)."""
+    import h5py
+    from support import CONFIGS, read_summary, run_cli
+
+    sets = ["--set", "interface.interface.mu=0.3", "--set", "analysis.steps=5", "--set",
+            'interface.interface.discretisation="node-to-segment"', "--set",
+            'support=[{on="lower_base",ux=0.0,uy=0.0}]', "--set",
+            'load=[{on="upper_top",pressure=10.0},{on="upper_top",total_force=[4.8,0.0],'
+            'history=[0.0,0.5,1.0,0.5,0.0]}]']
+    steps, forces = {}, {}
+    for e in ("1e10", "1e11"):
+        res = run_cli(["run", str(CONFIGS / "two_blocks.toml"), "--out", str(tmp_path / e),
+                       "--quiet", "--set", f"body.upper.E={e}", *sets], timeout=120)
+        assert res.returncode == 0, res.stderr
+        steps[e] = read_summary(tmp_path / e)["steps"]
+        with h5py.File(tmp_path / e / "step_0005.h5") as f:
+            order = np.argsort(f["contact/x"][()])
+            forces[e] = np.stack([f["contact/p"][()][order], f["contact/q"][()][order]])
+    assert steps["1e11"][4]["states"] == steps["1e10"][4]["states"]
+    scale = np.abs(forces["1e10"][0]).max()
+    assert np.abs(forces["1e11"] - forces["1e10"]).max() <= 1e-5 * scale
+    assert max(steps["1e11"][4]["kkt"].values()) < 1e-12

@@ -33,3 +33,12 @@ def test_a_large_lcp_is_not_searched():
     n = MIP_MAX_SIZE + 1
     basis, text = complementary_basis(np.eye(n), np.ones(n))
     assert basis is None and f"size {n}" in text
+
+
+def test_a_widened_bound_admits_a_larger_unknown_of_its_own():
+    """z = 2000 solves w = z - 2000: beyond the bound 1e3, found with widen = 3 on it."""
+    m, q = np.array([[1.0]]), np.array([-2000.0])
+    assert complementary_basis(m, q)[0] is None
+    basis, text = complementary_basis(m, q, widen=np.array([3.0]))
+    assert basis is not None and basis[0], text
+    assert lemke(m, q, basis=basis, cold_start=False).status == "solved"

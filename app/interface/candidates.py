@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from app.interface.coulomb import ContactLCP, ContactSolution, motion_size
+from app.interface.coulomb import ContactLCP, ContactSolution, motion_size, pair_kinematics
 from app.lcp import lemke
 from app.lcp.solvers import LCPSolver
 
@@ -157,11 +157,10 @@ class CandidateLCP:
         m = self.m
         p, q = np.zeros(m), np.zeros(m)
         p[idx], q[idx] = s.p, s.q
-        lam = np.concatenate([s.p, s.q])
-        cl = self._cols @ lam
-        na, ta = self.nm @ s.alpha, self.tm_all @ s.alpha
-        gap = gap_free + cl[:m] + na
-        tau = tau_free + cl[m:] + ta
+        cl = self._cols @ np.concatenate([s.p, s.q])  # (one product: see pair_kinematics)
+        gap, tau, gap_terms, tau_terms = pair_kinematics(
+            (cl[:m], cl[m:]), self.nm, self.tm_all if self.r else None, s.alpha, gap_free,
+            tau_free)
         splus, sminus = np.zeros(m), np.zeros(m)
         splus[idx], sminus[idx] = s.slip_plus, s.slip_minus
         gap[idx], tau[idx] = s.gap, s.tau
@@ -178,7 +177,7 @@ class CandidateLCP:
             fr = self.fric_rank[slipping]
             basis[m + fr] = splus[slipping] > 0
             basis[m + self.mf + fr] = sminus[slipping] > 0
-        motion = motion_size(gap_free, cl[:m], na, tau_free, cl[m:], ta)
+        motion = motion_size(*gap_terms, *tau_terms)
         motion[idx] = np.maximum(motion[idx], s.motion)
         return ContactSolution(p, q, gap, tau, splus, sminus, s.alpha, s.pivots, s.status,
                                basis, s.residual, s.message, motion)

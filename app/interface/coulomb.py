@@ -73,6 +73,29 @@ def motion_size(*terms: np.ndarray) -> np.ndarray:
     return np.abs(np.stack(terms)).max(axis=0)
 
 
+def pair_kinematics(c_lam: tuple[np.ndarray, np.ndarray], n_modes: np.ndarray,
+                    t_modes: np.ndarray | None, alpha: np.ndarray, gap_base: np.ndarray,
+                    tau_base: np.ndarray) -> tuple[np.ndarray, np.ndarray, tuple, tuple]:
+    """(gap, tau, gap terms, tau terms), (m,) each, of the contact forces' motion c_lam =
+    (C_n lam, C_t lam) (m,) each and the mode amplitudes alpha (r,): gap = gap_base +
+    C_n lam + N alpha and tau = tau_base + C_t lam + T alpha (N = n_modes (m, r), T =
+    t_modes (m, r), None for no term; summed left to right), and the terms whose round-off
+    those sums carry (`motion_size`). gap_base: the free gap; tau_base: the free tau (tau),
+    or tau_free - tau_prev (then tau is the step's motion tau - tau_prev). The one sum of
+    `ContactLCP` and of `app.interface.candidates` (the pairs outside the candidates).
+    The callers form C lam: a BLAS product's last bits depend on the matrix's row count
+    (its row blocking), and each keeps the products its answers were measured with."""
+    gap_terms = (gap_base, c_lam[0], n_modes @ alpha)
+    tau_terms = (tau_base, c_lam[1])
+    if t_modes is not None:
+        tau_terms += (t_modes @ alpha,)
+    gap = gap_terms[0] + gap_terms[1] + gap_terms[2]
+    tau = tau_terms[0] + tau_terms[1]
+    for term in tau_terms[2:]:
+        tau = tau + term
+    return gap, tau, gap_terms, tau_terms
+
+
 POLISH_REL = 1e-12
 """`ContactLCP._polished` keeps its answer when it leaves the basis's signs by at most this
 times the pair's own force and motion terms (round-off of the solve, not a wrong basis).
@@ -81,12 +104,17 @@ Its solve leaves gaps of 1e-15 of those terms; with 1e-9 a pair that a stiff flo
 as open at p = 0 and the pressure ran 0..18.9 in place of 9.06..13.7
 (`tests/test_interface_steps.py`)."""
 
-POLISH_GATE = 1e-8
+POLISH_GATE = 1e-10
 """`ContactLCP._off_basis`: a closed pair's gap, an open pair's penetration, a sticking
 pair's tangential motion or a slipping pair's motion against its slip above this times its
 motion terms (or a pair's q off its bound by this of its force terms) calls for
 `ContactLCP._polished` (below the state tolerance, 1e-7, of `app.interface.steps`, so that
-no such round-off reaches the pair states)."""
+no such round-off reaches the pair states). 1e-10, not 1e-8 (before): a stiff floating
+body's forces move its gaps by its own compliance only (two_blocks.toml, E = 1e10..1e11 on
+1e3), so gaps of 1e-9 of the motion terms were forces tens of percent off: at 1e-8 the
+mortar block at E = 1e10 was mirror-symmetric to 1.8e-3 only (2.1e-9 now), and a
+tangential cycle at 1e11 (node-to-segment, mu = 0.3) read p, q 31% off 1e10's and 1e12's
+with the right states (now 1e-6). The shipped configs fire on the same solves at both."""
 
 UNSHIFTED_PIVOTS = 8
 """Block pivots `ContactLCP._unshifted` tries on Lemke's final basis before keeping z."""
@@ -392,8 +420,9 @@ class ContactLCP:
         modes, or Lemke's answer from the basis of `complementary_basis` when that solves
         it. With free mode amplitudes and friction the LCP is not copositive-plus: its
         secondary ray does not prove that there is no equilibrium (multibody.toml --sd 1
-        --mesh-size 1.2 has one, with 22 hourglass modes held by friction)."""
-        basis, found = complementary_basis(ms, qs)
+        --mesh-size 1.2 has one, with 22 hourglass modes held by friction). The search
+        bounds each slip by `_slip_widen` times MIP_BOUND: in its own compliance's units."""
+        basis, found = complementary_basis(ms, qs, widen=self._slip_widen())
         if basis is not None:
             again = self.solver(ms, qs, basis=basis, cold_start=False, cache=self.cache)
             if again.status == "solved":
@@ -404,6 +433,22 @@ class ContactLCP:
             found += f", which Lemke's check did not accept ({again.status})"
         res.message += f"; {found}"
         return res
+
+    def _slip_widen(self) -> np.ndarray:
+        """(n,) the factor sqrt(C_tt,ii) / d_i (>= 1 on the slip unknowns s+-, 1 elsewhere)
+        on the mixed-integer search's bound: a slip s of the pair's own compliance scale
+        sqrt(C_tt,ii) counts 1, as p at sqrt(A_ii) does. Lemke's scaling d = 1 / sqrt(H_ii),
+        H = C_tt^-1, measures the slip by the stiffest direction of C_tt instead: where a
+        stiff floating body's slave nodes outnumber the soft master's (node-to-segment on
+        two_blocks.toml, 11 on 9, E = 1e10..1e12 on 1e3), H_ii grows with E and the
+        answer's scaled slip with sqrt(E) (822, 2.4e3, 7.6e3 at step 3 of a tangential
+        cycle): the bound of 1e3 excluded it at 1e11, where Lemke ended on its ray."""
+        e, f = self.edges, self.fric
+        widen = np.ones(self.size)
+        own = np.sqrt(np.abs(np.diagonal(self.c)[self.m:][f]))
+        for k in (1, 2):
+            widen[e[k]:e[k + 1]] = np.maximum(own / self.scaling[e[k]:e[k + 1]], 1.0)
+        return widen
 
     def _solution(self, p: np.ndarray, q: np.ndarray, alpha: np.ndarray,
                   gap_free: np.ndarray, tau_free: np.ndarray, splus: np.ndarray,
@@ -417,22 +462,11 @@ class ContactLCP:
     def _kinematics(self, p: np.ndarray, q: np.ndarray, alpha: np.ndarray,
                     gap_base: np.ndarray, tau_base: np.ndarray
                     ) -> tuple[np.ndarray, np.ndarray, tuple, tuple]:
-        """(gap, tau, gap terms, tau terms) of the forces p, q (m,) and mode amplitudes alpha
-        (r,): gap = gap_base + C_n lam + N alpha and tau = tau_base + C_t lam + T alpha
-        (lam = (p, q); summed left to right), and the terms (each (m,)) whose round-off
-        those sums carry (`motion_size`). gap_base: the free gap; tau_base: the free tau
-        (tau), or tau_free - tau_prev (then tau is the step's motion tau - tau_prev)."""
-        m = self.m
-        lam = np.concatenate([p, q])
-        gap_terms = (gap_base, self.c[:m] @ lam, self.nm @ alpha)
-        tau_terms = (tau_base, self.c[m:] @ lam)
-        if self.r:
-            tau_terms += (self.tm_all @ alpha,)
-        gap = gap_terms[0] + gap_terms[1] + gap_terms[2]
-        tau = tau_terms[0] + tau_terms[1]
-        for term in tau_terms[2:]:
-            tau = tau + term
-        return gap, tau, gap_terms, tau_terms
+        """`pair_kinematics` of this LCP's pairs (C with the fixed pairs' ties; C_n lam and
+        C_t lam as two products)."""
+        m, lam = self.m, np.concatenate([p, q])
+        return pair_kinematics((self.c[:m] @ lam, self.c[m:] @ lam), self.nm,
+                               self.tm_all if self.r else None, alpha, gap_base, tau_base)
 
     def _off_basis(self, sol: ContactSolution, basis: np.ndarray, tau_prev: np.ndarray,
                    c: np.ndarray, mu: np.ndarray) -> bool:

@@ -33,16 +33,21 @@ BASIC_REL = 1e-9
 
 
 def complementary_basis(m: np.ndarray, q: np.ndarray, bound: float = MIP_BOUND,
-                        seconds: float = MIP_SECONDS) -> tuple[np.ndarray | None, str]:
+                        seconds: float = MIP_SECONDS, widen: np.ndarray | None = None
+                        ) -> tuple[np.ndarray | None, str]:
     """(basis (n,) bool or None, what the search found, in words) for LCP(m, q), m (n, n)
-    and q (n,) scaled to a unit diagonal: z, w = m z + q >= 0, z_i <= bound y_i, w_i <=
-    bound (1 - y_i), y binary, least sum(z). None when there is no such solution (within
-    `bound`), the LCP is above MIP_MAX_SIZE or the search ran out of nodes or time."""
+    and q (n,) scaled to a unit diagonal: z, w = m z + q >= 0, z_i <= bound widen_i y_i,
+    w_i <= bound (1 - y_i), y binary, least sum(z). widen (n,) >= 1 (default 1): a
+    caller's factor on the bound of the unknowns whose unit diagonal understates them (see
+    `app.interface.coulomb.ContactLCP._searched`). None when there is no such solution
+    (within the bounds), the LCP is above MIP_MAX_SIZE or the search ran out of nodes or
+    time."""
     n = q.size
     if n == 0 or n > MIP_MAX_SIZE:
         return None, f"no mixed-integer search (size {n} > {MIP_MAX_SIZE})"
+    zb = bound * (np.ones(n) if widen is None else np.maximum(widen, 1.0))
     eye, zero = np.eye(n), np.zeros((n, n))
-    a = np.block([[m, zero], [eye, -bound * eye], [m, bound * eye]])
+    a = np.block([[m, zero], [eye, -np.diag(zb)], [m, bound * eye]])
     inf = np.full(n, np.inf)
     lo = np.concatenate([-q, -inf, -inf])
     hi = np.concatenate([inf, np.zeros(n), bound - q])
@@ -52,8 +57,10 @@ def complementary_basis(m: np.ndarray, q: np.ndarray, bound: float = MIP_BOUND,
                bounds=Bounds(np.zeros(2 * n), np.concatenate([inf, np.ones(n)])),
                options={"node_limit": MIP_NODES, "time_limit": seconds, "mip_rel_gap": 0.0})
     if res.status == 0 and res.x is not None:
-        return res.x[:n] > BASIC_REL * bound, "a mixed-integer search found a basis"
+        return res.x[:n] > BASIC_REL * zb, "a mixed-integer search found a basis"
     if res.status == 2:
+        wider = "" if widen is None or not (widen > 1.0).any() else \
+            f" ({int((widen > 1.0).sum())} of them up to {zb.max():.1e})"
         return None, ("a mixed-integer search found no solution with the scaled unknowns "
-                      f"below {bound:.0e}")
+                      f"below {bound:.0e}{wider}")
     return None, f"the mixed-integer search ended without a basis ({res.message})"
