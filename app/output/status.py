@@ -29,6 +29,7 @@ from app import exit_sync, hard_stop
 from app.errors import InputError, SolveError
 from app.output import startup_signals
 from app.output.out_owner import foreign_files, foreign_message
+from app.output.plot_mark import clear_marked
 
 LOCK_NAME = startup_signals.LOCK_NAME
 STALE = startup_signals.STALE
@@ -492,7 +493,7 @@ class RunGuard:
                 raise InputError(foreign_message(self.out, foreign))
             token = uuid.uuid4().hex  # this run's notes (exit_sync.note_in)
             exit_sync.note_in(self.out, 0, token)  # (before the others go on)
-            return clear_files(self.out), token
+            return clear_files(self.out) + clear_marked(self.out), token
 
         _ON_FAILURE.clear()
         startup_signals.defer()  # a signal now is acted on below, not between these writes
