@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import sys
+import time
 from contextlib import AbstractContextManager
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -50,6 +51,8 @@ class RunContext:
             self.timer = run_timer(self.opts)
         if self.opts.started is not None:  # imports, config checks, provenance, --out lock
             self.timer.count_from(self.opts.started, "startup")
+        else:  # a study's run: its clock starts here, with its first phase (as before)
+            self.timer.start = time.perf_counter()
 
     @property
     def mpi(self):
