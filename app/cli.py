@@ -194,8 +194,11 @@ def _start(args: argparse.Namespace, petsc_args: list[str]) -> int | None:
     says why, OUT/summary.json says failed), else None."""
     from app.output import startup_signals
     from app.startup.early_failure import record, study_head
+    from app.startup.launch_time import process_start
     from app.startup.petsc import start_petsc
 
+    launched = process_start()  # the `launch` phase, from the process's start
+    startup_signals.set_clock(launched=launched)  # (a stop from here on: its timings)
     stem = args.config.stem if args.command == "run" else f"study_{args.config.stem}"
     startup_signals.arm(Path(args.out or Path("out") / stem), str(args.config),
                         head=None if args.command == "run" else study_head(
@@ -208,9 +211,8 @@ def _start(args: argparse.Namespace, petsc_args: list[str]) -> int | None:
             print(f"error: {record(args, refused, _out_folder)}", file=sys.stderr)
         return 2
     args.started = time.perf_counter()  # a run's `startup` phase counts from here
-    from app.startup.launch_time import process_start
-
-    args.launched = process_start()  # and its `launch` phase, from the process's start
+    args.launched = launched  # and its `launch` phase, from the process's start
+    startup_signals.set_clock(started=args.started)
     return None
 
 

@@ -27,6 +27,8 @@ class Timer:
     prefix: str = ""
     start: float = field(default_factory=time.perf_counter)
     _stages: dict = field(default_factory=dict)
+    _open: list = field(default_factory=list)  # (name, perf_counter at entry), outermost first
+    failed_in: str | None = None  # the innermost phase an exception (or a signal) left
 
     @contextmanager
     def phase(self, name: str) -> Iterator[None]:
@@ -39,12 +41,16 @@ class Timer:
             self._stages[name] = PETSc.Log.Stage(name)
         stage = self._stages[name]
         stage.push()
-        comm.barrier()  # a phase's time includes waiting for the slowest rank
+        self._open.append((name, t0))
         failed = True
         try:
+            comm.barrier()  # a phase's time includes waiting for the slowest rank
             yield
             failed = False
         finally:
+            self._open.remove((name, t0))
+            if failed and self.failed_in is None:
+                self.failed_in = name
             self.peak_mb[name] = peak_rss_mb()
             if not failed:  # a rank that failed alone must not wait for the others here
                 comm.barrier()
@@ -60,7 +66,15 @@ class Timer:
         """Start the run's clock at t0 (perf_counter seconds) and book the time since
         then as the phase `name` (what ran before the timer existed). No progress line:
         an input error found before the first phase stays a one-line message."""
+        self._open = [o for o in self._open if o[0] != name]
         self.book(name, t0, time.perf_counter())
+
+    def begin(self, name: str, t0: float) -> None:
+        """Open the phase `name` at t0 (perf_counter seconds) before the code that runs in
+        it can use `phase` (the run's start-up, closed by `count_from`): a stop before its
+        end counts its seconds so far (`local`). Starts the run's clock at t0."""
+        self.start = min(self.start, t0)
+        self._open.append((name, t0))
 
     def book(self, name: str, t0: float, t1: float) -> None:
         """Book the interval t0..t1 (perf_counter seconds, before the timer existed) as
@@ -76,6 +90,27 @@ class Timer:
         for k in sorted(self.seconds):
             out[k] = comm.allreduce(self.seconds[k], op=_mpi_max())
         return out
+
+    def local(self) -> tuple[dict[str, float], str | None]:
+        """This rank's seconds per phase now, without any collective (a failed or
+        interrupted run's summary: from the main thread after an exception, the watchdog
+        thread or the C handler's text): the completed phases, the seconds so far of the
+        phases still open, and `total`; and the phase the run stopped in (the innermost
+        open one, else the one an exception left, else None: between phases)."""
+        now = time.perf_counter()
+        for _ in range(5):  # the watchdog thread: the main thread may change the dicts
+            try:
+                seconds, open_ = dict(self.seconds), list(self._open)
+                break
+            except RuntimeError:
+                continue
+        else:
+            seconds, open_ = {}, []
+        for name, t0 in open_:
+            seconds[name] = seconds.get(name, 0.0) + now - t0
+        out = {k: seconds[k] for k in sorted(seconds)}
+        out["total"] = now - self.start
+        return out, (open_[-1][0] if open_ else self.failed_in)
 
     def total(self) -> float:
         """Seconds since the timer started, max over ranks: the ranks start their timers at

@@ -16,7 +16,7 @@ from petsc4py import PETSc
 from app.assembly.solve import set_default_options
 from app.config import Config
 from app.driver.contact import condense, solve_contact_step
-from app.driver.context import RunContext, RunOptions, write_summary
+from app.driver.context import RunContext, RunOptions, run_timer, write_summary
 from app.driver.linear import assemble_and_factor, unit_solutions
 from app.driver.model import build_model, build_scene_mesh, make_discretisation
 from app.driver.output import finish, open_output, superpose, write_step
@@ -39,9 +39,10 @@ def run(cfg: Config, opts: RunOptions) -> dict:
                "provenance": collective(provenance, cfg.raw, opts.overrides,
                                         PETSc.COMM_WORLD.getSize())}
     # inf and NaN from overflowing inputs are caught per step by check_finite
-    with RunGuard(Path(opts.out), summary, write_summary, cfg.n_steps), \
+    timer = run_timer(opts)  # (the guard's `failed` / `interrupted` summary: its timings)
+    with RunGuard(Path(opts.out), summary, write_summary, cfg.n_steps, timer), \
             np.errstate(over="ignore", invalid="ignore"):
-        return _phases(RunContext(cfg, opts, summary))
+        return _phases(RunContext(cfg, opts, summary, timer=timer))
 
 
 def _phases(ctx: RunContext) -> dict:

@@ -19,6 +19,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
+from app.output import plot_mark
 from app.plotting import pyplot
 from app.references import REFERENCES
 
@@ -55,7 +56,7 @@ def deformed_mesh(out: Path, step: int, zoom, scale: float | None, prefix: str) 
     ax.set_title(f"step {step}: deformed x {scale:.3g}, coloured by von Mises")
     path = out / safe_file_name(f"{prefix}deformed_von_mises.png")
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=110, metadata=plot_mark.METADATA)  # (a rerun removes it)
     plt.close(fig)
     return path
 
@@ -96,7 +97,7 @@ def contact_plots(out: Path, step: int, summary: dict, prefix: str) -> list[Path
         axes[0].set_title(f"interface '{name}', step {step}")
         path = out / safe_file_name(f"{prefix}contact_{name}.png")
         fig.tight_layout()
-        fig.savefig(path, dpi=110)
+        fig.savefig(path, dpi=110, metadata=plot_mark.METADATA)  # (a rerun removes it)
         plt.close(fig)
         paths.append(path)
     return paths

@@ -64,3 +64,7 @@ def test_sigterm_before_the_guard_records_this_run_as_interrupted(tmp_path, hook
     assert f"error: interrupted by SIGTERM during {when}" in res.stderr
     if ranks == 1:
         assert res.returncode == 143
+    t = s["timings"]  # (before: none) the start-up's seconds so far, in its phases
+    assert s["stopped_in_phase"] == "startup" and set(t) == {"launch", "startup", "total"}, t
+    assert t["launch"] > 0 and t["startup"] > 0
+    assert t["launch"] + t["startup"] == pytest.approx(t["total"], abs=1e-6)

@@ -78,7 +78,8 @@ def solve_contact_step(ctx: RunContext, model: Model, system: LinearSystem,
     with ctx.phase("lcp"):
         result = collective(lambda: stepper.step(step, model.cases))  # on every rank
     if not result.solved:
-        _fail(ctx, model, step, result, system.solver)
+        with ctx.phase("lcp"):  # the diagnosis and the failed summary: in the LCP's seconds
+            _fail(ctx, model, step, result, system.solver)
     correction = np.zeros(2 * model.contact.pairs.n_pairs) if ctx.rank == 0 else None
     refinements, previous = 0, np.inf
     while True:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import sys
+import time
 from contextlib import AbstractContextManager
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -42,17 +43,16 @@ class RunContext:
     opts: RunOptions
     summary: dict
     comm: PETSc.Comm = field(default_factory=lambda: PETSc.COMM_WORLD)
-    timer: Timer = field(init=False)
+    timer: Timer | None = None  # run_timer(opts) made before the run's guard, or a new one
     warned: set = field(default_factory=set)  # keys of the once-per-run warnings given
 
     def __post_init__(self) -> None:
-        prefix = f"{self.opts.progress_prefix}: " if self.opts.progress_prefix else ""
-        self.timer = Timer(quiet=self.opts.quiet, prefix=prefix)
+        if self.timer is None:
+            self.timer = run_timer(self.opts)
         if self.opts.started is not None:  # imports, config checks, provenance, --out lock
             self.timer.count_from(self.opts.started, "startup")
-            launched = self.opts.launched  # the interpreter, imports, PETSc's and MPI's start
-            if launched is not None and launched < self.opts.started:
-                self.timer.book("launch", launched, self.opts.started)
+        else:  # a study's run: its clock starts here, with its first phase (as before)
+            self.timer.start = time.perf_counter()
 
     @property
     def mpi(self):
@@ -85,6 +85,20 @@ class RunContext:
         self.summary.setdefault("warnings", []).append(text)
         if self.rank == 0:
             print(f"warning: {text}", file=sys.stderr, flush=True)
+
+
+def run_timer(opts: RunOptions) -> Timer:
+    """The run's phase timer: `launch` booked (the interpreter, imports, PETSc's and MPI's
+    start) and `startup` open from PETSc's start-up (imports, config checks, provenance,
+    the --out lock and clean-up), so that a stop before the first phase counts them too;
+    RunContext closes `startup`."""
+    prefix = f"{opts.progress_prefix}: " if opts.progress_prefix else ""
+    timer = Timer(quiet=opts.quiet, prefix=prefix)
+    if opts.started is not None:
+        if opts.launched is not None and opts.launched < opts.started:
+            timer.book("launch", opts.launched, opts.started)
+        timer.begin("startup", opts.started)
+    return timer
 
 
 def write_summary(out: Path, summary: dict) -> None:

@@ -42,8 +42,37 @@ EXIT_SIGNAL = {"SIGINT": 130, "SIGTERM": 143}
 LOCK_NAME = ".lock"
 
 _STATE: dict = {"mode": "off", "pending": None, "originals": None, "out": None,
-                "config": None, "head": None}
-"""mode: off (pass signals on), record, act (stop at once) or stopping."""
+                "config": None, "head": None, "launched": None, "started": None}
+"""mode: off (pass signals on), record, act (stop at once) or stopping; launched, started:
+perf_counter at the process's and at PETSc's start (`set_clock`), for the timings."""
+
+
+def set_clock(launched: float | None = None, started: float | None = None) -> None:
+    """The process's start and PETSc's start-up (perf_counter seconds, None: not known or
+    not yet): a stop here writes `timings` with the run's `launch` and `startup` phases."""
+    if launched is not None:
+        _STATE["launched"] = launched
+    if started is not None:
+        _STATE["started"] = started
+
+
+def stop_timings() -> dict:
+    """`timings` (the seconds so far of `launch` and `startup`, and `total`) and
+    `stopped_in_phase` of a stop during start-up; {} when neither start is known."""
+    now = time.perf_counter()
+    launched, started = _STATE["launched"], _STATE["started"]
+    timings: dict[str, float] = {}
+    if started is not None:
+        if launched is not None and launched < started:
+            timings["launch"] = started - launched
+        timings["startup"] = now - started
+    elif launched is not None:
+        timings["launch"] = now - launched
+    if not timings:
+        return {}
+    origin = min(t for t in (launched, started) if t is not None)
+    timings["total"] = now - origin
+    return {"timings": timings, "stopped_in_phase": "startup" if started else "launch"}
 
 
 RANK0_FIRST_SECONDS = 2.0
@@ -173,16 +202,17 @@ def _stop(name: str) -> None:
     reason = f"interrupted by {name} during start-up; no step completed"
     if launcher_rank() == 0:
         if _STATE["out"] is not None:
-            _record(Path(_STATE["out"]), reason, head=_STATE["head"])
+            _record(Path(_STATE["out"]), reason, head=_STATE["head"], more=stop_timings())
         print(f"error: {reason}", file=sys.stderr, flush=True)
     exit_after_rank0(EXIT_SIGNAL[name])
 
 
 def _record(out: Path, reason: str, status: str = "interrupted",
-            head: dict | None = None) -> str | None:
+            head: dict | None = None, more: dict | None = None) -> str | None:
     """With OUT's lock (skipped when another run holds it or OUT is not there): remove the
     earlier run's files of this tool, write a summary.json with `status` and `reason`
-    (head: its first keys, default a run's). Returns None, or why nothing was written."""
+    (head: its first keys, default a run's; more: keys after them, e.g. `timings`).
+    Returns None, or why nothing was written."""
     try:
         out.mkdir(parents=True, exist_ok=True)  # as the run would have
         fh = open(out / LOCK_NAME, "a")
@@ -198,7 +228,8 @@ def _record(out: Path, reason: str, status: str = "interrupted",
                 p.unlink(missing_ok=True)
         text = json.dumps({**(head or {"config": _STATE["config"], "n_steps": None,
                                        "steps": []}),
-                           "status": status, "error": reason}, indent=2) + "\n"
+                           **(more or {}), "status": status, "error": reason},
+                          indent=2) + "\n"
         tmp = out / "summary.json.tmp"
         tmp.write_text(text)
         os.replace(tmp, out / "summary.json")

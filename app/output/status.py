@@ -29,6 +29,7 @@ from app import exit_sync, hard_stop
 from app.errors import InputError, SolveError
 from app.output import startup_signals
 from app.output.out_owner import foreign_files, foreign_message
+from app.output.plot_mark import clear_marked
 
 LOCK_NAME = startup_signals.LOCK_NAME
 STALE = startup_signals.STALE
@@ -467,8 +468,11 @@ def writing() -> Iterator[None]:
 class RunGuard:
     """Context manager around a run: lock, stale files, signals, final status."""
 
-    def __init__(self, out: Path, summary: dict, write, n_steps: int):
+    def __init__(self, out: Path, summary: dict, write, n_steps: int, timer=None):
+        # timer: the run's app.parallel.Timer (its `local` seconds go into the summary of
+        # a failed or interrupted run), or None (no timings then)
         self.out = Path(out)
+        self.timer = timer
         self.summary = summary
         self.write = write
         self.n_steps = n_steps
@@ -489,7 +493,7 @@ class RunGuard:
                 raise InputError(foreign_message(self.out, foreign))
             token = uuid.uuid4().hex  # this run's notes (exit_sync.note_in)
             exit_sync.note_in(self.out, 0, token)  # (before the others go on)
-            return clear_files(self.out), token
+            return clear_files(self.out) + clear_marked(self.out), token
 
         _ON_FAILURE.clear()
         startup_signals.defer()  # a signal now is acted on below, not between these writes
@@ -555,6 +559,7 @@ class RunGuard:
         reason = peer["error"] if peer else self._interrupted_reason(name, where)
         self.summary["status"] = state
         self.summary["error"] = reason
+        timings = self._timings()  # (in the text only: the main thread may be writing the dict)
         if peer and "steps" in self.summary and len(self.summary["steps"]) < self.n_steps:
             self.summary.setdefault("failed_step", len(self.summary["steps"]) + 1)
         if self.rank == 0:
@@ -564,7 +569,7 @@ class RunGuard:
                 pass
             for _ in range(5):  # the main thread may be changing the dict
                 try:  # (its status and error too: a `completed` with this error was seen)
-                    text = json.dumps({**self.summary, "status": state,
+                    text = json.dumps({**self.summary, **timings, "status": state,
                                        "error": reason}, indent=2) + "\n"
                     break
                 except RuntimeError:
@@ -615,6 +620,7 @@ class RunGuard:
         named = re.match(r"interrupted by (SIG[A-Z]+)", stop_reason() or "")
         self.summary["status"] = "interrupted"
         self.summary["error"] = self._interrupted_reason(named[1] if named else "a signal")
+        self._stop_timings()
         self.write(self.out, self.summary)
 
     def _interrupted_reason(self, name: str, where: str = "") -> str:
@@ -635,12 +641,27 @@ class RunGuard:
         from app.output.summary import tail_patch
 
         reason = self._interrupted_reason(name)
-        summary = {**self.summary, "status": "interrupted", "error": reason}
+        summary = {**self.summary, **self._timings(), "status": "interrupted",
+                   "error": reason}
         path = self.out / "summary.json"
-        patch = tail_patch(path, summary, ("error",))
+        patch = tail_patch(path, summary, ("error", "stopped_in_phase"))
         if patch is not None:
             return path, patch[0], patch[1], f"error: {reason}\n"
         return path, -1, (json.dumps(summary, indent=2) + "\n").encode(), f"error: {reason}\n"
+
+    def _timings(self) -> dict:
+        """`timings` (this rank's seconds per phase so far and `total`, no collective: rank 0
+        writes the summary, and a rank that failed alone or a watchdog thread cannot wait
+        for the others) and `stopped_in_phase` (the phase the run stopped in, if known), for
+        a failed or interrupted run's summary; {} without a timer (a failure before the run)."""
+        if self.timer is None:
+            return {}
+        timings, phase = self.timer.local()
+        return {"timings": timings} | ({"stopped_in_phase": phase} if phase else {})
+
+    def _stop_timings(self) -> None:
+        """Put `_timings()` into the summary (a failed or interrupted end)."""
+        self.summary.update(self._timings())
 
     def _done(self) -> str:
         k = len(self.summary.get("steps", []))
@@ -654,11 +675,13 @@ class RunGuard:
             name = exc.signal_name if isinstance(exc, RunInterrupted) else "SIGINT"
             s["status"] = "interrupted"
             s["error"] = self._interrupted_reason(name)
+            self._stop_timings()
             self._record()
             stop = RunInterrupted(name, s["error"])
             stop.summary = s
             raise stop from None
         s["status"] = "failed"
+        self._stop_timings()
         if "steps" in s and "failed_step" not in s and len(s["steps"]) < self.n_steps:
             s["failed_step"] = len(s["steps"]) + 1
         if isinstance(exc, OSError):
