@@ -10,7 +10,7 @@ import sys
 
 from support import CONFIGS, ROOT, mpi_env, run_cli
 
-from app.output import plot_mark
+from app.output import plot_mark, status
 from app.plotting import pyplot
 
 plt = pyplot()  # Agg, without the warning of a second matplotlib on the path
@@ -30,7 +30,7 @@ def test_only_marked_pngs_are_the_tools(tmp_path):
     (tmp_path / "broken.png").write_bytes(b"\x89PNG\r\n\x1a\n\x00\x00")
     assert [p.name for p in sorted(tmp_path.iterdir()) if plot_mark.is_marked(p)] == [
         "plot.png"]
-    assert plot_mark.clear_marked(tmp_path) == ["plot.png"]
+    assert status.clear_files(tmp_path, also=plot_mark.is_marked_png) == ["plot.png"]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["broken.png", "mine.png",
                                                            "other.png"]
 

@@ -38,14 +38,6 @@ def is_marked(path: Path) -> bool:
     return False
 
 
-def clear_marked(out: Path) -> list[str]:
-    """Remove the marked PNGs of OUT (an earlier run's pictures); their names."""
-    removed = []
-    for p in sorted(out.glob("*.png")):
-        if p.is_file() and is_marked(p):
-            try:
-                p.unlink()
-                removed.append(p.name)
-            except OSError:
-                pass
-    return removed
+def is_marked_png(path: Path) -> bool:
+    """Whether `path` is a PNG with the mark (an earlier run's picture, to remove)."""
+    return path.suffix == ".png" and is_marked(path)

@@ -29,7 +29,7 @@ from app import exit_sync, hard_stop
 from app.errors import InputError, SolveError
 from app.output import startup_signals
 from app.output.out_owner import foreign_files, foreign_message
-from app.output.plot_mark import clear_marked
+from app.output.plot_mark import is_marked_png
 
 LOCK_NAME = startup_signals.LOCK_NAME
 STALE = startup_signals.STALE
@@ -279,11 +279,13 @@ def lock_folder(out: Path) -> TextIO:
     return fh
 
 
-def clear_files(out: Path, pattern: re.Pattern = STALE) -> list[str]:
-    """Remove the files of OUT whose names match (this tool's output only)."""
+def clear_files(out: Path, pattern: re.Pattern = STALE,
+                also: Callable[[Path], bool] | None = None) -> list[str]:
+    """Remove the files of OUT whose names match, or for which `also` holds (this tool's
+    output only: e.g. `is_marked_png`, scripts/plot_results.py's pictures)."""
     removed = []
     for p in sorted(out.iterdir()):
-        if pattern.match(p.name) and p.is_file():
+        if p.is_file() and (pattern.match(p.name) or (also is not None and also(p))):
             try:
                 p.unlink()
                 removed.append(p.name)
@@ -493,7 +495,7 @@ class RunGuard:
                 raise InputError(foreign_message(self.out, foreign))
             token = uuid.uuid4().hex  # this run's notes (exit_sync.note_in)
             exit_sync.note_in(self.out, 0, token)  # (before the others go on)
-            return clear_files(self.out) + clear_marked(self.out), token
+            return clear_files(self.out, also=is_marked_png), token
 
         _ON_FAILURE.clear()
         startup_signals.defer()  # a signal now is acted on below, not between these writes
