@@ -37,7 +37,7 @@ class _ClosedPipe:
         raise BrokenPipeError(32, "Broken pipe")
 
 
-def _unlistable(out, pattern=status.STALE):
+def _unlistable(out, pattern=status.STALE, also=None):
     raise FileNotFoundError(2, "No such file or directory", str(out))
 
 

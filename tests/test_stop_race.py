@@ -157,8 +157,8 @@ def test_a_studys_stop_as_a_run_takes_its_folder_leaves_no_running_summary(tmp_p
 
     real_clear = status.clear_files
 
-    def clear_then_stop(out, pattern=status.STALE):  # (in the guard's `start`)
-        removed = real_clear(out, pattern)
+    def clear_then_stop(out, pattern=status.STALE, also=None):  # (in the guard's `start`)
+        removed = real_clear(out, pattern, also)
         threading.Thread(target=BatchGuard(lambda: "sweep: 0 rows").stop_now,
                          args=("SIGTERM",)).start()
         while not fake_exit:  # the study's stop has run its hooks
@@ -180,9 +180,9 @@ def test_the_stops_summary_is_interrupted_whatever_the_main_thread_sets(tmp_path
     summary = {"config": "c.toml", "steps": [{"step": 1}], "status": "running"}
     real_clear = status.clear_files
 
-    def clear_then_complete(out, pattern=status.STALE):
+    def clear_then_complete(out, pattern=status.STALE, also=None):
         summary["status"] = "completed"  # the main thread, at that moment
-        return real_clear(out, pattern)
+        return real_clear(out, pattern, also)
 
     with RunGuard(tmp_path, summary, write_summary, 1) as guard:
         monkeypatch.setattr(status, "clear_files", clear_then_complete)
