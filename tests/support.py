@@ -8,6 +8,7 @@ import os
 import shutil
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -112,3 +113,24 @@ def cleared_petsc_options(keys: tuple[str, ...]):
         o.delValue(k)
     for k, v in saved.items():
         o.setValue(k, v)
+
+
+def signal_when_ready(cmd: list[str], sig: int, readies: int = 1, env=None,
+                      settle: float = 0.3, timeout: float = 60
+                      ) -> tuple[subprocess.CompletedProcess, str, float]:
+    """Start cmd (cwd ROOT), send sig once `readies` "ready" lines have come (mpiexec may
+    forward two ranks' lines interleaved: "readyready" then an empty line) and `settle`
+    seconds passed; (the finished process, the stdout seen before the signal, seconds from
+    the signal to its end)."""
+    proc = subprocess.Popen(cmd, cwd=ROOT, env=env or mpi_env(), stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    seen = ""
+    while seen.count("ready") < readies:
+        line = proc.stdout.readline()
+        assert line, f"ended before {readies} x ready: {seen!r}"
+        seen += line
+    time.sleep(settle)
+    t0 = time.time()
+    proc.send_signal(sig)
+    out, err = proc.communicate(timeout=timeout)
+    return subprocess.CompletedProcess(cmd, proc.returncode, out, err), seen, time.time() - t0

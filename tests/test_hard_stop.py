@@ -8,11 +8,10 @@ import json
 import signal
 import subprocess
 import sys
-import time
 
 import pytest
 from signal_support import sleep_in_a_solve
-from support import CONFIGS, ROOT, mpi_env, read_summary
+from support import CONFIGS, ROOT, read_summary, signal_when_ready
 
 from app import hard_stop
 
@@ -36,22 +35,12 @@ print("not stopped", flush=True)
 
 def _signal_when_ready(cmd: list[str], sig: int, env=None,
                        readies: int = 1) -> subprocess.CompletedProcess:
-    """Send sig once `readies` processes have printed "ready" (mpiexec may forward two
-    ranks' lines interleaved: "readyready" then an empty line)."""
-    proc = subprocess.Popen(cmd, cwd=ROOT, env=env or mpi_env(), stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True)
-    seen = ""
-    while seen.count("ready") < readies:
-        line = proc.stdout.readline()
-        assert line, f"ended before {readies} x ready: {seen!r}"
-        seen += line
+    """Send sig once `readies` processes have printed "ready" and nothing else; the run
+    must stop at once (within 10 s)."""
+    res, seen, seconds = signal_when_ready(cmd, sig, readies, env, settle=0.2, timeout=30)
     assert seen.replace("ready", "").strip() == "", seen
-    time.sleep(0.2)
-    t0 = time.time()
-    proc.send_signal(sig)
-    out, err = proc.communicate(timeout=30)
-    assert time.time() - t0 < 10, "did not stop at once"
-    return subprocess.CompletedProcess(cmd, proc.returncode, out, err)
+    assert seconds < 10, "did not stop at once"
+    return res
 
 
 @pytest.mark.parametrize("sig,code", [(signal.SIGINT, 130), (signal.SIGTERM, 143)])

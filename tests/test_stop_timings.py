@@ -8,11 +8,10 @@ import shutil
 import signal
 import subprocess
 import sys
-import time
 
 import pytest
 from signal_support import cli_with, sleep_in_a_solve
-from support import CONFIGS, ROOT, mpi_env, read_summary
+from support import CONFIGS, ROOT, mpi_env, read_summary, signal_when_ready
 
 from app import hard_stop
 
@@ -84,17 +83,7 @@ def test_a_run_that_fails_on_one_rank_alone_has_timings(tmp_path):
 
 
 def _signal_when_ready(cmd: list[str], sig: int, readies: int) -> subprocess.CompletedProcess:
-    proc = subprocess.Popen(cmd, cwd=ROOT, env=mpi_env(), stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True)
-    seen = ""
-    while seen.count("ready") < readies:
-        line = proc.stdout.readline()
-        assert line, f"ended before {readies} x ready: {seen!r}"
-        seen += line
-    time.sleep(0.3)
-    proc.send_signal(sig)
-    out, err = proc.communicate(timeout=60)
-    return subprocess.CompletedProcess(cmd, proc.returncode, out, err)
+    return signal_when_ready(cmd, sig, readies)[0]
 
 
 @pytest.mark.parametrize("ranks,sig", [(1, signal.SIGINT), (1, signal.SIGTERM),
