@@ -503,6 +503,17 @@ def test_a_stiff_floating_block_sticking_on_a_soft_one_keeps_every_pair_closed(t
     assert np.abs(p[order] - p[order][::-1]).max() <= 1e-5 * p.max()
 
 
+def _upper_block_at(tmp_path, e: str, sets: list[str]):
+    """two_blocks.toml with the upper block's E = `e` and `sets`, run into tmp_path / e:
+    (the finished process, which must succeed, and its summary's steps)."""
+    from support import CONFIGS, read_summary, run_cli
+
+    res = run_cli(["run", str(CONFIGS / "two_blocks.toml"), "--out", str(tmp_path / e),
+                   "--quiet", "--set", f"body.upper.E={e}", *sets], timeout=120)
+    assert res.returncode == 0, res.stderr
+    return res, read_summary(tmp_path / e)["steps"]
+
+
 def test_a_stiff_floating_block_under_a_tangential_cycle_keeps_its_friction_bound(tmp_path):
     """two_blocks.toml, the upper block floating (held only by contact), mu = 0.5, a
     pressure of 10 and a tangential force 0, 3, 6, 3, -3, -6. At E = 1e11 on 1e3 Lemke's
@@ -510,7 +521,6 @@ def test_a_stiff_floating_block_under_a_tangential_cycle_keeps_its_friction_boun
     sticking pairs where E = 1e6 has 5 and one more slipping: the re-solve's gate looked
     at gaps and motion only. Now it re-solves that step too: its states are those of 1e6
     and its `kkt` below 1e-9."""
-    from support import CONFIGS, read_summary, run_cli
 
     sets = ["--set", "interface.interface.mu=0.5", "--set", "analysis.steps=6", "--set",
             'support=[{on="lower_base",ux=0.0,uy=0.0},{on="lower_sides",ux=0.0}]', "--set",
@@ -518,10 +528,7 @@ def test_a_stiff_floating_block_under_a_tangential_cycle_keeps_its_friction_boun
             '{on="upper_top",total_force=[6.0,0.0],history=[0.0,0.5,1.0,0.5,-0.5,-1.0]}]']
     steps = {}
     for e in ("1e6", "1e11"):
-        res = run_cli(["run", str(CONFIGS / "two_blocks.toml"), "--out", str(tmp_path / e),
-                       "--quiet", "--set", f"body.upper.E={e}", *sets], timeout=120)
-        assert res.returncode == 0, res.stderr
-        steps[e] = read_summary(tmp_path / e)["steps"]
+        res, steps[e] = _upper_block_at(tmp_path, e, sets)
     assert steps["1e11"][2]["states"] == steps["1e6"][2]["states"]
     assert max(steps["1e11"][2]["kkt"].values()) <= 1e-9
 
@@ -535,7 +542,6 @@ def test_a_stiff_floating_block_keeps_its_open_pairs_free_of_friction_node_to_se
     off its basis: `kkt` 3.4e-5, `kkt_pairs` 1.7e-4 and a warning. Now the gate judges a
     slipping pair's q against its side of the cone and re-solves: the law to round-off
     and the states of E = 1e6 (2 stick, 6 slip+, 3 open)."""
-    from support import CONFIGS, read_summary, run_cli
 
     sets = ["--set", "interface.interface.mu=0.5", "--set", "analysis.steps=7", "--set",
             'interface.interface.discretisation="node-to-segment"', "--set",
@@ -544,11 +550,8 @@ def test_a_stiff_floating_block_keeps_its_open_pairs_free_of_friction_node_to_se
             'history=[0.0,0.5,1.0,0.5,0.0,-0.5,-1.0]}]']
     steps = {}
     for e in ("1e6", "1e10"):
-        res = run_cli(["run", str(CONFIGS / "two_blocks.toml"), "--out", str(tmp_path / e),
-                       "--quiet", "--set", f"body.upper.E={e}", *sets], timeout=120)
-        assert res.returncode == 0, res.stderr
+        res, steps[e] = _upper_block_at(tmp_path, e, sets)
         assert "breaks the interface law" not in res.stderr
-        steps[e] = read_summary(tmp_path / e)["steps"]
     assert steps["1e10"][6]["states"] == steps["1e6"][6]["states"]
     assert max(steps["1e10"][6]["kkt_pairs"][k] for k in ("normal", "tangential")) < 1e-8
 
@@ -563,7 +566,6 @@ def test_a_stiff_floating_block_at_1e11_finds_the_equilibrium_lemkes_ray_missed(
     1e3. Bounded in each pair's own compliance's units, the search finds it: the states of
     E = 1e6 and 1e12 (2 stick, 6 slip-, 3 open), p and q as 1e12's to 1e-4 of P."""
     import h5py
-    from support import CONFIGS, read_summary, run_cli
 
     sets = ["--set", "interface.interface.mu=0.5", "--set", "analysis.steps=3", "--set",
             'interface.interface.discretisation="node-to-segment"', "--set",
@@ -572,10 +574,7 @@ def test_a_stiff_floating_block_at_1e11_finds_the_equilibrium_lemkes_ray_missed(
             'history=[0.0,0.5,1.0]}]']
     steps, forces = {}, {}
     for e in ("1e6", "1e11", "1e12"):
-        res = run_cli(["run", str(CONFIGS / "two_blocks.toml"), "--out", str(tmp_path / e),
-                       "--quiet", "--set", f"body.upper.E={e}", *sets], timeout=120)
-        assert res.returncode == 0, res.stderr
-        steps[e] = read_summary(tmp_path / e)["steps"]
+        res, steps[e] = _upper_block_at(tmp_path, e, sets)
         with h5py.File(tmp_path / e / "step_0003.h5") as f:
             order = np.argsort(f["contact/x"][()])
             forces[e] = np.stack([f["contact/p"][()][order], f["contact/q"][()][order]])
@@ -615,7 +614,6 @@ def test_a_stiff_floating_block_at_1e11_under_a_cycle_has_the_forces_of_1e10(tmp
     `kkt` 2e-9: its gaps' error stayed below the re-solve's gate of 1e-8. With the gate at
     1e-10 the step is re-solved: 1e10's forces to 1e-6 (measured 9.4e-7)."""
     import h5py
-    from support import CONFIGS, read_summary, run_cli
 
     sets = ["--set", "interface.interface.mu=0.3", "--set", "analysis.steps=5", "--set",
             'interface.interface.discretisation="node-to-segment"', "--set",
@@ -624,10 +622,7 @@ def test_a_stiff_floating_block_at_1e11_under_a_cycle_has_the_forces_of_1e10(tmp
             'history=[0.0,0.5,1.0,0.5,0.0]}]']
     steps, forces = {}, {}
     for e in ("1e10", "1e11"):
-        res = run_cli(["run", str(CONFIGS / "two_blocks.toml"), "--out", str(tmp_path / e),
-                       "--quiet", "--set", f"body.upper.E={e}", *sets], timeout=120)
-        assert res.returncode == 0, res.stderr
-        steps[e] = read_summary(tmp_path / e)["steps"]
+        res, steps[e] = _upper_block_at(tmp_path, e, sets)
         with h5py.File(tmp_path / e / "step_0005.h5") as f:
             order = np.argsort(f["contact/x"][()])
             forces[e] = np.stack([f["contact/p"][()][order], f["contact/q"][()][order]])
