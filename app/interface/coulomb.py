@@ -544,8 +544,12 @@ class ContactLCP:
         striped by the full adhesion (pair forces -20..24 for 1.4..2, two pairs at p = -a
         in its basis), gaps of 3e-9 read open and the bond broke. Per pair: gap = 0
         (closed) or p = -a (open); stick tau = tau_prev, slip+/- q = -+(c + mu p), q = 0
-        without tangential unknowns; and the balance N^T p + T^T q = -e0. None (Lemke's
-        answer kept) when a system is singular or the pivots do not settle."""
+        without tangential unknowns; and the balance N^T p + T^T q = -e0. Block pivots
+        flip every pair that leaves its signs; once a set of states comes back (they cycle:
+        node-to-segment at a contrast of 1e9 flipped two pairs over their bound together,
+        then both slid back, with period 3, and Lemke's p, 100% off, was kept) or after
+        UNSHIFTED_PIVOTS of them, only the pair furthest off (`_flipped`), up to m more.
+        None (Lemke's answer kept) when a system is singular or the pivots do not settle."""
         m, f, e = self.m, self.fric, self.edges
         fric = np.zeros(m, dtype=bool)
         fric[f] = True
