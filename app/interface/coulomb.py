@@ -215,6 +215,23 @@ def _symmetric_scaling(big: np.ndarray) -> np.ndarray:
     return 1.0 / np.sqrt(np.where(ref > 0, ref, 1.0))
 
 
+def _flipped(states: tuple[np.ndarray, np.ndarray, np.ndarray],
+             flips: tuple[np.ndarray, ...], single: bool
+             ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The pair states (closed, slip+, slip-) (m,) bool each after the block pivot flips =
+    (normal flips, new slip+, new slip-, each pair's violation over its tolerance) of
+    `ContactLCP._basis_errors`: every pair that left its signs, or with single only the
+    one that left them most (`ContactLCP._polished`, once block pivots cycle)."""
+    closed, sp_b, sm_b = states
+    if not single:
+        return closed ^ flips[0], flips[1], flips[2]
+    i = int(np.argmax(flips[3]))
+    closed, sp_b, sm_b = closed.copy(), sp_b.copy(), sm_b.copy()
+    closed[i] ^= flips[0][i]
+    sp_b[i], sm_b[i] = flips[1][i], flips[2][i]
+    return closed, sp_b, sm_b
+
+
 class ContactLCP:
     """The LCP matrix of a run and the constant vector of each solve."""
 
@@ -527,8 +544,12 @@ class ContactLCP:
         striped by the full adhesion (pair forces -20..24 for 1.4..2, two pairs at p = -a
         in its basis), gaps of 3e-9 read open and the bond broke. Per pair: gap = 0
         (closed) or p = -a (open); stick tau = tau_prev, slip+/- q = -+(c + mu p), q = 0
-        without tangential unknowns; and the balance N^T p + T^T q = -e0. None (Lemke's
-        answer kept) when a system is singular or the pivots do not settle."""
+        without tangential unknowns; and the balance N^T p + T^T q = -e0. Block pivots
+        flip every pair that leaves its signs; once a set of states comes back (they cycle:
+        node-to-segment at a contrast of 1e9 flipped two pairs over their bound together,
+        then both slid back, with period 3, and Lemke's p, 100% off, was kept) or after
+        UNSHIFTED_PIVOTS of them, only the pair furthest off (`_flipped`), up to m more.
+        None (Lemke's answer kept) when a system is singular or the pivots do not settle."""
         m, f, e = self.m, self.fric, self.edges
         fric = np.zeros(m, dtype=bool)
         fric[f] = True
@@ -537,15 +558,28 @@ class ContactLCP:
         sm_b = np.zeros(m, dtype=bool)
         sp_b[f], sm_b[f] = basis[e[1]: e[2]], basis[e[2]: e[3]]
         sm_b &= ~sp_b
-        for _ in range(UNSHIFTED_PIVOTS):
+        seen: set[bytes] = set()
+        single = False
+        for _ in range(UNSHIFTED_PIVOTS + m):
+            seen.add(np.concatenate([closed, sp_b, sm_b]).tobytes())
             x = self._on_states(closed, sp_b, sm_b, fric, free, a, c, mu, e0)
             if x is None:
                 return None
             flips = self._basis_errors(x, closed, sp_b, sm_b, fric, free, a, c, mu)
             if flips is None:
                 return (*x, sp_b, sm_b)
-            closed ^= flips[0]
-            sp_b, sm_b = flips[1], flips[2]
+            new = _flipped((closed, sp_b, sm_b), flips, single)
+            if np.concatenate(new).tobytes() in seen:
+                if single:  # (one pivot at a time cycles too: not settled)
+                    return None
+                single = True  # block pivots cycle: the worst pair alone from here
+                new = _flipped((closed, sp_b, sm_b), flips, True)
+                if np.concatenate(new).tobytes() in seen:
+                    return None
+            elif not single and len(seen) >= UNSHIFTED_PIVOTS:
+                single = True
+                new = _flipped((closed, sp_b, sm_b), flips, True)
+            closed, sp_b, sm_b = new
         return None
 
     def _on_states(self, closed: np.ndarray, sp_b: np.ndarray, sm_b: np.ndarray,
@@ -587,10 +621,11 @@ class ContactLCP:
                       closed: np.ndarray, sp_b: np.ndarray, sm_b: np.ndarray,
                       fric: np.ndarray, free: tuple[np.ndarray, np.ndarray], a: np.ndarray,
                       c: np.ndarray, mu: np.ndarray
-                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
         """None when x = (p, q, alpha) keeps the states' signs, each to POLISH_REL of the
         pair's own terms (p + a >= 0 closed, gap >= 0 open, |q| <= c + mu p stick, slip in
-        its sign slipping); else (normal flips, new slip+ mask, new slip- mask)."""
+        its sign slipping); else (normal flips, new slip+ mask, new slip- mask, each pair's
+        largest violation over its tolerance (m,): above 1 where it left its signs)."""
         p, q, alpha = x
         # free[1] = tau_prev - tau_free: slip = tau - tau_prev
         gap, slip, gap_terms, tau_terms = self._kinematics(p, q, alpha, free[0], -free[1])
@@ -600,14 +635,17 @@ class ContactLCP:
         ttol = POLISH_REL * (motion_size(*tau_terms) + 1e-300)
         bound = c + mu * p
         stick = fric & ~sp_b & ~sm_b
-        flip_n = (closed & (p + a < -ftol)) | (~closed & (gap < -gtol))
-        over = stick & (np.abs(q) > bound + ftol)
-        back = (sp_b & (slip < -ttol)) | (sm_b & (slip > ttol))
+        off_n = np.where(closed, -(p + a) / ftol, -gap / gtol)
+        off_t = np.where(stick, (np.abs(q) - bound) / ftol,
+                         np.where(sp_b, -slip, np.where(sm_b, slip, 0.0)) / ttol)
+        flip_n = off_n > 1.0
+        over = stick & (off_t > 1.0)
+        back = ~stick & fric & (off_t > 1.0)
         if not (flip_n.any() or over.any() or back.any()):
             return None
         new_sp = (sp_b & ~back) | (over & (q < 0))
         new_sm = (sm_b & ~back) | (over & (q > 0))
-        return flip_n, new_sp, new_sm
+        return flip_n, new_sp, new_sm, np.maximum(off_n, off_t)
 
     def _unshifted(self, basis: np.ndarray, a: np.ndarray, gap_free: np.ndarray,
                    tau_free: np.ndarray, tau_prev: np.ndarray, c: np.ndarray,
