@@ -16,8 +16,9 @@ when the master covers the node's support), so a row reads
 n_j . (u_j - sum_l w_jl u_l) with sum_l w_jl = 1: gaps stay lengths, the multiplier is the
 force at the slave node and force / (D_j x thickness) its traction. On a slave segment
 the master covers only in part, the dual functions are those biorthogonal over the
-covered pieces, and a node beyond a free master end without a row gives its share to its
-neighbour (`covered_tests`): the row sums add up to the covered length.
+covered pieces, and a node without a row that faces the master over less than half its
+support (or lies beyond a free end of it) gives its share to the nearest carrier along
+the slave (`covered_tests`, `share_owners`): the row sums add up to the covered length.
 
 Contact normal (choice, see README): the averaged nodal outward normals of both sides
 (nu_s of the slave node, nu_m of the master interpolated at the node's closest point),
@@ -295,10 +296,12 @@ def covered_tests(multipliers: Multipliers, s: np.ndarray, wp: np.ndarray, seg: 
     of the slave parameter) of overlap pieces on slave segments seg (p,) whose ends carry
     a multiplier where carrier (p, 2) is True.
 
-    A segment with one carrier end (the other end's node lies beyond a free master end and
-    has no row, `_covered_weights`) tests the carrier with 1, the sum of the
-    two shape functions: the other node's covered share goes to its neighbour, so the
-    row sums add up to the covered length. Dual multipliers (`multipliers.consistent`)
+    A segment with one carrier end (the other end's node has no row and faces the master
+    over less than half its support, or lies beyond a free end of it, `_covered_weights`)
+    tests the carrier with 1, the sum of the two shape functions: the other node's
+    covered share goes to its neighbour, so the row sums add up to the covered length.
+    A segment with no carrier end tests with N = (1 - s, s), each handed to the nearest
+    carrier along the slave (`share_owners`). Dual multipliers (`multipliers.consistent`)
     on a segment the master covers only in part are biorthogonal over the covered pieces
     (Cichosz and Bischoff 2011): phi_1 = (1 - c) - g (s - c), phi_2 = c + g (s - c) with c
     the pieces' centroid, g = c (1 - c) m0 / m2 (m0, m2 their measure and second moment
@@ -612,11 +615,12 @@ def _covered_weights(geo: SlaveGeometry, itf, sd: float, basis: MasterBasis,
     divided by their sums (rows of uncovered nodes stay zero), cover (q,) those row sums
     (length), and carrier (q,) bool: the found nodes whose support faces the master over
     at least MIN_COVER of it (int_cov N_j ds >= MIN_COVER D_j, the standard shape function
-    over the covered pieces: geometry, whatever the multipliers). A node beyond a free
-    master end that is no carrier gives its covered share to its neighbour
-    (`covered_tests`); any other node keeps its own test function, whether or not it
-    gets a row (a node out of reach over the master: its neighbour's row stays as it
-    was, whatever the lengths of the edges beyond the search zone).
+    over the covered pieces: geometry, whatever the multipliers). A found node that is no
+    carrier (inside or at a free master end), or a node beyond a free master end, gives
+    its covered share to the nearest carrier along the slave (`covered_tests`,
+    `share_owners`); a node out of reach over the master keeps its own test function
+    without a row (its neighbour's row stays as it was, whatever the lengths of the
+    edges beyond the search zone).
     InputError if no slave edge has a found node.
     A row reads u_j - sum_l w_jl u_l = (sum_k S_jk u_k - sum_l M_jl u_l) / cover_j, S the
     slave integrals int phi_j N_k ds over the same covered pieces (so the row sums stay
