@@ -258,26 +258,79 @@ def graded_at_master_end(shift: float = 0.0) -> Mesh:
 
 
 @pytest.mark.parametrize("name", MORTARS)
-@pytest.mark.parametrize("shift", [0.0, -1e-9, -1e-7, 1e-9, 1e-7])
+@pytest.mark.parametrize("shift", [0.0, -1e-9, -1e-7, 1e-9, 1e-7, 1e-5, 1e-3, 0.05])
 @pytest.mark.parametrize("deg", [0.0, 30.0])
 def test_a_node_at_a_free_master_end_without_a_row_gives_its_share_away(name, shift, deg):
-    """A slave node at a free master end (or beyond it, or inside it, by less than XI_EPS
-    of the end edge) with less than half its support over the master gets no row; its
-    covered share goes to its neighbour, so the lengths add up to the covered length.
-    Before, only a node beyond the end by more than XI_EPS gave its share away: this one
-    kept its own test function without a row and lost 0.05 of 1.0 (5%), and a slave
-    straddling two masters whose joint lay 1e-6 of an edge before a slave node read
-    p 9.97-13.71 for a uniform 10 (mortar; 37% off, no straddle warning since
-    `mortarfix`)."""
+    """A slave node at a free master end (or beyond it, or inside it) with less than
+    half its support over the master gets no row; its covered share, and the sliver of
+    its outer edge over the master, go to its neighbour, so the lengths add up to the
+    covered length. Before, only a node beyond the end (or within XI_EPS of it) gave its
+    share away: at the end this one lost 0.05 of 1.0, moved inside by 1e-3 0.051 and by
+    0.05 0.1 (its share and the sliver), and a slave straddling two masters whose joint
+    lay 1e-6 of an edge before a slave node read p 9.97-13.71 for a uniform 10."""
     mesh = rotate(graded_at_master_end(shift), deg)[0]
     rows = DISCRETISATIONS[name](mesh, itf(), 0)
-    covered = 1.0 + min(shift, 0.0)
-    # a node inside the end by s leaves its outer edge's covered sliver (s) uncounted
-    np.testing.assert_allclose(rows.pairs.length.sum(), covered, rtol=0,
-                               atol=max(shift, 0.0) + 1e-12)
+    np.testing.assert_allclose(rows.pairs.length.sum(), 1.0 + min(shift, 0.0), rtol=0,
+                               atol=1e-12)
     dn, dt = affine_rows(rows, mesh, np.array([[0.3, -0.7], [1.1, 0.4]]))
     np.testing.assert_allclose(dn, 0.0, atol=1e-13)
     np.testing.assert_allclose(dt, 0.0, atol=1e-13)
+
+
+def consistent_loads(mesh: Mesh, curve: str, lo: float, hi: float) -> np.ndarray:
+    """(n_nodes,) int N_k ds over [lo, hi] of the linear shape functions of a flat curve
+    at y = const (edges along x): the nodal forces of a unit traction on that stretch."""
+    e = mesh.curves[curve]
+    xa, xb = mesh.points[e[:, 0], 0], mesh.points[e[:, 1], 0]
+    x0, x1 = np.minimum(xa, xb), np.maximum(xa, xb)
+    c, d = np.clip(lo, x0, x1), np.clip(hi, x0, x1)
+    out = np.zeros(mesh.n_nodes)
+    for end, far in ((e[:, 0], xb), (e[:, 1], xa)):  # N_end = (far - x) / (far - x_end)
+        dx = far - mesh.points[end, 0]
+        np.add.at(out, end, ((far - c) ** 2 - (far - d) ** 2) / (2 * dx))
+    return out
+
+
+SWEEP = {  # scene(offset) and the offsets: -1 to +1 slave edges at the master's left end
+    "graded 0.3 / 0.1": (graded_at_master_end, np.linspace(-0.3, 0.3, 97)),
+    "uniform 1/7": (lambda o: stacked(5, 8, x_up=(o - 1 / 7, o + 1)),
+                    np.linspace(-1 / 7, 1 / 7, 41)),
+}
+
+
+@pytest.mark.parametrize("name", MORTARS)
+@pytest.mark.parametrize("case", list(SWEEP))
+@pytest.mark.parametrize("deg", [0.0, 30.0])
+def test_a_slave_swept_across_a_master_end_loses_no_share(name, case, deg):
+    """The slave moved across the master [0, 1]'s left end from -1 to +1 slave edges, in
+    steps of 1/96 and 1/40 of one: at every offset g0 = 0, linear fields are reproduced,
+    the pair lengths add up to the covered length, and the rows pass a uniform traction:
+    the pair forces p x length put on every slave and master node exactly the consistent
+    nodal forces of p over the covered stretch (so a patch reads p uniform, where before
+    a node inside the end with its outer edge longer than its inner lost its share: 0.105
+    of 1.0 at 0.055 inside, and mortar-smooth's kernel over a master edge the slave ends
+    on gave its nodes forces off the consistent ones). No jump: the lengths are the
+    covered length at every step."""
+    make, offsets = SWEEP[case]
+    for off in offsets:
+        flat = make(off)
+        mesh, r = rotate(flat, deg)
+        rows = DISCRETISATIONS[name](mesh, itf(), 0)
+        x = flat.points[:, 0]
+        lo = max(0.0, x[flat.curves["up_bottom"]].min())
+        hi = min(1.0, x[flat.curves["up_bottom"]].max())
+        np.testing.assert_allclose(rows.pairs.g0, 0.0, atol=1e-12)
+        np.testing.assert_allclose(rows.pairs.length.sum(), hi - lo, rtol=0, atol=1e-12)
+        dn, dt = affine_rows(rows, mesh, np.array([[0.3, -0.7], [1.1, 0.4]]))
+        np.testing.assert_allclose(dn, 0.0, atol=1e-12, err_msg=f"offset {off}")
+        np.testing.assert_allclose(dt, 0.0, atol=1e-12, err_msg=f"offset {off}")
+        force = np.zeros(rows.cols.max() + 1)  # p = 1 on every pair
+        np.add.at(force, rows.cols.ravel(), (rows.pairs.length[:, None] * rows.g_normal).ravel())
+        along = force.reshape(-1, 2) @ r[:, 1]  # along the turned scene's y
+        expect = (consistent_loads(flat, "up_bottom", lo, hi)
+                  - consistent_loads(flat, "low_top", lo, hi))[: along.size]
+        np.testing.assert_allclose(along, expect, rtol=0, atol=1e-12,
+                                   err_msg=f"offset {off}")
 
 
 @pytest.mark.parametrize("name", MORTARS)

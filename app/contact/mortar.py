@@ -16,8 +16,9 @@ when the master covers the node's support), so a row reads
 n_j . (u_j - sum_l w_jl u_l) with sum_l w_jl = 1: gaps stay lengths, the multiplier is the
 force at the slave node and force / (D_j x thickness) its traction. On a slave segment
 the master covers only in part, the dual functions are those biorthogonal over the
-covered pieces, and a node beyond a free master end without a row gives its share to its
-neighbour (`covered_tests`): the row sums add up to the covered length.
+covered pieces, and a node without a row that faces the master over less than half its
+support (or lies beyond a free end of it) gives its share to the nearest carrier along
+the slave (`covered_tests`, `share_owners`): the row sums add up to the covered length.
 
 Contact normal (choice, see README): the averaged nodal outward normals of both sides
 (nu_s of the slave node, nu_m of the master interpolated at the node's closest point),
@@ -295,10 +296,12 @@ def covered_tests(multipliers: Multipliers, s: np.ndarray, wp: np.ndarray, seg: 
     of the slave parameter) of overlap pieces on slave segments seg (p,) whose ends carry
     a multiplier where carrier (p, 2) is True.
 
-    A segment with one carrier end (the other end's node lies beyond a free master end and
-    has no row, `_covered_weights`) tests the carrier with 1, the sum of the
-    two shape functions: the other node's covered share goes to its neighbour, so the
-    row sums add up to the covered length. Dual multipliers (`multipliers.consistent`)
+    A segment with one carrier end (the other end's node has no row and faces the master
+    over less than half its support, or lies beyond a free end of it, `_covered_weights`)
+    tests the carrier with 1, the sum of the two shape functions: the other node's
+    covered share goes to its neighbour, so the row sums add up to the covered length.
+    A segment with no carrier end tests with N = (1 - s, s), each handed to the nearest
+    carrier along the slave (`share_owners`). Dual multipliers (`multipliers.consistent`)
     on a segment the master covers only in part are biorthogonal over the covered pieces
     (Cichosz and Bischoff 2011): phi_1 = (1 - c) - g (s - c), phi_2 = c + g (s - c) with c
     the pieces' centroid, g = c (1 - c) m0 / m2 (m0, m2 their measure and second moment
@@ -322,6 +325,7 @@ def covered_tests(multipliers: Multipliers, s: np.ndarray, wp: np.ndarray, seg: 
         part = np.stack([(1 - cs) - gs * (s - cs), cs + gs * (s - cs)])
         phi = np.where(whole[seg][None, :, None], phi, part)
     one = carrier.sum(axis=1) == 1
+    phi = np.where((carrier.sum(axis=1) == 0)[None, :, None], np.stack([1 - s, s]), phi)
     return np.where(one[None, :, None], carrier.T[:, :, None].astype(float), phi)
 
 
@@ -418,7 +422,7 @@ def mortar_rows(geo: SlaveGeometry, itf: InterfaceSpec, index: int,
     """`mortar_constraints` from the interface's geometry (`slave_geometry`)."""
     sd = float(itf.search_distance)
     factory = linear_master if master_basis is None else master_basis
-    basis = factory(*geo.master_basis_args())
+    basis = linear_where_slave_ends(factory(*geo.master_basis_args()), geo)
     w, cover, covered = _covered_weights(geo, itf, sd, basis, multipliers)
     g0 = _initial_gaps(geo, itf, sd, w, basis, multipliers)
     keep = geo.found & covered & (g0 <= sd)
@@ -430,6 +434,46 @@ def mortar_rows(geo: SlaveGeometry, itf: InterfaceSpec, index: int,
                            geo.tol)
     return _kept_rows(geo, np.flatnonzero(keep), w, g0, cover, index,
                       getattr(basis, "label", "linear"))
+
+
+def slave_end_segments(geo: SlaveGeometry) -> np.ndarray:
+    """(F,) bool: the master segments inside which an end of the slave curve lies (a found
+    slave node on one slave edge whose closest master point is inside the segment, more
+    than XI_EPS from its ends): segments the slave covers only in part."""
+    degree = np.bincount(geo.s_edges.ravel(), minlength=geo.pts.shape[0])[geo.nodes]
+    inside = geo.found & (degree == 1) & (geo.xi > XI_EPS) & (geo.xi < 1 - XI_EPS)
+    part = np.zeros(geo.m_edges.shape[0], dtype=bool)
+    part[geo.sg[inside]] = True
+    return part
+
+
+def linear_where_slave_ends(basis: MasterBasis, geo: SlaveGeometry) -> MasterBasis:
+    """basis with the master's linear trace on the master segments the slave ends inside
+    (`slave_end_segments`); basis itself when it is the linear trace or there is none.
+
+    A smoothed master (app/contact/mortar_smooth.py) gives each master node its linear
+    share int N_l ds only over whole segments (its kernels have zero mean on each side of
+    a node); over the part of a segment a slave covers they do not, so a slave ending
+    inside a master segment put forces off the consistent ones on that segment's nodes,
+    and two slaves meeting there (the lower blocks of "Interfaces meeting at a corner" as
+    slaves of one upper block, joints at 1.9 h and 5.1 h of its element h) read p 0.66%
+    off a uniform 10 where one of them was smoothed and the other not. The kernels of the
+    whole segments next to it keep their zero means, so every master node gets its
+    linear share of a uniform traction wherever the slave ends."""
+    part = slave_end_segments(geo)
+    if getattr(basis, "label", "linear") == "linear" or not part.any():
+        return basis
+    m_edges = geo.m_edges
+
+    def ends_linear(f: np.ndarray, eta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        nodes, big_n = basis(f, eta)  # (p, q), (q, p, g)
+        is_a = (nodes == m_edges[f, :1]).T[:, :, None]
+        is_b = (nodes == m_edges[f, 1:]).T[:, :, None]
+        lin = is_a * (1 - eta)[None] + is_b * eta[None]
+        return nodes, np.where(part[f][None, :, None], lin, big_n)
+
+    ends_linear.label = basis.label
+    return ends_linear
 
 
 def _initial_gaps(geo: SlaveGeometry, itf, sd: float, w: sp.csr_matrix, basis: MasterBasis,
@@ -571,11 +615,12 @@ def _covered_weights(geo: SlaveGeometry, itf, sd: float, basis: MasterBasis,
     divided by their sums (rows of uncovered nodes stay zero), cover (q,) those row sums
     (length), and carrier (q,) bool: the found nodes whose support faces the master over
     at least MIN_COVER of it (int_cov N_j ds >= MIN_COVER D_j, the standard shape function
-    over the covered pieces: geometry, whatever the multipliers). A node beyond a free
-    master end that is no carrier gives its covered share to its neighbour
-    (`covered_tests`); any other node keeps its own test function, whether or not it
-    gets a row (a node out of reach over the master: its neighbour's row stays as it
-    was, whatever the lengths of the edges beyond the search zone).
+    over the covered pieces: geometry, whatever the multipliers). A found node that is no
+    carrier (inside or at a free master end), or a node beyond a free master end, gives
+    its covered share to the nearest carrier along the slave (`covered_tests`,
+    `share_owners`); a node out of reach over the master keeps its own test function
+    without a row (its neighbour's row stays as it was, whatever the lengths of the
+    edges beyond the search zone).
     InputError if no slave edge has a found node.
     A row reads u_j - sum_l w_jl u_l = (sum_k S_jk u_k - sum_l M_jl u_l) / cover_j, S the
     slave integrals int phi_j N_k ds over the same covered pieces (so the row sums stay
@@ -596,17 +641,20 @@ def _covered_weights(geo: SlaveGeometry, itf, sd: float, basis: MasterBasis,
     at = np.searchsorted(nodes, ends)
     geometric = _covered_shares(nodes, ends, s, wq)  # complete for the found nodes
     carrier = found & (geometric >= MIN_COVER * (1 - COVER_RTOL) * geo.d_len)
-    # the nodes beyond a free master end without a row give their share to a neighbour
-    tests = carrier | ~_beyond_master_end(geo, float(sd + ls_max(xs1, xs2)))
+    # a node without a row that faces the master (or lies beyond a free end of it) gives
+    # its covered share to the nearest carrier along the slave curve
+    beyond = _beyond_master_end(geo, float(sd + ls_max(xs1, xs2)))
+    tests = carrier | ~(found | beyond)
+    owner = share_owners(se, nodes, tests)
     ls = np.linalg.norm(xs2 - xs1, axis=1)
     phi = covered_tests(multipliers, s, wq / ls[e[k], None], e[k], tests[at])
     pair, jj, node, val, (k, slave) = piece_integrals(k, s, wq, eta, f, basis, phi)
     n = pts.shape[0]
-    mm = _rows(nodes, n, se, pair, jj, node, val, e)
+    mm = _rows(nodes, n, owner, pair, jj, node, val, e)
     cover = np.asarray(mm.sum(axis=1)).ravel()
     if not multipliers.slave_mass:
         slave = slave * ~tests[at][:, None, :]  # only the nodes without a multiplier
-    ss = _rows(nodes, n, se, np.repeat(k, 4), np.tile([0, 0, 1, 1], k.size),
+    ss = _rows(nodes, n, owner, np.repeat(k, 4), np.tile([0, 0, 1, 1], k.size),
                np.repeat(ends, 2, axis=0).reshape(-1), slave.reshape(-1), e)
     if ss.nnz:
         own = sp.csr_matrix((np.ones(nodes.size), (np.arange(nodes.size), nodes)),
@@ -615,6 +663,56 @@ def _covered_weights(geo: SlaveGeometry, itf, sd: float, basis: MasterBasis,
         mm = mm - ss + sp.diags(total) @ own
     w = sp.diags(1.0 / np.where(cover > 0, cover, 1.0)) @ mm  # rows sum to 1
     return w, cover, carrier
+
+
+def share_owners(se: np.ndarray, nodes: np.ndarray, tests: np.ndarray) -> np.ndarray:
+    """(S, 2) the slave node whose row takes the test function of each end of the slave
+    edges se (S, 2), given tests (q,) over the slave nodes `nodes` (sorted): which keep
+    their own test function (a multiplier, or a node out of reach over the master).
+
+    An edge with a test end gives both ends' functions to their own nodes (a one-test
+    edge tests that node with 1, `covered_tests`). An edge with none (both nodes without
+    a row facing the master or beyond its free end: a node inside a master end whose
+    outer edge is longer than its inner one) gives end i's function (N_i there) to the
+    first test node met walking the slave curve out through end i, or through the other
+    end when that side has none: its covered pieces count for the nearest rows, so the
+    lengths add up to the covered length (before, the piece and the node's share were
+    lost: 0.105 of 1.0 for a slave whose node 0.055 inside a master end had edges of 0.3
+    beyond and 0.1 over it). A chain with no test node at all keeps the edges' own ends
+    (no row takes them)."""
+    t_end = tests[np.searchsorted(nodes, se)]  # (S, 2)
+    owner = se.copy()
+    none = np.flatnonzero(~t_end.any(axis=1))
+    if none.size == 0:
+        return owner
+    order = np.argsort(se.ravel(), kind="stable")  # slave node -> its (one or two) edges
+    by_node = se.ravel()[order]
+
+    def other_edge(edge: np.ndarray, node: np.ndarray) -> np.ndarray:
+        """The edge at node other than edge (-1 at a curve end), both (m,)."""
+        lo = np.searchsorted(by_node, node)
+        hi = np.searchsorted(by_node, node, side="right")
+        a, b = order[lo] // 2, order[hi - 1] // 2
+        return np.where(hi - lo < 2, -1, np.where(a == edge, b, a))
+
+    found = np.full((none.size, 2), -1, dtype=np.int64)
+    for i in (0, 1):
+        edge, node = none.copy(), se[none, i]
+        live = np.ones(none.size, dtype=bool)
+        for _ in range(se.shape[0]):
+            nxt = np.where(live, other_edge(edge, node), -1)
+            live &= nxt >= 0
+            if not live.any():
+                break
+            far = np.where(se[np.maximum(nxt, 0), 0] == node, se[np.maximum(nxt, 0), 1],
+                           se[np.maximum(nxt, 0), 0])
+            hit = live & t_end[np.maximum(nxt, 0)].any(axis=1)
+            found[hit, i] = np.where(t_end[nxt[hit], 0], se[nxt[hit], 0], se[nxt[hit], 1])
+            live &= ~hit
+            edge, node = np.where(live, nxt, edge), np.where(live, far, node)
+    found = np.where(found >= 0, found, found[:, ::-1])
+    owner[none] = np.where(found >= 0, found, se[none])
+    return owner
 
 
 def _covered_shares(nodes: np.ndarray, ends: np.ndarray, s: np.ndarray,
