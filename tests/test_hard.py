@@ -472,6 +472,107 @@ def test_interference_error_is_one_line_from_the_cli(tmp_path):
     assert len(lines) == 1 and lines[0].startswith("error: interface 'contact'"), res.stderr
 
 
+CLAMPED_SIDES = ("support.1.uy=0.0", "support.2.uy=0.0")  # interference.toml: ux = uy = 0
+
+
+def test_an_interference_fit_of_unequal_strips_matches_its_closed_form(tmp_path):
+    """interference.toml with E2 = 3 E1 and nu1 = 0.2 (roller sides): the overlap d0 is
+    shared in series, p = d0 / (H1 / E1' + H2 / E2') uniform, gap 0; the same with the
+    overlap replaced by the upper top prescribed d0 down (g0 = 0) gives the same p."""
+    mats = ("body.upper.E=3000.0", "body.lower.nu=0.2")
+    p_exact = 0.002 / (1 / constrained_modulus(1e3, 0.2) + 1 / constrained_modulus(3e3, 0.3))
+    s, out = solve(tmp_path, "interference", *mats)
+    check_law(s, out)
+    np.testing.assert_allclose(contact(out, 1)["p"], p_exact, rtol=1e-9)
+    s, out = solve(tmp_path, "interference", *mats, "body.upper.shape.origin=[0.0, 1.0]",
+                   "interface.contact.interference=false", "support.3.uy=-0.002", tag="u")
+    np.testing.assert_allclose(contact(out, 1)["p"], p_exact, rtol=1e-9)
+
+
+@pytest.mark.parametrize("disc", ["mortar", "node-to-segment"])
+def test_an_interference_fit_held_at_both_sides_is_refused_for_its_overlap(tmp_path, disc):
+    """Both strips' sides clamped (ux = uy = 0): the end pairs' both sides are held and
+    overlap by the fit's d0 = 0.002, which no contact force can remove; the continuum
+    answer has no finite energy (mortar-standard, which accepts it, gains ~4.6e-4 of
+    strain energy per mesh halving and its max p doubles: README "Hard cases"). Refused,
+    naming the fit's overlap as the cause; before, the message blamed the supports for
+    pushing the pairs in, which they do not (they hold the sides where they are)."""
+    with pytest.raises(SolveError, match=r"hold both sides of 2 pair\(s\) of interface "
+                       r"'contact' .*the interference fit's initial overlap 0.002\).*"
+                       r"no finite-energy answer"):
+        solve(tmp_path, "interference", *CLAMPED_SIDES,
+              f'interface.contact.discretisation="{disc}"')
+    # the same scene with the overlap made by the supports (g0 = 0, the upper sides and
+    # top prescribed 0.002 down): refused as the supports' push, as before
+    with pytest.raises(SolveError, match=r"supports push 2 pair\(s\) .*deepest 0.002"):
+        solve(tmp_path, "interference", "body.upper.shape.origin=[0.0, 1.0]",
+              "interface.contact.interference=false", "support.1.uy=0.0",
+              "support.2.uy=-0.002", "support.3.uy=-0.002", tag="u")
+
+
+def test_an_interference_fit_whose_clamped_sides_close_it_is_solved(tmp_path):
+    """Clamped sides prescribed to the fit's own uniaxial field (lower -d0/2 y / H, upper
+    d0/2 (top - y) / H): the end pairs are held at gap 0, nothing is refused, and every
+    pair not tied carries p = E' d0 / 2; the tied end pairs read 0, their share (h / 2
+    each) in the side reactions."""
+    s, out = solve(tmp_path, "interference", 'support.1.uy="-0.001 * y"',
+                   'support.2.uy="0.001 * (1.998 - y)"')
+    check_law(s, out)
+    c = contact(out, 1)
+    ends = np.isclose(c["x"], 0.0) | np.isclose(c["x"], 1.0)
+    assert ends.sum() == 2
+    np.testing.assert_allclose(c["p"][~ends], constrained_modulus(1e3, 0.3) * 1e-3,
+                               rtol=1e-9)
+    np.testing.assert_allclose(c["gap"], 0.0, atol=1e-12)
+
+
+def _pinned(role: str) -> list[str]:
+    """interference.toml as two touching strips squeezed symmetrically (base up 1e-3,
+    top down 1e-3, roller sides): the interface stays at uy = 0, p = E' x 1e-3. A pin
+    (ux = uy = 0) on the lower strip's interface node at x = 0.5 (the body listed first
+    gets the [points] node), which is the master, or the slave with the roles swapped."""
+    swap = ['interface.contact.slave="lower_top"', 'interface.contact.master="upper_bottom"']
+    return ["body.upper.shape.origin=[0.0, 1.0]", "interface.contact.interference=false",
+            "points={pin=[0.5, 1.0]}",
+            'support=[{on="lower_base",ux=0.0,uy=1e-3},{on="lower_sides",ux=0.0},'
+            '{on="upper_sides",ux=0.0},{on="upper_top",uy=-1e-3},'
+            '{on="pin",ux=0.0,uy=0.0}]', *(swap if role == "slave" else [])]
+
+
+@pytest.mark.parametrize("role", ["master", "slave"])
+@pytest.mark.parametrize("disc", ["mortar", "node-to-segment"])
+def test_a_pin_on_a_pair_node_where_the_answer_does_not_move_changes_nothing(
+        tmp_path, role, disc):
+    """The pin sits where the symmetric squeeze leaves the body at rest: the answer is
+    the unpinned one, p = E' x 1e-3 on every pair, and the pin takes no force."""
+    s, out = solve(tmp_path, "interference", *_pinned(role),
+                   f'interface.contact.discretisation="{disc}"')
+    check_law(s, out)
+    c = contact(out, 1)
+    np.testing.assert_allclose(c["p"], constrained_modulus(1e3, 0.3) * 1e-3, rtol=1e-9)
+    np.testing.assert_allclose(c["u"][c["slave"]], 0.0, atol=1e-12 * 1e-3)  # at rest
+
+
+@pytest.mark.parametrize("ranks", [1, 2])
+def test_the_held_fit_and_the_pin_read_alike_on_one_and_two_ranks(tmp_path, ranks):
+    """The CLI on 1 and 2 ranks: the clamped-sides fit is refused with the same one
+    line, exit 2 and a failed summary; the pinned squeeze completes with p = E' x 1e-3."""
+    base = ["run", str(HARD / "interference.toml"), "--quiet"]
+    res = run_cli([*base, "--out", str(tmp_path / "held"),
+                   *[a for k in CLAMPED_SIDES for a in ("--set", k)]], ranks=ranks)
+    lines = [ln for ln in res.stderr.splitlines() if ln.startswith("error:")]
+    assert res.returncode == 2 and len(lines) == 1, res.stderr  # once, not per rank
+    assert "the interference fit's initial overlap 0.002" in lines[0]
+    s = json.loads((tmp_path / "held" / "summary.json").read_text())
+    assert s["status"] == "failed" and "no finite-energy answer" in s["error"]
+    res = run_cli([*base, "--out", str(tmp_path / "pin"),
+                   *[a for k in _pinned("slave") for a in ("--set", k)]], ranks=ranks)
+    assert res.returncode == 0, res.stderr
+    n = json.loads((tmp_path / "pin" / "summary.json").read_text())
+    n = n["steps"][0]["interfaces"]["contact"]["normal_force"]
+    assert n == pytest.approx(constrained_modulus(1e3, 0.3) * 1e-3, rel=1e-9)
+
+
 def test_many_pairs_and_steps_short(tmp_path):
     """The 2000-pair scene on a 3x coarser arc and 10 steps (the full run is slow)."""
     s, out = solve(tmp_path, "cattaneo_many", "analysis.steps=10", "support.1.ramp=[1, 4]",

@@ -386,8 +386,9 @@ class ContactStepper:
         """(why no contact force can close the step's free gap, or "", the overlap (m,)
         read as closed, >= 0): a pair whose motion
         the supports fix on both sides (`fixed_rows`: its force moves nothing) and whose
-        free gap is below -tol (the state tolerance) is pushed into the master by the
-        prescribed displacements themselves. Its stiff tie (`app.lcp.coulomb_matrix.
+        free gap is below -tol (the state tolerance) is held in the master by the
+        prescribed displacements themselves (their push, or an interference fit's g0 they
+        hold: `_overlap_message`). Its stiff tie (`app.lcp.coulomb_matrix.
         tie_fixed`) turned the overlap into a force of overlap / (1e-12 x the largest
         compliance): 9.9e10 on `shear_off.toml` with the block's sides moved 1e-4 more
         down than the base's, a run that completed. A free gap within -tol of 0 reads as
@@ -403,15 +404,34 @@ class ContactStepper:
         gap_free[shallow] = 0.0
         if not deep.any():
             return "", closed
+        return self._overlap_message(deep, gap_free), closed
+
+    def _overlap_message(self, deep: np.ndarray, gap_free: np.ndarray) -> str:
+        """Why the pairs `deep` (m,) bool, both sides prescribed, cannot be solved: at the
+        deepest, an initial overlap g0 < 0 (an interference fit) the supports hold, or
+        one they push (gap_free - g0 < 0, their prescribed displacements). A fit whose
+        both sides are held has no finite-energy answer (README "Hard cases", the
+        clamped interference fit): before, it was said to be the supports' push."""
         pr = self.setup.pairs
         k = int(np.flatnonzero(deep)[np.argmin(gap_free[deep])])
         x, y = pr.position[k]
         name = self.setup.cfg.interfaces[int(pr.interface[k])].name
-        return (f"the supports push {int(deep.sum())} pair(s) of interface {name!r} into the "
-                f"master, whose both sides they prescribe (deepest {-gap_free[k]:.3g} at the "
-                f"slave node x={x:.6g}, y={y:.6g}): no contact force can separate them; "
-                "make the prescribed displacements of the two bodies agree there (or "
-                "leave one side free)"), closed
+        where = f"{int(deep.sum())} pair(s) of interface {name!r}"
+        at = f"deepest {-gap_free[k]:.3g} at the slave node x={x:.6g}, y={y:.6g}"
+        g0, pushed = float(pr.g0[k]), float(gap_free[k] - pr.g0[k])
+        if g0 < 0.0:
+            by = (f"; the supports push {-pushed:.3g} more" if pushed < -self.tol else
+                  f"; the supports close {pushed:.3g} of it" if pushed > self.tol else "")
+            return (f"the supports hold both sides of {where} where they overlap the "
+                    f"master ({at}: the interference fit's initial overlap {-g0:.3g}{by}):"
+                    " no contact force can push them apart, and the fit has no "
+                    "finite-energy answer at a held edge; leave one side free there (e.g. "
+                    "rollers on the bodies' sides) or prescribe the supports to close the "
+                    "overlap")
+        return (f"the supports push {where} into the master, whose both sides they "
+                f"prescribe ({at}): no contact force can separate them; make the "
+                "prescribed displacements of the two bodies agree there (or leave one "
+                "side free)")
 
     def _interface_info(self, sol, state: np.ndarray, debonded: np.ndarray) -> dict:
         """Per-interface figures of a solved step: forces (per unit thickness x thickness),
