@@ -759,6 +759,23 @@ def test_a_round_off_overlap_of_fixed_pairs_carries_no_force(tmp_path):
     assert gap.min() == pytest.approx(-1e-13, rel=1e-3)  # the overlap, written as it is
 
 
+def test_a_round_off_pull_on_fixed_bonded_pairs_carries_no_adhesion(tmp_path):
+    """The block's sides 1e-13 higher than the base's (below the state tolerance): the
+    bonded end pairs, both sides prescribed, are pulled apart by round-off and read as
+    closed at the force of the exact scene. Before, their stiff tie turned the 1e-13 into
+    a pull capped at the full adhesion a: p = -a on both end pairs, normal force 0.0950
+    against 0.1262 at 0 and at 1e-9 (which opens and debonds them), without a word."""
+    s, out = solve(tmp_path, "shear_off", *_block_sides_lowered("-1e-13"))
+    ref, _ = solve(tmp_path, "shear_off", *_block_sides_lowered("0.0"), tag="ref")
+    n = [x["steps"][0]["interfaces"]["bond"]["normal_force"] for x in (s, ref)]
+    assert n[0] == pytest.approx(n[1], rel=1e-8)
+    step = s["steps"][0]
+    assert step["states"]["bonded"] == step["n_pairs"]
+    assert max(step["kkt_pairs"][k] for k in PAIR_KEYS) <= PAIR_WARN
+    assert step["consistency_refinements"] == 0 and not s.get("warnings")
+    assert contact(out, 1)["gap"].max() == pytest.approx(1e-13, rel=1e-3)  # as written
+
+
 def test_mortar_standard_closes_a_prescribed_corner_overlap_in_its_weighted_gap(tmp_path):
     """The 1e-4 overlap that mortar and node-to-segment refuse: with mortar-standard the
     end pair's row (weight N_0 over the end slave segment) reaches the free slave

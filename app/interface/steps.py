@@ -240,8 +240,8 @@ class StepSolution:
     loads alone (without the bond's a and c: the per-pair kinematic scale); contact_work
     lam . G K^-1 G^T lam >= 0 (force x length), the pair forces' work through the motion
     they make, set by the driver's recovery (`app.output.pair_law.tied_coupling`);
-    closed_overlap (m,) >= 0 the overlap the supports prescribe at pairs fixed on both
-    sides that the step read as closed (within the state tolerance,
+    closed_overlap (m,) the overlap (> 0; < 0 a gap) the supports prescribe at pairs fixed
+    on both sides that the step read as closed (within the state tolerance,
     `ContactStepper._prescribed_overlap`): the LCP solved those pairs at gap 0, the
     kinematics (and the field) keep the overlap, and the per-pair law allows it
     (`app.output.pair_law.pair_residuals`); info the step's summary.json entries.
@@ -384,7 +384,7 @@ class ContactStepper:
 
     def _prescribed_overlap(self, gap_free: np.ndarray) -> tuple[str, np.ndarray]:
         """(why no contact force can close the step's free gap, or "", the overlap (m,)
-        read as closed, >= 0): a pair whose motion
+        read as closed, < 0 a gap): a pair whose motion
         the supports fix on both sides (`fixed_rows`: its force moves nothing) and whose
         free gap is below -tol (the state tolerance) is held in the master by the
         prescribed displacements themselves (their push, or an interference fit's g0 they
@@ -393,13 +393,12 @@ class ContactStepper:
         compliance): 9.9e10 on `shear_off.toml` with the block's sides moved 1e-4 more
         down than the base's, a run that completed. A free gap within -tol of 0 reads as
         closed (set to 0 in `gap_free`; that overlap is returned, `StepSolution.
-        closed_overlap`): before, an overlap of 1e-13 gave that pair 99."""
+        closed_overlap`): before, an overlap of 1e-13 gave that pair 99. So does a gap
+        within +tol (returned as a negative overlap): before, a bonded pair pulled apart by
+        1e-13 held at p = -a, its tie's pull capped at the adhesion."""
         closed = np.zeros(self.m)
-        low = self.fixed_n & (gap_free < 0.0)
-        if not low.any():
-            return "", closed
-        deep = low & (gap_free < -self.tol)
-        shallow = low & ~deep
+        deep = self.fixed_n & (gap_free < -self.tol)
+        shallow = self.fixed_n & (np.abs(gap_free) <= self.tol)
         closed[shallow] = -gap_free[shallow]
         gap_free[shallow] = 0.0
         if not deep.any():
