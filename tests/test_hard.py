@@ -776,6 +776,24 @@ def test_a_round_off_pull_on_fixed_bonded_pairs_carries_no_adhesion(tmp_path):
     assert contact(out, 1)["gap"].max() == pytest.approx(1e-13, rel=1e-3)  # as written
 
 
+def test_a_round_off_shift_of_fixed_bonded_pairs_carries_no_shear(tmp_path):
+    """The block's prescribed ux 1e-13 ahead of the base's (below the state tolerance):
+    the bonded end pairs, both sides prescribed, are slid by round-off and read as
+    sticking without force, as at 0. Before, their stiff tie turned the 1e-13 into a
+    shear capped at the strength: tangential force 0.1346 against 0.0721 at 0 and at
+    1e-9 (which slides and debonds them), without a word."""
+    shift = [f'support.{i}.ux="g * (y + 0.5) + 1e-13"' for i in (5, 7, 9)]
+    s, out = solve(tmp_path, "shear_off", *_block_sides_lowered("0.0"), *shift)
+    ref, _ = solve(tmp_path, "shear_off", *_block_sides_lowered("0.0"), tag="ref")
+    t = [x["steps"][0]["interfaces"]["bond"]["tangential_force"] for x in (s, ref)]
+    assert t[0] == pytest.approx(t[1], rel=1e-8)
+    assert t[1] == pytest.approx(384.615 * 2e-4 * 0.9375, rel=1e-5)  # G g, 15 pairs
+    step = s["steps"][0]
+    assert step["states"]["bonded"] == step["n_pairs"]
+    assert max(step["kkt_pairs"][k] for k in PAIR_KEYS) <= PAIR_WARN
+    assert step["consistency_refinements"] == 0 and not s.get("warnings")
+
+
 def test_mortar_standard_closes_a_prescribed_corner_overlap_in_its_weighted_gap(tmp_path):
     """The 1e-4 overlap that mortar and node-to-segment refuse: with mortar-standard the
     end pair's row (weight N_0 over the end slave segment) reaches the free slave
