@@ -573,6 +573,69 @@ def test_the_held_fit_and_the_pin_read_alike_on_one_and_two_ranks(tmp_path, rank
     assert n == pytest.approx(constrained_modulus(1e3, 0.3) * 1e-3, rel=1e-9)
 
 
+def _touching(*overrides: str) -> list[str]:
+    """interference.toml as two touching strips (g0 = 0), with its supports and loads
+    replaced by `overrides`."""
+    return ["body.upper.shape.origin=[0.0, 1.0]", "interface.contact.interference=false",
+            *overrides]
+
+
+def test_a_support_back_at_zero_under_a_floating_pressed_strip(tmp_path):
+    """The upper strip floats (roller sides), pressed by 10; the base's uy is 1e-3 x
+    [0, 1, 0, -1]: p = 10 at every step, and the top moves with the base, minus the
+    strips' compression 10 (H1 + H2) / E'."""
+    s, out = solve(tmp_path, "interference", *_touching(
+        "analysis.steps=4", 'load=[{on="upper_top",pressure=10.0}]',
+        'support=[{on="lower_base",ux=0.0,uy=1e-3,history=[0.0,1.0,0.0,-1.0]},'
+        '{on="lower_sides",ux=0.0},{on="upper_sides",ux=0.0}]'))
+    check_law(s, out)
+    with h5py.File(out / "mesh.h5") as f:
+        top = np.isclose(f["points"][()][:, 1], 2.0)
+    for k, h in enumerate([0.0, 1.0, 0.0, -1.0], 1):
+        c = contact(out, k)
+        np.testing.assert_allclose(c["p"], 10.0, rtol=1e-12)
+        want = 1e-3 * h - 10.0 * 2.0 / constrained_modulus(1e3, 0.3)
+        np.testing.assert_allclose(c["u"][top, 1], want, rtol=1e-12)
+
+
+def test_a_sideways_support_back_at_zero_carries_a_stuck_strip_rigidly(tmp_path):
+    """Free sides, the upper strip floating on the lower one (mu = 0.3), pressed by 10;
+    the base slides ux = 1e-3 x [0, 1, 0]: the answer is the unslid one translated by
+    the base's ux (both strips stick, q and p as without the slide)."""
+    run = ['load=[{on="upper_top",pressure=10.0}]', "analysis.steps=3"]
+    s, out = solve(tmp_path, "interference", *_touching(*run, 'support=[{on="lower_base",'
+                   'ux=1e-3,uy=0.0,history=[0.0,1.0,0.0]}]'))
+    check_law(s, out)
+    _, ref = solve(tmp_path, "interference", *_touching(*run, 'support=[{on="lower_base",'
+                   'ux=0.0,uy=0.0}]'), tag="ref")
+    for k, h in enumerate([0.0, 1.0, 0.0], 1):
+        c, c0 = contact(out, k), contact(ref, k)
+        slid = c["u"] - c0["u"] - [1e-3 * h, 0.0]
+        assert np.abs(slid).max() <= 1e-12 * 1e-3
+        np.testing.assert_allclose(c["p"], c0["p"], rtol=0, atol=1e-12)
+        np.testing.assert_allclose(c["q"], c0["q"], rtol=0, atol=1e-12)
+
+
+def test_a_load_on_a_node_whose_uy_a_support_prescribes(tmp_path):
+    """Pressure 10 on the upper top and its sides prescribed to the exact field
+    uy = -10 y / E' (roller ux): the top corners' nodal forces go to the supports (a
+    warning), and the answer is the uniform one, p = 10 on every pair, at both steps."""
+    e1 = constrained_modulus(1e3, 0.3)
+    s, out = solve(tmp_path, "interference", *_touching(
+        "analysis.steps=2", 'load=[{on="upper_top",pressure=10.0,history=[1.0,0.5]}]',
+        'support=[{on="lower_base",ux=0.0,uy=0.0},{on="lower_sides",ux=0.0},'
+        f'{{on="upper_sides",ux=0.0,uy="-10.0 * y / {e1!r}",history=[1.0,0.5]}}]'))
+    check_law(s, out)
+    assert any("act on prescribed DOFs (sum 1)" in w for w in s["warnings"])
+    with h5py.File(out / "mesh.h5") as f:
+        y = f["points"][()][:, 1]
+    for k, h in ((1, 1.0), (2, 0.5)):
+        c = contact(out, k)
+        np.testing.assert_allclose(c["p"], 10.0 * h, rtol=1e-12)
+        np.testing.assert_allclose(c["u"][:, 1], -10.0 * h * y / e1, rtol=0,
+                                   atol=1e-12 * 10.0 * 2.0 / e1)  # the exact field
+
+
 def test_many_pairs_and_steps_short(tmp_path):
     """The 2000-pair scene on a 3x coarser arc and 10 steps (the full run is slow)."""
     s, out = solve(tmp_path, "cattaneo_many", "analysis.steps=10", "support.1.ramp=[1, 4]",
