@@ -510,6 +510,34 @@ def test_an_interference_fit_held_at_both_sides_is_refused_for_its_overlap(tmp_p
               "support.2.uy=-0.002", "support.3.uy=-0.002", tag="u")
 
 
+def test_a_tolerated_initial_overlap_at_clamped_corners_is_touching(tmp_path):
+    """Both strips' sides clamped, pressed by 10, the upper strip 1e-9 into the lower one
+    without `interference` (below the default penetration_tol, 1e-7 here: input that
+    reads as touching). Before, the held corner pairs' 1e-9 was refused as an
+    interference fit's overlap; the same scene exactly touching ran. Now the overlap the
+    geometry tolerance allows reads as closed at those pairs, and the answer is the
+    touching one's; a push of the supports beyond it is still refused."""
+    clamp = ('support=[{on="lower_base",ux=0.0,uy=0.0},{on="lower_sides",ux=0.0,uy=0.0},'
+             '{on="upper_sides",ux=0.0,uy=0.0}]')
+    run = ["interface.contact.interference=false", clamp,
+           'load=[{on="upper_top",pressure=10.0}]']
+    s, out = solve(tmp_path, "interference", "body.upper.shape.origin=[0.0, 0.999999999]",
+                   *run)
+    ref, _ = solve(tmp_path, "interference", "body.upper.shape.origin=[0.0, 1.0]", *run,
+                   tag="ref")
+    n = [x["steps"][0]["interfaces"]["contact"]["normal_force"] for x in (s, ref)]
+    assert n[0] == pytest.approx(n[1], rel=1e-5)
+    step = s["steps"][0]
+    assert max(step["kkt_pairs"][k] for k in PAIR_KEYS) <= PAIR_WARN
+    assert step["consistency_refinements"] == 0
+    assert contact(out, 1)["gap"].min() == pytest.approx(-1e-9, rel=1e-3)  # as written
+    with pytest.raises(SolveError, match=r"supports push 2 pair\(s\)"):
+        solve(tmp_path, "interference", "body.upper.shape.origin=[0.0, 0.999999999]",
+              "interface.contact.interference=false", clamp.replace(
+                  'on="upper_sides",ux=0.0,uy=0.0', 'on="upper_sides",ux=0.0,uy=-1e-4'),
+              tag="push")
+
+
 def test_an_interference_fit_whose_clamped_sides_close_it_is_solved(tmp_path):
     """Clamped sides prescribed to the fit's own uniaxial field (lower -d0/2 y / H, upper
     d0/2 (top - y) / H): the end pairs are held at gap 0, nothing is refused, and every

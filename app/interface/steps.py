@@ -298,6 +298,11 @@ class ContactStepper:
         self.c_diag = np.diagonal(c_mat).copy()  # each pair's own scale (pair_law)
         self.fixed_n = fixed_rows(self.c_diag[:m])[0]  # both sides prescribed (normal)
         self.fixed_t = fixed_rows(self.c_diag[m:])[0] & setup.frictional  # (tangential)
+        fit = np.array([i.interference for i in setup.cfg.interfaces], dtype=bool)
+        self.fit = fit[pr.interface] if fit.size else np.zeros(m, dtype=bool)
+        # (m,) the initial overlap a pair without `interference` has: within its
+        # interface's penetration_tol (deeper is an input error), geometry that touches
+        self.tolerated = np.where(self.fit, 0.0, np.maximum(-pr.g0, 0.0))
         self.v_keep = self.v_null = None
         self.floating = floating
         if floating is not None and floating.r.shape[1]:
@@ -396,10 +401,14 @@ class ContactStepper:
         closed (set to 0 in `gap_free`; that overlap is returned, `StepSolution.
         closed_overlap`): before, an overlap of 1e-13 gave that pair 99. So does a gap
         within +tol (returned as a negative overlap): before, a bonded pair pulled apart by
-        1e-13 held at p = -a, its tie's pull capped at the adhesion."""
+        1e-13 held at p = -a, its tie's pull capped at the adhesion. So does an initial
+        overlap without `interference` (`tolerated`: within the interface's
+        penetration_tol, input that reads as touching) plus tol: before, clamped strips
+        1e-9 into each other were refused where exactly touching ones ran."""
         closed = np.zeros(self.m)
-        deep = self.fixed_n & (gap_free < -self.tol)
-        shallow = self.fixed_n & (np.abs(gap_free) <= self.tol)
+        allow = self.tol + self.tolerated  # and an initial overlap the geometry allows
+        deep = self.fixed_n & (gap_free < -allow)
+        shallow = self.fixed_n & (gap_free >= -allow) & (gap_free <= self.tol)
         closed[shallow] = -gap_free[shallow]
         gap_free[shallow] = 0.0
         if not deep.any():
@@ -430,7 +439,7 @@ class ContactStepper:
         where = f"{int(deep.sum())} pair(s) of interface {name!r}"
         at = f"deepest {-gap_free[k]:.3g} at the slave node x={x:.6g}, y={y:.6g}"
         g0, pushed = float(pr.g0[k]), float(gap_free[k] - pr.g0[k])
-        if g0 < 0.0:
+        if g0 < 0.0 and self.fit[k]:
             by = (f"; the supports push {-pushed:.3g} more" if pushed < -self.tol else
                   f"; the supports close {pushed:.3g} of it" if pushed > self.tol else "")
             return (f"the supports hold both sides of {where} where they overlap the "
