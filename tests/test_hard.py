@@ -581,6 +581,30 @@ def test_a_pin_on_a_pair_node_where_the_answer_does_not_move_changes_nothing(
     np.testing.assert_allclose(c["u"][c["slave"]], 0.0, atol=1e-12 * 1e-3)  # at rest
 
 
+@pytest.mark.parametrize("role", ["master", "slave"])
+def test_a_pin_on_a_pair_node_of_an_otherwise_free_contact(tmp_path, role):
+    """No support but the pin: the two touching strips float, squeezed by 10 on the
+    lower base and the upper top (free sides: uniaxial stress). The pin, on the
+    interface's middle where the symmetric answer is at rest, takes no force: p = 10 on
+    every pair. The two strips' rotation about the pin is resisted by nothing (listed in
+    `undetermined_modes`, any amount an equilibrium): the interface is at uy = 0 up to
+    that rigid rotation (1.4e-3 returned, README "Floating bodies")."""
+    pinned = _pinned(role)
+    pinned[3] = 'support=[{on="pin",ux=0.0,uy=0.0}]'
+    s, out = solve(tmp_path, "interference", *pinned,
+                   'load=[{on="upper_top",pressure=10.0},{on="lower_base",pressure=10.0}]')
+    check_law(s, out)
+    c = contact(out, 1)
+    np.testing.assert_allclose(c["p"], 10.0, rtol=1e-12)
+    x, uy = c["x"], c["u"][c["slave"], 1]
+    turn = np.polyfit(x - 0.5, uy, 1)  # uy = theta (x - 0.5), nothing else
+    assert abs(turn[1]) <= 1e-12 * 10.0 / 1e3
+    assert np.abs(uy - turn[0] * (x - 0.5)).max() <= 1e-12 * 10.0 / 1e3
+    assert any("rotation" in u for u in s["steps"][0]["undetermined_modes"])
+    pin = s["steps"][0]["reactions"]["support:pin"]
+    assert max(abs(pin["Fx"]), abs(pin["Fy"])) <= 1e-12 * 10.0
+
+
 @pytest.mark.parametrize("ranks", [1, 2])
 def test_the_held_fit_and_the_pin_read_alike_on_one_and_two_ranks(tmp_path, ranks):
     """The CLI on 1 and 2 ranks: the clamped-sides fit is refused with the same one
