@@ -605,6 +605,19 @@ def test_a_pin_on_a_pair_node_of_an_otherwise_free_contact(tmp_path, role):
     assert max(abs(pin["Fx"]), abs(pin["Fy"])) <= 1e-12 * 10.0
 
 
+def test_friction_on_pairs_held_on_both_sides_in_the_normal_is_named(tmp_path):
+    """Both interface curves held at uy = 0 (ux free), the upper strip under a traction
+    (1, -10) with free sides: every pair's normal force is undetermined (the supports can
+    take any share), the tie reads it 0, so friction holds nothing and Lemke finds no
+    equilibrium. The refusal stays, and now says why (before: only 'no static
+    equilibrium ... secondary ray')."""
+    with pytest.raises(SolveError, match=r"no static equilibrium.*11 frictional pair\(s\)"
+                       r" of interface 'contact' have both sides held in their normal"):
+        solve(tmp_path, "interference", *_touching(
+            'support=[{on="lower_base",ux=0.0,uy=0.0},{on="lower_top",uy=0.0},'
+            '{on="upper_bottom",uy=0.0}]', 'load=[{on="upper_top",traction=[1.0,-10.0]}]'))
+
+
 @pytest.mark.parametrize("ranks", [1, 2])
 def test_the_held_fit_and_the_pin_read_alike_on_one_and_two_ranks(tmp_path, ranks):
     """The CLI on 1 and 2 ranks: the clamped-sides fit is refused with the same one

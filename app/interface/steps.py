@@ -426,6 +426,29 @@ class ContactStepper:
         still = self.fixed_t & (np.abs(tau_free - prev) <= self.tol)
         prev[still] = tau_free[still]
 
+    def _held_friction_note(self) -> str:
+        """For a failed solve: the frictional pairs whose normal motion the supports fix
+        on both sides but whose tangential motion is free. Their normal force moves
+        nothing (any share is an equilibrium, the supports take the rest), so neither it
+        nor the friction it bounds is determined, and the LCP finds no answer that uses
+        it: both interface curves of a strip held at uy = 0 under a sideways load read
+        only 'no static equilibrium' before."""
+        m = self.m
+        # (judged against the whole diagonal: with every normal row held, the normal
+        # block alone has no scale and `fixed_rows` finds none)
+        held = fixed_rows(self.c_diag)[0][:m] & ~fixed_rows(self.c_diag)[0][m:] \
+            & self.setup.frictional
+        if not held.any():
+            return ""
+        pr = self.setup.pairs
+        k = int(np.flatnonzero(held)[0])
+        name = self.setup.cfg.interfaces[int(pr.interface[k])].name
+        return (f"; {int(held.sum())} frictional pair(s) of interface {name!r} have both "
+                "sides held in their normal by the supports (first at the slave node "
+                f"x={pr.position[k][0]:.6g}, y={pr.position[k][1]:.6g}): their normal force "
+                "moves nothing and is not determined, so neither is the friction it bounds; "
+                "leave one side of the interface free in its normal")
+
     def _overlap_message(self, deep: np.ndarray, gap_free: np.ndarray) -> str:
         """Why the pairs `deep` (m,) bool, both sides prescribed, cannot be solved: at the
         deepest, an initial overlap g0 < 0 (an interference fit) the supports hold, or
@@ -536,6 +559,7 @@ class ContactStepper:
             out.message = f"Lemke ended with '{res.status}': {sol.message}"
             if self.undetermined:
                 out.message += "; the contact cannot resist " + ", ".join(self.undetermined)
+            out.message += self._held_friction_note()
             return out
         # pairs without tangential unknowns (frictionless) slip by their whole tangential
         # motion; the others by the LCP's slip (the same, tau - tau_prev, to round-off)
