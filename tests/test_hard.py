@@ -618,6 +618,19 @@ def test_friction_on_pairs_held_on_both_sides_in_the_normal_is_named(tmp_path):
             '{on="upper_bottom",uy=0.0}]', 'load=[{on="upper_top",traction=[1.0,-10.0]}]'))
 
 
+def test_a_push_through_an_interface_held_at_every_pair_is_refused_as_a_push(tmp_path):
+    """Both interface curves held in uy, the upper one 1e-4 lower than the lower one:
+    every pair overlaps by what the supports prescribe. Every normal compliance is
+    exactly 0, so the normal block has no scale and no pair counted as fixed: the step
+    went to Lemke and read 'no static equilibrium ... secondary ray'. Now refused as the
+    supports' push, naming the pairs and the overlap."""
+    with pytest.raises(SolveError, match=r"supports push 11 pair\(s\) of interface "
+                       r"'contact' into the master.*deepest 0.0001"):
+        solve(tmp_path, "interference", *_touching(
+            'support=[{on="lower_base",ux=0.0,uy=0.0},{on="lower_top",uy=0.0},'
+            '{on="upper_bottom",uy=-1e-4}]', 'load=[{on="upper_top",pressure=10.0}]'))
+
+
 @pytest.mark.parametrize("ranks", [1, 2])
 def test_the_held_fit_and_the_pin_read_alike_on_one_and_two_ranks(tmp_path, ranks):
     """The CLI on 1 and 2 ranks: the clamped-sides fit is refused with the same one

@@ -296,7 +296,9 @@ class ContactStepper:
         g = setup.g
         self.gu = [g @ uc for uc in unit]  # (2m,) per load case
         self.c_diag = np.diagonal(c_mat).copy()  # each pair's own scale (pair_law)
-        self.fixed_n = fixed_rows(self.c_diag[:m])[0]  # both sides prescribed (normal)
+        # both sides prescribed (normal); a row of compliance exactly 0 too, which
+        # `fixed_rows` finds none of when every normal row is (no scale in the block)
+        self.fixed_n = fixed_rows(self.c_diag[:m])[0] | (self.c_diag[:m] <= 0.0)
         self.fixed_t = fixed_rows(self.c_diag[m:])[0] & setup.frictional  # (tangential)
         fit = np.array([i.interference for i in setup.cfg.interfaces], dtype=bool)
         self.fit = fit[pr.interface] if fit.size else np.zeros(m, dtype=bool)
