@@ -472,6 +472,248 @@ def test_interference_error_is_one_line_from_the_cli(tmp_path):
     assert len(lines) == 1 and lines[0].startswith("error: interface 'contact'"), res.stderr
 
 
+CLAMPED_SIDES = ("support.1.uy=0.0", "support.2.uy=0.0")  # interference.toml: ux = uy = 0
+
+
+def test_an_interference_fit_of_unequal_strips_matches_its_closed_form(tmp_path):
+    """interference.toml with E2 = 3 E1 and nu1 = 0.2 (roller sides): the overlap d0 is
+    shared in series, p = d0 / (H1 / E1' + H2 / E2') uniform, gap 0; the same with the
+    overlap replaced by the upper top prescribed d0 down (g0 = 0) gives the same p."""
+    mats = ("body.upper.E=3000.0", "body.lower.nu=0.2")
+    p_exact = 0.002 / (1 / constrained_modulus(1e3, 0.2) + 1 / constrained_modulus(3e3, 0.3))
+    s, out = solve(tmp_path, "interference", *mats)
+    check_law(s, out)
+    np.testing.assert_allclose(contact(out, 1)["p"], p_exact, rtol=1e-9)
+    s, out = solve(tmp_path, "interference", *mats, "body.upper.shape.origin=[0.0, 1.0]",
+                   "interface.contact.interference=false", "support.3.uy=-0.002", tag="u")
+    np.testing.assert_allclose(contact(out, 1)["p"], p_exact, rtol=1e-9)
+
+
+@pytest.mark.parametrize("disc", ["mortar", "node-to-segment"])
+def test_an_interference_fit_held_at_both_sides_is_refused_for_its_overlap(tmp_path, disc):
+    """Both strips' sides clamped (ux = uy = 0): the end pairs' both sides are held and
+    overlap by the fit's d0 = 0.002, which no contact force can remove; the continuum
+    answer has no finite energy (mortar-standard, which accepts it, gains ~4.6e-4 of
+    strain energy per mesh halving and its max p doubles: README "Hard cases"). Refused,
+    naming the fit's overlap as the cause; before, the message blamed the supports for
+    pushing the pairs in, which they do not (they hold the sides where they are)."""
+    with pytest.raises(SolveError, match=r"hold both sides of 2 pair\(s\) of interface "
+                       r"'contact' .*the interference fit's initial overlap 0.002\).*"
+                       r"no finite-energy answer"):
+        solve(tmp_path, "interference", *CLAMPED_SIDES,
+              f'interface.contact.discretisation="{disc}"')
+    # the same scene with the overlap made by the supports (g0 = 0, the upper sides and
+    # top prescribed 0.002 down): refused as the supports' push, as before
+    with pytest.raises(SolveError, match=r"supports push 2 pair\(s\) .*deepest 0.002"):
+        solve(tmp_path, "interference", "body.upper.shape.origin=[0.0, 1.0]",
+              "interface.contact.interference=false", "support.1.uy=0.0",
+              "support.2.uy=-0.002", "support.3.uy=-0.002", tag="u")
+
+
+def test_a_tolerated_initial_overlap_at_clamped_corners_is_touching(tmp_path):
+    """Both strips' sides clamped, pressed by 10, the upper strip 1e-9 into the lower one
+    without `interference` (below the default penetration_tol, 1e-7 here: input that
+    reads as touching). Before, the held corner pairs' 1e-9 was refused as an
+    interference fit's overlap; the same scene exactly touching ran. Now the overlap the
+    geometry tolerance allows reads as closed at those pairs, and the answer is the
+    touching one's; a push of the supports beyond it is still refused."""
+    clamp = ('support=[{on="lower_base",ux=0.0,uy=0.0},{on="lower_sides",ux=0.0,uy=0.0},'
+             '{on="upper_sides",ux=0.0,uy=0.0}]')
+    run = ["interface.contact.interference=false", clamp,
+           'load=[{on="upper_top",pressure=10.0}]']
+    s, out = solve(tmp_path, "interference", "body.upper.shape.origin=[0.0, 0.999999999]",
+                   *run)
+    ref, _ = solve(tmp_path, "interference", "body.upper.shape.origin=[0.0, 1.0]", *run,
+                   tag="ref")
+    n = [x["steps"][0]["interfaces"]["contact"]["normal_force"] for x in (s, ref)]
+    assert n[0] == pytest.approx(n[1], rel=1e-5)
+    step = s["steps"][0]
+    assert max(step["kkt_pairs"][k] for k in PAIR_KEYS) <= PAIR_WARN
+    assert step["consistency_refinements"] == 0
+    assert contact(out, 1)["gap"].min() == pytest.approx(-1e-9, rel=1e-3)  # as written
+    with pytest.raises(SolveError, match=r"supports push 2 pair\(s\)"):
+        solve(tmp_path, "interference", "body.upper.shape.origin=[0.0, 0.999999999]",
+              "interface.contact.interference=false", clamp.replace(
+                  'on="upper_sides",ux=0.0,uy=0.0', 'on="upper_sides",ux=0.0,uy=-1e-4'),
+              tag="push")
+
+
+def test_an_interference_fit_whose_clamped_sides_close_it_is_solved(tmp_path):
+    """Clamped sides prescribed to the fit's own uniaxial field (lower -d0/2 y / H, upper
+    d0/2 (top - y) / H): the end pairs are held at gap 0, nothing is refused, and every
+    pair not tied carries p = E' d0 / 2; the tied end pairs read 0, their share (h / 2
+    each) in the side reactions."""
+    s, out = solve(tmp_path, "interference", 'support.1.uy="-0.001 * y"',
+                   'support.2.uy="0.001 * (1.998 - y)"')
+    check_law(s, out)
+    c = contact(out, 1)
+    ends = np.isclose(c["x"], 0.0) | np.isclose(c["x"], 1.0)
+    assert ends.sum() == 2
+    np.testing.assert_allclose(c["p"][~ends], constrained_modulus(1e3, 0.3) * 1e-3,
+                               rtol=1e-9)
+    np.testing.assert_allclose(c["gap"], 0.0, atol=1e-12)
+
+
+def _pinned(role: str) -> list[str]:
+    """interference.toml as two touching strips squeezed symmetrically (base up 1e-3,
+    top down 1e-3, roller sides): the interface stays at uy = 0, p = E' x 1e-3. A pin
+    (ux = uy = 0) on the lower strip's interface node at x = 0.5 (the body listed first
+    gets the [points] node), which is the master, or the slave with the roles swapped."""
+    swap = ['interface.contact.slave="lower_top"', 'interface.contact.master="upper_bottom"']
+    return ["body.upper.shape.origin=[0.0, 1.0]", "interface.contact.interference=false",
+            "points={pin=[0.5, 1.0]}",
+            'support=[{on="lower_base",ux=0.0,uy=1e-3},{on="lower_sides",ux=0.0},'
+            '{on="upper_sides",ux=0.0},{on="upper_top",uy=-1e-3},'
+            '{on="pin",ux=0.0,uy=0.0}]', *(swap if role == "slave" else [])]
+
+
+@pytest.mark.parametrize("role", ["master", "slave"])
+@pytest.mark.parametrize("disc", ["mortar", "node-to-segment"])
+def test_a_pin_on_a_pair_node_where_the_answer_does_not_move_changes_nothing(
+        tmp_path, role, disc):
+    """The pin sits where the symmetric squeeze leaves the body at rest: the answer is
+    the unpinned one, p = E' x 1e-3 on every pair, and the pin takes no force."""
+    s, out = solve(tmp_path, "interference", *_pinned(role),
+                   f'interface.contact.discretisation="{disc}"')
+    check_law(s, out)
+    c = contact(out, 1)
+    np.testing.assert_allclose(c["p"], constrained_modulus(1e3, 0.3) * 1e-3, rtol=1e-9)
+    np.testing.assert_allclose(c["u"][c["slave"]], 0.0, atol=1e-12 * 1e-3)  # at rest
+
+
+@pytest.mark.parametrize("role", ["master", "slave"])
+def test_a_pin_on_a_pair_node_of_an_otherwise_free_contact(tmp_path, role):
+    """No support but the pin: the two touching strips float, squeezed by 10 on the
+    lower base and the upper top (free sides: uniaxial stress). The pin, on the
+    interface's middle where the symmetric answer is at rest, takes no force: p = 10 on
+    every pair. The two strips' rotation about the pin is resisted by nothing (listed in
+    `undetermined_modes`, any amount an equilibrium): the interface is at uy = 0 up to
+    that rigid rotation (1.4e-3 returned, README "Floating bodies")."""
+    pinned = _pinned(role)
+    pinned[3] = 'support=[{on="pin",ux=0.0,uy=0.0}]'
+    s, out = solve(tmp_path, "interference", *pinned,
+                   'load=[{on="upper_top",pressure=10.0},{on="lower_base",pressure=10.0}]')
+    check_law(s, out)
+    c = contact(out, 1)
+    np.testing.assert_allclose(c["p"], 10.0, rtol=1e-12)
+    x, uy = c["x"], c["u"][c["slave"], 1]
+    turn = np.polyfit(x - 0.5, uy, 1)  # uy = theta (x - 0.5), nothing else
+    assert abs(turn[1]) <= 1e-12 * 10.0 / 1e3
+    assert np.abs(uy - turn[0] * (x - 0.5)).max() <= 1e-12 * 10.0 / 1e3
+    assert any("rotation" in u for u in s["steps"][0]["undetermined_modes"])
+    pin = s["steps"][0]["reactions"]["support:pin"]
+    assert max(abs(pin["Fx"]), abs(pin["Fy"])) <= 1e-12 * 10.0
+
+
+def test_friction_on_pairs_held_on_both_sides_in_the_normal_is_named(tmp_path):
+    """Both interface curves held at uy = 0 (ux free), the upper strip under a traction
+    (1, -10) with free sides: every pair's normal force is undetermined (the supports can
+    take any share), the tie reads it 0, so friction holds nothing and Lemke finds no
+    equilibrium. The refusal stays, and now says why (before: only 'no static
+    equilibrium ... secondary ray')."""
+    with pytest.raises(SolveError, match=r"no static equilibrium.*11 frictional pair\(s\)"
+                       r" of interface 'contact' have both sides held in their normal"):
+        solve(tmp_path, "interference", *_touching(
+            'support=[{on="lower_base",ux=0.0,uy=0.0},{on="lower_top",uy=0.0},'
+            '{on="upper_bottom",uy=0.0}]', 'load=[{on="upper_top",traction=[1.0,-10.0]}]'))
+
+
+def test_a_push_through_an_interface_held_at_every_pair_is_refused_as_a_push(tmp_path):
+    """Both interface curves held in uy, the upper one 1e-4 lower than the lower one:
+    every pair overlaps by what the supports prescribe. Every normal compliance is
+    exactly 0, so the normal block has no scale and no pair counted as fixed: the step
+    went to Lemke and read 'no static equilibrium ... secondary ray'. Now refused as the
+    supports' push, naming the pairs and the overlap."""
+    with pytest.raises(SolveError, match=r"supports push 11 pair\(s\) of interface "
+                       r"'contact' into the master.*deepest 0.0001"):
+        solve(tmp_path, "interference", *_touching(
+            'support=[{on="lower_base",ux=0.0,uy=0.0},{on="lower_top",uy=0.0},'
+            '{on="upper_bottom",uy=-1e-4}]', 'load=[{on="upper_top",pressure=10.0}]'))
+
+
+@pytest.mark.parametrize("ranks", [1, 2])
+def test_the_held_fit_and_the_pin_read_alike_on_one_and_two_ranks(tmp_path, ranks):
+    """The CLI on 1 and 2 ranks: the clamped-sides fit is refused with the same one
+    line, exit 2 and a failed summary; the pinned squeeze completes with p = E' x 1e-3."""
+    base = ["run", str(HARD / "interference.toml"), "--quiet"]
+    res = run_cli([*base, "--out", str(tmp_path / "held"),
+                   *[a for k in CLAMPED_SIDES for a in ("--set", k)]], ranks=ranks)
+    lines = [ln for ln in res.stderr.splitlines() if ln.startswith("error:")]
+    assert res.returncode == 2 and len(lines) == 1, res.stderr  # once, not per rank
+    assert "the interference fit's initial overlap 0.002" in lines[0]
+    s = json.loads((tmp_path / "held" / "summary.json").read_text())
+    assert s["status"] == "failed" and "no finite-energy answer" in s["error"]
+    res = run_cli([*base, "--out", str(tmp_path / "pin"),
+                   *[a for k in _pinned("slave") for a in ("--set", k)]], ranks=ranks)
+    assert res.returncode == 0, res.stderr
+    n = json.loads((tmp_path / "pin" / "summary.json").read_text())
+    n = n["steps"][0]["interfaces"]["contact"]["normal_force"]
+    assert n == pytest.approx(constrained_modulus(1e3, 0.3) * 1e-3, rel=1e-9)
+
+
+def _touching(*overrides: str) -> list[str]:
+    """interference.toml as two touching strips (g0 = 0), with its supports and loads
+    replaced by `overrides`."""
+    return ["body.upper.shape.origin=[0.0, 1.0]", "interface.contact.interference=false",
+            *overrides]
+
+
+def test_a_support_back_at_zero_under_a_floating_pressed_strip(tmp_path):
+    """The upper strip floats (roller sides), pressed by 10; the base's uy is 1e-3 x
+    [0, 1, 0, -1]: p = 10 at every step, and the top moves with the base, minus the
+    strips' compression 10 (H1 + H2) / E'."""
+    s, out = solve(tmp_path, "interference", *_touching(
+        "analysis.steps=4", 'load=[{on="upper_top",pressure=10.0}]',
+        'support=[{on="lower_base",ux=0.0,uy=1e-3,history=[0.0,1.0,0.0,-1.0]},'
+        '{on="lower_sides",ux=0.0},{on="upper_sides",ux=0.0}]'))
+    check_law(s, out)
+    with h5py.File(out / "mesh.h5") as f:
+        top = np.isclose(f["points"][()][:, 1], 2.0)
+    for k, h in enumerate([0.0, 1.0, 0.0, -1.0], 1):
+        c = contact(out, k)
+        np.testing.assert_allclose(c["p"], 10.0, rtol=1e-12)
+        want = 1e-3 * h - 10.0 * 2.0 / constrained_modulus(1e3, 0.3)
+        np.testing.assert_allclose(c["u"][top, 1], want, rtol=1e-12)
+
+
+def test_a_sideways_support_back_at_zero_carries_a_stuck_strip_rigidly(tmp_path):
+    """Free sides, the upper strip floating on the lower one (mu = 0.3), pressed by 10;
+    the base slides ux = 1e-3 x [0, 1, 0]: the answer is the unslid one translated by
+    the base's ux (both strips stick, q and p as without the slide)."""
+    run = ['load=[{on="upper_top",pressure=10.0}]', "analysis.steps=3"]
+    s, out = solve(tmp_path, "interference", *_touching(*run, 'support=[{on="lower_base",'
+                   'ux=1e-3,uy=0.0,history=[0.0,1.0,0.0]}]'))
+    check_law(s, out)
+    _, ref = solve(tmp_path, "interference", *_touching(*run, 'support=[{on="lower_base",'
+                   'ux=0.0,uy=0.0}]'), tag="ref")
+    for k, h in enumerate([0.0, 1.0, 0.0], 1):
+        c, c0 = contact(out, k), contact(ref, k)
+        slid = c["u"] - c0["u"] - [1e-3 * h, 0.0]
+        assert np.abs(slid).max() <= 1e-12 * 1e-3
+        np.testing.assert_allclose(c["p"], c0["p"], rtol=0, atol=1e-12)
+        np.testing.assert_allclose(c["q"], c0["q"], rtol=0, atol=1e-12)
+
+
+def test_a_load_on_a_node_whose_uy_a_support_prescribes(tmp_path):
+    """Pressure 10 on the upper top and its sides prescribed to the exact field
+    uy = -10 y / E' (roller ux): the top corners' nodal forces go to the supports (a
+    warning), and the answer is the uniform one, p = 10 on every pair, at both steps."""
+    e1 = constrained_modulus(1e3, 0.3)
+    s, out = solve(tmp_path, "interference", *_touching(
+        "analysis.steps=2", 'load=[{on="upper_top",pressure=10.0,history=[1.0,0.5]}]',
+        'support=[{on="lower_base",ux=0.0,uy=0.0},{on="lower_sides",ux=0.0},'
+        f'{{on="upper_sides",ux=0.0,uy="-10.0 * y / {e1!r}",history=[1.0,0.5]}}]'))
+    check_law(s, out)
+    assert any("act on prescribed DOFs (sum 1)" in w for w in s["warnings"])
+    with h5py.File(out / "mesh.h5") as f:
+        y = f["points"][()][:, 1]
+    for k, h in ((1, 1.0), (2, 0.5)):
+        c = contact(out, k)
+        np.testing.assert_allclose(c["p"], 10.0 * h, rtol=1e-12)
+        np.testing.assert_allclose(c["u"][:, 1], -10.0 * h * y / e1, rtol=0,
+                                   atol=1e-12 * 10.0 * 2.0 / e1)  # the exact field
+
+
 def test_many_pairs_and_steps_short(tmp_path):
     """The 2000-pair scene on a 3x coarser arc and 10 steps (the full run is slow)."""
     s, out = solve(tmp_path, "cattaneo_many", "analysis.steps=10", "support.1.ramp=[1, 4]",
@@ -656,6 +898,41 @@ def test_a_round_off_overlap_of_fixed_pairs_carries_no_force(tmp_path):
     assert step["consistency_refinements"] == 0 and not s.get("warnings")
     gap = contact(out, 1)["gap"]
     assert gap.min() == pytest.approx(-1e-13, rel=1e-3)  # the overlap, written as it is
+
+
+def test_a_round_off_pull_on_fixed_bonded_pairs_carries_no_adhesion(tmp_path):
+    """The block's sides 1e-13 higher than the base's (below the state tolerance): the
+    bonded end pairs, both sides prescribed, are pulled apart by round-off and read as
+    closed at the force of the exact scene. Before, their stiff tie turned the 1e-13 into
+    a pull capped at the full adhesion a: p = -a on both end pairs, normal force 0.0950
+    against 0.1262 at 0 and at 1e-9 (which opens and debonds them), without a word."""
+    s, out = solve(tmp_path, "shear_off", *_block_sides_lowered("-1e-13"))
+    ref, _ = solve(tmp_path, "shear_off", *_block_sides_lowered("0.0"), tag="ref")
+    n = [x["steps"][0]["interfaces"]["bond"]["normal_force"] for x in (s, ref)]
+    assert n[0] == pytest.approx(n[1], rel=1e-8)
+    step = s["steps"][0]
+    assert step["states"]["bonded"] == step["n_pairs"]
+    assert max(step["kkt_pairs"][k] for k in PAIR_KEYS) <= PAIR_WARN
+    assert step["consistency_refinements"] == 0 and not s.get("warnings")
+    assert contact(out, 1)["gap"].max() == pytest.approx(1e-13, rel=1e-3)  # as written
+
+
+def test_a_round_off_shift_of_fixed_bonded_pairs_carries_no_shear(tmp_path):
+    """The block's prescribed ux 1e-13 ahead of the base's (below the state tolerance):
+    the bonded end pairs, both sides prescribed, are slid by round-off and read as
+    sticking without force, as at 0. Before, their stiff tie turned the 1e-13 into a
+    shear capped at the strength: tangential force 0.1346 against 0.0721 at 0 and at
+    1e-9 (which slides and debonds them), without a word."""
+    shift = [f'support.{i}.ux="g * (y + 0.5) + 1e-13"' for i in (5, 7, 9)]
+    s, out = solve(tmp_path, "shear_off", *_block_sides_lowered("0.0"), *shift)
+    ref, _ = solve(tmp_path, "shear_off", *_block_sides_lowered("0.0"), tag="ref")
+    t = [x["steps"][0]["interfaces"]["bond"]["tangential_force"] for x in (s, ref)]
+    assert t[0] == pytest.approx(t[1], rel=1e-8)
+    assert t[1] == pytest.approx(384.615 * 2e-4 * 0.9375, rel=1e-5)  # G g, 15 pairs
+    step = s["steps"][0]
+    assert step["states"]["bonded"] == step["n_pairs"]
+    assert max(step["kkt_pairs"][k] for k in PAIR_KEYS) <= PAIR_WARN
+    assert step["consistency_refinements"] == 0 and not s.get("warnings")
 
 
 def test_mortar_standard_closes_a_prescribed_corner_overlap_in_its_weighted_gap(tmp_path):

@@ -240,8 +240,8 @@ class StepSolution:
     loads alone (without the bond's a and c: the per-pair kinematic scale); contact_work
     lam . G K^-1 G^T lam >= 0 (force x length), the pair forces' work through the motion
     they make, set by the driver's recovery (`app.output.pair_law.tied_coupling`);
-    closed_overlap (m,) >= 0 the overlap the supports prescribe at pairs fixed on both
-    sides that the step read as closed (within the state tolerance,
+    closed_overlap (m,) the overlap (> 0; < 0 a gap) the supports prescribe at pairs fixed
+    on both sides that the step read as closed (within the state tolerance,
     `ContactStepper._prescribed_overlap`): the LCP solved those pairs at gap 0, the
     kinematics (and the field) keep the overlap, and the per-pair law allows it
     (`app.output.pair_law.pair_residuals`); info the step's summary.json entries.
@@ -296,7 +296,15 @@ class ContactStepper:
         g = setup.g
         self.gu = [g @ uc for uc in unit]  # (2m,) per load case
         self.c_diag = np.diagonal(c_mat).copy()  # each pair's own scale (pair_law)
-        self.fixed_n = fixed_rows(self.c_diag[:m])[0]  # both sides prescribed (normal)
+        # both sides prescribed (normal); a row of compliance exactly 0 too, which
+        # `fixed_rows` finds none of when every normal row is (no scale in the block)
+        self.fixed_n = fixed_rows(self.c_diag[:m])[0] | (self.c_diag[:m] <= 0.0)
+        self.fixed_t = fixed_rows(self.c_diag[m:])[0] & setup.frictional  # (tangential)
+        fit = np.array([i.interference for i in setup.cfg.interfaces], dtype=bool)
+        self.fit = fit[pr.interface] if fit.size else np.zeros(m, dtype=bool)
+        # (m,) the initial overlap a pair without `interference` has: within its
+        # interface's penetration_tol (deeper is an input error), geometry that touches
+        self.tolerated = np.where(self.fit, 0.0, np.maximum(-pr.g0, 0.0))
         self.v_keep = self.v_null = None
         self.floating = floating
         if floating is not None and floating.r.shape[1]:
@@ -384,34 +392,91 @@ class ContactStepper:
 
     def _prescribed_overlap(self, gap_free: np.ndarray) -> tuple[str, np.ndarray]:
         """(why no contact force can close the step's free gap, or "", the overlap (m,)
-        read as closed, >= 0): a pair whose motion
+        read as closed, < 0 a gap): a pair whose motion
         the supports fix on both sides (`fixed_rows`: its force moves nothing) and whose
-        free gap is below -tol (the state tolerance) is pushed into the master by the
-        prescribed displacements themselves. Its stiff tie (`app.lcp.coulomb_matrix.
+        free gap is below -tol (the state tolerance) is held in the master by the
+        prescribed displacements themselves (their push, or an interference fit's g0 they
+        hold: `_overlap_message`). Its stiff tie (`app.lcp.coulomb_matrix.
         tie_fixed`) turned the overlap into a force of overlap / (1e-12 x the largest
         compliance): 9.9e10 on `shear_off.toml` with the block's sides moved 1e-4 more
         down than the base's, a run that completed. A free gap within -tol of 0 reads as
         closed (set to 0 in `gap_free`; that overlap is returned, `StepSolution.
-        closed_overlap`): before, an overlap of 1e-13 gave that pair 99."""
+        closed_overlap`): before, an overlap of 1e-13 gave that pair 99. So does a gap
+        within +tol (returned as a negative overlap): before, a bonded pair pulled apart by
+        1e-13 held at p = -a, its tie's pull capped at the adhesion. So does an initial
+        overlap without `interference` (`tolerated`: within the interface's
+        penetration_tol, input that reads as touching) plus tol: before, clamped strips
+        1e-9 into each other were refused where exactly touching ones ran."""
         closed = np.zeros(self.m)
-        low = self.fixed_n & (gap_free < 0.0)
-        if not low.any():
-            return "", closed
-        deep = low & (gap_free < -self.tol)
-        shallow = low & ~deep
+        allow = self.tol + self.tolerated  # and an initial overlap the geometry allows
+        deep = self.fixed_n & (gap_free < -allow)
+        shallow = self.fixed_n & (gap_free >= -allow) & (gap_free <= self.tol)
         closed[shallow] = -gap_free[shallow]
         gap_free[shallow] = 0.0
         if not deep.any():
             return "", closed
+        return self._overlap_message(deep, gap_free), closed
+
+    def _settle_prescribed_slip(self, tau_free: np.ndarray) -> None:
+        """A frictional pair the supports fix tangentially on both sides (`fixed_rows`)
+        whose prescribed slip this step, tau_free - tau_prev, is within the state tolerance
+        has not slid: its tau_prev (in the history) takes tau_free. Its stiff tie turned
+        that round-off into a shear capped at the strength: the end pairs of
+        `shear_off.toml` with the block's ux 1e-13 ahead of the base's carried c + mu p
+        each (tangential force 0.1346 against 0.0721), sticking, without a word."""
+        prev = self.hist.tau_prev
+        still = self.fixed_t & (np.abs(tau_free - prev) <= self.tol)
+        prev[still] = tau_free[still]
+
+    def _held_friction_note(self) -> str:
+        """For a failed solve: the frictional pairs whose normal motion the supports fix
+        on both sides but whose tangential motion is free. Their normal force moves
+        nothing (any share is an equilibrium, the supports take the rest), so neither it
+        nor the friction it bounds is determined, and the LCP finds no answer that uses
+        it: both interface curves of a strip held at uy = 0 under a sideways load read
+        only 'no static equilibrium' before."""
+        m = self.m
+        # (judged against the whole diagonal: with every normal row held, the normal
+        # block alone has no scale and `fixed_rows` finds none)
+        held = fixed_rows(self.c_diag)[0][:m] & ~fixed_rows(self.c_diag)[0][m:] \
+            & self.setup.frictional
+        if not held.any():
+            return ""
+        pr = self.setup.pairs
+        k = int(np.flatnonzero(held)[0])
+        name = self.setup.cfg.interfaces[int(pr.interface[k])].name
+        return (f"; {int(held.sum())} frictional pair(s) of interface {name!r} have both "
+                "sides held in their normal by the supports (first at the slave node "
+                f"x={pr.position[k][0]:.6g}, y={pr.position[k][1]:.6g}): their normal force "
+                "moves nothing and is not determined, so neither is the friction it bounds; "
+                "leave one side of the interface free in its normal")
+
+    def _overlap_message(self, deep: np.ndarray, gap_free: np.ndarray) -> str:
+        """Why the pairs `deep` (m,) bool, both sides prescribed, cannot be solved: at the
+        deepest, an initial overlap g0 < 0 (an interference fit) the supports hold, or
+        one they push (gap_free - g0 < 0, their prescribed displacements). A fit whose
+        both sides are held has no finite-energy answer (README "Hard cases", the
+        clamped interference fit): before, it was said to be the supports' push."""
         pr = self.setup.pairs
         k = int(np.flatnonzero(deep)[np.argmin(gap_free[deep])])
         x, y = pr.position[k]
         name = self.setup.cfg.interfaces[int(pr.interface[k])].name
-        return (f"the supports push {int(deep.sum())} pair(s) of interface {name!r} into the "
-                f"master, whose both sides they prescribe (deepest {-gap_free[k]:.3g} at the "
-                f"slave node x={x:.6g}, y={y:.6g}): no contact force can separate them; "
-                "make the prescribed displacements of the two bodies agree there (or "
-                "leave one side free)"), closed
+        where = f"{int(deep.sum())} pair(s) of interface {name!r}"
+        at = f"deepest {-gap_free[k]:.3g} at the slave node x={x:.6g}, y={y:.6g}"
+        g0, pushed = float(pr.g0[k]), float(gap_free[k] - pr.g0[k])
+        if g0 < 0.0 and self.fit[k]:
+            by = (f"; the supports push {-pushed:.3g} more" if pushed < -self.tol else
+                  f"; the supports close {pushed:.3g} of it" if pushed > self.tol else "")
+            return (f"the supports hold both sides of {where} where they overlap the "
+                    f"master ({at}: the interference fit's initial overlap {-g0:.3g}{by}):"
+                    " no contact force can push them apart, and the fit has no "
+                    "finite-energy answer at a held edge; leave one side free there (e.g. "
+                    "rollers on the bodies' sides) or prescribe the supports to close the "
+                    "overlap")
+        return (f"the supports push {where} into the master, whose both sides they "
+                f"prescribe ({at}): no contact force can separate them; make the "
+                "prescribed displacements of the two bodies agree there (or leave one "
+                "side free)")
 
     def _interface_info(self, sol, state: np.ndarray, debonded: np.ndarray) -> dict:
         """Per-interface figures of a solved step: forces (per unit thickness x thickness),
@@ -484,6 +549,7 @@ class ContactStepper:
         pressed, closed = self._prescribed_overlap(gap_free)
         if pressed:
             return StepSolution("prescribed penetration", pressed)
+        self._settle_prescribed_slip(tau_free)
         tau_prev = self.hist.tau_prev.copy()
         res = solve_step(self.lcp, self.hist, step + 1, gap_free, tau_free, self.setup.mu,
                          e0, self.tol, self.tol)
@@ -495,6 +561,7 @@ class ContactStepper:
             out.message = f"Lemke ended with '{res.status}': {sol.message}"
             if self.undetermined:
                 out.message += "; the contact cannot resist " + ", ".join(self.undetermined)
+            out.message += self._held_friction_note()
             return out
         # pairs without tangential unknowns (frictionless) slip by their whole tangential
         # motion; the others by the LCP's slip (the same, tau - tau_prev, to round-off)
