@@ -145,12 +145,12 @@ def pair_residuals(gap: np.ndarray, dtau: np.ndarray, p: np.ndarray, q: np.ndarr
     """(r_n, r_t) (m,) each: the normal and tangential residuals of the law (module doc)
     per pair. gap, dtau (slip increment tau - tau_prev) in length; p, q, a, c forces
     (p compression positive, q along the pair's tangent); f (m,), s (2m,) `pair_scales`.
-    overlap (m,) >= 0: the overlap the step read as closed (`StepSolution.closed_overlap`:
-    prescribed by the supports at a pair fixed on both sides, within the state
-    tolerance), judged as gap 0: the gap is judged as gap + overlap, so a pair that
-    overlaps by more than that (or by any amount where it is 0) still reads. On
-    hard/shear_off.toml with the block's sides 1e-13 lower than the base's, the written
-    gap of -1e-13 read 0.023 against the end pair's own round-off scale."""
+    overlap (m,): the overlap (> 0; < 0 a gap) the step read as closed
+    (`StepSolution.closed_overlap`: prescribed by the supports at a pair fixed on both
+    sides, within the state tolerance), judged as gap 0: the gap is judged as gap +
+    overlap, so a pair that overlaps by more than that (or by any amount where it is 0)
+    still reads. On hard/shear_off.toml with the block's sides 1e-13 lower than the
+    base's, the written gap of -1e-13 read 0.023 against the end pair's own round-off scale."""
     m = p.size
     tiny = 1e-300
     s_n, s_t = np.maximum(s[:m], tiny), np.maximum(s[m:], tiny)
