@@ -401,7 +401,8 @@ def check(config: Path, args: list[str], ranks: list[int], tol: float, roundoff:
                          else f"no summary (exit {res.returncode}): {res.stderr[-200:]}")
         n0 = ranks[0]
         for n in ranks[1:]:
-            row = {"config": str(config.relative_to(ROOT)), "args": args, "ranks": n,
+            row = {"config": str(config.relative_to(ROOT) if config.is_relative_to(ROOT)
+                                 else config), "args": args, "ranks": n,
                    "against": n0, "status": [status[n0], status[n]],
                    "exit": [jobs[n0].returncode, jobs[n].returncode]}
             job = [f"{k} ranks: {p}" for k in (n0, n) for p in job_problems(jobs[k])]

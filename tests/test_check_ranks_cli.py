@@ -23,3 +23,18 @@ def test_nothing_to_compare_is_an_error(args, words):
     assert res.returncode == 2 and res.stdout == "", (res.stdout, res.stderr)
     last = res.stderr.strip().splitlines()[-1]
     assert last.startswith("check_ranks.py: error: ") and words in last
+
+
+def test_a_config_outside_the_repository_is_compared(tmp_path):
+    """A scene of the user's own, outside the repository, gets its row (the config's
+    absolute path); before, every rank ran and then a ValueError of relative_to ended it."""
+    import json
+
+    cfg = tmp_path / "own.toml"
+    cfg.write_text((ROOT / "configs" / "patch.toml").read_text())
+    res = subprocess.run([sys.executable, str(ROOT / "scripts" / "check_ranks.py"), str(cfg),
+                          "--ranks", "1", "2", "--keep", str(tmp_path / "keep")],
+                         capture_output=True, text=True, timeout=600, cwd=ROOT, env=mpi_env())
+    assert res.returncode == 0 and "Traceback" not in res.stderr, res.stderr
+    (row,) = [json.loads(line) for line in res.stdout.splitlines()]
+    assert row["config"] == str(cfg.resolve()) and row["verdict"] == "ok", row
