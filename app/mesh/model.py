@@ -25,6 +25,8 @@ class Mesh:
     body_names: names of the bodies (physical surfaces), in body-index order.
     curves: physical curve name -> (n_edges, 2) int node pairs (boundary edges).
     point_groups: physical point name -> (k,) int node indices.
+    dropped_nodes: (k, 2) coordinates of a mesh.file's nodes on no quadrilateral, which
+        the reader dropped (they carry no DOF; kept to be reported).
     """
 
     points: np.ndarray
@@ -33,6 +35,7 @@ class Mesh:
     body_names: list[str]
     curves: dict[str, np.ndarray] = field(default_factory=dict)
     point_groups: dict[str, np.ndarray] = field(default_factory=dict)
+    dropped_nodes: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
 
     @property
     def n_nodes(self) -> int:
