@@ -5,6 +5,7 @@ tests/test_check_ranks.py::test_compare_of_what_is_no_output_is_one_error_line.)
 
 from __future__ import annotations
 
+import json
 import subprocess
 import sys
 
@@ -23,3 +24,19 @@ def test_nothing_to_compare_is_an_error(args, words):
     assert res.returncode == 2 and res.stdout == "", (res.stdout, res.stderr)
     last = res.stderr.strip().splitlines()[-1]
     assert last.startswith("check_ranks.py: error: ") and words in last
+
+
+@pytest.mark.parametrize("args, code, verdict, key", [
+    (["configs/patch.toml", "--bogus"], 1, "FAILED ALIKE", "error"),
+    (["configs/hard/hourglass_1sd.toml"], 0, "ok", "expected_failure"),
+])
+def test_runs_that_fail_alike_are_no_pass(args, code, verdict, key):
+    """Before, both read `"verdict": "ok"`, exit 0: an unknown option failed every run
+    alike and the scene passed unchecked. A scene that stops on purpose stays ok."""
+    res = subprocess.run([sys.executable, str(ROOT / "scripts" / "check_ranks.py"), *args,
+                          "--ranks", "1", "2", "--timeout", "120"],
+                         capture_output=True, text=True, timeout=300, cwd=ROOT, env=mpi_env())
+    assert res.returncode == code, (res.stdout, res.stderr)
+    row = json.loads(res.stdout.strip().splitlines()[-1])
+    assert row["verdict"] == verdict and row["status"] == ["failed", "failed"]
+    assert ("bogus" if key == "error" else "hourglass") in row[key]
