@@ -1,6 +1,7 @@
-"""A mesh.file node on no quadrilateral (app/mesh/read.py): dropped, so it carries no DOF
-and leaves the answer unchanged (no singular stiffness); the run says how many it dropped
-and where the first one is (mesh_quality in summary.json and the mesh quality line)."""
+"""mesh.file guards. A node on no quadrilateral (app/mesh/read.py): dropped, so it carries
+no DOF and leaves the answer unchanged (no singular stiffness); the run says how many it
+dropped and where the first one is (mesh_quality in summary.json and the mesh quality
+line). A load on an interior line: an error naming where the edge is."""
 
 from __future__ import annotations
 
@@ -58,3 +59,15 @@ def test_an_unused_node_changes_nothing_and_is_reported(tmp_path, where):
             assert "1 node(s) of the mesh file on no quadrilateral dropped" in r.stderr
             assert not any("node" in w for w in s.get("warnings", []))
     assert energies[0] == energies[1]
+
+
+def test_a_load_on_an_interior_line_names_the_place_not_node_numbers(tmp_path):
+    """Before: `(first: nodes 1-5)`, the reader's own 0-based numbers, which are neither
+    the file's node tags (2 and 6 here) nor anything else a user can find."""
+    (tmp_path / "run.toml").write_text(CONFIG)
+    (tmp_path / "strip.msh").write_text(_msh(STRIP).replace("1 2 3 3 4 8", "1 2 3 3 2 6"))
+    r = run_cli(["run", str(tmp_path / "run.toml"), "--quiet", "--out", str(tmp_path / "o")])
+    assert r.returncode == 2
+    assert r.stderr.strip().splitlines()[-1] == (
+        "error: load on 'right': 1 edges are interior edges shared by two elements "
+        "(first: the edge from (1, 0) to (1, 1))")
