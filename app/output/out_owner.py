@@ -43,3 +43,31 @@ def foreign_message(out: Path, names: list[str]) -> str:
     return (f"--out {out}: holds {shown} of another program (its summary.json is not a "
             "run's of this tool); a run would replace or remove them: choose another --out "
             "or move them")
+
+
+STUDY_FILES = re.compile(
+    r"^(study\.csv|study_tables\.md|richardson\.csv|energy_bracket\.(csv|png)|"
+    r"error_vs_(dofs|time)\.png|energy_vs_sd\.png|sweep\.csv|sweep_steps\.csv|"
+    r"sweep_[\w.-]+\.png)(\.tmp)?$")
+"""The files a study or sweep writes into OUT (its runs' folders aside)."""
+RUN_FOLDER = re.compile(r"^(L\d+_[\w-]+|run_\d{3,})$")
+"""The folders of a study's runs (L<level>_<label>) and of a sweep's (run_NNN)."""
+
+
+def earlier_study(out: Path) -> tuple[list[Path], list[Path]]:
+    """An earlier study's outputs in OUT: (its files, its run folders). The run folders
+    are those of STUDY's names that hold this tool's summary.json; the files, of
+    STUDY_FILES' names, count only when OUT holds this tool's summary.json or such a
+    folder (so a folder of the user's that only happens to hold a study.csv is left as
+    it is). Before, a study into an earlier study's OUT left that study's extra levels,
+    methods and richardson.csv beside its own, and the scripts read them as its own."""
+    out = Path(out)
+    try:
+        entries = sorted(out.iterdir())
+    except OSError:
+        return [], []
+    folders = [p for p in entries if p.is_dir() and RUN_FOLDER.match(p.name)
+               and _ours(p / "summary.json")]
+    if not folders and not _ours(out / "summary.json"):
+        return [], []
+    return [p for p in entries if p.is_file() and STUDY_FILES.match(p.name)], folders

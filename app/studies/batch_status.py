@@ -33,12 +33,27 @@ from petsc4py import PETSc
 from app import hard_stop
 from app.errors import InputError, SolveError
 from app.output import startup_signals, status
-from app.output.out_owner import foreign_files, foreign_message
+from app.output.out_owner import earlier_study, foreign_files, foreign_message
 from app.startup.early_failure import study_head
 
 OUTSIDE_A_STEP = ("interrupted by SIGINT outside a load step; what completed before it is "
                   "written")
 """The error of SIGINT on one rank between a study's runs (app/cli.py prints it too)."""
+
+
+def clear_earlier_study(out: Path) -> None:
+    """Remove an earlier study's files and run folders from OUT (out_owner.earlier_study),
+    so that OUT holds this study's results only; what cannot be removed stays."""
+    import shutil
+
+    files, folders = earlier_study(out)
+    for p in files:
+        try:
+            p.unlink()
+        except OSError:
+            pass
+    for d in folders:
+        shutil.rmtree(d, ignore_errors=True)
 
 
 class BatchStatus:
@@ -81,6 +96,7 @@ class BatchStatus:
             if foreign:
                 lock.close()
                 raise InputError(foreign_message(out, foreign))
+            clear_earlier_study(out)
             status.clear_files(out)
             self._lock = lock
 
