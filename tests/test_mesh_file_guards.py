@@ -71,3 +71,21 @@ def test_a_load_on_an_interior_line_names_the_place_not_node_numbers(tmp_path):
     assert r.stderr.strip().splitlines()[-1] == (
         "error: load on 'right': 1 edges are interior edges shared by two elements "
         "(first: the edge from (1, 0) to (1, 1))")
+
+
+def test_a_remeshed_study_of_a_mesh_file_is_an_error(tmp_path):
+    """Before: `study meshes/punch.toml --remesh` ran the file's mesh at every level
+    (levels 0 and 1: 2924 DOFs and strain energy 0.0509100 both), exit 0, orders of 0."""
+    from support import ROOT
+
+    out = tmp_path / "o"
+    r = run_cli(["study", str(ROOT / "meshes" / "punch.toml"), "--set",
+                 'reference.type="hertz"', "--set", "reference.radius=1.0", "--levels", "2",
+                 "--methods", "4", "--remesh", "--quiet", "--out", str(out)])
+    assert r.returncode == 2
+    line = r.stderr.strip().splitlines()[-1]
+    assert line.startswith("error: --remesh does not apply to a mesh read from mesh.file "
+                           "(punch.msh)") and "leave --remesh out" in line
+    s = read_summary(out)
+    assert s["status"] == "failed" and s["error"] == line[len("error: "):]
+    assert not (out / "study.csv").exists()
