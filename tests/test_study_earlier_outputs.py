@@ -13,6 +13,9 @@ from support import CONFIGS, read_csv, run_cli
 
 from app.output.out_owner import earlier_study
 
+RUN = json.dumps({"config": "c.toml", "n_steps": 1, "steps": [], "status": "completed"})
+"""A run's summary.json as this tool writes it (app/run.py's keys)."""
+
 
 def _earlier(out, summary: bool = True) -> None:
     """OUT as an earlier study left it, with the user's own files beside it."""
@@ -25,7 +28,7 @@ def _earlier(out, summary: bool = True) -> None:
         (out / name).write_text("old")
     for run in ("L5_4SD", "L2_FEM-Q4", "run_007"):
         (out / run).mkdir()
-        (out / run / "summary.json").write_text(json.dumps({"status": "completed"}))
+        (out / run / "summary.json").write_text(RUN)
     (out / "L9_mine").mkdir()  # a run folder's name, but no summary.json of this tool
     (out / "L9_mine" / "notes.txt").write_text("mine")
     (out / "notes.txt").write_text("mine")
@@ -55,3 +58,48 @@ def test_a_study_clears_an_earlier_studys_outputs(tmp_path):
                      "study_tables.md", "summary.json"], names
     assert (out / "L9_mine" / "notes.txt").read_text() == "mine"
     assert [r["method"] for r in read_csv(out / "study.csv")] == ["4SD"]
+
+
+def _folder(path, summary: str, *extra: str):
+    """A folder named like a run with `summary` and the files `extra`."""
+    path.mkdir(parents=True)
+    (path / "summary.json").write_text(summary)
+    for name in extra:
+        (path / name).write_text("mine")
+    return path
+
+
+def test_the_users_folders_and_files_survive_the_clearing(tmp_path):
+    """What the clearing must leave: a folder of another tool whose summary.json has a
+    `status`, a whole earlier study the user keeps under a run's name, the user's own
+    files inside a run's folder, a running run's folder (its lock held) and a symlink to
+    a folder elsewhere. Before, all but the symlink went with shutil.rmtree."""
+    import fcntl
+    import os
+
+    from app.studies.batch_status import clear_earlier_study
+
+    out = tmp_path / "o"
+    _folder(out, RUN)
+    _folder(out / "L2_4SD", json.dumps({"status": "ok", "tool": "other"}), "results.csv")
+    _folder(out / "L1_fine", json.dumps({"command": "study", "study": "convergence",
+                                         "config": "c.toml", "status": "completed"}),
+            "study.csv")
+    _folder(out / "L0_4SD", RUN, "mesh.h5", "step_0001.h5", "my_notes.txt")
+    running = _folder(out / "run_001", RUN, "mesh.h5")
+    _folder(tmp_path / "elsewhere", RUN, "mesh.h5")
+    os.symlink(tmp_path / "elsewhere", out / "L3_4SD")
+    _folder(out / "L4_4SD", RUN, "mesh.h5", "step_0001.h5", "results.xdmf")
+    with open(running / ".lock", "a") as lock:
+        fcntl.flock(lock.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+        clear_earlier_study(out)
+    assert sorted(p.name for p in (out / "L2_4SD").iterdir()) == ["results.csv",
+                                                                  "summary.json"]
+    assert sorted(p.name for p in (out / "L1_fine").iterdir()) == ["study.csv",
+                                                                   "summary.json"]
+    assert sorted(p.name for p in (out / "L0_4SD").iterdir()) == ["my_notes.txt"]
+    assert sorted(p.name for p in running.iterdir()) == [".lock", "mesh.h5",
+                                                         "summary.json"]
+    assert sorted(p.name for p in (tmp_path / "elsewhere").iterdir()) == ["mesh.h5",
+                                                                          "summary.json"]
+    assert not (out / "L4_4SD").exists()  # the earlier study's own run: gone

@@ -54,20 +54,32 @@ RUN_FOLDER = re.compile(r"^(L\d+_[\w-]+|run_\d{3,})$")
 """The folders of a study's runs (L<level>_<label>) and of a sweep's (run_NNN)."""
 
 
+def _a_run(summary: Path) -> bool:
+    """summary.json of one of this tool's runs (app/run.py's keys), not a study's or
+    another program's that only has a `status`."""
+    try:
+        data = json.loads(summary.read_text())
+    except (OSError, ValueError):
+        return False
+    return (isinstance(data, dict) and {"config", "n_steps", "steps", "status"} <= set(data)
+            and "command" not in data)
+
+
 def earlier_study(out: Path) -> tuple[list[Path], list[Path]]:
     """An earlier study's outputs in OUT: (its files, its run folders). The run folders
-    are those of STUDY's names that hold this tool's summary.json; the files, of
-    STUDY_FILES' names, count only when OUT holds this tool's summary.json or such a
-    folder (so a folder of the user's that only happens to hold a study.csv is left as
-    it is). Before, a study into an earlier study's OUT left that study's extra levels,
-    methods and richardson.csv beside its own, and the scripts read them as its own."""
+    are those of RUN_FOLDER's names, real folders (not symlinks), that hold a run's
+    summary.json of this tool (_a_run); the files, of STUDY_FILES' names, count only when
+    OUT holds this tool's summary.json or such a folder (so a folder of the user's that
+    only happens to hold a study.csv is left as it is). Before, a study into an earlier
+    study's OUT left that study's extra levels, methods and richardson.csv beside its own,
+    and the scripts read them as its own."""
     out = Path(out)
     try:
         entries = sorted(out.iterdir())
     except OSError:
         return [], []
-    folders = [p for p in entries if p.is_dir() and RUN_FOLDER.match(p.name)
-               and _ours(p / "summary.json")]
+    folders = [p for p in entries if RUN_FOLDER.match(p.name) and p.is_dir()
+               and not p.is_symlink() and _a_run(p / "summary.json")]
     if not folders and not _ours(out / "summary.json"):
         return [], []
     return [p for p in entries if p.is_file() and STUDY_FILES.match(p.name)], folders

@@ -43,9 +43,10 @@ OUTSIDE_A_STEP = ("interrupted by SIGINT outside a load step; what completed bef
 
 def clear_earlier_study(out: Path) -> None:
     """Remove an earlier study's files and run folders from OUT (out_owner.earlier_study),
-    so that OUT holds this study's results only; what cannot be removed stays."""
-    import shutil
-
+    so that OUT holds this study's results only. In a run's folder only this tool's files
+    go (status.STALE and the lock) and the folder when it is then empty: the user's own
+    files stay with it; a folder whose lock a running run holds is left whole. What
+    cannot be removed stays."""
     files, folders = earlier_study(out)
     for p in files:
         try:
@@ -53,7 +54,17 @@ def clear_earlier_study(out: Path) -> None:
         except OSError:
             pass
     for d in folders:
-        shutil.rmtree(d, ignore_errors=True)
+        try:
+            lock = status.lock_folder(d)
+        except InputError:  # a run writes there now
+            continue
+        with lock:
+            status.clear_files(d)
+            (d / status.LOCK_NAME).unlink(missing_ok=True)
+        try:
+            d.rmdir()
+        except OSError:  # the user's files in it
+            pass
 
 
 class BatchStatus:
