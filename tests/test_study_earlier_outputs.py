@@ -103,3 +103,14 @@ def test_the_users_folders_and_files_survive_the_clearing(tmp_path):
     assert sorted(p.name for p in (tmp_path / "elsewhere").iterdir()) == ["mesh.h5",
                                                                           "summary.json"]
     assert not (out / "L4_4SD").exists()  # the earlier study's own run: gone
+
+
+def test_a_runs_out_keeps_the_users_files_of_a_studys_names(tmp_path):
+    """A `run` writes no study files: in a run's OUT (its summary.json, no run folders)
+    a sweep_*.png or study.csv is the user's and stays. Before, a study into that OUT
+    removed them (OUT held this tool's summary.json)."""
+    out = _folder(tmp_path / "o", RUN, "sweep_mine.png", "study.csv", "mesh.h5")
+    assert earlier_study(out) == ([], [])
+    (out / "summary.json").write_text(json.dumps({"command": "study", "status": "failed",
+                                                  "study": "sweep", "config": "c.toml"}))
+    assert sorted(p.name for p in earlier_study(out)[0]) == ["study.csv", "sweep_mine.png"]

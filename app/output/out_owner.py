@@ -54,15 +54,26 @@ RUN_FOLDER = re.compile(r"^(L\d+_[\w-]+|run_\d{3,})$")
 """The folders of a study's runs (L<level>_<label>) and of a sweep's (run_NNN)."""
 
 
-def _a_run(summary: Path) -> bool:
-    """summary.json of one of this tool's runs (app/run.py's keys), not a study's or
-    another program's that only has a `status`."""
+def _keys(summary: Path) -> dict:
+    """summary.json's object (empty when it is missing, not JSON or not an object)."""
     try:
         data = json.loads(summary.read_text())
     except (OSError, ValueError):
-        return False
-    return (isinstance(data, dict) and {"config", "n_steps", "steps", "status"} <= set(data)
-            and "command" not in data)
+        return {}
+    return data if isinstance(data, dict) else {}
+
+
+def _a_run(summary: Path) -> bool:
+    """summary.json of one of this tool's runs (app/run.py's keys), not a study's or
+    another program's that only has a `status`."""
+    data = _keys(summary)
+    return {"config", "n_steps", "steps", "status"} <= set(data) and "command" not in data
+
+
+def _a_study(summary: Path) -> bool:
+    """summary.json of one of this tool's studies (startup/early_failure.study_head)."""
+    data = _keys(summary)
+    return data.get("command") == "study" and "status" in data
 
 
 def earlier_study(out: Path) -> tuple[list[Path], list[Path]]:
@@ -80,6 +91,6 @@ def earlier_study(out: Path) -> tuple[list[Path], list[Path]]:
         return [], []
     folders = [p for p in entries if RUN_FOLDER.match(p.name) and p.is_dir()
                and not p.is_symlink() and _a_run(p / "summary.json")]
-    if not folders and not _ours(out / "summary.json"):
+    if not folders and not _a_study(out / "summary.json"):
         return [], []
     return [p for p in entries if p.is_file() and STUDY_FILES.match(p.name)], folders
