@@ -86,6 +86,7 @@ class BatchStatus:
         self.rank = PETSc.COMM_WORLD.getRank()
         self.summary: dict = {}
         self._lock = None
+        self._refused = False  # OUT held by another run or program: nothing to write there
 
     def head(self) -> dict:
         """The keys every study summary starts with (without provenance)."""
@@ -111,7 +112,11 @@ class BatchStatus:
             status.clear_files(out)
             self._lock = lock
 
-        collective(take)
+        try:
+            collective(take)
+        except InputError:  # every rank: no failed summary.json over the holder's
+            self._refused = True
+            raise
         self.summary = {**self.head(), "provenance": provenance(
             cfg.raw, self.overrides, PETSc.COMM_WORLD.getSize()),
             "timings": shared_start(self.launched, self.started, time.perf_counter())}
@@ -129,7 +134,7 @@ class BatchStatus:
 
     def __exit__(self, exc_type, exc, tb) -> bool:
         if self.out is None:  # before OUT was taken: as a run's bad input
-            if isinstance(exc, InputError | SolveError):
+            if isinstance(exc, InputError | SolveError) and not self._refused:
                 from app.startup.input_failure import record_input_failure
 
                 record_input_failure(exc, self.folder, self.config, self.overrides,
