@@ -114,3 +114,20 @@ def test_a_runs_out_keeps_the_users_files_of_a_studys_names(tmp_path):
     (out / "summary.json").write_text(json.dumps({"command": "study", "status": "failed",
                                                   "study": "sweep", "config": "c.toml"}))
     assert sorted(p.name for p in earlier_study(out)[0]) == ["study.csv", "sweep_mine.png"]
+
+
+def test_a_standalone_run_under_a_run_folders_name_stays(tmp_path):
+    """`run --out OUT/L1_fine`, then `study --out OUT`: L1_fine is the user's run (its
+    provenance says `run`), not an earlier study's; it stays whole. Before, the study
+    removed its results."""
+    out = tmp_path / "o"
+    res = run_cli(["run", str(CONFIGS / "cantilever.toml"), "--mesh-size", "1.0", "--quiet",
+                   "--out", str(out / "L1_fine")])
+    assert res.returncode == 0, res.stderr
+    kept = sorted(p.name for p in (out / "L1_fine").iterdir())
+    assert "step_0001.h5" in kept
+    assert earlier_study(out) == ([], [])
+    summary = json.loads((out / "L1_fine" / "summary.json").read_text())
+    summary["provenance"]["argv"][1] = "study"  # as a study's run writes it
+    (out / "L1_fine" / "summary.json").write_text(json.dumps(summary))
+    assert [p.name for p in earlier_study(out)[1]] == ["L1_fine"]

@@ -64,10 +64,15 @@ def _keys(summary: Path) -> dict:
 
 
 def _a_run(summary: Path) -> bool:
-    """summary.json of one of this tool's runs (app/run.py's keys), not a study's or
-    another program's that only has a `status`."""
+    """summary.json of one of this tool's runs inside a study (app/run.py's keys), not a
+    study's, not another program's that only has a `status`, and not a `run` command's
+    (its provenance's argv: the user's own run kept under a run folder's name)."""
     data = _keys(summary)
-    return {"config", "n_steps", "steps", "status"} <= set(data) and "command" not in data
+    prov = data.get("provenance")
+    argv = prov.get("argv") if isinstance(prov, dict) else None
+    standalone = isinstance(argv, list) and argv[1:2] == ["run"]
+    return ({"config", "n_steps", "steps", "status"} <= set(data) and "command" not in data
+            and not standalone)
 
 
 def _a_study(summary: Path) -> bool:
