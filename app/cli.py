@@ -417,6 +417,9 @@ def check_run_input(cfg, args, finest_level: int = 0) -> float:
         if file is not None:
             raise InputError(f"--mesh-size does not apply to a mesh read from mesh.file "
                              f"({file}): refine that mesh in gmsh instead")
+    if getattr(args, "remesh", False) and file is not None:  # else every level read the file
+        raise InputError(f"--remesh does not apply to a mesh read from mesh.file ({file}): "
+                         "gmsh cannot mesh it anew; leave --remesh out and the levels split it")
     cache = getattr(args, "mesh_cache", None)
     if cache is not None:
         if file is not None:

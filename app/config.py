@@ -464,7 +464,8 @@ def apply_overrides(raw: dict[str, Any], overrides: list[str]) -> dict[str, Any]
     its 0-based index (the index one past the end appends an entry). Examples:
     `interface.contact.mu=5`, `body.block.nu=0.499`, `analysis.steps=100`,
     `mesh.refine.0.size=0.002`, `support.1.on=corner` with `support.1.ux=0` (a new
-    support). VALUE is a TOML value.
+    support), or the whole entry as an inline table, `support.1={on="corner", ux=0.0}`.
+    VALUE is a TOML value.
     """
     for item in overrides:
         key, sep, text = item.partition("=")
@@ -494,10 +495,31 @@ def apply_overrides(raw: dict[str, Any], overrides: list[str]) -> dict[str, Any]
             if not isinstance(node, dict | list):
                 raise InputError(f"--set {item!r}: {here} is a value, not a table")
         if isinstance(node, list):
-            raise InputError(f"--set {item!r}: name an entry of {'.'.join(parts[:-1])} "
-                             "(its name or 0-based index) before the key")
+            _set_entry(node, parts, _override_value(text.strip()), item)
+            continue
         node[parts[-1]] = _override_value(text.strip())
     return raw
+
+
+def _set_entry(entries: list, parts: list[str], value: Any, item: str) -> None:
+    """`--set load.1={on="top", total_force=[0.0, -1.0]}`: a whole entry of an array of
+    tables, picked as apply_overrides picks one (by name or index; one past the end
+    appends). Before, an error saying to name an entry, which the key did."""
+    where, last = ".".join(parts[:-1]), parts[-1]
+    if not isinstance(value, dict):
+        raise InputError(f"--set {item!r}: name an entry of {where} (its name or 0-based "
+                         f"index) before the key, or give a whole entry as an inline table, "
+                         f"e.g. {where}.{len(entries)}={{...}}")
+    names = [t.get("name") for t in entries if isinstance(t, dict)]
+    if last in names:
+        entries[names.index(last)] = value
+    elif last.isdigit() and int(last) < len(entries):
+        entries[int(last)] = value
+    elif last.isdigit() and int(last) == len(entries):
+        entries.append(value)
+    else:
+        raise InputError(f"--set {item!r}: no entry '{last}' in {where} (names: {names}, or "
+                         f"an index 0..{len(entries)})")
 
 
 def load_config(path: str | Path, overrides: list[str] | None = None) -> Config:

@@ -9,7 +9,12 @@ steps in results.xdmf / contact.xdmf. One JSON line per (scene, variant, ranks):
 
     {"config": ..., "args": [...], "ranks": 2, "status": ["completed", "completed"],
      "max_rel_diff": {"summary": .., "displacement": .., "stress": .., "contact": ..},
-     "worst": [field, rel. diff], "mismatches": [...], "verdict": "ok" | "DIFFERENT"}
+     "worst": [field, rel. diff], "mismatches": [...],
+     "verdict": "ok" | "DIFFERENT" | "FAILED ALIKE"}
+
+Runs that agree but did not complete read "FAILED ALIKE" with their `error` (exit 1):
+nothing but the failure was compared. A scene that stops on purpose (EXPECTED_FAILURES:
+hourglass_1sd) reads ok with `expected_failure`, its error.
 
 A number's relative difference is |a - b| / (the largest |value| of its field over all
 steps, pairs, nodes): round-off near a zero crossing is judged against the field's size.
@@ -81,6 +86,9 @@ H5_FAMILY = {
     "traction": ("contact/p", "contact/q"),
     "force": ("contact/p_force", "contact/q_force", "contact/a_force", "contact/c_force"),
 }
+# scenes that stop on purpose (their configs say so), with words their error must contain:
+# failing alike on every rank count is their expected answer
+EXPECTED_FAILURES = {"hourglass_1sd": "hourglass"}
 BULK_VARIANTS = [["--sd", s] for s in ("1", "2", "3", "4", "8", "16")] + [
     ["--method", "fem-q4"]]
 
@@ -104,15 +112,20 @@ def run(config: Path, args: list[str], ranks: int, out: Path,
     return subprocess.CompletedProcess(cmd, proc.returncode, stdout, stderr)
 
 
+# `error: ...`, or argparse's `python -m app: error: ...` under its usage line
+_ERROR_LINE = re.compile(r"^(python -m app: )?error: ")
+
+
 def job_problems(res: subprocess.CompletedProcess) -> list[str]:
     """What is wrong with how a job ended, whatever its results: a hang (no exit status),
-    a traceback, or a failure without exactly one `error:` line on stderr."""
+    a traceback, or a failure without exactly one `error:` line on stderr (argparse's
+    `python -m app: error:` counts: before, it read as none)."""
     if res.returncode is None:
         return ["no exit within the timeout (hang)"]
     out = []
     if "Traceback" in res.stderr:
         out.append("traceback on stderr")
-    errors = [x for x in res.stderr.splitlines() if x.startswith("error:")]
+    errors = [x for x in res.stderr.splitlines() if _ERROR_LINE.match(x)]
     if res.returncode != 0 and len(errors) != 1:
         out.append(f"exit {res.returncode} with {len(errors)} 'error:' lines")
     return out
@@ -383,6 +396,22 @@ def headline(diffs: dict[str, float]) -> dict[str, float]:
     return {k: float(f"{v:.3g}") for k, v in out.items()}
 
 
+def failed_alike(summary: dict, args: list[str] | None = None) -> dict:
+    """What a row whose runs agree adds when they did not complete: {} for `completed`;
+    for a scene of EXPECTED_FAILURES (run without options) whose error has its words,
+    `expected_failure` (the error; the verdict stays ok); else `verdict` "FAILED ALIKE"
+    and the `error`: nothing but the failure was compared, so the scene is not checked
+    (before, such a row read ok: `--bogus` passed on every scene)."""
+    status = summary.get("status")
+    if status == "completed":
+        return {}
+    error = str(summary.get("error", f"status {status!r}"))
+    words = EXPECTED_FAILURES.get(Path(str(summary.get("config", ""))).stem)
+    if words and not args and status == "failed" and words in error:
+        return {"expected_failure": error}
+    return {"verdict": "FAILED ALIKE", "error": error}
+
+
 def check(config: Path, args: list[str], ranks: list[int], tol: float, roundoff: float,
           timeout: float, keep: Path | None, command: str = "run") -> list[dict]:
     """Run one scene on every rank count and compare each with the first; the exit
@@ -418,6 +447,9 @@ def check(config: Path, args: list[str], ranks: list[int], tol: float, roundoff:
             row.update(max_rel_diff=headline(diffs), worst=[worst[0], float(f"{worst[1]:.3g}")],
                        mismatches=mism[:20], n_mismatches=len(mism))
             row["verdict"] = "ok" if not mism and worst[1] <= tol else "DIFFERENT"
+            if row["verdict"] == "ok":
+                summary = json.loads((outs[n0] / "summary.json").read_text())
+                row.update(failed_alike({**summary, "config": str(config)}, args))
             if keep is not None:
                 row["out"] = str(base)
             rows.append(row)
@@ -433,12 +465,14 @@ def compare_folders(ref: Path, other: Path, tol: float, roundoff: float) -> int:
     study = (ref / "study.csv").exists() or (ref / "sweep.csv").exists()
     diffs, mism = (compare_study if study else compare_outputs)(ref, other, roundoff)
     worst = max(diffs.items(), key=lambda kv: kv[1], default=("", 0.0))
-    ok = not mism and worst[1] <= tol
-    print(json.dumps({"ref": str(ref), "other": str(other), "max_rel_diff": headline(diffs),
-                      "worst": [worst[0], float(f"{worst[1]:.3g}")], "mismatches": mism[:20],
-                      "n_mismatches": len(mism), "verdict": "ok" if ok else "DIFFERENT"}),
-          flush=True)
-    return 0 if ok else 1
+    row = {"ref": str(ref), "other": str(other), "max_rel_diff": headline(diffs),
+           "worst": [worst[0], float(f"{worst[1]:.3g}")], "mismatches": mism[:20],
+           "n_mismatches": len(mism),
+           "verdict": "ok" if not mism and worst[1] <= tol else "DIFFERENT"}
+    if row["verdict"] == "ok":  # the run's own options are not known here: its config's
+        row.update(failed_alike(json.loads((ref / "summary.json").read_text())))
+    print(json.dumps(row), flush=True)
+    return 0 if row["verdict"] == "ok" else 1
 
 
 def output_runs(tree: Path) -> list[str]:

@@ -52,8 +52,22 @@ def fail(msg: str) -> NoReturn:
 
 
 def runs_of(study: Path, method: str) -> dict[int, Path]:
+    """level -> run folder of the method's runs that have their row in study.csv: a run
+    the study did not complete (interrupted, failed: listed in study_tables.md) has no
+    results to break down (before, a KeyError traceback, or, as the reference, a run
+    without results)."""
+    done = completed_levels(study, method)
     return {int(m.group(1)): d for d in study.glob(f"L*_{method}")
-            if (m := re.match(r"L(\d+)_", d.name))}
+            if (m := re.match(r"L(\d+)_", d.name)) and int(m.group(1)) in done}
+
+
+def completed_levels(study: Path, method: str) -> set[int]:
+    """The levels of the method's rows in OUT/study.csv (none without the file)."""
+    path = study / "study.csv"
+    if not path.is_file():
+        return set()
+    with open(path, newline="") as fh:
+        return {int(r["level"]) for r in csv.DictReader(fh) if r["method"] == method}
 
 
 def normal_steps(run: Path) -> list[int]:

@@ -7,7 +7,8 @@ definition for tributary averages, and the interpolated L2 with its floor.
 Reads OUT/L<level>_<method>/summary.json (the Hertz a, p0 and centre) and the last
 step's contact data; see app/studies/l2_breakdown.py for the definitions. A folder that is
 not a study, or a method it did not run, stops with `error:` and exit 2 (before: no line,
-exit 0).
+exit 0). Runs without their row in study.csv (interrupted or failed) are left out (before,
+a KeyError traceback on an interrupted study).
 """
 
 from __future__ import annotations
@@ -21,6 +22,9 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # this checkout's app
 from app.output.read import read_pairs  # noqa: E402
 from app.studies.l2_breakdown import pressure_breakdown  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from field_breakdown import runs_of  # noqa: E402  (scripts/field_breakdown.py)
 
 
 def level_row(run: Path, core: float) -> dict:
@@ -46,8 +50,7 @@ def main() -> None:
     if not (args.study / "study.csv").is_file():
         ap.error(f"{args.study} is not a study's folder (no study.csv): give the --out "
                  "folder of `python -m app study`")
-    runs = sorted((d for d in args.study.glob(f"L*_{args.method}")
-                   if re.match(r"L\d+_", d.name)),
+    runs = sorted(runs_of(args.study, args.method).values(),  # completed runs only
                   key=lambda d: int(re.match(r"L(\d+)_", d.name).group(1)))
     if not runs:
         ap.error(f"{args.study} has no runs of --method {args.method} (L<level>_"

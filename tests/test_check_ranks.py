@@ -171,3 +171,29 @@ def test_compare_of_what_is_no_output_is_one_error_line(tmp_path):
         assert res.returncode == 2 and res.stdout == "" and len(lines) == 1
         assert lines[0].startswith("error: --compare ") and what in lines[0]
         assert "output folders (each with summary.json)" in lines[0]
+
+
+def test_two_failed_folders_that_agree_read_failed_alike(tmp_path):
+    """--compare of two outputs that failed alike: before, `ok`."""
+    for name in ("a", "b"):
+        (tmp_path / name).mkdir()
+        (tmp_path / name / "summary.json").write_text(json.dumps(
+            {"status": "failed", "error": "x is wrong", "config": "configs/patch.toml",
+             "steps": []}))
+    res = subprocess.run([sys.executable, str(ROOT / "scripts" / "check_ranks.py"),
+                          "--compare", str(tmp_path / "a"), str(tmp_path / "b")],
+                         capture_output=True, text=True, timeout=120, cwd=ROOT)
+    row = json.loads(res.stdout)
+    assert res.returncode == 1 and row["verdict"] == "FAILED ALIKE"
+    assert row["error"] == "x is wrong"
+    hourglass = {"status": "failed", "config": "/x/configs/hard/hourglass_1sd.toml",
+                 "error": "body 'block' has hourglass modes ..."}
+    assert check_ranks.failed_alike(hourglass) == {"expected_failure": hourglass["error"]}
+    assert check_ranks.failed_alike(hourglass, ["--sd", "1"])["verdict"] == "FAILED ALIKE"
+    assert check_ranks.failed_alike({"status": "completed"}) == {}
+
+
+def test_the_app_argparse_line_counts_as_its_error_line():
+    done = check_ranks.subprocess.CompletedProcess
+    text = "usage: python -m app [-h] {run,study} ...\npython -m app: error: unknown option\n"
+    assert check_ranks.job_problems(done([], 2, "", text)) == []

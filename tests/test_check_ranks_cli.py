@@ -5,6 +5,7 @@ tests/test_check_ranks.py::test_compare_of_what_is_no_output_is_one_error_line.)
 
 from __future__ import annotations
 
+import json
 import subprocess
 import sys
 
@@ -28,8 +29,6 @@ def test_nothing_to_compare_is_an_error(args, words):
 def test_a_config_outside_the_repository_is_compared(tmp_path):
     """A scene of the user's own, outside the repository, gets its row (the config's
     absolute path); before, every rank ran and then a ValueError of relative_to ended it."""
-    import json
-
     cfg = tmp_path / "own.toml"
     cfg.write_text((ROOT / "configs" / "patch.toml").read_text())
     res = subprocess.run([sys.executable, str(ROOT / "scripts" / "check_ranks.py"), str(cfg),
@@ -38,3 +37,19 @@ def test_a_config_outside_the_repository_is_compared(tmp_path):
     assert res.returncode == 0 and "Traceback" not in res.stderr, res.stderr
     (row,) = [json.loads(line) for line in res.stdout.splitlines()]
     assert row["config"] == str(cfg.resolve()) and row["verdict"] == "ok", row
+
+
+@pytest.mark.parametrize("args, code, verdict, key", [
+    (["configs/patch.toml", "--bogus"], 1, "FAILED ALIKE", "error"),
+    (["configs/hard/hourglass_1sd.toml"], 0, "ok", "expected_failure"),
+])
+def test_runs_that_fail_alike_are_no_pass(args, code, verdict, key):
+    """Before, both read `"verdict": "ok"`, exit 0: an unknown option failed every run
+    alike and the scene passed unchecked. A scene that stops on purpose stays ok."""
+    res = subprocess.run([sys.executable, str(ROOT / "scripts" / "check_ranks.py"), *args,
+                          "--ranks", "1", "2", "--timeout", "120"],
+                         capture_output=True, text=True, timeout=300, cwd=ROOT, env=mpi_env())
+    assert res.returncode == code, (res.stdout, res.stderr)
+    row = json.loads(res.stdout.strip().splitlines()[-1])
+    assert row["verdict"] == verdict and row["status"] == ["failed", "failed"]
+    assert ("bogus" if key == "error" else "hourglass") in row[key]

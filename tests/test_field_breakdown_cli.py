@@ -67,3 +67,20 @@ def test_mindlin_cycle_on_a_missing_folder_is_an_error(tmp_path):
     res = _cli("mindlin_cycle.py", str(tmp_path / "nothing"))
     assert res.returncode == 2 and "Traceback" not in res.stderr
     assert "summary.json not found" in res.stderr.strip().splitlines()[-1]
+
+
+@pytest.mark.parametrize("script, args", [("l2_breakdown.py", []),
+                                          ("field_breakdown.py", ["--field", "p"])])
+def test_a_run_the_study_did_not_complete_is_left_out(tmp_path, script, args):
+    """An interrupted run's folder (summary.json without results, no study.csv row):
+    before, l2_breakdown.py ended in a KeyError traceback ('reference') and
+    field_breakdown.py took it as the reference run ("has no Hertz reference")."""
+    study = _hertz_study(tmp_path)
+    run = study / "L1_4SD"
+    run.mkdir()
+    (run / "summary.json").write_text(json.dumps({"status": "interrupted", "steps": []}))
+    (study / "study.csv").write_text("level,method\n")  # neither run has its row
+    res = _cli(script, str(study), *args)
+    assert res.returncode == 2 and "Traceback" not in res.stderr, res.stderr
+    line = res.stderr.strip().splitlines()[-1]  # l2_breakdown.py: argparse's, after usage
+    assert "error: " in line and "has no runs of --" in line and "4SD" in line

@@ -15,7 +15,9 @@ from app.errors import InputError
     ("hertz", "reference.radius=-1", "radius must be > 0"),
     ("cattaneo", "reference.radius=nan", "radius must be > 0"),
     ("hertz", "reference.center_x=inf", "center_x must be a finite number"),
-    ("cantilever", "reference.P=0", "P must be non-zero"),
+    ("cantilever", "reference.P=0", "P must be a finite non-zero number"),
+    # before: "P must be non-zero (got nan)"
+    ("cantilever", "reference.P=nan", r"P must be a finite non-zero number \(got nan\)"),
     ("cantilever", "reference.L=-10", "L must be > 0"),
     ("cantilever", "reference.D=inf", "D must be > 0"),
     # before: a TypeError traceback after the whole run, exit 1 (scripts/fuzz_inputs.py)

@@ -204,3 +204,19 @@ def test_the_reference_note_names_what_the_scene_has():
         p |= {"x": x, "p": 1 - x**2, "q": 0 * x, "p_max": 1.0}
     note = add_reference_errors(rows, profiles, "4SD", {"energy": 1.0, "p_max": 1.0})
     assert note.startswith("reference: Richardson limits of 4SD for energy, p_max; level 2")
+
+
+def test_the_plot_rate_is_the_levels_order_not_a_dofs_fit():
+    """h halves per level, DOFs grow by less than 4 (hertz.toml 2532, 9804, 38580): an
+    error at order 1.63 per level read rate 1.66 in the legend, fitted against
+    DOFs^-1/2, beside the table's orders 1.63 (4SD's energy against its Richardson limit,
+    `study configs/hertz.toml --levels 3 --methods 4,q4`)."""
+    from app.plotting import pyplot
+    from app.studies.convergence import _error_panel
+
+    rows = [{"level": lv, "method": "4SD", "ref_energy": 0.013 * 2.0 ** (-1.63 * lv),
+             "n_dofs": d} for lv, d in enumerate((2532, 9804, 38580))]
+    add_orders(rows)
+    fig, ax = pyplot().subplots()
+    _error_panel(ax, rows, ["4SD"], "ref_energy", "n_dofs", "DOFs", None, None)
+    assert ax.get_legend().get_texts()[0].get_text() == "4SD (rate 1.63, last order 1.63)"

@@ -307,3 +307,6 @@ def test_a_refused_command_line_on_two_ranks(tmp_path):
     assert res.returncode != 0
     s = read_summary(out)
     assert s["status"] == "failed" and s["error"] == "argument --levels: invalid int value: 'x'"
+    # argparse's usage and line once (rank 0), not once per rank (before: twice)
+    assert res.stderr.count("error: argument --levels") == 1, res.stderr
+    assert res.stderr.count("usage:") == 1, res.stderr

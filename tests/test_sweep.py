@@ -230,3 +230,14 @@ def test_every_quantity_of_a_sweep_panel_is_drawn_visibly():
     assert min(widths) >= 0.8 and min(sizes) >= 3.0
     assert widths == sorted(widths, reverse=True)  # thick first: coinciding curves all show
     assert sizes == sorted(sizes, reverse=True)
+
+
+def test_swept_text_values_are_written_without_their_toml_quotes():
+    """`--sweep 'analysis.method="cs-fem","fem-q4"'` wrote `\"\"\"cs-fem\"\"\"` into
+    sweep.csv (the value '"cs-fem"' with its quotes), and the legends showed them."""
+    from app.studies.sweep import _value
+
+    assert _value('"cs-fem"') == "cs-fem" and _value("'node-to-segment'") == "node-to-segment"
+    assert _value("0.3") == 0.3 and _value("1") == 1.0  # numbers stay numbers (plot axes)
+    assert _value("mortar") == "mortar"  # a bare word, as --set reads it
+    assert _value("[1, 2]") == "[1, 2]"  # not a scalar: its text

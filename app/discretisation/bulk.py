@@ -53,6 +53,30 @@ class Discretisation:
         return elasticity_matrix(self.E, self.nu, self.plane)[body]
 
 
+# Volumetric locking in plane strain: above this nu every method without hourglass modes
+# (CS-FEM with sd >= 2, FEM-Q4) is too stiff on bilinear quads. Measured on
+# cantilever.toml at h = 0.125 (README "Bulk"): tip deflection errors at nu = 0.45 / 0.49.
+NU_LOCKING = 0.45
+_LOCKING_FIGURES = ("measured on configs/cantilever.toml at --mesh-size 0.125, tip deflection "
+                    "off by 2.2% / 11.8% with CS-FEM-4SD, 3.4% / 15.4% with FEM-Q4 and "
+                    "1.6% / 1.5% with CS-FEM-1SD at nu = 0.45 / 0.49")
+
+
+def locking_warnings(disc: Discretisation, body_names: list[str]) -> list[str]:
+    """One warning per body whose nu > NU_LOCKING in plane strain with a method that locks
+    (one without hourglass modes); none in plane stress, where lambda stays bounded."""
+    if disc.plane != "strain" or disc.hourglass:
+        return []
+    return [
+        f"body '{name}': nu = {nu:g} in plane strain: {disc.label} locks (volumetric "
+        f"locking: too stiff, displacements and energy too small) above nu = {NU_LOCKING:g}; "
+        f"{_LOCKING_FIGURES}: use --sd 1 (no locking; supports or contact must hold its "
+        "hourglass modes) or check the answer on a finer mesh"
+        for name, nu in zip(body_names, np.asarray(disc.nu, float), strict=True)
+        if nu > NU_LOCKING
+    ]
+
+
 def check_elements(mesh: Mesh) -> None:
     """Reject inverted or degenerate elements with a message naming the body."""
     area = element_areas(mesh.points[mesh.quads])

@@ -12,7 +12,7 @@ from app.assembly.loads import LoadCase, constrained_dofs, load_cases
 from app.condensation.dense_size import check_dense_contact
 from app.config import Config
 from app.contact.discretisation import contact_discretisation
-from app.discretisation.bulk import Discretisation, check_elements
+from app.discretisation.bulk import Discretisation, check_elements, locking_warnings
 from app.discretisation.methods import bulk_method
 from app.driver.context import RunContext, RunOptions
 from app.errors import InputError
@@ -72,6 +72,8 @@ def build_model(ctx: RunContext) -> Model:
     """Phases mesh, setup, pair_search and floating_modes; fills the summary's sizes."""
     cfg, opts = ctx.cfg, ctx.opts
     disc = make_discretisation(cfg, opts)
+    for text in locking_warnings(disc, cfg.body_names):
+        ctx.warn(text)
     for itf in cfg.interfaces:  # the contact discretisations, checked before any meshing
         contact_discretisation(itf.discretisation, f"interface '{itf.name}'")
     lcp_solver(cfg.lcp_solver)
@@ -79,6 +81,11 @@ def build_model(ctx: RunContext) -> Model:
         mesh = collective(build_scene_mesh, cfg, opts)
         arm_signals()  # gmsh.finalize() put back the default SIGTERM action
         _mesh_quality(mesh, ctx.summary, opts.quiet or ctx.rank != 0)
+    if cfg.scene.file is not None and opts.refine:  # its curved sides stay chords
+        from app.mesh.facets import faceted_split_warnings
+
+        for text in faceted_split_warnings(mesh, str(cfg.scene.file), opts.refine):
+            ctx.warn(text)
     _describe(ctx, mesh, disc)
     with ctx.phase("setup"):
         cases = load_cases(mesh, cfg)

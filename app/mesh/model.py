@@ -25,6 +25,8 @@ class Mesh:
     body_names: names of the bodies (physical surfaces), in body-index order.
     curves: physical curve name -> (n_edges, 2) int node pairs (boundary edges).
     point_groups: physical point name -> (k,) int node indices.
+    dropped_nodes: (k, 2) coordinates of a mesh.file's nodes on no quadrilateral, which
+        the reader dropped (they carry no DOF; kept to be reported).
     """
 
     points: np.ndarray
@@ -33,6 +35,7 @@ class Mesh:
     body_names: list[str]
     curves: dict[str, np.ndarray] = field(default_factory=dict)
     point_groups: dict[str, np.ndarray] = field(default_factory=dict)
+    dropped_nodes: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
 
     @property
     def n_nodes(self) -> int:
@@ -92,16 +95,21 @@ def orient_boundary_edges(mesh: Mesh, edges: np.ndarray, what: str) -> np.ndarra
     bwd, el_b = lookup(edges[:, 1] * n + edges[:, 0])
     bad = ~(fwd | bwd)
     if bad.any():
-        a, b = edges[np.argmax(bad)]
-        raise InputError(f"{what}: {bad.sum()} edges are not element edges (first: nodes "
-                         f"{a}-{b})")
+        raise InputError(f"{what}: {bad.sum()} edges are not element edges (first: "
+                         f"{_edge_place(mesh, edges[np.argmax(bad)])})")
     inner = fwd & bwd
     if inner.any():
-        a, b = edges[np.argmax(inner)]
         raise InputError(f"{what}: {inner.sum()} edges are interior edges shared by two "
-                         f"elements (first: nodes {a}-{b})")
+                         f"elements (first: {_edge_place(mesh, edges[np.argmax(inner)])})")
     owner = np.where(fwd, el_f, el_b)
     xy = mesh.points[quads[owner]]  # (k, 4, 2) owning element corners
     # the owner lists (A, B) in its own node order; that order is CCW if its area is positive
     keep = fwd == (polygon_areas(xy) > 0)
     return np.where(keep[:, None], edges, edges[:, ::-1])
+
+
+def _edge_place(mesh: Mesh, edge: np.ndarray) -> str:
+    """'the edge from (x0, y0) to (x1, y1)': where an edge is, for a user (the internal
+    node numbers, which the error named before, are not a mesh file's)."""
+    (x0, y0), (x1, y1) = mesh.points[edge[0]], mesh.points[edge[1]]
+    return f"the edge from ({x0:.6g}, {y0:.6g}) to ({x1:.6g}, {y1:.6g})"

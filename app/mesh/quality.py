@@ -53,9 +53,12 @@ def mesh_quality(mesh: Mesh) -> dict:
             f"{', '.join(f'{a:.4g}' for a in ang[e])} deg): fix the mesh")
     worst = int(np.argmin(ang.min(axis=1)))
     c = xe[worst].mean(axis=0)
-    return {"min_corner_angle_deg": float(ang.min()), "max_corner_angle_deg": float(ang.max()),
-            "max_aspect_ratio": float(ar.max()),
-            "min_angle_at": [float(c[0]), float(c[1])]}
+    out = {"min_corner_angle_deg": float(ang.min()), "max_corner_angle_deg": float(ang.max()),
+           "max_aspect_ratio": float(ar.max()), "min_angle_at": [float(c[0]), float(c[1])]}
+    if len(mesh.dropped_nodes):
+        out["unused_nodes"] = len(mesh.dropped_nodes)
+        out["unused_node_at"] = [float(v) for v in mesh.dropped_nodes[0]]
+    return out
 
 
 def quality_line(q: dict) -> str:
@@ -63,4 +66,14 @@ def quality_line(q: dict) -> str:
     return (f"mesh quality: corner angles {q['min_corner_angle_deg']:.3g} to "
             f"{q['max_corner_angle_deg']:.4g} deg (smallest near x={q['min_angle_at'][0]:.4g}, "
             f"y={q['min_angle_at'][1]:.4g}), largest aspect ratio "
-            f"{q['max_aspect_ratio']:.3g}")
+            f"{q['max_aspect_ratio']:.3g}" + _unused_note(q))
+
+
+def _unused_note(q: dict) -> str:
+    """'; 2 nodes of the file on no quadrilateral dropped (...)' or ''."""
+    n = q.get("unused_nodes", 0)
+    if not n:
+        return ""
+    x, y = q["unused_node_at"]
+    return (f"; {n} node(s) of the mesh file on no quadrilateral dropped (first at "
+            f"x={x:.4g}, y={y:.4g}): they carry no DOF and change nothing")

@@ -225,4 +225,5 @@ def read_mesh(path: str | Path, body_names: list[str]) -> Mesh:
     quads = orient_ccw(points, new[quads])
     check_coincident_nodes(points, quads, body, list(body_names), fname)
     curves, point_groups = _lower_groups(m, groups, new, fname)
-    return Mesh(points, quads, body, list(body_names), curves, point_groups)
+    return Mesh(points, quads, body, list(body_names), curves, point_groups,
+                dropped_nodes=xy[owner < 0].copy())

@@ -53,7 +53,8 @@ def split_quads(mesh: Mesh) -> tuple[Mesh, np.ndarray, np.ndarray]:
                                 axis=1).reshape(-1, 2)
     out = Mesh(points=points, quads=quads, body=np.repeat(np.asarray(mesh.body), 4),
                body_names=list(mesh.body_names), curves=curves,
-               point_groups={k: np.asarray(v).copy() for k, v in mesh.point_groups.items()})
+               point_groups={k: np.asarray(v).copy() for k, v in mesh.point_groups.items()},
+               dropped_nodes=mesh.dropped_nodes)
     return out, edges, inverse
 
 

@@ -43,3 +43,59 @@ def foreign_message(out: Path, names: list[str]) -> str:
     return (f"--out {out}: holds {shown} of another program (its summary.json is not a "
             "run's of this tool); a run would replace or remove them: choose another --out "
             "or move them")
+
+
+STUDY_FILES = re.compile(
+    r"^(study\.csv|study_tables\.md|richardson\.csv|energy_bracket\.(csv|png)|"
+    r"error_vs_(dofs|time)\.png|energy_vs_sd\.png|sweep\.csv|sweep_steps\.csv|"
+    r"sweep_[\w.-]+\.png)(\.tmp)?$")
+"""The files a study or sweep writes into OUT (its runs' folders aside)."""
+RUN_FOLDER = re.compile(r"^(L\d+_[\w-]+|run_\d{3,})$")
+"""The folders of a study's runs (L<level>_<label>) and of a sweep's (run_NNN)."""
+
+
+def _keys(summary: Path) -> dict:
+    """summary.json's object (empty when it is missing, not JSON or not an object)."""
+    try:
+        data = json.loads(summary.read_text())
+    except (OSError, ValueError):
+        return {}
+    return data if isinstance(data, dict) else {}
+
+
+def _a_run(summary: Path) -> bool:
+    """summary.json of one of this tool's runs inside a study (app/run.py's keys), not a
+    study's, not another program's that only has a `status`, and not a `run` command's
+    (its provenance's argv: the user's own run kept under a run folder's name)."""
+    data = _keys(summary)
+    prov = data.get("provenance")
+    argv = prov.get("argv") if isinstance(prov, dict) else None
+    standalone = isinstance(argv, list) and argv[1:2] == ["run"]
+    return ({"config", "n_steps", "steps", "status"} <= set(data) and "command" not in data
+            and not standalone)
+
+
+def _a_study(summary: Path) -> bool:
+    """summary.json of one of this tool's studies (startup/early_failure.study_head)."""
+    data = _keys(summary)
+    return data.get("command") == "study" and "status" in data
+
+
+def earlier_study(out: Path) -> tuple[list[Path], list[Path]]:
+    """An earlier study's outputs in OUT: (its files, its run folders). The run folders
+    are those of RUN_FOLDER's names, real folders (not symlinks), that hold a run's
+    summary.json of this tool (_a_run); the files, of STUDY_FILES' names, count only when
+    OUT holds this tool's summary.json or such a folder (so a folder of the user's that
+    only happens to hold a study.csv is left as it is). Before, a study into an earlier
+    study's OUT left that study's extra levels, methods and richardson.csv beside its own,
+    and the scripts read them as its own."""
+    out = Path(out)
+    try:
+        entries = sorted(out.iterdir())
+    except OSError:
+        return [], []
+    folders = [p for p in entries if RUN_FOLDER.match(p.name) and p.is_dir()
+               and not p.is_symlink() and _a_run(p / "summary.json")]
+    if not folders and not _a_study(out / "summary.json"):
+        return [], []
+    return [p for p in entries if p.is_file() and STUDY_FILES.match(p.name)], folders

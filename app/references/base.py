@@ -90,8 +90,8 @@ class Reference:
                 value = float(value)
                 if not np.isfinite(value) or (key in self.positive and not value > 0) or (
                         key in self.nonzero and value == 0):
-                    need = ("> 0" if key in self.positive else "non-zero" if key in
-                            self.nonzero else "a finite number")
+                    need = ("> 0" if key in self.positive else "a finite non-zero number"
+                            if key in self.nonzero else "a finite number")
                     raise InputError(f"[reference] {key} must be {need} (got {value!r})")
             out[key] = value
         return out

@@ -53,8 +53,9 @@ def usage_failure(exc: UsageError, parser: Callable[[], argparse.ArgumentParser]
     failure is recorded in the command's OUT; returns the exit status 2."""
     args = _lenient(parser(), argv)
     message = exc.message if args is None else record(args, exc.message, folder)
-    exc.parser.print_usage(sys.stderr)
-    print(f"{exc.parser.prog}: error: {message}", file=sys.stderr)
+    if startup_signals.launcher_rank() == 0:  # once, not once per rank (before: n times)
+        exc.parser.print_usage(sys.stderr)
+        print(f"{exc.parser.prog}: error: {message}", file=sys.stderr)
     return 2
 
 

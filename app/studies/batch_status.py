@@ -33,12 +33,38 @@ from petsc4py import PETSc
 from app import hard_stop
 from app.errors import InputError, SolveError
 from app.output import startup_signals, status
-from app.output.out_owner import foreign_files, foreign_message
+from app.output.out_owner import earlier_study, foreign_files, foreign_message
 from app.startup.early_failure import study_head
 
 OUTSIDE_A_STEP = ("interrupted by SIGINT outside a load step; what completed before it is "
                   "written")
 """The error of SIGINT on one rank between a study's runs (app/cli.py prints it too)."""
+
+
+def clear_earlier_study(out: Path) -> None:
+    """Remove an earlier study's files and run folders from OUT (out_owner.earlier_study),
+    so that OUT holds this study's results only. In a run's folder only this tool's files
+    go (status.STALE and the lock) and the folder when it is then empty: the user's own
+    files stay with it; a folder whose lock a running run holds is left whole. What
+    cannot be removed stays."""
+    files, folders = earlier_study(out)
+    for p in files:
+        try:
+            p.unlink()
+        except OSError:
+            pass
+    for d in folders:
+        try:
+            lock = status.lock_folder(d)
+        except InputError:  # a run writes there now
+            continue
+        with lock:
+            status.clear_files(d)
+            (d / status.LOCK_NAME).unlink(missing_ok=True)
+        try:
+            d.rmdir()
+        except OSError:  # the user's files in it
+            pass
 
 
 class BatchStatus:
@@ -60,6 +86,7 @@ class BatchStatus:
         self.rank = PETSc.COMM_WORLD.getRank()
         self.summary: dict = {}
         self._lock = None
+        self._refused = False  # OUT held by another run or program: nothing to write there
 
     def head(self) -> dict:
         """The keys every study summary starts with (without provenance)."""
@@ -81,10 +108,15 @@ class BatchStatus:
             if foreign:
                 lock.close()
                 raise InputError(foreign_message(out, foreign))
+            clear_earlier_study(out)
             status.clear_files(out)
             self._lock = lock
 
-        collective(take)
+        try:
+            collective(take)
+        except InputError:  # every rank: no failed summary.json over the holder's
+            self._refused = True
+            raise
         self.summary = {**self.head(), "provenance": provenance(
             cfg.raw, self.overrides, PETSc.COMM_WORLD.getSize()),
             "timings": shared_start(self.launched, self.started, time.perf_counter())}
@@ -102,7 +134,7 @@ class BatchStatus:
 
     def __exit__(self, exc_type, exc, tb) -> bool:
         if self.out is None:  # before OUT was taken: as a run's bad input
-            if isinstance(exc, InputError | SolveError):
+            if isinstance(exc, InputError | SolveError) and not self._refused:
                 from app.startup.input_failure import record_input_failure
 
                 record_input_failure(exc, self.folder, self.config, self.overrides,

@@ -418,7 +418,8 @@ def _error_panel(ax: Any, rows: list[dict], methods: list[str], ek: str, xkey: s
             kinds = fixed if isinstance(fixed, dict) else {}
             fit = np.array([kinds.get(r["level"]) != "=" for r in rr], dtype=bool)
             fit &= ~(y <= (floors or {}).get(ek, 0.0))
-            lab += (f" (rate {_figure(fitted_rate(x[fit], y[fit]))}, "
+            lv = np.array([r["level"] for r in rr], dtype=float)
+            lab += (f" (rate {_figure(fitted_rate(lv[fit], y[fit]))}, "
                     f"last order {_figure(last)})")
         ax.loglog(x, y, "o-", label=lab, ms=3)
     if not any(np.isfinite(line.get_ydata()).any() for line in ax.lines):

@@ -217,15 +217,16 @@ def plot_bracket(bracket: list[dict], out: Path) -> Path:
 
     plt = pyplot()
     x = np.array([b["n_dofs"] for b in bracket], dtype=float)
+    lv = np.array([b["level"] for b in bracket], dtype=float)
     fig, ax = plt.subplots(figsize=(5.2, 3.8))
     w = np.array([b["width_rel"] for b in bracket])
-    ax.loglog(x, w, "ks-", label=f"bracket width (rate {fitted_rate(x, w):.2f})")
+    ax.loglog(x, w, "ks-", label=f"bracket width (rate {fitted_rate(lv, w):.2f})")
     for k in dict.fromkeys(k for b in bracket for k in b):
         if k.startswith("ref_energy_"):
             y = np.array([b.get(k, math.nan) for b in bracket], dtype=float)
             if np.isfinite(y).sum() >= 1:
                 ax.loglog(x, y, "o--", ms=3, label=f"|U-U_ref|/U_ref {k[11:]} "
-                          f"(rate {fitted_rate(x, y):.2f})")
+                          f"(rate {fitted_rate(lv, y):.2f})")
     ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())  # (they overlapped)
     ax.set_xlabel("DOFs")
     ax.set_ylabel("relative energy")
@@ -238,10 +239,14 @@ def plot_bracket(bracket: list[dict], out: Path) -> Path:
     return out / "energy_bracket.png"
 
 
-def fitted_rate(dofs: np.ndarray, err: np.ndarray) -> float:
-    """Convergence rate in element size h ~ DOFs^-1/2: slope of log err vs log h."""
+def fitted_rate(levels: np.ndarray, err: np.ndarray) -> float:
+    """Convergence rate in the element size h = H 2^-level of the study's levels (split or
+    remeshed, h halves per level): the least-squares slope of log err against log h, so
+    that two levels give their observed order log2(e_{l-1}/e_l). (Before, h ~ DOFs^-1/2,
+    which read 2-7% above the orders: DOFs grow by less than 4 per level, e.g. 2532 ->
+    9804 -> 38580 on hertz.toml.)"""
     ok = np.isfinite(err) & (err > 0)
     if ok.sum() < 2:
         return math.nan
-    h = dofs[ok] ** -0.5
-    return float(np.polyfit(np.log(h), np.log(err[ok]), 1)[0])
+    log_h = -np.asarray(levels, dtype=float)[ok] * math.log(2.0)
+    return float(np.polyfit(log_h, np.log(err[ok]), 1)[0])

@@ -19,7 +19,7 @@ import numpy as np
 from petsc4py import PETSc
 
 from app import exit_sync, hard_stop
-from app.config import load_config
+from app.config import _override_value, load_config
 from app.errors import InputError, SolveError
 from app.output.batch_guard import BatchGuard
 from app.output.status import step_writing, stop_status
@@ -276,11 +276,15 @@ def _record_run(s: dict, params: dict, at_step: int, rows: list[dict],
 
 
 def _value(text: str):
-    """A TOML scalar as a number when it is one (for plotting), else the text."""
+    """A TOML scalar as a number when it is one (for plotting), a TOML string as its text
+    (`"cs-fem"` -> cs-fem: before, sweep.csv and the legends kept the quotes, so a script
+    reading the column got '"cs-fem"'), else the text as given."""
     try:
         return float(text)
     except ValueError:
-        return text
+        pass
+    value = _override_value(text.strip())
+    return value if isinstance(value, str) else text
 
 
 PANELS = [
