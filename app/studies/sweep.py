@@ -77,9 +77,10 @@ def _check_distinct(item: str, values: list[str]) -> None:
     for text in values:
         v = _value(text)  # 1 == 1.0: one value
         if v in seen:
-            same = text if seen[v] == text else f"{seen[v]} and {text}"
-            raise InputError(f"--sweep '{item}': the value {same} is given twice (each "
-                             "combination runs once); give each value once")
+            same = (f"the value {text} is given twice" if seen[v] == text else
+                    f"{seen[v]} and {text} are the same value")
+            raise InputError(f"--sweep '{item}': {same} (each combination runs once); "
+                             "give each value once")
         seen[v] = text
 
 
