@@ -405,7 +405,7 @@ def check_run_input(cfg, args, finest_level: int = 0) -> float:
     """Checks of the command line against the config before any work; returns the mesh
     size scale (--mesh-size / mesh.size). Raises InputError (one line)."""
     from app.errors import InputError
-    from app.mesh.estimate import check_size
+    from app.mesh.estimate import check_resolution, check_size
     from app.petsc_options import check_log_view_file, check_solver_options
 
     check_solver_options(cfg.petsc)
@@ -426,6 +426,9 @@ def check_run_input(cfg, args, finest_level: int = 0) -> float:
             raise InputError("--mesh-cache does not apply to a mesh read from mesh.file")
         output_folder(str(cache), Path(cache), what="--mesh-cache")
     scale = args.mesh_size / cfg.mesh_size if args.mesh_size else 1.0
+    check_resolution(cfg.scene, scale * 2.0**-finest_level,  # splits follow the arcs
+                     given=args.mesh_size or cfg.mesh_size,
+                     option="--mesh-size" if args.mesh_size else "mesh.size")
     check_size(cfg.scene, scale * 2.0**-finest_level, allow_large=args.allow_large,
                base_dir=cfg.path.parent, refine=finest_level)
     return scale

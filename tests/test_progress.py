@@ -9,8 +9,8 @@ def test_step_line_names_the_step_states_forces_and_balance():
     info = {"step": 3, "strain_energy": 0.51234, "states": {"stick": 4, "slip+": 0, "open": 2},
             "interfaces": {"bond": {"force": [0.25, -20.0], "max_pressure": 15.5}},
             "balance": {"max_relative_residual": 2.5e-15}}
-    line = step_line(info, 20, "level 1/2 4SD: ")
-    assert line == ("level 1/2 4SD: step 3/20; energy 0.5123; stick 4 open 2; "
+    line = step_line(info, 20, "level 1 of 0..2 4SD: ")
+    assert line == ("level 1 of 0..2 4SD: step 3/20; energy 0.5123; stick 4 open 2; "
                     "bond F=(0.25, -20) max p 15.5; balance 2.5e-15")
     assert step_line({"step": 1, "strain_energy": 1.0}, 1) == "step 1/1; energy 1"
 

@@ -17,7 +17,9 @@ def test_study_writes_csv_and_plots_and_reuses_meshes(tmp_path):
             "--methods", "1,4,q4", "--reference", "finest", "--out", str(out)]
     res = run_cli(args)
     assert res.returncode == 0, res.stderr
-    assert "level 2/2 FEM-Q4" in res.stdout  # progress display
+    # progress display: the level as in L2_FEM-Q4 and study.csv, with the range run (before,
+    # "level 2/2", the last of three levels)
+    assert "level 2 of 0..2 FEM-Q4" in res.stdout
     rows = read_csv(out / "study.csv")
     assert len(rows) == 9
     for name in ("error_vs_dofs.png", "error_vs_time.png", "energy_vs_sd.png"):

@@ -19,7 +19,7 @@ def test_a_level_mesh_that_cannot_be_built_prints_no_ready_line(tmp_path, monkey
 
     monkeypatch.setattr(app.mesh.build, "build_mesh", fail)
     cfg = load_config(CONFIGS / "hertz.toml", [])
-    seconds = level_mesh.build_level_mesh(cfg, 1.0, tmp_path / "mesh_cache", "level 0/0")
+    seconds = level_mesh.build_level_mesh(cfg, 1.0, tmp_path / "mesh_cache", "level 0 of 0..0")
     assert math.isnan(seconds)  # the runs report the error themselves
     # (before: "level 0/0: gmsh mesh ready in nan s", then the runs' error)
     assert "ready" not in capsys.readouterr().out
@@ -30,6 +30,6 @@ def test_a_built_level_mesh_prints_its_seconds(tmp_path, monkeypatch, capsys):
 
     monkeypatch.setattr(app.mesh.build, "build_mesh", lambda *a, **k: None)
     cfg = load_config(CONFIGS / "hertz.toml", [])
-    seconds = level_mesh.build_level_mesh(cfg, 1.0, tmp_path / "mesh_cache", "level 0/0")
+    seconds = level_mesh.build_level_mesh(cfg, 1.0, tmp_path / "mesh_cache", "level 0 of 0..0")
     assert seconds >= 0
-    assert "level 0/0: gmsh mesh ready in" in capsys.readouterr().out
+    assert "level 0 of 0..0: gmsh mesh ready in" in capsys.readouterr().out

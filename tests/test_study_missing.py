@@ -9,7 +9,12 @@ import subprocess
 from signal_support import run_script, stop_in_run
 from support import CONFIGS, read_csv
 
-from app.studies.missing_runs import missing_combinations, missing_runs, planned_runs
+from app.studies.missing_runs import (
+    level_tag,
+    missing_combinations,
+    missing_runs,
+    planned_runs,
+)
 
 
 def _study_stopped_in_its_third_run(out) -> subprocess.CompletedProcess:
@@ -31,9 +36,19 @@ def test_missing_runs_name_the_interrupted_and_the_unstarted(tmp_path):
     (tmp_path / "L1_4SD" / "summary.json").write_text(json.dumps({"status": "interrupted"}))
     plan = planned_runs(0, 1, 0, ["4SD", "FEM-Q4"], "4SD")
     lines = missing_runs(tmp_path, plan, {(0, "4SD")},
-                         ["level 0/1 FEM-Q4: no static equilibrium"], 1)
-    assert lines == ["level 1/1 4SD: interrupted (see L1_4SD/summary.json)",
-                     "level 1/1 FEM-Q4: not run (the study was interrupted)"]
+                         ["level 0 of 0..1 FEM-Q4: no static equilibrium"], 1)
+    assert lines == ["level 1 of 0..1 4SD: interrupted (see L1_4SD/summary.json)",
+                     "level 1 of 0..1 FEM-Q4: not run (the study was interrupted)"]
+
+
+def test_a_level_is_named_by_its_index_and_the_range_run(tmp_path):
+    """The progress line read `level 2/2` for the last of `--levels 3` (index over last
+    index): now `level 2 of 0..2`, the index of L2_<method> and study.csv's `level`."""
+    assert level_tag(2, 0, 2) == "level 2 of 0..2"
+    plan = planned_runs(1, 3, 0, ["4SD"], "4SD")  # --first-level 1 --levels 3
+    assert missing_runs(tmp_path, plan, {(1, "4SD")}, [], 3) == [
+        "level 2 of 1..3 4SD: not run (the study was interrupted)",
+        "level 3 of 1..3 4SD: not run (the study was interrupted)"]
 
 
 def test_an_interrupted_study_lists_what_did_not_complete(tmp_path):
@@ -44,8 +59,8 @@ def test_an_interrupted_study_lists_what_did_not_complete(tmp_path):
     assert "study_tables.md lists the 2 runs that did not complete" in res.stderr
     assert len(read_csv(out / "study.csv")) == 2
     tables = (out / "study_tables.md").read_text()
-    assert "- level 1/1 4SD: not run (the study was interrupted)" in tables
-    assert "- level 1/1 FEM-Q4: not run (the study was interrupted)" in tables
+    assert "- level 1 of 0..1 4SD: not run (the study was interrupted)" in tables
+    assert "- level 1 of 0..1 FEM-Q4: not run (the study was interrupted)" in tables
 
 
 def test_missing_combinations_of_a_sweep(tmp_path):
@@ -76,8 +91,8 @@ def test_a_study_rerun_into_the_same_folder_ignores_the_earlier_studys_summaries
         os.utime(summary, (old, old))
     _study_stopped_in_its_third_run(out)
     tables = (out / "study_tables.md").read_text()
-    assert "- level 1/1 4SD: not run (the study was interrupted)" in tables
-    assert "- level 1/1 FEM-Q4: not run (the study was interrupted)" in tables
+    assert "- level 1 of 0..1 4SD: not run (the study was interrupted)" in tables
+    assert "- level 1 of 0..1 FEM-Q4: not run (the study was interrupted)" in tables
     assert "completed (see" not in tables
 
 

@@ -3,6 +3,7 @@ contact's physics (balance, friction + bond bound, sliding at mu P)."""
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import pytest
@@ -73,7 +74,8 @@ def test_sweep_c_and_a_on_bonded_bounds_and_sliding(tmp_path):
         assert (out / f"sweep_interface_bond_{key}.png").is_file()
     peaks = {(r["interface.bond.c"], r["interface.bond.a"]): float(r["peak_tangential_force"])
              for r in rows}
-    assert peaks[("8.0", "3.0")] > peaks[("1.0", "3.0")]  # a stronger bond resists more
+    # the values as given (ints: before, float() wrote them 8.0 and 3.0)
+    assert peaks[("8", "3")] > peaks[("1", "3")]  # a stronger bond resists more
     sliding = 0
     for s in read_csv(out / "sweep_steps.csv"):
         mu = 0.3
@@ -94,7 +96,7 @@ def test_sweep_c_and_a_on_bonded_bounds_and_sliding(tmp_path):
 def test_sweep_and_study_exit_nonzero_when_every_run_fails(tmp_path):
     # frictionless contact cannot carry cattaneo's tangential load: every run fails
     args = [str(CONFIGS / "cattaneo.toml"), "--mesh-size", "1.0", "--out", str(tmp_path)]
-    res = run_cli(["study", *args, "--sweep", "interface.contact.mu=0,0.0"])
+    res = run_cli(["study", *args, "--sweep", "interface.contact.mu=0,1e-9"])
     assert res.returncode == 2
     line = res.stderr.strip().splitlines()[-1]
     assert line.startswith("error: every run of the sweep")
@@ -238,6 +240,38 @@ def test_swept_text_values_are_written_without_their_toml_quotes():
     from app.studies.sweep import _value
 
     assert _value('"cs-fem"') == "cs-fem" and _value("'node-to-segment'") == "node-to-segment"
-    assert _value("0.3") == 0.3 and _value("1") == 1.0  # numbers stay numbers (plot axes)
+    assert _value("0.3") == 0.3 and _value("1") == 1  # numbers stay numbers (plot axes)
     assert _value("mortar") == "mortar"  # a bare word, as --set reads it
     assert _value("[1, 2]") == "[1, 2]"  # not a scalar: its text
+
+
+def test_a_swept_integer_keeps_its_type_in_sweep_csv_and_the_legends(tmp_path):
+    """`--sweep analysis.sd=1,2` wrote `1.0` and `2.0` into sweep.csv (float() of the
+    text): the key is an integer, as the run reads it."""
+    from app.plotting import pyplot
+    from app.studies.convergence import csv_text
+    from app.studies.sweep import _style_legend, _value, plot_sweep
+
+    assert type(_value("1")) is int and type(_value("1.0")) is float
+    assert type(_value("1e3")) is float and _value("true") == "true"
+    text = csv_text([{"analysis.sd": _value(v), "status": "completed"} for v in ("1", "2")])
+    assert text.splitlines()[1:] == ["1,completed", "2,completed"]
+    fig, ax = pyplot().subplots()
+    _style_legend(ax, [("bond", _value("2"), _value("0.25"))], ["analysis.sd", "mu"])
+    assert ax.get_legend().get_texts()[0].get_text() == "interface bond, analysis.sd=2, mu=0.25"
+    # ints and floats on one axis (mu=0,0.5) are numbers alike: the plot is drawn
+    rows = [{"mu": _value(v), "status": "completed", "interface": "bond",
+             "normal_force": 1.0, "tangential_force": 0.1} for v in ("0", "0.5")]
+    assert [p.name for p in plot_sweep(rows, ["mu"], tmp_path)] == ["sweep_mu.png"]
+
+
+def test_a_value_swept_twice_is_an_error_naming_it():
+    """`--sweep mu=0.1,0.1` ran the same combination twice (two identical rows)."""
+    for item, same in (("interface.contact.mu=0.1,0.2,0.1", "the value 0.1 is given twice"),
+                       ("analysis.sd=1,1.0", "1 and 1.0 are the same value"),
+                       ("m=0.1,1e-1", "0.1 and 1e-1 are the same value"),
+                       ('analysis.method="cs-fem",\'cs-fem\'',
+                        "\"cs-fem\" and 'cs-fem' are the same value")):
+        with pytest.raises(InputError, match=re.escape(same)):
+            parse_sweeps([item])
+    assert parse_sweeps(['k="1",1']) == [("k", ['"1"', "1"])]  # text and number differ

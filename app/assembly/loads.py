@@ -104,12 +104,65 @@ def support_dofs(mesh: Mesh, support: Support,
     """DOFs a support prescribes and their values at factor 1."""
     where = f"support on {support.on!r}"
     nodes = group_nodes(mesh, support.on, where)
-    x, y = mesh.points[nodes, 0], mesh.points[nodes, 1]
+    size = scene_size(mesh)
+    # coordinates within round-off of an axis are on it (a node gmsh put at y = 1e-17 on
+    # y = 0 made `y**-1` 1e17 there, finite, and the run completed with U = 1.6e26)
+    xy = np.where(np.abs(mesh.points[nodes]) <= ROUND_OFF * size, 0.0, mesh.points[nodes])
     dofs, vals = [], []
     for comp, v in support.values.items():
         dofs.append(2 * nodes + comp)
-        vals.append(evaluate(v, x, y, params or {}, where))
+        vals.append(_support_values(v, nodes, xy, support, "xy"[comp], size, params or {}))
     return np.concatenate(dofs), np.concatenate(vals)
+
+
+ROUND_OFF = 1e-12
+"""Coordinates within this fraction of the scene's size of zero are zero for expressions."""
+MAX_PRESCRIBED = 10.0
+"""Largest prescribed displacement from an expression, in scene sizes, over the steps."""
+
+
+def scene_size(mesh: Mesh) -> float:
+    """The diagonal of the mesh's bounding box (length units)."""
+    return float(np.hypot(*np.ptp(mesh.points[:, :2], axis=0))) if mesh.n_nodes else 1.0
+
+
+def _support_values(value: float | str, nodes: np.ndarray, xy: np.ndarray,
+                    support: Support, comp: str, size: float,
+                    params: dict[str, float]) -> np.ndarray:
+    """The u<comp> values at the support's nodes (factor 1). An expression that is not
+    finite at a node, or whose largest value over the steps exceeds MAX_PRESCRIBED scene
+    sizes (singular near a node: `1/y` at y = 1e-9), is an InputError naming the support,
+    the node and its value; a number is the user's own and is taken as written."""
+    where = f"support on {support.on!r}, u{comp}"
+    try:
+        vals = evaluate(value, xy[:, 0], xy[:, 1], params, where)
+    except InputError as exc:
+        bad = next((i for i in range(len(nodes)) if not _finite_at(value, xy[i], params)),
+                   None)
+        if bad is None:
+            raise
+        raise InputError(f"{exc} (first at node {nodes[bad]}, x = {xy[bad, 0]:.6g}, "
+                         f"y = {xy[bad, 1]:.6g})") from None
+    if not isinstance(value, str) or not len(vals):
+        return vals
+    peak = np.abs(vals) * float(np.max(np.abs(support.history), initial=0.0))
+    i = int(np.argmax(peak))
+    if peak[i] > MAX_PRESCRIBED * size:
+        raise InputError(
+            f"{where}: expression {value!r} prescribes {vals[i]:.3g} at node {nodes[i]} "
+            f"(x = {xy[i, 0]:.6g}, y = {xy[i, 1]:.6g}), more than {MAX_PRESCRIBED:g} times "
+            f"the scene's size {size:.3g}: is it singular near that node? Write it so that "
+            "it stays finite on the support's curve")
+    return vals
+
+
+def _finite_at(value: str | float, point: np.ndarray, params: dict[str, float]) -> bool:
+    """Whether the expression evaluates (finite) at one point (the error path only)."""
+    try:
+        evaluate(value, point[:1], point[1:], params, "")
+    except InputError:
+        return False
+    return True
 
 
 def constrained_dofs(mesh: Mesh, cfg: Config) -> np.ndarray:

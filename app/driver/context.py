@@ -25,7 +25,7 @@ class RunOptions:
     mesh_scale: float = 1.0
     quiet: bool = False
     mesh_cache: Path | None = None
-    progress_prefix: str = ""  # e.g. "level 2/5 CS-FEM-4SD" in a study
+    progress_prefix: str = ""  # e.g. "level 2 of 0..4 CS-FEM-4SD" in a study
     overrides: list[str] = field(default_factory=list)  # the --set strings (provenance)
     refine: int = 0  # uniform splits of the (scaled) config mesh, see app/mesh/refine.py
     started: float | None = None  # perf_counter at PETSc start-up (cli): the `startup` phase

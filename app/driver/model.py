@@ -81,6 +81,11 @@ def build_model(ctx: RunContext) -> Model:
         mesh = collective(build_scene_mesh, cfg, opts)
         arm_signals()  # gmsh.finalize() put back the default SIGTERM action
         _mesh_quality(mesh, ctx.summary, opts.quiet or ctx.rank != 0)
+    if cfg.scene.file is None:
+        from app.mesh.estimate import one_element_bodies
+
+        for text in one_element_bodies(cfg.scene, opts.mesh_scale * 2.0**-opts.refine):
+            ctx.warn(text)
     if cfg.scene.file is not None and opts.refine:  # its curved sides stay chords
         from app.mesh.facets import faceted_split_warnings
 

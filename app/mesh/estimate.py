@@ -179,3 +179,51 @@ def check_size(scene: Scene, scale: float = 1.0, *, allow_large: bool = False,
                          f"{available / 1e9:.3g} GB of memory: use {fix}, or {option} to run "
                          "anyway")
     return est
+
+
+def check_resolution(scene: Scene, scale: float = 1.0, option: str = "--mesh-size",
+                     given: float | None = None) -> None:
+    """Refuse (InputError, one line) a size scale at which no element size of the scene
+    (a body's own, a `[[mesh.refine]]`'s, a `[[mesh.patch]]`'s, all times `scale`) is
+    as small as the radius of a body's arc: gmsh then draws the arc as a polygon of one
+    segment per quarter circle at most. `scale` includes the splits of `--refine` or a
+    study's finest level (2^-splits: they put their new nodes on the arcs). Before,
+    `--mesh-size 1e300` on hertz.toml ran a 7-element mesh (2 contact pairs, p_max 90%
+    off Hertz, a contact width of 0) and completed without a word. `given`: the
+    option's value, for the message."""
+    if scene.file is not None:
+        return
+    zone_sizes = [r.size for r in scene.refine] + [p.size for p in scene.patches]
+    for spec in scene.bodies:
+        radii = [pc.radius for side in spec.sides for pc in side.pieces if pc.kind == "arc"]
+        if spec.structured or not radii:
+            continue
+        smallest = min([spec.size, *zone_sizes])
+        radius = min(radii)
+        if smallest * scale > radius:
+            what = f"{option} {given:g}" if given is not None else f"a size scale of {scale:g}"
+            largest = (given if given is not None else scale) * radius / (smallest * scale)
+            raise InputError(
+                f"{what} leaves body '{spec.name}' unresolved: its smallest element size "
+                f"would be {smallest * scale:.3g}, more than its arc's radius {radius:g}, so "
+                f"the arc would be a polygon of a few sides; use {option} at most "
+                f"{largest:.3g}")
+
+
+def one_element_bodies(scene: Scene, scale: float = 1.0) -> list[str]:
+    """Warnings for unstructured bodies whose element sizes (their own and every
+    refinement zone's, times `scale`) all exceed their own extent (the larger side of
+    their bounding box): gmsh meshes them with the fewest elements it makes (a few), and
+    any larger size gives the same mesh of them. The geometry is exact (no arc: see
+    check_resolution), and a coarse mesh may be meant, so a warning, not an error."""
+    out = []
+    zone_sizes = [r.size for r in scene.refine] + [p.size for p in scene.patches]
+    for spec in scene.bodies:
+        lo, hi = _bbox(spec)
+        extent = float(np.max(hi - lo))
+        smallest = min([spec.size, *zone_sizes]) * scale
+        if not spec.structured and smallest > extent:
+            out.append(f"body '{spec.name}': its smallest element size {smallest:.3g} is "
+                       f"larger than the body ({extent:g} across): gmsh meshes it with the "
+                       "fewest elements it makes, the same mesh at any larger size")
+    return out

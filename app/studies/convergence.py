@@ -39,7 +39,7 @@ from app.plotting import pyplot
 from app.references import REFERENCES
 from app.run import RunOptions, run
 from app.studies.level_mesh import build_level_mesh
-from app.studies.missing_runs import missing_runs, planned_runs
+from app.studies.missing_runs import level_tag, missing_runs, planned_runs
 from app.studies.reference_errors import (
     add_reference_errors,
     energy_bracket,
@@ -158,7 +158,7 @@ def _run_level(study: ConvergenceStudy, level: int) -> None:
     # the mesh's progress line: every level's with remesh, else level 0's (the one meshed)
     shown = not study.quiet and (study.remesh or level == study.first_level)
     gmsh_s = build_level_mesh(study.cfg, scale, study.out / "mesh_cache",
-                              f"level {level}/{study.last}" if shown else None)
+                              level_tag(level, study.first_level, study.last) if shown else None)
     for method, sd in study.methods:
         if level > study.last - study.reference_levels and label(method, sd) != study.ref_label:
             continue  # finer levels: the reference method only
@@ -175,7 +175,8 @@ def _run_options(study: ConvergenceStudy, level: int, method: str, sd: int,
     return RunOptions(out=study.out / f"L{level}_{label(method, sd)}", method=method,
                       sd=sd, mesh_scale=scale, quiet=study.quiet,
                       mesh_cache=study.out / "mesh_cache",
-                      progress_prefix=f"level {level}/{study.last} {label(method, sd)}",
+                      progress_prefix=f"{level_tag(level, study.first_level, study.last)} "
+                                      f"{label(method, sd)}",
                       refine=0 if study.remesh else level, overrides=list(study.overrides),
                       allow_large=study.allow_large)
 

@@ -21,16 +21,25 @@ def planned_runs(first_level: int, last: int, reference_levels: int, labels: lis
             if level <= last - reference_levels or lab == ref_label]
 
 
+def level_tag(level: int, first: int, last: int) -> str:
+    """How a study's progress, failure and missing-run lines name a level: `level 2 of
+    0..2` for the last of `--levels 3`, the index of the L2_<method> folders and of
+    study.csv's `level` column, with the range run (before, `level 2/2` read as the
+    second of two levels)."""
+    return f"level {level} of {first}..{last}"
+
+
 def missing_runs(out: Path, planned: list[tuple[int, str]], done: set[tuple[int, str]],
                  failures: list[str], last: int, since: float = -math.inf) -> list[str]:
     """One line per planned run with no row (`done`: (level, label) of the rows) and not
-    already among `failures` (lines "level l/last LABEL: ..."): "interrupted" (or the
+    already among `failures` (lines "level l of first..last LABEL: ..."): "interrupted" (or the
     status of its OUT/L<l>_<label>/summary.json) for a run that started, "not run" for
     one that did not. since: the study's start (time.time()); an older summary.json is
     an earlier study's (same --out), not this run's."""
     out_lines = []
+    first = min((level for level, _ in planned), default=0)
     for level, lab in planned:
-        tag = f"level {level}/{last} {lab}"
+        tag = f"{level_tag(level, first, last)} {lab}"
         if (level, lab) in done or any(f.startswith(tag + ":") for f in failures):
             continue
         summary = Path(out) / f"L{level}_{lab}" / "summary.json"

@@ -65,8 +65,23 @@ def parse_sweeps(items: list[str]) -> list[tuple[str, list[str]]]:
         if key.strip() in dict(out):
             raise InputError(f"--sweep '{item}': {key.strip()} is swept twice; give all its "
                              "values in one --sweep")
+        _check_distinct(item, values)
         out.append((key.strip(), values))
     return out
+
+
+def _check_distinct(item: str, values: list[str]) -> None:
+    """InputError when two values of one --sweep are the same value (`0.1,0.1`, `1,1.0`,
+    `0.1,1e-1`): before, the combination ran twice and sweep.csv had two identical rows."""
+    seen: dict = {}
+    for text in values:
+        v = _value(text)  # 1 == 1.0: one value
+        if v in seen:
+            same = (f"the value {text} is given twice" if seen[v] == text else
+                    f"{seen[v]} and {text} are the same value")
+            raise InputError(f"--sweep '{item}': {same} (each combination runs once); "
+                             "give each value once")
+        seen[v] = text
 
 
 def report_step(at_step: int, n_steps: int) -> int:
@@ -276,14 +291,14 @@ def _record_run(s: dict, params: dict, at_step: int, rows: list[dict],
 
 
 def _value(text: str):
-    """A TOML scalar as a number when it is one (for plotting), a TOML string as its text
-    (`"cs-fem"` -> cs-fem: before, sweep.csv and the legends kept the quotes, so a script
-    reading the column got '"cs-fem"'), else the text as given."""
-    try:
-        return float(text)
-    except ValueError:
-        pass
+    """A TOML scalar as the number it is, with its TOML type (`1` -> int 1, as the run
+    reads it: before, float() made `analysis.sd=1` a `1.0` in sweep.csv and the legends;
+    `0.3`, `1e3`, `inf` -> float), a TOML string as its text (`"cs-fem"` -> cs-fem:
+    before, sweep.csv and the legends kept the quotes), else the text as given (a bool,
+    an array, a table: the text the user wrote)."""
     value = _override_value(text.strip())
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        return value
     return value if isinstance(value, str) else text
 
 
@@ -320,8 +335,8 @@ def plot_sweep(rows: list[dict], keys: list[str], out: Path, at_step: int = 0) -
     when = report_label(ok, at_step)
     paths = []
     for key in keys:
-        if not ok or len({type(r[key]) for r in ok}) > 1:
-            continue  # (values all numbers, or all text: then the axis is categorical)
+        if not ok or len({isinstance(r[key], str) for r in ok}) > 1:
+            continue  # (values all numbers, int or float, or all text: then categorical)
         others = [k for k in keys if k != key]
         groups: dict[tuple, list[dict]] = {}
         for r in ok:
