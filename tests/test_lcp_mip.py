@@ -36,9 +36,29 @@ def test_a_large_lcp_is_not_searched():
 
 
 def test_a_widened_bound_admits_a_larger_unknown_of_its_own():
-    """z = 2000 solves w = z - 2000: beyond the bound 1e3, found with widen = 3 on it."""
-    m, q = np.array([[1.0]]), np.array([-2000.0])
+    """z = (1999, 1) solves w = (z1 - 1999 z2, z2 - 1): z1 is beyond the bound, 1e3 x max
+    |q| = 1e3, and found with widen = 3 on it."""
+    m, q = np.array([[1.0, -1999.0], [0.0, 1.0]]), np.array([0.0, -1.0])
     assert complementary_basis(m, q)[0] is None
-    basis, text = complementary_basis(m, q, widen=np.array([3.0]))
-    assert basis is not None and basis[0], text
-    assert lemke(m, q, basis=basis, cold_start=False).status == "solved"
+    basis, text = complementary_basis(m, q, widen=np.array([3.0, 1.0]))
+    assert basis is not None and basis.all(), text
+    res = lemke(m, q, basis=basis, cold_start=False)
+    assert res.status == "solved"
+    np.testing.assert_allclose(res.z, [1999.0, 1.0], rtol=1e-12)
+
+
+def test_the_verdict_and_the_basis_do_not_depend_on_the_units():
+    """LCP(m, t q) has the solutions t z (t > 0): a scene in other units (every E, load and
+    bond strength x t^2 scales the unit-diagonal q by t) is the same search. Before, the
+    bound applied to the unknowns as they came: at t = 1e4 the solution (z3 = 5e3) lay
+    beyond 1e3 and the search found none, and at t = 1e-7 its z (5e-8) read as 0 against
+    the fixed threshold, a basis of all w (multibody.toml --sd 1 --mesh-size 1.2 with its
+    moduli, loads and bond strengths x 1e6 stopped with `no static equilibrium`)."""
+    m = np.array([[0.0, 0.0, 2.0], [3.0, -3.0, -2.0], [2.0, 3.0, -2.0]])
+    q = np.array([-1.0, 3.0, -1.0])
+    for t in (1e-7, 1.0, 1e4):
+        basis, text = complementary_basis(m, t * q)
+        assert basis is not None and basis.tolist() == [False, True, True], (t, text)
+        res = lemke(m, t * q, basis=basis, cold_start=False)
+        assert res.status == "solved" and res.pivots == 0, t
+        np.testing.assert_allclose(res.z, t * np.array([0.0, 2.0 / 3.0, 0.5]), rtol=1e-12)
