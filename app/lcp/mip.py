@@ -45,7 +45,7 @@ MIP_BOUND = MIP_BOUNDS[-1]
 MIP_MAX_SIZE = 200
 """LCPs above this size are not searched (binaries: one per unknown)."""
 
-MIP_WORK = 2e7
+MIP_WORK = 1.2e7
 """Branch-and-bound nodes x n^2 of one search over all its bounds (HiGHS): a limit that does
 not depend on the machine's speed, and bounds the time, since a node of an LCP of size n
 costs about 2e-6 n^2 s (README "Floating bodies"): 2,000 nodes at n = 100, 500 at 200."""
