@@ -46,9 +46,13 @@ MIP_MAX_SIZE = 200
 """LCPs above this size are not searched (binaries: one per unknown)."""
 
 MIP_WORK = 1.2e7
-"""Branch-and-bound nodes x n^2 of one search over all its bounds (HiGHS): a limit that does
-not depend on the machine's speed, and bounds the time, since a node of an LCP of size n
-costs about 2e-6 n^2 s (README "Floating bodies"): 2,000 nodes at n = 100, 500 at 200."""
+"""Branch-and-bound nodes x n^2 of one bound's search (HiGHS), the search ending when a bound
+reaches it: a limit that does not depend on the machine's speed, and bounds the time, a
+node of an LCP of size n costing roughly 2e-6 n^2 s or more (7 ms at n = 39, 17-50 ms at
+98, 250 ms at 200 on 2 shared cores; README "Floating bodies", cost): 1,250 nodes at n =
+98, where multibody.toml --sd 1 --mesh-size 1.2 needs 582, 300 at 200. Per bound, since
+HiGHS does not report the nodes of a proof that there is no solution. Before, 5,000 nodes
+at any size: a random dense LCP of 200 took 426 s to reach them."""
 
 MIP_SECONDS = 600.0
 """Time limit of one search, a guard against a hang only (the node limit ends it first)."""
