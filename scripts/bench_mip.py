@@ -68,6 +68,9 @@ def main() -> int:
     ap.add_argument("--sizes", type=int, nargs="+", default=[50, 100, 150, 200])
     ap.add_argument("--seed", type=int, default=0)
     a = ap.parse_args()
+    bad = [n for n in a.sizes if not 1 <= n <= mip.MIP_MAX_SIZE]
+    if bad:
+        ap.error(f"--sizes {bad[0]}: a size must be 1 to {mip.MIP_MAX_SIZE} (MIP_MAX_SIZE)")
     rng = np.random.default_rng(a.seed)
     for n in a.sizes:
         m = rng.standard_normal((n, n))

@@ -257,6 +257,8 @@ def main() -> int:
         transforms = [Transform(text) for text in a.xf]
     except ValueError as exc:
         ap.error(str(exc))
+    if a.mesh_size is not None and not 0 < a.mesh_size < math.inf:
+        ap.error(f"--mesh-size must be a number > 0 (got {a.mesh_size})")
     for disc in a.discretisations:
         sets = list(a.set)
         if disc is not None:
