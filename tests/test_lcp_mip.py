@@ -5,9 +5,11 @@ and Lemke warm-started from it solves and checks the answer."""
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 
-from app.lcp import lemke
+from app.lcp import lemke, mip
 from app.lcp.mip import MIP_MAX_SIZE, complementary_basis
 
 
@@ -62,3 +64,28 @@ def test_the_verdict_and_the_basis_do_not_depend_on_the_units():
         res = lemke(m, t * q, basis=basis, cold_start=False)
         assert res.status == "solved" and res.pivots == 0, t
         np.testing.assert_allclose(res.z, t * np.array([0.0, 2.0 / 3.0, 0.5]), rtol=1e-12)
+
+
+def _small_lcp() -> tuple[np.ndarray, np.ndarray]:
+    return np.array([[1.0, -2.0], [-2.0, 1.0]]), np.array([-1.0, -1.0])
+
+
+def test_a_crash_of_highs_ends_the_search_not_the_run(monkeypatch):
+    """scipy 1.10's HiGHS aborted in free() on two_blocks.toml's LCP of 39 at E = 1e13
+    (README "Floating bodies"): the whole run died with summary.json `running`."""
+    monkeypatch.setattr(mip, "_CHILD", "import os; os.abort()")
+    basis, found = complementary_basis(*_small_lcp())
+    assert basis is None
+    assert found.startswith("a mixed-integer search found none before its limit (HiGHS "
+                            "crashed (exit -6"), found
+
+
+def test_a_search_past_its_time_limit_is_stopped(monkeypatch):
+    """HiGHS checks its clock between LPs: one that does not return is killed MIP_GRACE
+    past the limit."""
+    monkeypatch.setattr(mip, "_CHILD", "import time; time.sleep(60)")
+    monkeypatch.setattr(mip, "MIP_GRACE", 0.5)
+    t = time.monotonic()
+    basis, found = complementary_basis(*_small_lcp(), seconds=1.0)
+    assert time.monotonic() - t < 5
+    assert basis is None and "passed its time limit (1 s) by 0 s and was stopped" in found

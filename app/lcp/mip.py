@@ -20,11 +20,16 @@ equilibrium` (none below 1e3) where its own units (max |q| 1.05 at step 1) compl
 
 from __future__ import annotations
 
+import io
+import os
+import pickle
+import subprocess
+import sys
 import time
 from collections.abc import Callable
+from typing import NamedTuple
 
 import numpy as np
-from scipy.optimize import Bounds, LinearConstraint, milp
 
 MIP_SCALE = 1e3
 """max |q| of the LCP the search sees: HiGHS's tolerances are absolute (feasibility 1e-7 to
@@ -61,21 +66,82 @@ BASIC_REL = 1e-9
 """z_i above this x its bound is basic in the first basis tried."""
 
 
+MIP_GRACE = 10.0
+"""Seconds past a search's own time limit before its HiGHS process is killed (HiGHS checks
+its clock between LPs, not inside one)."""
+
+_CHILD = r"""
+import ctypes, io, os, pickle, signal, sys
+try:  # end with the run (PR_SET_PDEATHSIG = 1), whatever ends it
+    ctypes.CDLL(None).prctl(1, signal.SIGKILL)
+except (OSError, AttributeError):
+    pass
+if os.getppid() != int(sys.argv[1]):
+    os._exit(3)
+signal.signal(signal.SIGINT, signal.SIG_DFL)
+import numpy as np
+from scipy.optimize import Bounds, LinearConstraint, milp
+d = np.load(io.BytesIO(sys.stdin.buffer.read()))
+n = d["c"].size // 2
+res = milp(d["c"], constraints=LinearConstraint(d["a"], d["lo"], d["hi"]),
+           integrality=np.concatenate([np.zeros(n), np.ones(n)]),
+           bounds=Bounds(np.zeros(2 * n), d["ub"]),
+           options={"node_limit": int(d["nodes"]), "time_limit": float(d["seconds"]),
+                    "mip_rel_gap": 0.0})
+sys.stdout.buffer.write(pickle.dumps((res.x, int(res.status), str(res.message),
+                                      int(getattr(res, "mip_node_count", 0) or 0))))
+sys.stdout.flush()
+os._exit(0)
+"""
+"""The search's own process: reads the problem (npz on stdin), writes HiGHS's answer."""
+
+
+class Answer(NamedTuple):
+    """HiGHS's answer as scipy.optimize.milp gives it (status 0 optimal, 1 a limit, 2
+    infeasible, 4 other: here also a HiGHS process that crashed or passed its time)."""
+
+    x: np.ndarray | None
+    status: int
+    message: str
+    mip_node_count: int
+
+
 def _search(m: np.ndarray, q: np.ndarray, zb: np.ndarray, bound: float, nodes: int,
-            seconds: float):
+            seconds: float) -> Answer:
     """HiGHS's answer to: z, w = m z + q >= 0, z_i <= zb_i y_i, w_i <= bound (1 - y_i), y
-    binary, least sum(z) (m (n, n), q (n,), zb (n,))."""
+    binary, least sum(z) (m (n, n), q (n,), zb (n,)). In a process of its own: HiGHS holds
+    the GIL through the whole search (minutes), where no signal handler and no watchdog
+    thread can run; here the run waits in Python, so SIGINT / SIGTERM stop it at once on
+    any number of ranks (the HiGHS process is killed with it), the time limit holds even
+    inside one LP (killed MIP_GRACE s past it), and a HiGHS crash (scipy 1.10's HiGHS aborts
+    in free() on two_blocks.toml's LCP of 39 at E = 1e13, README "Floating bodies") ends
+    this search, not the run."""
     n = q.size
     eye, zero = np.eye(n), np.zeros((n, n))
-    a = np.block([[m, zero], [eye, -np.diag(zb)], [m, bound * eye]])
     inf = np.full(n, np.inf)
-    lo = np.concatenate([-q, -inf, -inf])
-    hi = np.concatenate([inf, np.zeros(n), bound - q])
-    return milp(np.concatenate([np.ones(n), np.zeros(n)]),
-                constraints=LinearConstraint(a, lo, hi),
-                integrality=np.concatenate([np.zeros(n), np.ones(n)]),
-                bounds=Bounds(np.zeros(2 * n), np.concatenate([inf, np.ones(n)])),
-                options={"node_limit": nodes, "time_limit": seconds, "mip_rel_gap": 0.0})
+    data = io.BytesIO()
+    np.savez(data, c=np.concatenate([np.ones(n), np.zeros(n)]),
+             a=np.block([[m, zero], [eye, -np.diag(zb)], [m, bound * eye]]),
+             lo=np.concatenate([-q, -inf, -inf]),
+             hi=np.concatenate([inf, np.zeros(n), bound - q]),
+             ub=np.concatenate([inf, np.ones(n)]), nodes=nodes, seconds=seconds)
+    proc = subprocess.Popen([sys.executable, "-c", _CHILD, str(os.getpid())],
+                            stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE)
+    try:
+        out, err = proc.communicate(data.getvalue(), timeout=seconds + MIP_GRACE)
+    except subprocess.TimeoutExpired:
+        return Answer(None, 4, f"HiGHS passed its time limit ({seconds:.0f} s) by "
+                      f"{MIP_GRACE:.0f} s and was stopped", 0)
+    finally:  # (also on a signal's exception: the search ends with the run)
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+    if proc.returncode != 0 or not out:
+        last = (err.decode(errors="replace").strip().splitlines() or [""])[-1][:120]
+        return Answer(None, 4, f"HiGHS crashed (exit {proc.returncode}: {last})", 0)
+    x, status, message, count = pickle.loads(out)
+    return Answer(x, status, message, count)
 
 
 def complementary_basis(m: np.ndarray, q: np.ndarray,
