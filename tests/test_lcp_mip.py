@@ -89,3 +89,28 @@ def test_a_search_past_its_time_limit_is_stopped(monkeypatch):
     basis, found = complementary_basis(*_small_lcp(), seconds=1.0)
     assert time.monotonic() - t < 5
     assert basis is None and "passed its time limit (1 s) by 0 s and was stopped" in found
+
+
+def test_the_step_and_the_run_bound_the_searches_time(monkeypatch):
+    """A run's searches stop at MIP_RUN_SECONDS, a step's at MIP_STEP_SECONDS (before,
+    only each search had a limit, 600 s, and a step or a run could hold many)."""
+    monkeypatch.setattr(mip, "CLOCK", mip.SearchClock())
+    monkeypatch.setattr(mip, "MIP_STEP_SECONDS", 4.0)
+    monkeypatch.setattr(mip, "MIP_RUN_SECONDS", 6.0)
+    monkeypatch.setattr(mip, "_CHILD", "import time; time.sleep(60)")  # a search that hangs
+    monkeypatch.setattr(mip, "MIP_GRACE", 0.5)
+    t = time.monotonic()
+    basis, found = complementary_basis(*_small_lcp())
+    assert basis is None and "was stopped) (this step's 4 s of searches are spent)" in found, found
+    assert 4.0 < time.monotonic() - t < 8.0
+    assert complementary_basis(*_small_lcp())[1] == \
+        "no mixed-integer search (this step's 4 s of searches are spent)"
+    mip.CLOCK.new_step()
+    basis, found = complementary_basis(*_small_lcp())
+    assert "(this run's 6 s of searches are spent)" in found, found
+    mip.CLOCK.new_step()
+    assert complementary_basis(*_small_lcp())[1] == \
+        "no mixed-integer search (this run's 6 s of searches are spent)"
+    mip.CLOCK.new_run()
+    assert complementary_basis(*_small_lcp(), seconds=0.5)[1].startswith(
+        "a mixed-integer search found none before its limit (HiGHS passed")

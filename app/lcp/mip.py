@@ -66,6 +66,45 @@ BASIC_REL = 1e-9
 """z_i above this x its bound is basic in the first basis tried."""
 
 
+MIP_STEP_SECONDS = 300.0
+"""Seconds of searches in one load step (all its LCP solves), each search's time limit the
+least of MIP_SECONDS and what is left of this and MIP_RUN_SECONDS (`CLOCK`)."""
+
+MIP_RUN_SECONDS = 600.0
+"""Seconds of searches in one run: past it the run searches no more (its line says so)."""
+
+
+class SearchClock:
+    """The searches' seconds spent in this step and this run (the run driver calls
+    `new_run` and `new_step`); a process runs one run at a time."""
+
+    def __init__(self) -> None:
+        self.step = self.run = 0.0
+
+    def new_run(self) -> None:
+        self.step = self.run = 0.0
+
+    def new_step(self) -> None:
+        self.step = 0.0
+
+    def left(self) -> float:
+        """Seconds a search may take now."""
+        return min(MIP_STEP_SECONDS - self.step, MIP_RUN_SECONDS - self.run)
+
+    def spend(self, seconds: float) -> None:
+        self.step += seconds
+        self.run += seconds
+
+    def spent(self) -> str:
+        """Why no search: the budget it reached, in words."""
+        if MIP_RUN_SECONDS - self.run <= MIP_STEP_SECONDS - self.step:
+            return f"this run's {MIP_RUN_SECONDS:.0f} s of searches are spent"
+        return f"this step's {MIP_STEP_SECONDS:.0f} s of searches are spent"
+
+
+CLOCK = SearchClock()
+"""The process's search clock (app/run.py resets it per run and per step)."""
+
 MIP_GRACE = 10.0
 """Seconds past a search's own time limit before its HiGHS process is killed (HiGHS checks
 its clock between LPs, not inside one)."""
@@ -149,6 +188,25 @@ def complementary_basis(m: np.ndarray, q: np.ndarray,
                         widen: np.ndarray | None = None, bounds: tuple[float, ...] = MIP_BOUNDS,
                         work: float = MIP_WORK, seconds: float = MIP_SECONDS
                         ) -> tuple[np.ndarray | None, str]:
+    """`_basis` (below) within `CLOCK`: its time limit the least of `seconds` and the
+    step's and the run's time left (MIP_STEP_SECONDS, MIP_RUN_SECONDS), none past them."""
+    left = CLOCK.left()
+    if 0 < q.size <= MIP_MAX_SIZE and left < 1.0:
+        return None, f"no mixed-integer search ({CLOCK.spent()})"
+    start = time.monotonic()
+    try:
+        basis, found = _basis(m, q, accept, widen=widen, bounds=bounds, work=work,
+                              seconds=min(seconds, left))
+    finally:
+        CLOCK.spend(time.monotonic() - start)
+    if basis is None and seconds > left and "time limit" in found.lower():
+        found += f" ({CLOCK.spent()})"
+    return basis, found
+
+
+def _basis(m: np.ndarray, q: np.ndarray, accept: Callable[[np.ndarray], bool], *,
+           widen: np.ndarray | None, bounds: tuple[float, ...], work: float, seconds: float
+           ) -> tuple[np.ndarray | None, str]:
     """(basis (n,) bool or None, what the search found, in words) for LCP(m, q), m (n, n)
     and q (n,) scaled to a unit diagonal. With q' = MIP_SCALE q / max |q|, for each bound b
     in turn: z, w = m z + q' >= 0, z_i <= b MIP_SCALE widen_i y_i, w_i <= b MIP_SCALE (1 -
