@@ -60,7 +60,8 @@ HiGHS does not report the nodes of a proof that there is no solution. Before, 5,
 at any size: a random dense LCP of 200 took 426 s to reach them."""
 
 MIP_SECONDS = 600.0
-"""Time limit of one search, a guard against a hang only (the node limit ends it first)."""
+"""Time limit of one search, a guard against a hang only (the node limit ends it first);
+within MIP_STEP_SECONDS and MIP_RUN_SECONDS (`CLOCK`)."""
 
 BASIC_REL = 1e-9
 """z_i above this x its bound is basic in the first basis tried."""
