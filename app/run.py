@@ -20,6 +20,7 @@ from app.driver.context import RunContext, RunOptions, run_timer, write_summary
 from app.driver.linear import assemble_and_factor, unit_solutions
 from app.driver.model import build_model, build_scene_mesh, make_discretisation
 from app.driver.output import finish, open_output, superpose, write_step
+from app.lcp.mip import CLOCK as SEARCH_CLOCK
 from app.output.provenance import provenance
 from app.output.status import RunGuard
 from app.parallel import collective, to_numpy_all
@@ -47,6 +48,7 @@ def run(cfg: Config, opts: RunOptions) -> dict:
 
 def _phases(ctx: RunContext) -> dict:
     """The flow of a run, phase by phase (README, 'The method as built')."""
+    SEARCH_CLOCK.new_run()                         # the mixed-integer search's budget
     model = build_model(ctx)                       # mesh, load cases, pairs, floating modes
     system = assemble_and_factor(ctx, model)       # stiffness, supports, one factorization
     unit = unit_solutions(ctx, model, system)      # K^-1 b per load case
@@ -55,6 +57,7 @@ def _phases(ctx: RunContext) -> dict:
     u = None
     for step in range(ctx.cfg.n_steps):
         started = time.perf_counter()
+        SEARCH_CLOCK.new_step()
         u = superpose(ctx, model, unit.u, step)
         solved = None
         if model.contact is not None:              # the LCP, the consistency refinement

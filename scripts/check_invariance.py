@@ -2,9 +2,11 @@
 
     .venv/bin/python scripts/check_invariance.py CONFIG --interface NAME \
         [--discretisations mortar node-to-segment ...] [--xf angle=30 mirror=1 \
-        scale=1000,Escale=1e-6,fscale=1e-3 shift=5:-3 ...] [--set KEY=VALUE ...] [--out DIR]
+        scale=1000,Escale=1e-6,fscale=1e-3 shift=5:-3 ...] [--set KEY=VALUE ...] \
+        [--mesh-size H] [--out DIR]
 
-The scene is meshed once with the app's mesher; its mesh is written as a gmsh .msh (the
+The scene is meshed once with the app's mesher (--mesh-size H: every element size times
+H / mesh.size, as `python -m app run --mesh-size H`); its mesh is written as a gmsh .msh (the
 identity and each transform x -> s R M x + t: R by `angle` degrees, M the mirror x -> -x
 when `mirror=1`, s = `scale`, t = `shift`), and the config follows it: loads (vectors
 turned, forces times `fscale`, default s), supports (vectors turned and scaled by s; a
@@ -244,6 +246,7 @@ def main() -> int:
     ap.add_argument("--discretisations", nargs="+", default=[None])
     ap.add_argument("--xf", nargs="+", default=["angle=30", "angle=90", "mirror=1"])
     ap.add_argument("--set", action="append", default=[])
+    ap.add_argument("--mesh-size", type=float, default=None, metavar="H")
     ap.add_argument("--out", default="out/invariance")
     a = ap.parse_args()
     try:
@@ -254,6 +257,8 @@ def main() -> int:
         transforms = [Transform(text) for text in a.xf]
     except ValueError as exc:
         ap.error(str(exc))
+    if a.mesh_size is not None and not 0 < a.mesh_size < math.inf:
+        ap.error(f"--mesh-size must be a number > 0 (got {a.mesh_size})")
     for disc in a.discretisations:
         sets = list(a.set)
         if disc is not None:
@@ -268,7 +273,9 @@ def main() -> int:
             except ValueError as exc:
                 ap.error(f"--xf {tf.text}: {exc}")
         try:
-            mesh = build_mesh(parse_scene(raw), base_dir=Path(a.config).parent)
+            scene = parse_scene(raw)
+            scale = a.mesh_size / float(raw["mesh"]["size"]) if a.mesh_size else 1.0
+            mesh = build_mesh(scene, scale, base_dir=Path(a.config).parent)
         except InputError as exc:
             ap.error(str(exc))
         folder = Path(a.out) / (disc or "default")

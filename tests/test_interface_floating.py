@@ -98,6 +98,30 @@ def test_multibody_1sd_at_1_2_has_an_equilibrium_that_lemke_missed(tmp_path):
         assert max(v.values()) < 1e-9, (k, v)
 
 
+def test_multibody_1sd_at_1_2_in_other_units_completes_alike(tmp_path):
+    """The same scene with its moduli, loads and bond strengths x 1e6 (the same
+    displacements, forces x 1e6, the unit-diagonal LCP's q x 1e3). Before, the search's
+    bound applied to the scaled unknowns as they came: none below 1e3, `no static
+    equilibrium` at step 1. With q scaled to its largest entry (`app.lcp.mip`) it is the
+    same search: the shipped units' answer (strain energy 0.47031060728530827) x 1e6."""
+    f = 1e6
+    sets = [f"body.{b}.E={e * f}" for b, e in (("foundation", 1000), ("block1", 2000),
+                                               ("block2", 500), ("side", 1500),
+                                               ("cylinder", 3000))]
+    sets += [f"interface.bond.a={2 * f}", f"interface.bond.c={3 * f}",
+             f"load.0.total_force=[0.0, {-20 * f}]", f"load.1.total_force=[{0.8 * f}, 0.0]"]
+    out = tmp_path / "out"
+    res = run_cli(["run", str(CONFIGS / "multibody.toml"), "--sd", "1", "--mesh-size", "1.2",
+                   "--out", str(out), "--quiet", *(x for s in sets for x in ("--set", s))])
+    assert res.returncode == 0, res.stderr
+    s = read_summary(out)
+    assert s["status"] == "completed" and len(s["steps"]) == 4
+    assert s["strain_energy"] == pytest.approx(0.47031060728530827 * f, rel=1e-9)
+    for st in s["steps"]:
+        assert st["balance"]["max_relative_residual"] < 1e-12  # measured 4.2e-13
+        assert max(st["kkt_pairs"][k] for k in PAIR_KEYS) < 1e-11  # measured 1.8e-12
+
+
 def test_multibody_1sd_at_1_0_stops_naming_the_search(tmp_path):
     """multibody.toml --sd 1 --mesh-size 1.0: the step's LCP has solutions only with
     hourglass amplitudes in the thousands (Lemke on the unscaled matrix: slips to 5.7e3

@@ -5,9 +5,11 @@ and Lemke warm-started from it solves and checks the answer."""
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 
-from app.lcp import lemke
+from app.lcp import lemke, mip
 from app.lcp.mip import MIP_MAX_SIZE, complementary_basis
 
 
@@ -36,9 +38,79 @@ def test_a_large_lcp_is_not_searched():
 
 
 def test_a_widened_bound_admits_a_larger_unknown_of_its_own():
-    """z = 2000 solves w = z - 2000: beyond the bound 1e3, found with widen = 3 on it."""
-    m, q = np.array([[1.0]]), np.array([-2000.0])
+    """z = (1999, 1) solves w = (z1 - 1999 z2, z2 - 1): z1 is beyond the bound, 1e3 x max
+    |q| = 1e3, and found with widen = 3 on it."""
+    m, q = np.array([[1.0, -1999.0], [0.0, 1.0]]), np.array([0.0, -1.0])
     assert complementary_basis(m, q)[0] is None
-    basis, text = complementary_basis(m, q, widen=np.array([3.0]))
-    assert basis is not None and basis[0], text
-    assert lemke(m, q, basis=basis, cold_start=False).status == "solved"
+    basis, text = complementary_basis(m, q, widen=np.array([3.0, 1.0]))
+    assert basis is not None and basis.all(), text
+    res = lemke(m, q, basis=basis, cold_start=False)
+    assert res.status == "solved"
+    np.testing.assert_allclose(res.z, [1999.0, 1.0], rtol=1e-12)
+
+
+def test_the_verdict_and_the_basis_do_not_depend_on_the_units():
+    """LCP(m, t q) has the solutions t z (t > 0): a scene in other units (every E, load and
+    bond strength x t^2 scales the unit-diagonal q by t) is the same search. Before, the
+    bound applied to the unknowns as they came: at t = 1e4 the solution (z3 = 5e3) lay
+    beyond 1e3 and the search found none, and at t = 1e-7 its z (5e-8) read as 0 against
+    the fixed threshold, a basis of all w (multibody.toml --sd 1 --mesh-size 1.2 with its
+    moduli, loads and bond strengths x 1e6 stopped with `no static equilibrium`)."""
+    m = np.array([[0.0, 0.0, 2.0], [3.0, -3.0, -2.0], [2.0, 3.0, -2.0]])
+    q = np.array([-1.0, 3.0, -1.0])
+    for t in (1e-7, 1.0, 1e4):
+        basis, text = complementary_basis(m, t * q)
+        assert basis is not None and basis.tolist() == [False, True, True], (t, text)
+        res = lemke(m, t * q, basis=basis, cold_start=False)
+        assert res.status == "solved" and res.pivots == 0, t
+        np.testing.assert_allclose(res.z, t * np.array([0.0, 2.0 / 3.0, 0.5]), rtol=1e-12)
+
+
+def _small_lcp() -> tuple[np.ndarray, np.ndarray]:
+    return np.array([[1.0, -2.0], [-2.0, 1.0]]), np.array([-1.0, -1.0])
+
+
+def test_a_crash_of_highs_ends_the_search_not_the_run(monkeypatch):
+    """scipy 1.10's HiGHS aborted in free() on two_blocks.toml's LCP of 39 at E = 1e13
+    (README "Floating bodies"): the whole run died with summary.json `running`."""
+    monkeypatch.setattr(mip, "_CHILD", "import os; os.abort()")
+    basis, found = complementary_basis(*_small_lcp())
+    assert basis is None
+    assert found.startswith("a mixed-integer search found none before its limit (HiGHS "
+                            "crashed (exit -6"), found
+
+
+def test_a_search_past_its_time_limit_is_stopped(monkeypatch):
+    """HiGHS checks its clock between LPs: one that does not return is killed MIP_GRACE
+    past the limit."""
+    monkeypatch.setattr(mip, "_CHILD", "import time; time.sleep(60)")
+    monkeypatch.setattr(mip, "MIP_GRACE", 0.5)
+    t = time.monotonic()
+    basis, found = complementary_basis(*_small_lcp(), seconds=1.0)
+    assert time.monotonic() - t < 5
+    assert basis is None and "passed its time limit (1 s) by 0 s and was stopped" in found
+
+
+def test_the_step_and_the_run_bound_the_searches_time(monkeypatch):
+    """A run's searches stop at MIP_RUN_SECONDS, a step's at MIP_STEP_SECONDS (before,
+    only each search had a limit, 600 s, and a step or a run could hold many)."""
+    monkeypatch.setattr(mip, "CLOCK", mip.SearchClock())
+    monkeypatch.setattr(mip, "MIP_STEP_SECONDS", 4.0)
+    monkeypatch.setattr(mip, "MIP_RUN_SECONDS", 6.0)
+    monkeypatch.setattr(mip, "_CHILD", "import time; time.sleep(60)")  # a search that hangs
+    monkeypatch.setattr(mip, "MIP_GRACE", 0.5)
+    t = time.monotonic()
+    basis, found = complementary_basis(*_small_lcp())
+    assert basis is None and "was stopped) (this step's 4 s of searches are spent)" in found, found
+    assert 4.0 < time.monotonic() - t < 8.0
+    assert complementary_basis(*_small_lcp())[1] == \
+        "no mixed-integer search (this step's 4 s of searches are spent)"
+    mip.CLOCK.new_step()
+    basis, found = complementary_basis(*_small_lcp())
+    assert "(this run's 6 s of searches are spent)" in found, found
+    mip.CLOCK.new_step()
+    assert complementary_basis(*_small_lcp())[1] == \
+        "no mixed-integer search (this run's 6 s of searches are spent)"
+    mip.CLOCK.new_run()
+    assert complementary_basis(*_small_lcp(), seconds=0.5)[1].startswith(
+        "a mixed-integer search found none before its limit (HiGHS passed")

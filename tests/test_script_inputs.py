@@ -30,6 +30,9 @@ from support import ROOT
     ("bench_factorization.py", ["--config", "configs/no_such.toml"],
      "config file 'configs/no_such.toml' does not exist"),
     ("bench_factorization.py", ["--routes", "nosuch"], "invalid choice: 'nosuch'"),
+    ("bench_mip.py", ["--sizes", "201"], "--sizes 201: a size must be 1 to 200"),
+    ("check_invariance.py", ["configs/patch.toml", "--mesh-size", "-1"],
+     "--mesh-size must be a number > 0 (got -1.0)"),
 ])
 def test_an_unusable_input_is_an_error_before_any_run(tmp_path, script, args, words):
     extra = ["--out", str(tmp_path / "o")] if script == "oblique_path.py" else []

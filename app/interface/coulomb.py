@@ -434,20 +434,27 @@ class ContactLCP:
 
     def _searched(self, res, ms: np.ndarray, qs: np.ndarray):
         """Lemke's failed result `res` on the scaled LCP (ms, qs) of a problem with floating
-        modes, or Lemke's answer from the basis of `complementary_basis` when that solves
+        modes, or Lemke's answer from a basis of `complementary_basis` when one solves
         it. With free mode amplitudes and friction the LCP is not copositive-plus: its
         secondary ray does not prove that there is no equilibrium (multibody.toml --sd 1
         --mesh-size 1.2 has one, with 22 hourglass modes held by friction). The search
         bounds each slip by `_slip_widen` times MIP_BOUND: in its own compliance's units."""
-        basis, found = complementary_basis(ms, qs, widen=self._slip_widen())
+        tried: list = []
+
+        def accept(basis: np.ndarray) -> bool:
+            tried.append(self.solver(ms, qs, basis=basis, cold_start=False,
+                                     cache=self.cache))
+            return tried[-1].status == "solved"
+
+        basis, found = complementary_basis(ms, qs, accept, widen=self._slip_widen())
         if basis is not None:
-            again = self.solver(ms, qs, basis=basis, cold_start=False, cache=self.cache)
-            if again.status == "solved":
-                again.pivots += res.pivots
-                again.message = (f"{res.message}; {found} (Lemke's ray proves nothing with "
-                                 f"free modes and friction); {again.message}")
-                return again
-            found += f", which Lemke's check did not accept ({again.status})"
+            again = tried[-1]
+            again.pivots += res.pivots
+            again.message = (f"{res.message}; {found} (Lemke's ray proves nothing with "
+                             f"free modes and friction); {again.message}")
+            return again
+        if tried:
+            found += f" (Lemke: {tried[-1].status})"
         res.message += f"; {found}"
         return res
 
