@@ -64,3 +64,19 @@ def test_a_stiff_floating_block_says_how_wrong_its_forces_may_be(tmp_path, young
         assert len(warnings) == 1 and "'upper' (E = 1e+13) and 'lower'" in warnings[0]
     else:
         assert 1e-11 < accuracy < 1e-9 and not warnings
+
+
+def test_a_step_with_every_pair_open_is_exact():
+    """All pairs open (no candidate: an LCP of size 0, configs/hard/initial_gap.toml's
+    first step): `lcp_accuracy` 0 (the branch failed there on an empty system at first);
+    one closed pair of a well-conditioned C: eps x a small condition number."""
+    from app.interface.candidates import CandidateLCP
+
+    m = 3
+    c = np.eye(2 * m) + 0.1 * np.ones((2 * m, 2 * m))
+    lcp = CandidateLCP(c, np.full(m, 0.3), np.ones(m, bool))
+    z = np.zeros(m)
+    sol = lcp.solve(np.full(m, 1.0), z, z, z, z, np.full(m, 0.3), np.zeros(0))
+    assert sol.status == "solved" and lcp.size == 0 and sol.accuracy == 0.0
+    sol = lcp.solve(np.array([-1.0, 1.0, 1.0]), z, z, z, z, np.full(m, 0.3), np.zeros(0))
+    assert sol.status == "solved" and sol.p[0] > 0 and 0.0 < sol.accuracy < 100 * EPS

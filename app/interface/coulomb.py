@@ -450,12 +450,14 @@ class ContactLCP:
         grows with the stiffness contrast between bodies in contact: a stiff body's share
         of C is round-off beside a soft one's (README "Hard cases", `lcp_accuracy`)."""
         m, r = self.m, self.r
+        keep = np.concatenate([closed, closed, np.ones(r, dtype=bool)])
+        if not keep.any():  # every pair open (or none): the answer is exact
+            return 0.0
         fric = np.zeros(m, dtype=bool)
         fric[self.fric] = True
         zero = np.zeros(m)
         k = self._state_system(closed, sp_b, sm_b & ~sp_b, fric, (zero, zero), zero, zero,
                                mu, np.zeros(r))[0]
-        keep = np.concatenate([closed, closed, np.ones(r, dtype=bool)])
         return relative_accuracy(k[np.ix_(keep, keep)])
 
     def _searched(self, res, ms: np.ndarray, qs: np.ndarray):
