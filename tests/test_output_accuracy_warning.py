@@ -80,3 +80,20 @@ def test_a_step_with_every_pair_open_is_exact():
     assert sol.status == "solved" and lcp.size == 0 and sol.accuracy == 0.0
     sol = lcp.solve(np.array([-1.0, 1.0, 1.0]), z, z, z, z, np.full(m, 0.3), np.zeros(0))
     assert sol.status == "solved" and sol.p[0] > 0 and 0.0 < sol.accuracy < 100 * EPS
+
+
+def test_duplicate_pairs_are_judged_on_their_determined_forces(tmp_path):
+    """configs/hard/duplicate_pairs.toml: 3 dependent tangential directions (two slave
+    nodes on one master point, all sticking): the state system is singular along them
+    (their force split is not unique; `lcp_accuracy` read 1.1e21 and warned) and is judged
+    with a unit tie there: 5.6e-14, no warning."""
+    from support import CONFIGS, read_summary, run_cli
+
+    res = run_cli(["run", str(CONFIGS / "hard" / "duplicate_pairs.toml"), "--out",
+                   str(tmp_path / "o"), "--quiet"], timeout=120)
+    assert res.returncode == 0, res.stderr
+    summary = read_summary(tmp_path / "o")
+    step = summary["steps"][0]
+    assert step["dependent_tangential_directions"] == 3
+    assert step["lcp_accuracy"] < 1e-12
+    assert not [w for w in summary.get("warnings", []) if "round-off limits" in w]

@@ -259,6 +259,11 @@ class ContactLCP:
         self.tm_all = np.zeros((m, 0)) if t_modes is None else t_modes
         self.h, self.bm, self.v, self.w, self.z = cm.h, cm.bm, cm.v, cm.w, cm.z
         self.apply_h = cm.apply_h  # H x with the null-space tie apart (exact sums)
+        # the null space of the Jacobi-scaled C_tt (mf, n_null) orthonormal, for `_accuracy`
+        self.null_t = np.zeros((cm.fric.size, 0))
+        if cm.tie is not None:
+            vn = cm.tie * np.sqrt(np.abs(np.diagonal(c)[m:][cm.fric]))[:, None]
+            self.null_t = vn / np.linalg.norm(vn, axis=0)
         # the frictional pairs tied here are dependent directions too (zero rows of C_tt;
         # `tangential_stiffness` gets them tied, so it does not count them)
         self.dependent_tangential = cm.dependent + int(self.fixed_t[cm.fric].sum())
@@ -446,7 +451,8 @@ class ContactLCP:
         (m,) bool each (closed; slip+ and slip- of the frictional pairs): eps x the
         condition estimate of the system of `_on_states` (unit diagonal scaling) over the
         unknowns it does not fix alone: p and q of the closed pairs and the mode
-        amplitudes (an open pair's p = -a and its q = 0 or +-(c - mu a) are exact). It
+        amplitudes (an open pair's p = -a and its q = 0 or +-(c - mu a) are exact), with a
+        unit tie on the dependent tangential directions (`tangential_parts`). It
         grows with the stiffness contrast between bodies in contact: a stiff body's share
         of C is round-off beside a soft one's (README "Hard cases", `lcp_accuracy`)."""
         m, r = self.m, self.r
@@ -458,6 +464,12 @@ class ContactLCP:
         zero = np.zeros(m)
         k = self._state_system(closed, sp_b, sm_b & ~sp_b, fric, (zero, zero), zero, zero,
                                mu, np.zeros(r))[0]
+        if self.null_t.shape[1]:  # dependent directions (a force split that is not unique):
+            # their unit tie, so that only the determined part is judged
+            stick = ~sp_b[self.fric] & ~sm_b[self.fric] & closed[self.fric]
+            rows = m + self.fric[stick]
+            nt = self.null_t[stick]
+            k[np.ix_(rows, rows)] += nt @ nt.T
         return relative_accuracy(k[np.ix_(keep, keep)])
 
     def _searched(self, res, ms: np.ndarray, qs: np.ndarray):
