@@ -22,6 +22,7 @@ def test_the_condition_estimate_is_lapacks_1_norm_condition():
     assert est > 1e9 and relative_accuracy(k) == pytest.approx(EPS * est)
     assert condition_estimate(np.eye(3)) == 1.0 and condition_estimate(np.zeros((0, 0))) == 1.0
     assert condition_estimate(np.ones((2, 2))) == np.inf
+    assert relative_accuracy(np.ones((2, 2))) == 1.0  # (summary.json has no inf)
     assert condition_estimate(np.array([[1.0, np.nan], [0.0, 1.0]])) == np.inf
 
 

@@ -36,5 +36,6 @@ def condition_estimate(k: np.ndarray) -> float:
 
 def relative_accuracy(k: np.ndarray) -> float:
     """eps x `condition_estimate` of k: the relative accuracy (of the largest entry of the
-    answer) that round-off in k and in its solve allow; inf when k is singular."""
-    return EPS * condition_estimate(k)
+    answer) that round-off in k and in its solve allow, at most 1.0 (no digit assured;
+    also when k is singular: a finite number for summary.json, whose inf is not JSON)."""
+    return min(EPS * condition_estimate(k), 1.0)
