@@ -435,10 +435,11 @@ def test_the_uncondensed_re_solve_gives_lemkes_answer_on_an_accurate_basis():
     free = lcp._free_motion(gap_free, tau_free, tau_prev)
     got = lcp._polished(np.asarray(sol.basis, bool), free, a, cc, np.full(m, mu), e0)
     assert got is not None
-    p, q, _, sp_b, sm_b = got
+    p, q, _, closed, sp_b, sm_b = got
     np.testing.assert_allclose(p, sol.p, rtol=1e-9, atol=1e-12 * np.abs(sol.p).max())
     np.testing.assert_allclose(q, sol.q, rtol=1e-9, atol=1e-12 * np.abs(sol.p).max())
     assert list(sp_b) == list(sol.slip_plus > 0) and list(sm_b) == list(sol.slip_minus > 0)
+    assert list(closed) == [True, True, True, False, False]
     assert sp_b[1] and sm_b[2] and not (sp_b[0] or sm_b[0])
     assert p[3] == 0.0 and p[4] == pytest.approx(-1.0) and np.all(p[:3] > 0)
 

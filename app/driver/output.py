@@ -23,6 +23,7 @@ from app.driver.model import Model
 from app.driver.rank0_io import on_rank0
 from app.driver.rank0_solve import on_rank0_solve
 from app.mesh.model import Mesh
+from app.output.accuracy_warning import ACCURACY_WARN, accuracy_warning, interface_contrasts
 from app.output.balance_warning import balance_warning
 from app.output.contact import contact_arrays, kkt_pairs_check
 from app.output.kkt_warning import kkt_warning
@@ -142,6 +143,10 @@ def _contact_output(ctx: RunContext, model: Model, output: StepOutput, solved: C
     law = kkt_pairs_warning(info["kkt_pairs"], info["step"])
     if law is not None:
         ctx.warn(law, ("kkt_pairs",))
+    accuracy = info.get("lcp_accuracy", 0.0)
+    if not accuracy <= ACCURACY_WARN:
+        ctx.warn(accuracy_warning(accuracy, info["step"],
+                                  interface_contrasts(model.mesh, ctx.cfg)), ("lcp_accuracy",))
     output.last_contact = contact_data
     _add_interface_forces(info, contact_data, ctx.cfg, model.contact.described)
     return contact_data

@@ -180,4 +180,4 @@ class CandidateLCP:
         motion = motion_size(*gap_terms, *tau_terms)
         motion[idx] = np.maximum(motion[idx], s.motion)
         return ContactSolution(p, q, gap, tau, splus, sminus, s.alpha, s.pivots, s.status,
-                               basis, s.residual, s.message, motion)
+                               basis, s.residual, s.message, motion, s.accuracy)

@@ -33,6 +33,7 @@ import numpy as np
 
 from app.errors import SolveError
 from app.lcp import lemke
+from app.lcp.conditioning import relative_accuracy
 from app.lcp.coulomb_matrix import coulomb_matrix, fixed_rows, tie_fixed
 from app.lcp.matrix_cache import MatrixCache
 from app.lcp.mip import complementary_basis
@@ -58,6 +59,7 @@ class ContactSolution:
     residual: float = 0.0  # Lemke's relative check residual (scaled LCP)
     message: str = ""  # Lemke's own summary of the solve
     motion: np.ndarray | float = 0.0  # (m,) per pair: largest term of its gap and tau sums
+    accuracy: float = 0.0  # relative accuracy round-off allows p, q, alpha (`_accuracy`)
 
 
 def motion_size(*terms: np.ndarray) -> np.ndarray:
@@ -257,6 +259,11 @@ class ContactLCP:
         self.tm_all = np.zeros((m, 0)) if t_modes is None else t_modes
         self.h, self.bm, self.v, self.w, self.z = cm.h, cm.bm, cm.v, cm.w, cm.z
         self.apply_h = cm.apply_h  # H x with the null-space tie apart (exact sums)
+        # the null space of the Jacobi-scaled C_tt (mf, n_null) orthonormal, for `_accuracy`
+        self.null_t = np.zeros((cm.fric.size, 0))
+        if cm.tie is not None:
+            vn = cm.tie * np.sqrt(np.abs(np.diagonal(c)[m:][cm.fric]))[:, None]
+            self.null_t = vn / np.linalg.norm(vn, axis=0)
         # the frictional pairs tied here are dependent directions too (zero rows of C_tt;
         # `tangential_stiffness` gets them tied, so it does not count them)
         self.dependent_tangential = cm.dependent + int(self.fixed_t[cm.fric].sum())
@@ -420,17 +427,50 @@ class ContactLCP:
             q[f] = self.apply_h(rhs)
             splus[f], sminus[f] = sp_, sm_
         sol = self._solution(p, q, alpha, gap_free, tau_free, splus, sminus, res)
-        if res.status == "solved" and res.basis is not None and \
-                self._off_basis(sol, np.asarray(res.basis, dtype=bool), tau_prev, c, mu):
-            polished = self._polished(np.asarray(res.basis, dtype=bool), free, a, c, mu, e0)
+        if res.status != "solved" or res.basis is None:
+            return sol
+        basis = np.asarray(res.basis, dtype=bool)
+        states = (basis[:m], np.zeros(m, dtype=bool), np.zeros(m, dtype=bool))
+        states[1][f], states[2][f] = basis[e[1]: e[2]], basis[e[2]: e[3]]
+        if self._off_basis(sol, basis, tau_prev, c, mu):
+            polished = self._polished(basis, free, a, c, mu, e0)
             if polished is not None:  # slip variables from the polished motion
-                p, q, alpha, sp_b, sm_b = polished
+                p, q, alpha, closed, sp_b, sm_b = polished
+                states = (closed, sp_b, sm_b)
                 moved = self._solution(p, q, alpha, gap_free, tau_free, splus, sminus,
                                        res).tau - tau_prev
                 splus = np.where(sp_b, np.maximum(moved, 0.0), 0.0)
                 sminus = np.where(sm_b, np.maximum(-moved, 0.0), 0.0)
                 sol = self._solution(p, q, alpha, gap_free, tau_free, splus, sminus, res)
+        sol.accuracy = self._accuracy(*states, mu)
         return sol
+
+    def _accuracy(self, closed: np.ndarray, sp_b: np.ndarray, sm_b: np.ndarray,
+                  mu: np.ndarray) -> float:
+        """The relative accuracy that round-off allows the answer on these pair states
+        (m,) bool each (closed; slip+ and slip- of the frictional pairs): eps x the
+        condition estimate of the system of `_on_states` (unit diagonal scaling) over the
+        unknowns it does not fix alone: p and q of the closed pairs and the mode
+        amplitudes (an open pair's p = -a and its q = 0 or +-(c - mu a) are exact), with a
+        unit tie on the dependent tangential directions (`tangential_parts`). It
+        grows with the stiffness contrast between bodies in contact: a stiff body's share
+        of C is round-off beside a soft one's (README "Hard cases", `lcp_accuracy`)."""
+        m, r = self.m, self.r
+        keep = np.concatenate([closed, closed, np.ones(r, dtype=bool)])
+        if not keep.any():  # every pair open (or none): the answer is exact
+            return 0.0
+        fric = np.zeros(m, dtype=bool)
+        fric[self.fric] = True
+        zero = np.zeros(m)
+        k = self._state_system(closed, sp_b, sm_b & ~sp_b, fric, (zero, zero), zero, zero,
+                               mu, np.zeros(r))[0]
+        if self.null_t.shape[1]:  # dependent directions (a force split that is not unique):
+            # their unit tie, so that only the determined part is judged
+            stick = ~sp_b[self.fric] & ~sm_b[self.fric] & closed[self.fric]
+            rows = m + self.fric[stick]
+            nt = self.null_t[stick]
+            k[np.ix_(rows, rows)] += nt @ nt.T
+        return relative_accuracy(k[np.ix_(keep, keep)])
 
     def _searched(self, res, ms: np.ndarray, qs: np.ndarray):
         """Lemke's failed result `res` on the scaled LCP (ms, qs) of a problem with floating
@@ -543,7 +583,7 @@ class ContactLCP:
     def _polished(self, basis: np.ndarray, free: tuple[np.ndarray, np.ndarray],
                   a: np.ndarray, c: np.ndarray, mu: np.ndarray,
                   e0: np.ndarray) -> tuple[np.ndarray, ...] | None:
-        """(p, q, alpha, slip+ mask, slip- mask) from the compliance C itself, not the
+        """(p, q, alpha, closed, slip+ mask, slip- mask) from the compliance C itself, not the
         LCP's condensed form (q = H x, H = C_tt^-1), on Lemke's final basis corrected by up
         to UNSHIFTED_PIVOTS block pivots. Where C_tt has near-null directions (a stiff body
         bonded on a soft one: eigenvalues 7e-13 beside 4e-4 at a contrast of 1e9) the
@@ -574,7 +614,7 @@ class ContactLCP:
                 return None
             flips = self._basis_errors(x, closed, sp_b, sm_b, fric, free, a, c, mu)
             if flips is None:
-                return (*x, sp_b, sm_b)
+                return (*x, closed, sp_b, sm_b)
             new = _flipped((closed, sp_b, sm_b), flips, single)
             if np.concatenate(new).tobytes() in seen:
                 if single:  # (one pivot at a time cycles too: not settled)
@@ -595,6 +635,23 @@ class ContactLCP:
                    e0: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
         """(p, q, alpha) of the linear system of one set of pair states (`_polished`),
         solved with unit diagonal scaling; None when singular or not finite."""
+        k, rhs, size = self._state_system(closed, sp_b, sm_b, fric, free, a, c, mu, e0)
+        m = self.m
+        try:
+            x = np.linalg.solve(k, rhs) / size
+        except np.linalg.LinAlgError:
+            return None
+        if not np.isfinite(x).all():
+            return None
+        return x[:m], x[m: 2 * m], x[2 * m:]
+
+    def _state_system(self, closed: np.ndarray, sp_b: np.ndarray, sm_b: np.ndarray,
+                      fric: np.ndarray, free: tuple[np.ndarray, np.ndarray], a: np.ndarray,
+                      c: np.ndarray, mu: np.ndarray,
+                      e0: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(K / size size^T, rhs / size, size): the linear system of `_on_states` in the
+        unknowns x * size, x = (p, q, alpha) (2m + r,), scaled to unit diagonal (the
+        column's largest entry where the diagonal is zero: the balance rows)."""
         m, r = self.m, self.r
         gap_free, dtau = free
         stick = fric & ~sp_b & ~sm_b
@@ -616,13 +673,7 @@ class ContactLCP:
         rhs[2 * m:] = -e0
         size = np.sqrt(np.abs(np.diagonal(k)))
         size = np.where(size > 0, size, np.sqrt(np.abs(k).max(axis=0) + 1e-300))
-        try:
-            x = np.linalg.solve(k / size[:, None] / size[None, :], rhs / size) / size
-        except np.linalg.LinAlgError:
-            return None
-        if not np.isfinite(x).all():
-            return None
-        return x[:m], x[m: 2 * m], x[2 * m:]
+        return k / size[:, None] / size[None, :], rhs / size, size
 
     def _basis_errors(self, x: tuple[np.ndarray, np.ndarray, np.ndarray],
                       closed: np.ndarray, sp_b: np.ndarray, sm_b: np.ndarray,

@@ -519,6 +519,7 @@ class ContactStepper:
             "lcp_size_solved": self.lcp.size,
             "lemke_pivots": res.pivots,
             "lcp_residual": sol.residual,
+            "lcp_accuracy": sol.accuracy,
             "dependent_tangential_directions": self.lcp.dependent_tangential,
             "lcp_seconds": res.seconds,
             "lcp_solves": res.iterations,

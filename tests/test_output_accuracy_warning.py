@@ -1,0 +1,100 @@
+"""The per-step accuracy figure `lcp_accuracy` and its warning (app/output/
+accuracy_warning.py, app/lcp/conditioning.py, `ContactLCP._accuracy`)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from app.lcp.conditioning import EPS, condition_estimate, relative_accuracy
+from app.output.accuracy_warning import ACCURACY_WARN, Contrast, accuracy_warning
+
+STIFF_SOFT = [Contrast("soft", "a", 2e3, "b", 1e3), Contrast("interface", "upper", 1e13,
+                                                              "lower", 1e3)]
+
+
+def test_the_condition_estimate_is_lapacks_1_norm_condition():
+    rng = np.random.default_rng(0)
+    k = rng.standard_normal((40, 40))
+    k[:, 0] *= 1e-9  # one column of round-off's size beside the others
+    est = condition_estimate(k)
+    assert est == pytest.approx(np.linalg.cond(k, 1), rel=0.5)
+    assert est > 1e9 and relative_accuracy(k) == pytest.approx(EPS * est)
+    assert condition_estimate(np.eye(3)) == 1.0 and condition_estimate(np.zeros((0, 0))) == 1.0
+    assert condition_estimate(np.ones((2, 2))) == np.inf
+    assert relative_accuracy(np.ones((2, 2))) == 1.0  # (summary.json has no inf)
+    assert condition_estimate(np.array([[1.0, np.nan], [0.0, 1.0]])) == np.inf
+
+
+def test_an_accurate_step_does_not_warn():
+    assert accuracy_warning(7.4e-6, 2, STIFF_SOFT) is None
+    assert accuracy_warning(ACCURACY_WARN, 2, STIFF_SOFT) is None
+    assert accuracy_warning(float("nan"), 2, STIFF_SOFT) is not None
+
+
+def test_the_stiffest_contrast_is_named_as_the_cause():
+    text = accuracy_warning(2.4e-3, 1, STIFF_SOFT)
+    assert text.startswith("step 1: round-off limits the contact answer: its forces may be "
+                           "off by up to 0.0024 of the largest")
+    assert "contrast 1e+10 between bodies 'upper' (E = 1e+13) and 'lower' (E = 1000) at " \
+           "interface 'interface'" in text
+    assert "Lower its E" in text
+    other = accuracy_warning(2.4e-3, 1, STIFF_SOFT[:1])
+    assert "not a stiffness contrast" in other and "'a'" not in other
+
+
+@pytest.mark.parametrize("young, warns", [(1e6, False), (1e13, True)])
+def test_a_stiff_floating_block_says_how_wrong_its_forces_may_be(tmp_path, young, warns):
+    """two_blocks.toml, the upper block floating at E = 1e13 on 1e3 (mu = 0.3): its forces
+    are off those of E = 1e10 by up to 5.7e-5 over a tangential cycle (README "Hard
+    cases"), round-off of C that the law checks do not see. `lcp_accuracy` says 2.4e-3
+    at step 1 (eps x cond ~ 34 x the contrast) and the run warns, naming both bodies;
+    at E = 1e6 it says 2.4e-10 and nothing warns."""
+    from support import CONFIGS, read_summary, run_cli
+
+    sets = ["--set", f"body.upper.E={young:g}", "--set", "interface.interface.mu=0.3",
+            "--set", 'support=[{on="lower_base",ux=0.0,uy=0.0}]']
+    res = run_cli(["run", str(CONFIGS / "two_blocks.toml"), "--out", str(tmp_path / "o"),
+                   "--quiet", *sets], timeout=120)
+    assert res.returncode == 0, res.stderr
+    summary = read_summary(tmp_path / "o")
+    accuracy = summary["steps"][0]["lcp_accuracy"]
+    warnings = [w for w in summary.get("warnings", []) if "round-off limits" in w]
+    if warns:
+        assert 1e-3 < accuracy < 1e-2
+        assert len(warnings) == 1 and "'upper' (E = 1e+13) and 'lower'" in warnings[0]
+    else:
+        assert 1e-11 < accuracy < 1e-9 and not warnings
+
+
+def test_a_step_with_every_pair_open_is_exact():
+    """All pairs open (no candidate: an LCP of size 0, configs/hard/initial_gap.toml's
+    first step): `lcp_accuracy` 0 (the branch failed there on an empty system at first);
+    one closed pair of a well-conditioned C: eps x a small condition number."""
+    from app.interface.candidates import CandidateLCP
+
+    m = 3
+    c = np.eye(2 * m) + 0.1 * np.ones((2 * m, 2 * m))
+    lcp = CandidateLCP(c, np.full(m, 0.3), np.ones(m, bool))
+    z = np.zeros(m)
+    sol = lcp.solve(np.full(m, 1.0), z, z, z, z, np.full(m, 0.3), np.zeros(0))
+    assert sol.status == "solved" and lcp.size == 0 and sol.accuracy == 0.0
+    sol = lcp.solve(np.array([-1.0, 1.0, 1.0]), z, z, z, z, np.full(m, 0.3), np.zeros(0))
+    assert sol.status == "solved" and sol.p[0] > 0 and 0.0 < sol.accuracy < 100 * EPS
+
+
+def test_duplicate_pairs_are_judged_on_their_determined_forces(tmp_path):
+    """configs/hard/duplicate_pairs.toml: 3 dependent tangential directions (two slave
+    nodes on one master point, all sticking): the state system is singular along them
+    (their force split is not unique; `lcp_accuracy` read 1.1e21 and warned) and is judged
+    with a unit tie there: 5.6e-14, no warning."""
+    from support import CONFIGS, read_summary, run_cli
+
+    res = run_cli(["run", str(CONFIGS / "hard" / "duplicate_pairs.toml"), "--out",
+                   str(tmp_path / "o"), "--quiet"], timeout=120)
+    assert res.returncode == 0, res.stderr
+    summary = read_summary(tmp_path / "o")
+    step = summary["steps"][0]
+    assert step["dependent_tangential_directions"] == 3
+    assert step["lcp_accuracy"] < 1e-12
+    assert not [w for w in summary.get("warnings", []) if "round-off limits" in w]
