@@ -35,14 +35,15 @@ MIP_SCALE = 1e3
 """max |q| of the LCP the search sees: HiGHS's tolerances are absolute (feasibility 1e-7 to
 1e-6), and at max |q| = 1 they let w_i = -8e-7 through: two_blocks.toml's stiff floating
 block (README "Floating bodies") then read a false solution whose basis Lemke's check
-refused, at 1e3 the right one (w >= -5e-11)."""
+refused, at 1e3 the right one (w >= -5e-11;
+tests/test_interface_steps.py::test_a_stiff_floating_block_at_1e11_finds_the_equilibrium_lemkes_ray_missed)."""
 
 MIP_BOUNDS = (1e1, 1e2, 1e3)
 """The bounds on the scaled unknowns (z and w, times max |q|) tried in turn, the next only
 when the last found none or none that the caller accepts: HiGHS's integrality tolerance
 (1e-6) lets z_i reach 1e-6 x its bound where y_i = 0, and with 1e3 that slack found a false
 solution of multibody.toml --sd 1 --mesh-size 1.2 at step 3 (sum of z 0.55 x the true one,
-both bases refused), which 1e1 and 1e2 do not."""
+both bases refused), which 1e1 and 1e2 do not (tests/test_interface_floating.py, 1.2)."""
 
 MIP_BOUND = MIP_BOUNDS[-1]
 """Largest scaled unknown (relative to max |q|) the search admits."""
