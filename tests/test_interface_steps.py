@@ -8,7 +8,13 @@ One or two pairs with a diagonal compliance: gap = gap_free + c_n p, tau = tau_f
 import numpy as np
 import pytest
 
-from app.interface.coulomb import POLISH_GATE, ContactLCP, _rejudged
+from app.interface.coulomb import (
+    POLISH_GATE,
+    SINGLE_FLIPS,
+    UNSHIFTED_PIVOTS,
+    ContactLCP,
+    _rejudged,
+)
 from app.interface.steps import (
     BONDED,
     OPEN,
@@ -442,6 +448,32 @@ def test_the_uncondensed_re_solve_gives_lemkes_answer_on_an_accurate_basis():
     assert list(closed) == [True, True, True, False, False]
     assert sp_b[1] and sm_b[2] and not (sp_b[0] or sm_b[0])
     assert p[3] == 0.0 and p[4] == pytest.approx(-1.0) and np.all(p[:3] > 0)
+
+
+def test_the_re_solve_tries_a_bounded_number_of_single_flips_on_a_large_lcp():
+    """Once block pivots cycle `_polished` flips one pair at a time, each a dense solve of
+    size ~2m; it stops after UNSHIFTED_PIVOTS + SINGLE_FLIPS solves, not m more (reviewer
+    `review6`: m = 1000 took 0.5 s a solve, 8 min in all). A stand-in LCP whose every
+    answer leaves one new pair's signs (never settling, never repeating a set of states)
+    counts the solves: 208 at m = 200 before the cap."""
+    m, calls = 200, []
+    lcp = ContactLCP.__new__(ContactLCP)
+    lcp.m, lcp.fric, lcp.edges = m, np.arange(m), np.arange(4) * m
+
+    def on_states(*args):
+        calls.append(1)
+        return np.zeros(m), np.zeros(m), np.zeros(0)
+
+    def basis_errors(x, closed, sp_b, sm_b, *args):
+        off = np.zeros(m)
+        off[(len(calls) - 1) % m] = 2.0  # the next pair leaves its signs, alone
+        return off > 1.0, sp_b, sm_b, off
+
+    lcp._on_states, lcp._basis_errors = on_states, basis_errors
+    zeros = np.zeros(m)
+    got = lcp._polished(np.zeros(3 * m, bool), (zeros, zeros), zeros, zeros, zeros,
+                        np.zeros(0))
+    assert got is None and len(calls) == UNSHIFTED_PIVOTS + SINGLE_FLIPS
 
 
 @pytest.mark.parametrize("pair, field, sign", [(3, "gap", -1.0), (1, "tau", -1.0),

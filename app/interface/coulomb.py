@@ -121,6 +121,12 @@ with the right states (now 1e-6). The shipped configs fire on the same solves at
 UNSHIFTED_PIVOTS = 8
 """Block pivots `ContactLCP._unshifted` tries on Lemke's final basis before keeping z."""
 
+SINGLE_FLIPS = 16
+"""Most one-pair flips `ContactLCP._polished` tries once block pivots cycle, each a dense
+solve of size ~2m: the stiff floating block at 1e12 (tests/test_interface_steps.py) settles
+after 6 solves in all; without a cap the worst case was m more solves (m = 1000: 0.5 s each,
+8 min, against 4 s before; reviewer `review6`)."""
+
 
 def _fixed_pairs(c: np.ndarray, m: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(fixed_n, fixed_t, c): the pairs whose normal (tangential) compliance is round-off,
@@ -595,7 +601,8 @@ class ContactLCP:
         flip every pair that leaves its signs; once a set of states comes back (they cycle:
         node-to-segment at a contrast of 1e9 flipped two pairs over their bound together,
         then both slid back, with period 3, and Lemke's p, 100% off, was kept) or after
-        UNSHIFTED_PIVOTS of them, only the pair furthest off (`_flipped`), up to m more.
+        UNSHIFTED_PIVOTS of them, only the pair furthest off (`_flipped`), up to
+        min(m, SINGLE_FLIPS) more.
         None (Lemke's answer kept) when a system is singular or the pivots do not settle."""
         m, f, e = self.m, self.fric, self.edges
         fric = np.zeros(m, dtype=bool)
@@ -607,7 +614,7 @@ class ContactLCP:
         sm_b &= ~sp_b
         seen: set[bytes] = set()
         single = False
-        for _ in range(UNSHIFTED_PIVOTS + m):
+        for _ in range(UNSHIFTED_PIVOTS + min(m, SINGLE_FLIPS)):
             seen.add(np.concatenate([closed, sp_b, sm_b]).tobytes())
             x = self._on_states(closed, sp_b, sm_b, fric, free, a, c, mu, e0)
             if x is None:
