@@ -114,3 +114,26 @@ def test_the_step_and_the_run_bound_the_searches_time(monkeypatch):
     mip.CLOCK.new_run()
     assert complementary_basis(*_small_lcp(), seconds=0.5)[1].startswith(
         "a mixed-integer search found none before its limit (HiGHS passed")
+
+
+def test_each_run_starts_with_the_whole_search_budget(tmp_path, monkeypatch):
+    """A study or sweep runs many scenes in one process: each `app.run.run` resets the
+    search clock (`SearchClock.new_run`), so one run's spent searches do not take the next
+    run's budget (review8: nothing guarded the reset)."""
+    import tomllib
+
+    from support import CONFIGS
+
+    from app.config import parse_config
+    from app.run import RunOptions, run
+
+    monkeypatch.setattr(mip.CLOCK, "run", mip.MIP_RUN_SECONDS)  # an earlier run spent it
+    monkeypatch.setattr(mip.CLOCK, "step", mip.MIP_STEP_SECONDS)
+    raw = tomllib.loads((CONFIGS / "bonded.toml").read_text())
+    raw["analysis"]["steps"] = 1
+    for s in raw["support"][1:]:
+        s["history"] = s["history"][:1]
+    summary = run(parse_config(raw, CONFIGS / "bonded.toml"),
+                  RunOptions(out=tmp_path / "out", quiet=True))
+    assert summary["status"] == "completed"
+    assert mip.CLOCK.left() > min(mip.MIP_STEP_SECONDS, mip.MIP_RUN_SECONDS) - 60.0
