@@ -5,6 +5,7 @@ and Lemke warm-started from it solves and checks the answer."""
 
 from __future__ import annotations
 
+import os
 import time
 
 import numpy as np
@@ -114,3 +115,42 @@ def test_the_step_and_the_run_bound_the_searches_time(monkeypatch):
     mip.CLOCK.new_run()
     assert complementary_basis(*_small_lcp(), seconds=0.5)[1].startswith(
         "a mixed-integer search found none before its limit (HiGHS passed")
+
+
+def test_each_run_starts_with_the_whole_search_budget(tmp_path, monkeypatch):
+    """A study or sweep runs many scenes in one process: each `app.run.run` resets the
+    search clock (`SearchClock.new_run`), so one run's spent searches do not take the next
+    run's budget (review8: nothing guarded the reset)."""
+    import tomllib
+
+    from support import CONFIGS
+
+    from app.config import parse_config
+    from app.run import RunOptions, run
+
+    monkeypatch.setattr(mip.CLOCK, "run", mip.MIP_RUN_SECONDS)  # an earlier run spent it
+    monkeypatch.setattr(mip.CLOCK, "step", mip.MIP_STEP_SECONDS)
+    raw = tomllib.loads((CONFIGS / "bonded.toml").read_text())
+    raw["analysis"]["steps"] = 1
+    for s in raw["support"][1:]:
+        s["history"] = s["history"][:1]
+    summary = run(parse_config(raw, CONFIGS / "bonded.toml"),
+                  RunOptions(out=tmp_path / "out", quiet=True))
+    assert summary["status"] == "completed"
+    assert mip.CLOCK.left() > min(mip.MIP_STEP_SECONDS, mip.MIP_RUN_SECONDS) - 60.0
+
+
+def test_stray_output_of_the_search_process_is_not_taken_for_its_answer(tmp_path,
+                                                                        monkeypatch):
+    """The search process writes HiGHS's answer on its stdout. Before, anything else there
+    (a sitecustomize's banner on the user's PYTHONPATH, a print from HiGHS's C code) made
+    `pickle.loads` raise in the run: a traceback (review8). Now stray output goes to stderr
+    and an answer that does not unpickle ends the search, not the run."""
+    (tmp_path / "sitecustomize.py").write_text("print('a banner on stdout')\n")
+    monkeypatch.setenv("PYTHONPATH", os.pathsep.join(
+        [str(tmp_path), *filter(None, [os.environ.get("PYTHONPATH")])]))
+    basis, found = complementary_basis(np.eye(2), np.array([-1.0, 1.0]))
+    assert basis is not None and basis.tolist() == [True, False], found
+    monkeypatch.setattr(mip, "_CHILD", "print('not an answer')")
+    basis, found = complementary_basis(*_small_lcp())
+    assert basis is None and "HiGHS's answer unreadable (" in found, found

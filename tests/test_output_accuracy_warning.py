@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from app.lcp.conditioning import EPS, condition_estimate, relative_accuracy
+from app.lcp.conditioning import EPS, condition_estimate, determined_accuracy, relative_accuracy
 from app.output.accuracy_warning import ACCURACY_WARN, Contrast, accuracy_warning
 
 STIFF_SOFT = [Contrast("soft", "a", 2e3, "b", 1e3), Contrast("interface", "upper", 1e13,
@@ -24,6 +24,34 @@ def test_the_condition_estimate_is_lapacks_1_norm_condition():
     assert condition_estimate(np.ones((2, 2))) == np.inf
     assert relative_accuracy(np.ones((2, 2))) == 1.0  # (summary.json has no inf)
     assert condition_estimate(np.array([[1.0, np.nan], [0.0, 1.0]])) == np.inf
+
+
+def _held_and_free_mode() -> np.ndarray:
+    """The states' system [[C, N], [N^T, 0]] of 3 closed pairs (C (3, 3) SPD) and two mode
+    amplitudes: mode 0 held by the pairs' gaps, mode 1 by none (its columns and rows zero:
+    it slides on slipping pairs), unit diagonal where C has one."""
+    c = np.array([[1.0, 0.3, 0.1], [0.3, 1.0, 0.3], [0.1, 0.3, 1.0]])
+    n = np.array([[1.0, 0.0], [0.5, 0.0], [-0.2, 0.0]])
+    return np.block([[c, n], [n.T, np.zeros((2, 2))]])
+
+
+def test_a_mode_no_pair_holds_does_not_read_as_forces_off_by_one():
+    """multibody.toml --sd 1 --mesh-size 1.2: hourglass amplitudes that only slipping pairs
+    touch are not unique (the states' system singular, rank 2 and 3 short), the forces are
+    (the null vectors' share on p and q 4.3e-14): `lcp_accuracy` read 1.0 and the run
+    warned "its forces may be off by up to 1" (review8); the determined part's figure
+    1e-12. A null space on the forces themselves still reads 1.0."""
+    k = _held_and_free_mode()
+    free = np.array([False, False, False, True, True])
+    assert relative_accuracy(k) == 1.0
+    assert determined_accuracy(k, free) < 1e-14
+    assert determined_accuracy(k, np.zeros(5, dtype=bool)) == 1.0
+    k[:, 1] = k[:, 0]  # two pairs alike: the split of their force is not unique
+    k[1, :] = k[0, :]
+    assert determined_accuracy(k, free) == 1.0
+    rng = np.random.default_rng(1)
+    well = rng.standard_normal((6, 6)) + 6 * np.eye(6)
+    assert determined_accuracy(well, np.ones(6, dtype=bool)) == relative_accuracy(well)
 
 
 def test_an_accurate_step_does_not_warn():

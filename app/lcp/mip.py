@@ -120,6 +120,8 @@ except (OSError, AttributeError):
 if os.getppid() != int(sys.argv[1]):
     os._exit(3)
 signal.signal(signal.SIGINT, signal.SIG_DFL)
+answer = os.fdopen(os.dup(1), "wb")  # stray output from here on (HiGHS's C) to stderr
+os.dup2(2, 1)
 import numpy as np
 from scipy.optimize import Bounds, LinearConstraint, milp
 d = np.load(io.BytesIO(sys.stdin.buffer.read()))
@@ -129,12 +131,13 @@ res = milp(d["c"], constraints=LinearConstraint(d["a"], d["lo"], d["hi"]),
            bounds=Bounds(np.zeros(2 * n), d["ub"]),
            options={"node_limit": int(d["nodes"]), "time_limit": float(d["seconds"]),
                     "mip_rel_gap": 0.0})
-sys.stdout.buffer.write(pickle.dumps((res.x, int(res.status), str(res.message),
-                                      int(getattr(res, "mip_node_count", 0) or 0))))
-sys.stdout.flush()
+answer.write(b"\n--- answer ---\n" + pickle.dumps(
+    (res.x, int(res.status), str(res.message), int(getattr(res, "mip_node_count", 0) or 0))))
+answer.flush()
 os._exit(0)
 """
-"""The search's own process: reads the problem (npz on stdin), writes HiGHS's answer."""
+"""The search's own process: reads the problem (npz on stdin), writes HiGHS's answer (on
+stdout, after a mark: a sitecustomize may print before it; later output goes to stderr)."""
 
 
 class Answer(NamedTuple):
@@ -181,7 +184,10 @@ def _search(m: np.ndarray, q: np.ndarray, zb: np.ndarray, bound: float, nodes: i
     if proc.returncode != 0 or not out:
         last = (err.decode(errors="replace").strip().splitlines() or [""])[-1][:120]
         return Answer(None, 4, f"HiGHS crashed (exit {proc.returncode}: {last})", 0)
-    x, status, message, count = pickle.loads(out)
+    try:  # (what a sitecustomize printed at start-up comes before the mark)
+        x, status, message, count = pickle.loads(out.partition(b"\n--- answer ---\n")[2])
+    except Exception as exc:  # (any bytes: pickle raises many kinds) not the run's end
+        return Answer(None, 4, f"HiGHS's answer unreadable ({type(exc).__name__})", 0)
     return Answer(x, status, message, count)
 
 
