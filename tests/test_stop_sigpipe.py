@@ -21,7 +21,9 @@ from support import CONFIGS, read_summary, signal_when_ready
 SLOW_READER = """
 import sys
 from app.lcp import mip
-mip._CHILD = mip._CHILD.replace("import numpy as np", "import time; time.sleep(30)\\nimport numpy as np", 1)
+first = "import numpy as np"
+assert first in mip._CHILD  # (else the search would not wait)
+mip._CHILD = mip._CHILD.replace(first, "import time; time.sleep(30)\\n" + first, 1)
 real = mip._search
 
 def search(m, q, zb, bound, nodes, seconds):
