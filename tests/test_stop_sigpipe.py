@@ -68,3 +68,21 @@ def test_a_signal_while_rank_0_feeds_its_search_is_recorded(tmp_path):
         assert s["status"] == "interrupted", (k, res.stderr)
         assert s["error"].startswith("interrupted by SIGTERM during step 1/"), s["error"]
         assert f"error: {s['error']}" in res.stderr, (k, res.stderr)
+
+
+def test_a_closed_stderr_pipe_neither_ends_nor_fails_the_run(tmp_path):
+    """`python -m app run ... 2>&1 | head -1`: with SIGPIPE at its default the run died at
+    its next progress line (exit -13 / 141, summary.json `running`); ignored, without
+    app/output/closed_pipes.py it failed (`cannot write the results into OUT: Broken
+    pipe`). Now the lines go to /dev/null and the run completes."""
+    import subprocess
+
+    from support import ROOT, mpi_env
+
+    out = tmp_path / "o"
+    proc = subprocess.Popen([sys.executable, "-m", "app", "run", str(CONFIGS / "hertz.toml"),
+                             "--out", str(out)], cwd=ROOT, env=mpi_env(),
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    proc.stderr.close()  # the reader has gone before the first line
+    assert proc.wait(timeout=120) == 0
+    assert read_summary(out)["status"] == "completed"
