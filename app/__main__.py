@@ -1,7 +1,9 @@
 import sys
 
 from app.output import startup_signals
+from app.output.closed_pipes import drop_closed_pipes
 
+drop_closed_pipes()  # a closed stdout / stderr pipe does not end the run
 startup_signals.arm(None, "", act=False)  # a signal while the modules load is recorded
 from app.cli import main  # noqa: E402
 

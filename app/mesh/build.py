@@ -60,7 +60,7 @@ def _gmsh_session() -> Iterator[Any]:
     handlers = _python_signal_handlers()
     if started:
         gmsh.initialize([], readConfigFiles=False, run=False, interruptible=False)
-        _restore_signal_handlers(handlers)  # gmsh.initialize resets SIGTERM to the default
+        _restore_signal_handlers(handlers)  # gmsh.initialize resets them to the defaults
     try:
         gmsh.option.setNumber("General.Terminal", 0)
         yield gmsh
@@ -71,10 +71,14 @@ def _gmsh_session() -> Iterator[Any]:
 
 
 def _python_signal_handlers() -> dict:
-    """The Python-level SIGINT and SIGTERM handlers (a run's stop handlers)."""
+    """The Python-level SIGINT and SIGTERM handlers (a run's stop handlers) and SIGPIPE's
+    (ignored, as Python has it: gmsh's default ended the process silently on a write to a
+    closed pipe, e.g. rank 0 writing into a HiGHS process that mpiexec's SIGTERM had just
+    killed, before its watchdog wrote `interrupted`: tests/test_stop_sigpipe.py)."""
     import signal
 
-    return {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)}
+    names = ("SIGINT", "SIGTERM", "SIGPIPE")
+    return {sig: signal.getsignal(sig) for n in names if (sig := getattr(signal, n, None))}
 
 
 def _restore_signal_handlers(handlers: dict) -> None:
@@ -82,7 +86,7 @@ def _restore_signal_handlers(handlers: dict) -> None:
     import signal
 
     for sig, handler in handlers.items():
-        if callable(handler):
+        if handler is not None:  # (None: not installed from Python)
             try:
                 signal.signal(sig, handler)
             except ValueError:  # not the main thread

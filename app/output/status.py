@@ -360,8 +360,9 @@ app/hard_stop.py acts there on several ranks)."""
 def stop_grace(rank: int, ranks: int) -> float:
     """Seconds the watchdog of `rank` (of `ranks`) waits for the run to stop by itself.
     On several ranks no main thread stops by itself: rank 0's watchdog stops the job at
-    once (after the step being written; Open MPI's mpiexec sends SIGKILL 1 s after the
-    SIGTERM it forwards, also on Ctrl-C), the others only if rank 0 did not end the job."""
+    once (after the step being written; Open MPI's mpiexec sends SIGKILL as soon as a
+    rank has ended, at the latest 1 s after the SIGTERM it forwards, also on Ctrl-C), the
+    others only if rank 0 did not end the job."""
     return 0.0 if ranks > 1 and rank == 0 else STOP_GRACE_SECONDS
 
 

@@ -13,6 +13,7 @@ reason; `-history` is checked before, as PETSc does not survive it.
 from __future__ import annotations
 
 import os
+import signal
 import sys
 import tempfile
 
@@ -66,6 +67,20 @@ def start_petsc(petsc_args: list[str]) -> str | None:
         return _start_captured(petsc4py, petsc_args)
 
 
+def ignore_sigpipe() -> None:
+    """Put back Python's SIGPIPE disposition (ignored: a write to a pipe without a reader
+    raises BrokenPipeError). PETSc's start (petsc4py starts it with -no_signal_handler,
+    PetscPopSignalHandler) resets SIGPIPE to its default, which ends the process at once,
+    silently: under mpiexec, rank 0 writing a search's problem into its HiGHS process
+    (app/lcp/mip.py) that mpiexec's SIGTERM to the rank's process group had just killed
+    died there, 40 ms after that SIGTERM and before its watchdog had written the
+    `interrupted` summary or its line (tests/test_stop_sigpipe.py)."""
+    try:
+        signal.signal(signal.SIGPIPE, signal.SIG_IGN)
+    except (ValueError, AttributeError):  # not the main thread; no SIGPIPE (Windows)
+        pass
+
+
 def _start_captured(petsc4py, petsc_args: list[str]) -> str | None:
     """start_petsc with PETSc's error output during the start captured."""
     saved = os.dup(2)
@@ -83,6 +98,7 @@ def _start_captured(petsc4py, petsc_args: list[str]) -> str | None:
         capture.seek(0)
         captured = capture.read().decode(errors="replace")
     if failed is None:
+        ignore_sigpipe()
         sys.stderr.write(captured)  # anything PETSc printed on a good start
         return None
     reason = _reason(captured) or str(failed)
