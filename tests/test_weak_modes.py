@@ -87,6 +87,22 @@ def test_loaded_and_undetermined_modes_are_not_checked():
     assert held_mode_slides(**fric, groups=[np.array([0])]) == []
 
 
+def test_round_off_friction_does_not_decide_whether_a_mode_is_loaded():
+    """A friction-held sideways translation whose pairs carry q at round-off (1e-15 of p,
+    as the full LCP leaves and the LCP over candidate pairs does not) is as unloaded as with
+    q = 0: before FORCE_ROUND_OFF the round-off q was the translation's whole gross force,
+    its net 100% of it, and `contact_held_modes` held an entry with candidate pairs and none
+    without (cattaneo.toml at 1e-3 of its approach, search_distance 0.5, step 1)."""
+    case = _cylinder(theta=0.0)
+    m = case["p"].size
+    side = dict(case, n_modes=np.zeros((m, 1)), t_modes=np.ones((m, 1)),
+                frictional=np.ones(m, dtype=bool))
+    exact = held_mode_slides(**side, groups=[np.array([0])])
+    noisy = held_mode_slides(**dict(side, q=1e-15 * case["p"].max() * np.linspace(1, 2, m)),
+                             groups=[np.array([0])])
+    assert len(exact) == len(noisy) == 1
+
+
 def test_entries_name_the_rotation_centre_and_warn_once_above_the_threshold():
     case = _cylinder(theta=0.01)
     centroid = np.array([0.0, 0.5])

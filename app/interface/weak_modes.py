@@ -30,6 +30,12 @@ SLIDE_WARN = 3e-3
 the contact width. Measured: at most 1.5e-3 on configs/ and meshes/ (hard/nonunique; 4.9e-4
 on hertz), at most 1.3e-3 on hertz.toml at --mesh-size 0.3 to 0.8 (p errors <= 3%), and
 4.2e-3 to 3.0e-2 at --mesh-size 0.9 to 2 (p_max errors 26% to 99%)."""
+FORCE_ROUND_OFF = 1e-10
+"""Pair forces (p, q) at most this fraction of the largest are round-off and count as 0
+when judging whether a combination is loaded (the LCP's forces agree to 1e-10 of their
+scale between solves, e.g. with and without candidate pairs; a q of 1e-15 of p on a
+friction-held translation was its whole gross force and made it "loaded" in one solve and
+not in the other)."""
 PATTERN_RCOND = 1e-8
 """Combinations whose tangential pattern at an interface is below this fraction of the
 largest one move that contact by round-off only: the slide fit leaves them out. (With
@@ -93,13 +99,17 @@ def held_mode_slides(p: np.ndarray, q: np.ndarray, tau: np.ndarray, interface: n
                      net_tol: float = NET_TOL) -> list[HeldModeSlide]:
     """The slide of every unloaded contact-held mode combination, per body and interface.
 
-    p, q (m,): pair normal (compression positive) and tangential forces; tau (m,): the
+    p, q (m,): pair normal (compression positive) and tangential forces (those at most
+    FORCE_ROUND_OFF of the largest count as 0); tau (m,): the
     relative tangential displacement (slave minus master, along t) at this step; interface
     (m,) int; length (m,) pair lengths; n_modes, t_modes (m, r): gap and tau change per unit
     mode amplitude; frictional (m,) bool; groups: the mode columns of each body. Modes no
     pair sees (undetermined, reported elsewhere) are left out.
     """
     out = []
+    floor = FORCE_ROUND_OFF * max(np.abs(p).max(initial=0.0), np.abs(q).max(initial=0.0))
+    p = np.where(np.abs(p) > floor, p, 0.0)
+    q = np.where(np.abs(q) > floor, q, 0.0)
     carries = p != 0
     for g, cols in enumerate(groups):
         nb, tb = n_modes[:, cols], t_modes[:, cols]
