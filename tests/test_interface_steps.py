@@ -640,25 +640,34 @@ def test_a_stiff_floating_bonded_mortar_block_at_1e10_is_mirror_symmetric(tmp_pa
     assert np.abs(p - p[::-1]).max() <= 1e-6 * np.abs(p).max()
 
 
+def _cycle_against_1e10(tmp_path, stiff: str, history: list[float]):
+    """({E: summary steps}, {E: (p, q) (2, m) of the last step, ordered by x}) of
+    two_blocks.toml with node-to-segment, the upper block floating at E = 1e10 and `stiff`,
+    mu = 0.3, a pressure of 10 and a tangential force 4.8 x history (0.8 mu P)."""
+    import h5py
+
+    n = len(history)
+    sets = ["--set", "interface.interface.mu=0.3", "--set", f"analysis.steps={n}", "--set",
+            'interface.interface.discretisation="node-to-segment"', "--set",
+            'support=[{on="lower_base",ux=0.0,uy=0.0}]', "--set",
+            'load=[{on="upper_top",pressure=10.0},{on="upper_top",total_force=[4.8,0.0],'
+            f'history={history}}}]']
+    steps, forces = {}, {}
+    for e in ("1e10", stiff):
+        _, steps[e] = _upper_block_at(tmp_path, e, sets)
+        with h5py.File(tmp_path / e / f"step_{n:04d}.h5") as f:
+            order = np.argsort(f["contact/x"][()])
+            forces[e] = np.stack([f["contact/p"][()][order], f["contact/q"][()][order]])
+    return steps, forces
+
+
 def test_a_stiff_floating_block_at_1e11_under_a_cycle_has_the_forces_of_1e10(tmp_path):
     """two_blocks.toml with node-to-segment, the upper block floating, mu = 0.3, a pressure
     of 10 and a tangential force 0, 2.4, 4.8, 2.4, 0 (0.8 mu P). At E = 1e11 on 1e3 step 5
     had the states of E = 1e10 but p and q 31% off (of the largest p) both 1e10's and 1e12's,
     `kkt` 2e-9: its gaps' error stayed below the re-solve's gate of 1e-8. With the gate at
     1e-10 the step is re-solved: 1e10's forces to 1e-6 (measured 9.4e-7)."""
-    import h5py
-
-    sets = ["--set", "interface.interface.mu=0.3", "--set", "analysis.steps=5", "--set",
-            'interface.interface.discretisation="node-to-segment"', "--set",
-            'support=[{on="lower_base",ux=0.0,uy=0.0}]', "--set",
-            'load=[{on="upper_top",pressure=10.0},{on="upper_top",total_force=[4.8,0.0],'
-            'history=[0.0,0.5,1.0,0.5,0.0]}]']
-    steps, forces = {}, {}
-    for e in ("1e10", "1e11"):
-        res, steps[e] = _upper_block_at(tmp_path, e, sets)
-        with h5py.File(tmp_path / e / "step_0005.h5") as f:
-            order = np.argsort(f["contact/x"][()])
-            forces[e] = np.stack([f["contact/p"][()][order], f["contact/q"][()][order]])
+    steps, forces = _cycle_against_1e10(tmp_path, "1e11", [0.0, 0.5, 1.0, 0.5, 0.0])
     assert steps["1e11"][4]["states"] == steps["1e10"][4]["states"]
     scale = np.abs(forces["1e10"][0]).max()
     assert np.abs(forces["1e11"] - forces["1e10"]).max() <= 1e-5 * scale
@@ -674,19 +683,7 @@ def test_a_stiff_floating_block_at_1e12_under_a_cycle_has_the_forces_of_1e10(tmp
     Once block pivots cycle, the worst pair alone is flipped: 1e10's states and forces to
     what the conditioning allows (eps x cond of the re-solve's system, 3.4e11: 7.6e-5;
     measured 1.1e-5 of the largest p), `kkt` at round-off."""
-    import h5py
-
-    sets = ["--set", "interface.interface.mu=0.3", "--set", "analysis.steps=6", "--set",
-            'interface.interface.discretisation="node-to-segment"', "--set",
-            'support=[{on="lower_base",ux=0.0,uy=0.0}]', "--set",
-            'load=[{on="upper_top",pressure=10.0},{on="upper_top",total_force=[4.8,0.0],'
-            'history=[0.0,0.5,1.0,0.5,0.0,-0.5]}]']
-    steps, forces = {}, {}
-    for e in ("1e10", "1e12"):
-        res, steps[e] = _upper_block_at(tmp_path, e, sets)
-        with h5py.File(tmp_path / e / "step_0006.h5") as f:
-            order = np.argsort(f["contact/x"][()])
-            forces[e] = np.stack([f["contact/p"][()][order], f["contact/q"][()][order]])
+    steps, forces = _cycle_against_1e10(tmp_path, "1e12", [0.0, 0.5, 1.0, 0.5, 0.0, -0.5])
     assert steps["1e12"][5]["states"] == steps["1e10"][5]["states"]
     scale = np.abs(forces["1e10"][0]).max()
     assert np.abs(forces["1e12"] - forces["1e10"]).max() <= 1e-4 * scale
