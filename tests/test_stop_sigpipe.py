@@ -86,3 +86,59 @@ def test_a_closed_stderr_pipe_neither_ends_nor_fails_the_run(tmp_path):
     proc.stderr.close()  # the reader has gone before the first line
     assert proc.wait(timeout=120) == 0
     assert read_summary(out)["status"] == "completed"
+
+
+SEARCH_ALONE = """
+import sys
+import numpy as np
+from app.lcp import mip
+first = "import numpy as np"
+mip._CHILD = mip._CHILD.replace(first, "import time; time.sleep(60)\\n" + first, 1)
+print("ready", flush=True)
+mip._search(np.eye(2), -np.ones(2), np.ones(2), 1.0, 10, 30.0)
+"""
+
+
+def _children(pid: int) -> list[int]:
+    with open(f"/proc/{pid}/task/{pid}/children") as fh:
+        return [int(p) for p in fh.read().split()]
+
+
+def _alive(pid: int) -> bool:
+    try:
+        with open(f"/proc/{pid}/stat") as fh:
+            return fh.read().rsplit(")", 1)[1].split()[0] != "Z"
+    except FileNotFoundError:
+        return False
+
+
+def test_the_search_process_outlives_a_group_signal_not_its_run():
+    """The HiGHS process runs in a session of its own: mpiexec's SIGTERM to a rank's process
+    group (and Ctrl-C's SIGINT to the terminal's) reaches the rank, not HiGHS, so the rank's
+    watchdog records the stop instead of the search reporting `HiGHS crashed (exit -15)`;
+    the parent-death signal still ends it with the rank (here: the rank dies of SIGTERM)."""
+    import os
+    import subprocess
+    import time
+
+    from support import ROOT, mpi_env
+
+    proc = subprocess.Popen([sys.executable, "-c", SEARCH_ALONE], cwd=ROOT, env=mpi_env(),
+                            stdout=subprocess.PIPE, start_new_session=True)
+    try:
+        assert proc.stdout.readline().strip() == b"ready"
+        end = time.monotonic() + 20
+        while not _children(proc.pid) and time.monotonic() < end:
+            time.sleep(0.05)
+        (child,) = _children(proc.pid)
+        assert os.getpgid(child) != os.getpgid(proc.pid)
+        os.killpg(proc.pid, signal.SIGTERM)
+        assert proc.wait(timeout=10) == -signal.SIGTERM
+        end = time.monotonic() + 5
+        while _alive(child) and time.monotonic() < end:
+            time.sleep(0.05)
+        assert not _alive(child)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()

@@ -156,7 +156,9 @@ def _search(m: np.ndarray, q: np.ndarray, zb: np.ndarray, bound: float, nodes: i
     binary, least sum(z) (m (n, n), q (n,), zb (n,)). In a process of its own: HiGHS holds
     the GIL through the whole search (minutes), where no signal handler and no watchdog
     thread can run; here the run waits in Python, so SIGINT / SIGTERM stop it at once on
-    any number of ranks (the HiGHS process is killed with it), the time limit holds even
+    any number of ranks (the HiGHS process is killed with it: in a session of its own, so
+    mpiexec's SIGTERM to a rank's group or Ctrl-C's SIGINT reaches the rank, not HiGHS; the
+    parent-death signal ends it if the rank dies), the time limit holds even
     inside one LP (killed MIP_GRACE s past it), and a HiGHS crash (scipy 1.10's HiGHS aborts
     in free() on two_blocks.toml's LCP of 39 at E = 1e13, README "Floating bodies") ends
     this search, not the run."""
@@ -171,7 +173,7 @@ def _search(m: np.ndarray, q: np.ndarray, zb: np.ndarray, bound: float, nodes: i
              ub=np.concatenate([inf, np.ones(n)]), nodes=nodes, seconds=seconds)
     proc = subprocess.Popen([sys.executable, "-c", _CHILD, str(os.getpid())],
                             stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE)
+                            stderr=subprocess.PIPE, start_new_session=True)
     try:
         out, err = proc.communicate(data.getvalue(), timeout=seconds + MIP_GRACE)
     except subprocess.TimeoutExpired:
