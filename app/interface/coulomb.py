@@ -436,8 +436,7 @@ class ContactLCP:
         if res.status != "solved" or res.basis is None:
             return sol
         basis = np.asarray(res.basis, dtype=bool)
-        states = (basis[:m], np.zeros(m, dtype=bool), np.zeros(m, dtype=bool))
-        states[1][f], states[2][f] = basis[e[1]: e[2]], basis[e[2]: e[3]]
+        states = self._basis_states(basis)
         if self._off_basis(sol, basis, tau_prev, c, mu):
             polished = self._polished(basis, free, a, c, mu, e0)
             if polished is not None:  # slip variables from the polished motion
@@ -468,11 +467,9 @@ class ContactLCP:
         keep = np.concatenate([closed, closed, np.ones(r, dtype=bool)])
         if not keep.any():  # every pair open (or none): the answer is exact
             return 0.0
-        fric = np.zeros(m, dtype=bool)
-        fric[self.fric] = True
         zero = np.zeros(m)
-        k = self._state_system(closed, sp_b, sm_b & ~sp_b, fric, (zero, zero), zero, zero,
-                               mu, np.zeros(r))[0]
+        k = self._state_system(closed, sp_b, sm_b & ~sp_b, self._fric_mask(), (zero, zero),
+                               zero, zero, mu, np.zeros(r))[0]
         if self.null_t.shape[1]:  # dependent directions (a force split that is not unique):
             # their unit tie, so that only the determined part is judged
             stick = ~sp_b[self.fric] & ~sm_b[self.fric] & closed[self.fric]
@@ -552,11 +549,10 @@ class ContactLCP:
         the load step's states differed from those at 1e6); or a slipping pair off its
         side of the cone (`_slip_off`). Round-off of the condensed LCP (`_polished`);
         elsewhere Lemke's answer is kept as it is."""
-        m, f, e = self.m, self.fric, self.edges
+        m, f = self.m, self.fric
         motion = np.broadcast_to(np.asarray(sol.motion, dtype=float), (m,))
         tol = POLISH_GATE * motion
-        plus, minus = np.zeros(m, dtype=bool), np.zeros(m, dtype=bool)
-        plus[f], minus[f] = basis[e[1]: e[2]], basis[e[2]: e[3]]
+        _, plus, minus = self._basis_states(basis)
         stick = np.zeros(m, dtype=bool)
         stick[f] = ~plus[f] & ~minus[f]
         moved = sol.tau - tau_prev
@@ -590,6 +586,21 @@ class ContactLCP:
         back = np.where(plus, moved < -tol, moved > tol)
         return one & (back | (np.abs(side) > POLISH_GATE * (forces + reach)))
 
+    def _fric_mask(self) -> np.ndarray:
+        """(m,) bool: the pairs with tangential unknowns (frictional)."""
+        fric = np.zeros(self.m, dtype=bool)
+        fric[self.fric] = True
+        return fric
+
+    def _basis_states(self, basis: np.ndarray
+                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(closed, slip+, slip-) (m,) bool each, new arrays, read from an LCP basis
+        (size,) bool: p basic, and the frictional pairs' s+ and s- basic (both may be)."""
+        m, f, e = self.m, self.fric, self.edges
+        plus, minus = np.zeros(m, dtype=bool), np.zeros(m, dtype=bool)
+        plus[f], minus[f] = basis[e[1]: e[2]], basis[e[2]: e[3]]
+        return basis[:m].copy(), plus, minus
+
     def _polished(self, basis: np.ndarray, free: tuple[np.ndarray, np.ndarray],
                   a: np.ndarray, c: np.ndarray, mu: np.ndarray,
                   e0: np.ndarray) -> tuple[np.ndarray, ...] | None:
@@ -608,13 +619,8 @@ class ContactLCP:
         UNSHIFTED_PIVOTS of them, only the pair furthest off (`_flipped`), up to
         min(m, SINGLE_FLIPS) more.
         None (Lemke's answer kept) when a system is singular or the pivots do not settle."""
-        m, f, e = self.m, self.fric, self.edges
-        fric = np.zeros(m, dtype=bool)
-        fric[f] = True
-        closed = basis[:m].copy()
-        sp_b = np.zeros(m, dtype=bool)
-        sm_b = np.zeros(m, dtype=bool)
-        sp_b[f], sm_b[f] = basis[e[1]: e[2]], basis[e[2]: e[3]]
+        m, fric = self.m, self._fric_mask()
+        closed, sp_b, sm_b = self._basis_states(basis)
         sm_b &= ~sp_b
         seen: set[bytes] = set()
         single = False

@@ -438,8 +438,8 @@ class ContactStepper:
         m = self.m
         # (judged against the whole diagonal: with every normal row held, the normal
         # block alone has no scale and `fixed_rows` finds none)
-        held = fixed_rows(self.c_diag)[0][:m] & ~fixed_rows(self.c_diag)[0][m:] \
-            & self.setup.frictional
+        fixed = fixed_rows(self.c_diag)[0]
+        held = fixed[:m] & ~fixed[m:] & self.setup.frictional
         if not held.any():
             return ""
         pr = self.setup.pairs
