@@ -527,6 +527,19 @@ def test_least_index_flips_settle_where_the_worst_pair_flips_cycle():
     assert (list(got[3]), list(got[4]), list(got[5])) in answers
 
 
+def test_a_pair_whose_single_flips_come_back_tries_its_other_states():
+    """Every single-flip rule comes back: pair 0 flips over its normal state and back (with
+    friction the pivots are not those of a P-matrix: its tangential state is the wrong
+    one). The first pair off then tries its other states, no set of states twice (a tabu
+    rule), and settles; it gave up before, Lemke's answer kept."""
+    cc = np.array([[6.7, 5.22, 4.41, -0.12], [5.22, 5.55, 3.56, -0.1],
+                   [4.41, 3.56, 4.22, 0.26], [-0.12, -0.1, 0.26, 2.4]])
+    got, answers = _settled_states(cc, 1.79, np.array([1.15, 0.71]),
+                                   np.array([-1.56, 0.41]), [1, 0, 1, 0, 0, 1])
+    assert got is not None
+    assert (list(got[3]), list(got[4]), list(got[5])) in answers
+
+
 @pytest.mark.parametrize("pair, field, sign", [(3, "gap", -1.0), (1, "tau", -1.0),
                                                 (2, "tau", 1.0), (1, "q", 1.0),
                                                 (2, "q", -1.0)])

@@ -247,6 +247,26 @@ def _flipped(states: tuple[np.ndarray, np.ndarray, np.ndarray],
     return closed, sp_b, sm_b
 
 
+def _unseen(states: tuple[np.ndarray, np.ndarray, np.ndarray], off: np.ndarray,
+            fric: np.ndarray, seen: set[bytes]
+            ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """The first set of pair states not in seen (keys: `np.concatenate(states).tobytes()`)
+    that differs from states (closed, slip+, slip-) (m,) bool each in one pair, the first
+    pair off (off (m,) bool) first: its tangential state (stick, slip+, slip-, frictional
+    pairs fric (m,) only) with its normal state, then with the other; None when every one
+    was seen (`ContactLCP._polished`, once Murty's least-index rule comes back)."""
+    closed, sp_b, sm_b = states
+    tangential = ((False, False), (True, False), (False, True))
+    for i in np.flatnonzero(off):
+        for shut in (closed[i], not closed[i]):
+            for plus, minus in tangential if fric[i] else tangential[:1]:
+                cl, sp, sm = closed.copy(), sp_b.copy(), sm_b.copy()
+                cl[i], sp[i], sm[i] = shut, plus, minus
+                if np.concatenate([cl, sp, sm]).tobytes() not in seen:
+                    return cl, sp, sm
+    return None
+
+
 class ContactLCP:
     """The LCP matrix of a run and the constant vector of each solve."""
 
@@ -648,6 +668,11 @@ class ContactLCP:
             # no cycle of this one: its successor differs)
             while np.concatenate(new).tobytes() in seen or (
                     rule == "block" and len(seen) >= UNSHIFTED_PIVOTS):
+                if rule == "least":  # the last rule: the first unseen of the pairs' states
+                    new = _unseen((closed, sp_b, sm_b), flips[3] > 1.0, fric, seen)
+                    if new is None:
+                        return None
+                    break
                 rule = next(rules, None)
                 if rule is None:
                     return None
