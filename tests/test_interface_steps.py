@@ -476,6 +476,70 @@ def test_the_re_solve_tries_a_bounded_number_of_single_flips_on_a_large_lcp():
     assert got is None and len(calls) == UNSHIFTED_PIVOTS + SINGLE_FLIPS
 
 
+def _settled_states(cc: np.ndarray, mu: float, gap_free: np.ndarray, dtau: np.ndarray,
+                    basis: list[int]) -> tuple[tuple | None, list]:
+    """`_polished` on a frictional LCP of compliance cc (2m, 2m) from an LCP basis, and
+    every set of pair states (closed, slip+, slip-) that solves it, by enumeration of the
+    6^m sets (each checked by `_on_states` and `_basis_errors`)."""
+    m = gap_free.size
+    mus, z = np.full(m, mu), np.zeros(m)
+    lcp = ContactLCP(cc, mus, np.ones(m, bool), cache=False)
+    free, fric = (gap_free, dtau), np.ones(m, bool)
+    got = lcp._polished(np.array(basis, bool), free, z, z, mus, np.zeros(0))
+    answers = []
+    for code in np.ndindex(*(6,) * m):
+        st = np.array(code)
+        closed, sp_b, sm_b = st % 2 == 1, st // 2 == 1, st // 2 == 2
+        x = lcp._on_states(closed, sp_b, sm_b, fric, free, z, z, mus, np.zeros(0))
+        if x is not None and lcp._basis_errors(x, closed, sp_b, sm_b, fric, free, z, z,
+                                               mus) is None:
+            answers.append((list(closed), list(sp_b), list(sm_b)))
+    return got, answers
+
+
+def test_single_flips_go_on_through_states_that_block_pivots_saw():
+    """Block pivots cycle; the worst pair's flip leads to a set of states the block pivots
+    saw, from which one flip at a time goes elsewhere: no cycle of single flips (reviewer
+    `review6`: 8 of 3000 random LCPs). It gave up there, Lemke's answer kept."""
+    cc = np.array([[1.896, 0.514, 0.333, -0.958], [0.514, 5.26, 4.827, 0.634],
+                   [0.333, 4.827, 6.599, 0.75], [-0.958, 0.634, 0.75, 1.605]])
+    got, answers = _settled_states(cc, 1.855, np.array([-0.502, -0.367]),
+                                   np.array([0.369, -0.602]), [0, 0, 0, 1, 1, 0])
+    assert got is not None
+    assert answers == [([True, True], [False, True], [False, False])]
+    assert (list(got[3]), list(got[4]), list(got[5])) == answers[0]
+
+
+def test_least_index_flips_settle_where_the_worst_pair_flips_cycle():
+    """Single flips of the worst pair cycle (period 2); Murty's least-index rule from there
+    reaches the LCP's answer, within the same budget of solves. It gave up, Lemke's answer
+    kept (found among random LCPs: /tmp scratch of `polish2`, not shipped)."""
+    cc = np.array([[3.11, -3.12, 0.49, -2.57, 0.22, 1.14],
+                   [-3.12, 3.63, -1.13, 2.53, 0.96, -2.77],
+                   [0.49, -1.13, 6.87, -3.45, -1.87, 2.09],
+                   [-2.57, 2.53, -3.45, 8.25, 0.5, 2.99],
+                   [0.22, 0.96, -1.87, 0.5, 5.29, -5.13],
+                   [1.14, -2.77, 2.09, 2.99, -5.13, 10.59]])
+    got, answers = _settled_states(cc, 1.07, np.array([0.5, -0.78, 0.56]),
+                                   np.array([1.31, -1.01, -2.17]),
+                                   [0, 1, 0, 0, 0, 1, 0, 1, 1])
+    assert got is not None
+    assert (list(got[3]), list(got[4]), list(got[5])) in answers
+
+
+def test_a_pair_whose_single_flips_come_back_tries_its_other_states():
+    """Every single-flip rule comes back: pair 0 flips over its normal state and back (with
+    friction the pivots are not those of a P-matrix: its tangential state is the wrong
+    one). The first pair off then tries its other states, no set of states twice (a tabu
+    rule), and settles; it gave up before, Lemke's answer kept."""
+    cc = np.array([[6.7, 5.22, 4.41, -0.12], [5.22, 5.55, 3.56, -0.1],
+                   [4.41, 3.56, 4.22, 0.26], [-0.12, -0.1, 0.26, 2.4]])
+    got, answers = _settled_states(cc, 1.79, np.array([1.15, 0.71]),
+                                   np.array([-1.56, 0.41]), [1, 0, 1, 0, 0, 1])
+    assert got is not None
+    assert (list(got[3]), list(got[4]), list(got[5])) in answers
+
+
 @pytest.mark.parametrize("pair, field, sign", [(3, "gap", -1.0), (1, "tau", -1.0),
                                                 (2, "tau", 1.0), (1, "q", 1.0),
                                                 (2, "q", -1.0)])

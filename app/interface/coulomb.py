@@ -121,11 +121,16 @@ with the right states (now 1e-6). The shipped configs fire on the same solves at
 UNSHIFTED_PIVOTS = 8
 """Block pivots `ContactLCP._unshifted` tries on Lemke's final basis before keeping z."""
 
+PIVOT_RULES = ("block", "worst", "least")
+"""The pivot rules of `ContactLCP._polished` in turn (`_flipped`), each from where the one
+before cycled or ran out."""
+
 SINGLE_FLIPS = 16
-"""Most one-pair flips `ContactLCP._polished` tries once block pivots cycle, each a dense
-solve of size ~2m: the stiff floating block at 1e12 (tests/test_interface_steps.py) settles
-after 6 solves in all; without a cap the worst case was m more solves (m = 1000: 0.5 s each,
-8 min, against 4 s before; reviewer `review6`)."""
+"""Most one-pair flips `ContactLCP._polished` tries once block pivots cycle or run out, each
+a dense solve of size ~2m, whatever m: the stiff floating block at 1e12
+(tests/test_interface_steps.py) settles after 6 solves in all; without a cap the worst case
+was m more solves (m = 1000: 0.5 s each, 8 min, against 4 s before; reviewer `review6`).
+min(m, 16) before: small LCPs ran out after m flips where a few more settle them."""
 
 
 def _fixed_pairs(c: np.ndarray, m: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -224,20 +229,42 @@ def _symmetric_scaling(big: np.ndarray) -> np.ndarray:
 
 
 def _flipped(states: tuple[np.ndarray, np.ndarray, np.ndarray],
-             flips: tuple[np.ndarray, ...], single: bool
+             flips: tuple[np.ndarray, ...], rule: str
              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The pair states (closed, slip+, slip-) (m,) bool each after the block pivot flips =
+    """The pair states (closed, slip+, slip-) (m,) bool each after the pivot flips =
     (normal flips, new slip+, new slip-, each pair's violation over its tolerance) of
-    `ContactLCP._basis_errors`: every pair that left its signs, or with single only the
-    one that left them most (`ContactLCP._polished`, once block pivots cycle)."""
+    `ContactLCP._basis_errors`, by `rule` (`ContactLCP._polished`): "block" every pair
+    that left its signs, "worst" only the one that left them most, "least" only the
+    first (lowest index) that left them (Murty's least-index rule)."""
     closed, sp_b, sm_b = states
-    if not single:
+    if rule == "block":
         return closed ^ flips[0], flips[1], flips[2]
-    i = int(np.argmax(flips[3]))
+    off = flips[3]
+    i = int(np.argmax(off)) if rule == "worst" else int(np.argmax(off > 1.0))
     closed, sp_b, sm_b = closed.copy(), sp_b.copy(), sm_b.copy()
     closed[i] ^= flips[0][i]
     sp_b[i], sm_b[i] = flips[1][i], flips[2][i]
     return closed, sp_b, sm_b
+
+
+def _unseen(states: tuple[np.ndarray, np.ndarray, np.ndarray], off: np.ndarray,
+            fric: np.ndarray, seen: set[bytes]
+            ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """The first set of pair states not in seen (keys: `np.concatenate(states).tobytes()`)
+    that differs from states (closed, slip+, slip-) (m,) bool each in one pair, the first
+    pair off (off (m,) bool) first: its tangential state (stick, slip+, slip-, frictional
+    pairs fric (m,) only) with its normal state, then with the other; None when every one
+    was seen (`ContactLCP._polished`, once Murty's least-index rule comes back)."""
+    closed, sp_b, sm_b = states
+    tangential = ((False, False), (True, False), (False, True))
+    for i in np.flatnonzero(off):
+        for shut in (closed[i], not closed[i]):
+            for plus, minus in tangential if fric[i] else tangential[:1]:
+                cl, sp, sm = closed.copy(), sp_b.copy(), sm_b.copy()
+                cl[i], sp[i], sm[i] = shut, plus, minus
+                if np.concatenate([cl, sp, sm]).tobytes() not in seen:
+                    return cl, sp, sm
+    return None
 
 
 class ContactLCP:
@@ -616,15 +643,18 @@ class ContactLCP:
         flip every pair that leaves its signs; once a set of states comes back (they cycle:
         node-to-segment at a contrast of 1e9 flipped two pairs over their bound together,
         then both slid back, with period 3, and Lemke's p, 100% off, was kept) or after
-        UNSHIFTED_PIVOTS of them, only the pair furthest off (`_flipped`), up to
-        min(m, SINGLE_FLIPS) more.
+        UNSHIFTED_PIVOTS of them, only the pair furthest off (`_flipped`); once those come
+        back, only the first pair off (Murty's least-index rule), from where each rule
+        before stopped; UNSHIFTED_PIVOTS + SINGLE_FLIPS solves in all. A rule's cycle is
+        a set of states it saw itself (one seen under the rule before leads elsewhere).
         None (Lemke's answer kept) when a system is singular or the pivots do not settle."""
-        m, fric = self.m, self._fric_mask()
+        fric = self._fric_mask()
         closed, sp_b, sm_b = self._basis_states(basis)
         sm_b &= ~sp_b
-        seen: set[bytes] = set()
-        single = False
-        for _ in range(UNSHIFTED_PIVOTS + min(m, SINGLE_FLIPS)):
+        rules = iter(PIVOT_RULES)
+        rule = next(rules)
+        seen: set[bytes] = set()  # the states visited under this rule
+        for _ in range(UNSHIFTED_PIVOTS + SINGLE_FLIPS):
             seen.add(np.concatenate([closed, sp_b, sm_b]).tobytes())
             x = self._on_states(closed, sp_b, sm_b, fric, free, a, c, mu, e0)
             if x is None:
@@ -632,17 +662,22 @@ class ContactLCP:
             flips = self._basis_errors(x, closed, sp_b, sm_b, fric, free, a, c, mu)
             if flips is None:
                 return (*x, closed, sp_b, sm_b)
-            new = _flipped((closed, sp_b, sm_b), flips, single)
-            if np.concatenate(new).tobytes() in seen:
-                if single:  # (one pivot at a time cycles too: not settled)
+            new = _flipped((closed, sp_b, sm_b), flips, rule)
+            # a rule's states come back (it cycles) or block pivots ran UNSHIFTED_PIVOTS:
+            # the next rule from the current states (a state seen under another rule is
+            # no cycle of this one: its successor differs)
+            while np.concatenate(new).tobytes() in seen or (
+                    rule == "block" and len(seen) >= UNSHIFTED_PIVOTS):
+                if rule == "least":  # the last rule: the first unseen of the pairs' states
+                    new = _unseen((closed, sp_b, sm_b), flips[3] > 1.0, fric, seen)
+                    if new is None:
+                        return None
+                    break
+                rule = next(rules, None)
+                if rule is None:
                     return None
-                single = True  # block pivots cycle: the worst pair alone from here
-                new = _flipped((closed, sp_b, sm_b), flips, True)
-                if np.concatenate(new).tobytes() in seen:
-                    return None
-            elif not single and len(seen) >= UNSHIFTED_PIVOTS:
-                single = True
-                new = _flipped((closed, sp_b, sm_b), flips, True)
+                seen = {np.concatenate([closed, sp_b, sm_b]).tobytes()}
+                new = _flipped((closed, sp_b, sm_b), flips, rule)
             closed, sp_b, sm_b = new
         return None
 

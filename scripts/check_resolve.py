@@ -1,0 +1,137 @@
+"""Random small contact LCPs through the re-solve on pair states (`ContactLCP._polished`).
+
+    PYTHONPATH=. .venv/bin/python scripts/check_resolve.py                # 3000 cases
+    PYTHONPATH=. .venv/bin/python scripts/check_resolve.py --out new.json
+    git show 745aeb1:app/interface/coulomb.py > /tmp/old_coulomb.py
+    PYTHONPATH=. .venv/bin/python scripts/check_resolve.py --coulomb /tmp/old_coulomb.py \\
+        --out old.json
+    PYTHONPATH=. .venv/bin/python scripts/check_resolve.py --compare old.json new.json
+
+Cases (seeded, one in three of each kind): a compliance C = A A^T + d I (2m x 2m, A
+normal, d in [0, 0.5]) on m = 2..6 pairs, some with a bond (a = c >= 0), 80% frictional
+(mu in [0.1, 2]); m = 2..4 frictional, no bond; m = 2..4 frictionless (C_nt = 0). Free
+gaps and tangential motion normal; the start is a random LCP basis (what Lemke hands the
+re-solve is near the answer; a random one is the hard case). Per case: settled (the states
+and p, q) or not, and the dense solves (`ContactLCP._on_states`) it took. Prints one JSON
+line {"cases", "settled", "settled_by_kind", "solves_max", "solves_total"}; --compare
+prints the cases that settle in one file only, and those whose states or forces differ.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib.util
+import json
+import sys
+from collections.abc import Iterator
+from types import ModuleType
+
+import numpy as np
+
+KINDS = ("mixed", "frictional", "frictionless")
+
+
+def cases(n: int, seed: int) -> Iterator[tuple[str, dict]]:
+    """(kind, data) of n random LCPs: c (2m, 2m), mu (m,), fr, gap_free, dtau, a, coh (m,)
+    and an LCP basis (3m frictional, m frictionless) bool."""
+    rng = np.random.default_rng(seed)
+    for trial in range(n):
+        kind = KINDS[trial % 3]
+        m = int(rng.integers(2, 7)) if kind == "mixed" else int(rng.integers(2, 5))
+        fr = bool(rng.random() < 0.8) if kind == "mixed" else kind == "frictional"
+        g = rng.normal(size=(2 * m, 2 * m))
+        c = g @ g.T + rng.uniform(0, 0.5) * np.eye(2 * m)
+        if not fr:
+            c[:m, m:] = 0.0
+            c[m:, :m] = 0.0
+        mu = np.full(m, rng.uniform(0.1, 2.0) if fr else 0.0)
+        gap_free = rng.normal(size=m)
+        dtau = rng.normal(size=m) if fr else np.zeros(m)
+        a = np.abs(rng.normal(size=m)) * (kind == "mixed" and rng.random() < 0.3)
+        basis = rng.random(3 * m if fr else m) < 0.5
+        yield kind, dict(c=c, mu=mu, fr=fr, gap_free=gap_free, dtau=dtau, a=a,
+                         coh=a * (mu > 0), basis=basis)
+
+
+def load(path: str | None) -> ModuleType:
+    """app.interface.coulomb, or another version of it from a file."""
+    if path is None:
+        from app.interface import coulomb
+        return coulomb
+    spec = importlib.util.spec_from_file_location("app.interface.coulomb_checked", path)
+    if spec is None or spec.loader is None:
+        sys.exit(f"error: cannot load {path} as a Python module")
+    mod = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = mod
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def run(mod: ModuleType, n: int, seed: int) -> list[dict]:
+    """One record per case: kind, settled, solves, and the states and p, q when settled."""
+    solves = [0]
+    on_states = mod.ContactLCP._on_states
+
+    def counted(self, *args, **kw):
+        solves[0] += 1
+        return on_states(self, *args, **kw)
+
+    mod.ContactLCP._on_states = counted
+    out = []
+    for kind, d in cases(n, seed):
+        m = d["mu"].size
+        lcp = mod.ContactLCP(d["c"], d["mu"], np.full(m, d["fr"]), cache=False)
+        solves[0] = 0
+        got = lcp._polished(d["basis"], (d["gap_free"], d["dtau"]), d["a"], d["coh"],
+                            d["mu"], np.zeros(0))
+        rec = {"kind": kind, "settled": got is not None, "solves": solves[0]}
+        if got is not None:
+            rec.update(p=got[0].tolist(), q=got[1].tolist(),
+                       states=[np.asarray(s, int).tolist() for s in got[3:]])
+        out.append(rec)
+    mod.ContactLCP._on_states = on_states
+    return out
+
+
+def summary(recs: list[dict]) -> dict:
+    """The counts of one run."""
+    return {"cases": len(recs), "settled": sum(r["settled"] for r in recs),
+            "settled_by_kind": {k: [sum(r["settled"] for r in recs if r["kind"] == k),
+                                    sum(r["kind"] == k for r in recs)] for k in KINDS},
+            "solves_max": max((r["solves"] for r in recs), default=0),
+            "solves_total": sum(r["solves"] for r in recs)}
+
+
+def compare(a: list[dict], b: list[dict]) -> dict:
+    """Cases settled in a only, in b only, and settled in both with other states or p, q."""
+    pairs = list(enumerate(zip(a, b, strict=True)))
+    only_a = [i for i, (x, y) in pairs if x["settled"] and not y["settled"]]
+    only_b = [i for i, (x, y) in pairs if y["settled"] and not x["settled"]]
+    differ = [i for i, (x, y) in pairs if x["settled"] and y["settled"]
+              and any(x[k] != y[k] for k in ("states", "p", "q"))]
+    return {"settled_first_only": only_a, "settled_second_only": only_b,
+            "differ": differ, "first": summary(a), "second": summary(b)}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--cases", type=int, default=3000)
+    ap.add_argument("--seed", type=int, default=2026)
+    ap.add_argument("--coulomb", help="another version of app/interface/coulomb.py")
+    ap.add_argument("--out", help="write every case's record (JSON) here")
+    ap.add_argument("--compare", nargs=2, metavar=("FIRST", "SECOND"),
+                    help="compare two --out files instead of running")
+    args = ap.parse_args()
+    if args.compare:
+        recs = [json.load(open(f)) for f in args.compare]
+        print(json.dumps(compare(*recs)))
+        return
+    recs = run(load(args.coulomb), args.cases, args.seed)
+    if args.out:
+        with open(args.out, "w") as fh:
+            json.dump(recs, fh)
+    print(json.dumps(summary(recs)))
+
+
+if __name__ == "__main__":
+    main()
