@@ -74,7 +74,9 @@ def kept_line(kept: list[Path]) -> str:
     return (f"kept {names} in {kept[0].parent}: a study run's results that no study wrote "
             "there (its summary.json records another folder, or none: copied or moved by "
             "hand, or from a version before the folder was recorded); a study removes "
-            "only its own runs' files: move or remove it yourself if it is stale")
+            "only its own runs' files: move or remove it yourself if it is stale (a run "
+            "of this study of the same name replaces its results, as a `run` into that "
+            "folder does)")
 
 
 class BatchStatus:
