@@ -37,8 +37,9 @@ def run(cfg: Config, opts: RunOptions) -> dict:
     set_default_options(cfg.petsc)
     summary = {"config": str(cfg.path), "n_steps": cfg.n_steps, "steps": [],
                "status": "running",
-               "provenance": collective(provenance, cfg.raw, opts.overrides,
-                                        PETSc.COMM_WORLD.getSize())}
+               "provenance": {**collective(provenance, cfg.raw, opts.overrides,
+                                           PETSc.COMM_WORLD.getSize()),
+                              "out": str(Path(opts.out).resolve())}}  # (out_owner)
     # inf and NaN from overflowing inputs are caught per step by check_finite
     timer = run_timer(opts)  # (the guard's `failed` / `interrupted` summary: its timings)
     with RunGuard(Path(opts.out), summary, write_summary, cfg.n_steps, timer), \

@@ -48,10 +48,65 @@ def test_a_mode_no_pair_holds_does_not_read_as_forces_off_by_one():
     assert determined_accuracy(k, np.zeros(5, dtype=bool)) == 1.0
     k[:, 1] = k[:, 0]  # two pairs alike: the split of their force is not unique
     k[1, :] = k[0, :]
-    assert determined_accuracy(k, free) == 1.0
+    assert determined_accuracy(k, free) < 1e-14  # judged on their sum (see below)
+    k[1, :] = 2.0 * k[0, :]  # twice pair 0's row: a null space that no split explains
+    k[:, 1] = 2.0 * k[:, 0]
+    assert np.linalg.matrix_rank(k) < 5 and determined_accuracy(k, free) == 1.0
     rng = np.random.default_rng(1)
     well = rng.standard_normal((6, 6)) + 6 * np.eye(6)
     assert determined_accuracy(well, np.ones(6, dtype=bool)) == relative_accuracy(well)
+
+
+def _duplicated(c: np.ndarray, twice: int) -> np.ndarray:
+    """The states' system of closed pairs with compliance c (m, m) SPD, unit diagonal, and
+    pair `twice` duplicated (its row and column again: two pairs with the same
+    constraint rows), with one mode amplitude that no pair holds (zero row and column)."""
+    order = [*range(c.shape[0]), twice]
+    k = np.zeros((len(order) + 1,) * 2)
+    k[:-1, :-1] = c[np.ix_(order, order)]
+    return k
+
+
+def test_a_duplicated_pair_is_judged_on_its_determined_forces():
+    """Two pairs with the same constraint rows (a duplicated pair; the run's input refuses
+    a slave node on two pairs, so no run builds one): both closed, the states' system is
+    singular in p itself, along p_i - p_j, and only p_i + p_j is fixed. It read 1.0 (warned
+    "its forces may be off by up to 1"); now the split gets a unit tie and the
+    determined forces' figure: eps x the condition of the rest, 1e-16 here, as without
+    the duplicate. A null space that no split explains still reads 1.0, and its warning
+    says the forces are not unique, not that they are off by up to 1."""
+    c = np.array([[1.0, 0.3, 0.1], [0.3, 1.0, 0.3], [0.1, 0.3, 1.0]])
+    k = _duplicated(c, 1)
+    free = np.array([False] * 4 + [True])
+    assert relative_accuracy(k) == 1.0
+    alone = relative_accuracy(c)
+    assert determined_accuracy(k, free) < 10 * alone
+    assert determined_accuracy(k, np.zeros(5, dtype=bool)) == 1.0  # the mode's null too
+    text = accuracy_warning(1.0, 3, STIFF_SOFT[:1])
+    assert text.startswith("step 3: the pair states' system does not fix the contact forces")
+    assert "off by up to" not in text and "one of them" in text
+
+
+@pytest.mark.parametrize("fric", [False, True])
+def test_lemkes_basis_holds_one_of_two_duplicated_pairs(fric):
+    """A duplicated pair through the LCP (pair 2 a copy of pair 1, both pressed alike):
+    Lemke's basis cannot hold both (two equal columns), so one carries p_1 + p_2 and the
+    other reads p = 0 outside the basis; the states' system is that of two pairs, not
+    singular: `lcp_accuracy` 5e-16 (this and the input's refusal of a slave node on two
+    pairs are why no run reaches the singular system above)."""
+    from app.interface.candidates import CandidateLCP
+
+    base = np.array([[1.0, 0.3, 0.1, 0.05], [0.3, 1.0, 0.05, 0.1],
+                     [0.1, 0.05, 1.0, 0.2], [0.05, 0.1, 0.2, 1.0]])  # (n0, n1, t0, t1)
+    order = [0, 1, 1, 2, 3, 3]
+    z, mu = np.zeros(3), np.full(3, 0.3)
+    lcp = CandidateLCP(base[np.ix_(order, order)], mu, np.full(3, fric))
+    sol = lcp.solve(np.full(3, -1.0), z, z, z, z, mu, np.zeros(0))
+    two = CandidateLCP(base, mu[:2], np.full(2, fric))
+    ref = two.solve(np.full(2, -1.0), z[:2], z[:2], z[:2], z[:2], mu[:2], np.zeros(0))
+    assert sol.status == "solved" and min(sol.p[1], sol.p[2]) == 0.0
+    assert sol.p[1] + sol.p[2] == pytest.approx(ref.p[1], rel=1e-12)
+    assert sol.accuracy < 100 * EPS
 
 
 def test_an_accurate_step_does_not_warn():

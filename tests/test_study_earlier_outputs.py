@@ -9,12 +9,19 @@ from __future__ import annotations
 
 import json
 
-from support import CONFIGS, read_csv, run_cli
+from support import CONFIGS, read_csv, read_summary, run_cli
 
 from app.output.out_owner import earlier_study
 
 RUN = json.dumps({"config": "c.toml", "n_steps": 1, "steps": [], "status": "completed"})
-"""A run's summary.json as this tool writes it (app/run.py's keys)."""
+"""A run's summary.json as this tool writes it (app/run.py's keys), without the folder
+it was written into (as a copy of unknown origin)."""
+
+
+def _run(folder) -> str:
+    """A study run's summary.json written into `folder` (provenance `out`, app/run.py)."""
+    return json.dumps({**json.loads(RUN), "provenance": {
+        "argv": ["app", "study"], "out": str(folder.resolve())}})
 
 
 def _earlier(out, summary: bool = True) -> None:
@@ -28,7 +35,7 @@ def _earlier(out, summary: bool = True) -> None:
         (out / name).write_text("old")
     for run in ("L5_4SD", "L2_FEM-Q4", "run_007"):
         (out / run).mkdir()
-        (out / run / "summary.json").write_text(RUN)
+        (out / run / "summary.json").write_text(_run(out / run))
     (out / "L9_mine").mkdir()  # a run folder's name, but no summary.json of this tool
     (out / "L9_mine" / "notes.txt").write_text("mine")
     (out / "notes.txt").write_text("mine")
@@ -80,16 +87,16 @@ def test_the_users_folders_and_files_survive_the_clearing(tmp_path):
     from app.studies.batch_status import clear_earlier_study
 
     out = tmp_path / "o"
-    _folder(out, RUN)
+    _folder(out, _run(out))
     _folder(out / "L2_4SD", json.dumps({"status": "ok", "tool": "other"}), "results.csv")
     _folder(out / "L1_fine", json.dumps({"command": "study", "study": "convergence",
                                          "config": "c.toml", "status": "completed"}),
             "study.csv")
-    _folder(out / "L0_4SD", RUN, "mesh.h5", "step_0001.h5", "my_notes.txt")
-    running = _folder(out / "run_001", RUN, "mesh.h5")
-    _folder(tmp_path / "elsewhere", RUN, "mesh.h5")
+    _folder(out / "L0_4SD", _run(out / "L0_4SD"), "mesh.h5", "step_0001.h5", "my_notes.txt")
+    running = _folder(out / "run_001", _run(out / "run_001"), "mesh.h5")
+    _folder(tmp_path / "elsewhere", _run(out / "L3_4SD"), "mesh.h5")
     os.symlink(tmp_path / "elsewhere", out / "L3_4SD")
-    _folder(out / "L4_4SD", RUN, "mesh.h5", "step_0001.h5", "results.xdmf")
+    _folder(out / "L4_4SD", _run(out / "L4_4SD"), "mesh.h5", "step_0001.h5", "results.xdmf")
     with open(running / ".lock", "a") as lock:
         fcntl.flock(lock.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
         clear_earlier_study(out)
@@ -109,7 +116,7 @@ def test_a_runs_out_keeps_the_users_files_of_a_studys_names(tmp_path):
     """A `run` writes no study files: in a run's OUT (its summary.json, no run folders)
     a sweep_*.png or study.csv is the user's and stays. Before, a study into that OUT
     removed them (OUT held this tool's summary.json)."""
-    out = _folder(tmp_path / "o", RUN, "sweep_mine.png", "study.csv", "mesh.h5")
+    out = _folder(tmp_path / "o", _run(tmp_path / "o"), "sweep_mine.png", "study.csv", "mesh.h5")
     assert earlier_study(out) == ([], [])
     (out / "summary.json").write_text(json.dumps({"command": "study", "status": "failed",
                                                   "study": "sweep", "config": "c.toml"}))
@@ -131,3 +138,33 @@ def test_a_standalone_run_under_a_run_folders_name_stays(tmp_path):
     summary["provenance"]["argv"][1] = "study"  # as a study's run writes it
     (out / "L1_fine" / "summary.json").write_text(json.dumps(summary))
     assert [p.name for p in earlier_study(out)[1]] == ["L1_fine"]
+
+
+def test_a_study_runs_folder_copied_by_hand_stays_with_a_warning(tmp_path):
+    """A study's run folder copied by hand into another study's OUT under a run folder's
+    name (`cp -r a/L0_4SD b/L7_kept`; or an earlier version's, that recorded no folder):
+    its summary.json is a study run's, but no study wrote it there. Before, the next study
+    into b removed its results (mesh.h5, step_NNNN.h5, summary.json: the folder emptied);
+    now it stays whole and the study warns, naming it. The study's own earlier run
+    folders (their summary.json records them) still go."""
+    import shutil
+
+    a, b = tmp_path / "a", tmp_path / "b"
+    args = ["study", str(CONFIGS / "cantilever.toml"), "--levels", "1", "--methods", "4",
+            "--mesh-size", "1.0", "--quiet", "--out"]
+    for out in (a, b):
+        res = run_cli([*args, str(out)])
+        assert res.returncode == 0, res.stderr
+    shutil.copytree(a / "L0_4SD", b / "L7_kept")
+    _folder(b / "run_009", RUN, "mesh.h5")  # no folder recorded (an earlier version's)
+    (b / "L0_4SD" / "old.h5").write_text("mine")
+    kept = sorted(p.name for p in (b / "L7_kept").iterdir())
+    res = run_cli([*args, str(b)])
+    assert res.returncode == 0, res.stderr
+    assert sorted(p.name for p in (b / "L7_kept").iterdir()) == kept
+    assert "step_0001.h5" in kept and (b / "run_009" / "mesh.h5").exists()
+    line = [w for w in read_summary(b).get("warnings", []) if w.startswith("kept ")]
+    assert len(line) == 1 and "L7_kept, run_009" in line[0], line
+    assert "warning: kept L7_kept, run_009" in res.stderr
+    assert (b / "L0_4SD" / "old.h5").exists()  # the user's file in the study's own folder
+    assert (b / "L0_4SD" / "step_0001.h5").exists()  # written again by this study

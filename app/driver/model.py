@@ -99,6 +99,7 @@ def build_model(ctx: RunContext) -> Model:
     if cfg.interfaces:
         with ctx.phase("pair_search"):
             contact = ContactSetup.build(mesh, cfg)
+            contact.hold(mesh, fixed)
             check_dense_contact(contact.g, fixed, BYTES_PER_DOF * 2 * mesh.n_nodes,
                                 machine_memory(), opts.allow_large)  # before S is formed
         ctx.summary["n_pairs"] = contact.pairs.n_pairs

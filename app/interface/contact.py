@@ -36,6 +36,8 @@ class ContactSetup:
         self.bonded = np.array([cfg.interfaces[i].bonded for i in it], dtype=bool)
         self.frictional = np.array([cfg.interfaces[i].frictional for i in it], dtype=bool)
         self.warnings: list[str] = []  # setup warnings (`split_slave_edge_warnings`)
+        self.held_n = np.zeros(pairs.n_pairs, dtype=bool)  # (m,) set by `hold`
+        self.node_g0, self.node_rows = np.zeros(pairs.n_pairs), None
 
     @classmethod
     def build(cls, mesh: Mesh, cfg: Config) -> ContactSetup:
@@ -58,6 +60,36 @@ class ContactSetup:
         setup = cls(cfg, pairs, rows.matrix(mesh.n_nodes), rows, described)
         setup.warnings = split_slave_edge_warnings(mesh, cfg, pairs)
         return setup
+
+    def hold(self, mesh: Mesh, fixed: np.ndarray) -> None:
+        """`held_n` (m,) bool: the pairs whose slave node and the master nodes of its
+        projection (those of nonzero weight) the supports hold along the pair's normal
+        (every DOF with a normal component of at least 1e-12 among the prescribed ones,
+        fixed: sorted DOF indices, 2 x node + component). Whatever a pair's row weights
+        (mortar-standard's end row reaches the free neighbour, so its compliance is not
+        round-off), the overlap at such a pair's node is the supports' to keep. With it
+        the node's own normal gap: `node_g0` (m,) n . (x_s - x_p) and `node_rows` (m,
+        2 n_nodes) sparse, n . (u_s - (1 - xi) u_A - xi u_B) (length)."""
+        pr, m = self.pairs, self.pairs.n_pairs
+        held = np.zeros(2 * mesh.n_nodes, dtype=bool)
+        held[fixed] = True
+        along = np.abs(pr.normal) >= 1e-12  # (m, 2) the DOFs that carry the normal
+
+        def normal_held(nodes: np.ndarray) -> np.ndarray:
+            return np.all(held[2 * nodes[:, None] + np.arange(2)] | ~along, axis=1)
+
+        a, b, xi = pr.master[:, 0], pr.master[:, 1], pr.xi
+        self.held_n = (normal_held(pr.slave) & (normal_held(a) | (xi >= 1.0))
+                       & (normal_held(b) | (xi <= 0.0)))
+        x = mesh.points
+        self.node_g0 = np.einsum("ij,ij->i", pr.normal,
+                                 x[pr.slave] - (1 - xi)[:, None] * x[a] - xi[:, None] * x[b])
+        w = np.stack([np.ones(m), xi - 1.0, -xi], axis=1)  # (m, 3) slave, A, B
+        nodes = np.stack([pr.slave, a, b], axis=1)
+        cols = 2 * nodes[:, :, None] + np.arange(2)  # (m, 3, 2)
+        vals = w[:, :, None] * pr.normal[:, None, :]
+        self.node_rows = sp.csr_matrix((vals.ravel(), (np.repeat(np.arange(m), 6),
+                                                       cols.ravel())), shape=(m, held.size))
 
     def bodies(self, mesh: Mesh) -> set[int]:
         """Ids of the bodies that own a slave or master node of some pair."""

@@ -305,6 +305,13 @@ class ContactStepper:
         # (m,) the initial overlap a pair without `interference` has: within its
         # interface's penetration_tol (deeper is an input error), geometry that touches
         self.tolerated = np.where(self.fit, 0.0, np.maximum(-pr.g0, 0.0))
+        # (m,) an interference fit's pairs whose node the supports hold on both sides
+        # though their row is not round-off (mortar-standard's end row: `_prescribed_overlap`)
+        self.held_fit = setup.held_n & self.fit & (setup.node_g0 < 0.0) & ~self.fixed_n
+        # their node's own normal gap per load case (m,): the row's weighted gap reaches
+        # free nodes, whose free motion is no part of the supports' overlap
+        self.node_gu = ([setup.node_rows @ uc for uc in unit] if self.held_fit.any()
+                        else [])
         self.v_keep = self.v_null = None
         self.floating = floating
         if floating is not None and floating.r.shape[1]:
@@ -390,7 +397,8 @@ class ContactStepper:
             e0 = self.v_keep.T @ e0
         return gap_free, tau_free, e0, ""
 
-    def _prescribed_overlap(self, gap_free: np.ndarray) -> tuple[str, np.ndarray]:
+    def _prescribed_overlap(self, gap_free: np.ndarray, step: int,
+                            cases) -> tuple[str, np.ndarray]:
         """(why no contact force can close the step's free gap, or "", the overlap (m,)
         read as closed, < 0 a gap): a pair whose motion
         the supports fix on both sides (`fixed_rows`: its force moves nothing) and whose
@@ -406,16 +414,28 @@ class ContactStepper:
         1e-13 held at p = -a, its tie's pull capped at the adhesion. So does an initial
         overlap without `interference` (`tolerated`: within the interface's
         penetration_tol, input that reads as touching) plus tol: before, clamped strips
-        1e-9 into each other were refused where exactly touching ones ran."""
+        1e-9 into each other were refused where exactly touching ones ran. An interference
+        fit's pair whose node the supports hold (`held_fit`) is refused alike though its
+        row reaches a free node: mortar-standard took the clamped fit of README "Hard
+        cases" with max p 116, 229, 455, 906 at h = 0.1 .. 0.0125 (p ~ 1/h, no limit)."""
         closed = np.zeros(self.m)
         allow = self.tol + self.tolerated  # and an initial overlap the geometry allows
         deep = self.fixed_n & (gap_free < -allow)
         shallow = self.fixed_n & (gap_free >= -allow) & (gap_free <= self.tol)
         closed[shallow] = -gap_free[shallow]
         gap_free[shallow] = 0.0
+        judged, g0 = gap_free, self.setup.pairs.g0
+        if self.held_fit.any():  # a held fit's node: its own gap, which the supports fix
+            node = self.setup.node_g0 + sum((case.history[step] * gu for case, gu in
+                                             zip(cases, self.node_gu, strict=True)), 0.0)
+            held = self.held_fit & (node < -allow)
+            if held.any():
+                deep = deep | held
+                judged = np.where(self.held_fit, node, gap_free)
+                g0 = np.where(self.held_fit, self.setup.node_g0, g0)
         if not deep.any():
             return "", closed
-        return self._overlap_message(deep, gap_free), closed
+        return self._overlap_message(deep, judged, g0), closed
 
     def _settle_prescribed_slip(self, tau_free: np.ndarray) -> None:
         """A frictional pair the supports fix tangentially on both sides (`fixed_rows`)
@@ -451,19 +471,21 @@ class ContactStepper:
                 "moves nothing and is not determined, so neither is the friction it bounds; "
                 "leave one side of the interface free in its normal")
 
-    def _overlap_message(self, deep: np.ndarray, gap_free: np.ndarray) -> str:
+    def _overlap_message(self, deep: np.ndarray, gap_free: np.ndarray,
+                         g0: np.ndarray) -> str:
         """Why the pairs `deep` (m,) bool, both sides prescribed, cannot be solved: at the
         deepest, an initial overlap g0 < 0 (an interference fit) the supports hold, or
         one they push (gap_free - g0 < 0, their prescribed displacements). A fit whose
         both sides are held has no finite-energy answer (README "Hard cases", the
-        clamped interference fit): before, it was said to be the supports' push."""
+        clamped interference fit): before, it was said to be the supports' push. g0 (m,):
+        the initial gaps gap_free starts from."""
         pr = self.setup.pairs
         k = int(np.flatnonzero(deep)[np.argmin(gap_free[deep])])
         x, y = pr.position[k]
         name = self.setup.cfg.interfaces[int(pr.interface[k])].name
         where = f"{int(deep.sum())} pair(s) of interface {name!r}"
         at = f"deepest {-gap_free[k]:.3g} at the slave node x={x:.6g}, y={y:.6g}"
-        g0, pushed = float(pr.g0[k]), float(gap_free[k] - pr.g0[k])
+        g0, pushed = float(g0[k]), float(gap_free[k] - g0[k])
         if g0 < 0.0 and self.fit[k]:
             by = (f"; the supports push {-pushed:.3g} more" if pushed < -self.tol else
                   f"; the supports close {pushed:.3g} of it" if pushed > self.tol else "")
@@ -547,7 +569,7 @@ class ContactStepper:
         if correction is not None:
             gap_free += correction[:m]
             tau_free += correction[m:]
-        pressed, closed = self._prescribed_overlap(gap_free)
+        pressed, closed = self._prescribed_overlap(gap_free, step, cases)
         if pressed:
             return StepSolution("prescribed penetration", pressed)
         self._settle_prescribed_slip(tau_free)

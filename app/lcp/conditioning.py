@@ -53,19 +53,54 @@ the null space to count as lying in the free ones (multibody.toml --sd 1 --mesh-
 4.3e-14)."""
 
 
+def alike_groups(k: np.ndarray, among: np.ndarray) -> np.ndarray:
+    """(n,) int: a group label per unknown of k (n, n) among `among` (n,) bool whose row and
+    column of k agree with another's to NULL_SHARE of k's largest entry (two pairs with
+    the same constraint rows: a duplicated pair), -1 for the others. Their force's split
+    is not unique, only its sum. Found by sorting a random projection of the rows, then
+    checked row by row."""
+    n = k.shape[0]
+    label = np.full(n, -1)
+    idx = np.flatnonzero(among)
+    if idx.size < 2:
+        return label
+    tol = NULL_SHARE * max(float(np.abs(k).max()), 1e-300)
+    key = k[idx] @ np.random.default_rng(0).standard_normal(n)
+    order = np.argsort(key, kind="stable")
+    new_run = np.r_[True, np.diff(key[order]) > tol * n]  # runs of near-equal projections
+    head = idx[order][np.maximum.accumulate(np.where(new_run, np.arange(idx.size), 0))]
+    member = idx[order]
+    same = ((np.abs(k[member] - k[head]).max(axis=1) <= tol)
+            & (np.abs(k[:, member] - k[:, head]).max(axis=0) <= tol))
+    count = np.bincount(head[same], minlength=n)
+    keep = same & (count[head] > 1)
+    label[member[keep]] = head[keep]
+    return label
+
+
 def determined_accuracy(k: np.ndarray, free: np.ndarray) -> float:
     """`relative_accuracy` of k (n, n) for the unknowns that k determines, free (n,) bool
     the unknowns that need not be unique (a floating body's mode amplitude that no closed
     pair holds: it slides on slipping pairs). When k's numerical null space (singular
-    values at most n eps x the largest, as numpy's matrix_rank) lies in the free unknowns,
-    the others are unique and their accuracy is that of k + U0 V0^T (U0, V0 the left and
-    right null vectors: a unit tie on the null directions, the rest of k unchanged). Else,
-    or when no null space explains it, `relative_accuracy` of k itself."""
+    values at most n eps x the largest, as numpy's matrix_rank) lies in the free unknowns
+    and in the splits between alike unknowns (`alike_groups`: on each group its entries
+    sum to 0, only the group's sum is determined), the others are unique and their
+    accuracy is that of k + U0 V0^T (U0, V0 the left and right null vectors: a unit tie on
+    the null directions, the rest of k unchanged). Else, or when no null space explains
+    it, `relative_accuracy` of k itself (1.0 for a singular k)."""
     accuracy = relative_accuracy(k)
-    if accuracy <= SVD_FROM or not free.any() or not np.isfinite(k).all():
+    if accuracy <= SVD_FROM or not np.isfinite(k).all():
         return accuracy
     u, s, vt = np.linalg.svd(k)
     null = s <= s[0] * k.shape[0] * EPS
-    if not null.any() or np.abs(vt[null][:, ~free]).max(initial=0.0) > NULL_SHARE:
+    if not null.any():
+        return accuracy
+    v = vt[null][:, ~free]  # (null, bound) the null vectors on the unknowns to be unique
+    group = alike_groups(k, ~free)[~free]
+    heads = np.unique(group[group >= 0])
+    sums = np.stack([v[:, group == h].sum(axis=1) for h in heads], axis=1) if heads.size \
+        else np.zeros((v.shape[0], 0))
+    if max(np.abs(v[:, group < 0]).max(initial=0.0),
+           np.abs(sums).max(initial=0.0)) > NULL_SHARE:
         return accuracy
     return relative_accuracy(k + u[:, null] @ vt[null])

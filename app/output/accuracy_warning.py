@@ -49,6 +49,12 @@ def accuracy_warning(accuracy: float, step: int, contrasts: list[Contrast]) -> s
             f"up to {accuracy:.2g} of the largest (`lcp_accuracy`, eps x the condition "
             f"estimate of the pair states' system; at most {ACCURACY_WARN:g} expected), "
             "though the law checks pass; ")
+    if accuracy >= 1.0:  # singular: not a bound on an error, the forces are not unique
+        head = (f"step {step}: the pair states' system does not fix the contact forces "
+                "(singular to round-off, `lcp_accuracy` 1: its null space is neither a "
+                "floating mode's amplitude nor a split between alike pairs): a family of "
+                "forces solves the step and the written ones are one of them, though the "
+                "law checks pass; ")
     worst = max(contrasts, key=lambda c: c.ratio, default=None)
     if worst is None or not worst.ratio >= FROM_CONTRAST:
         return head + ("the cause is not a stiffness contrast between bodies in contact: "

@@ -63,7 +63,7 @@ def _keys(summary: Path) -> dict:
     return data if isinstance(data, dict) else {}
 
 
-def _a_run(summary: Path) -> bool:
+def _a_study_run(summary: Path) -> bool:
     """summary.json of one of this tool's runs inside a study (app/run.py's keys), not a
     study's, not another program's that only has a `status`, and not a `run` command's
     (its provenance's argv: the user's own run kept under a run folder's name)."""
@@ -75,6 +75,36 @@ def _a_run(summary: Path) -> bool:
             and not standalone)
 
 
+def _written_here(folder: Path) -> bool:
+    """The run's summary.json records this folder as the one it was written into
+    (provenance `out`, resolved): not a study run's folder copied or moved here by hand,
+    nor one of a version that did not record it."""
+    prov = _keys(folder / "summary.json").get("provenance")
+    written = prov.get("out") if isinstance(prov, dict) else None
+    try:
+        return isinstance(written, str) and Path(written) == folder.resolve()
+    except OSError:
+        return False
+
+
+def _run_folders(out: Path) -> list[Path]:
+    """OUT's folders of RUN_FOLDER's names, real folders (not symlinks), that hold a study
+    run's summary.json of this tool (_a_study_run)."""
+    try:
+        entries = sorted(out.iterdir())
+    except OSError:
+        return []
+    return [p for p in entries if RUN_FOLDER.match(p.name) and p.is_dir()
+            and not p.is_symlink() and _a_study_run(p / "summary.json")]
+
+
+def copied_runs(out: Path) -> list[Path]:
+    """OUT's folders that look like a study's runs (`_run_folders`) but that no study wrote
+    there (`_written_here` fails: copied by hand under a run folder's name, or moved): an
+    earlier study's clean-up keeps them, and the study warns, naming them."""
+    return [p for p in _run_folders(Path(out)) if not _written_here(p)]
+
+
 def _a_study(summary: Path) -> bool:
     """summary.json of one of this tool's studies (startup/early_failure.study_head)."""
     data = _keys(summary)
@@ -83,10 +113,11 @@ def _a_study(summary: Path) -> bool:
 
 def earlier_study(out: Path) -> tuple[list[Path], list[Path]]:
     """An earlier study's outputs in OUT: (its files, its run folders). The run folders
-    are those of RUN_FOLDER's names, real folders (not symlinks), that hold a run's
-    summary.json of this tool (_a_run); the files, of STUDY_FILES' names, count only when
-    OUT holds this tool's summary.json or such a folder (so a folder of the user's that
-    only happens to hold a study.csv is left as it is). Before, a study into an earlier
+    are `_run_folders` whose summary.json records that folder as where it was written
+    (`_written_here`; a copy by hand is not the study's: `copied_runs`); the files, of
+    STUDY_FILES' names, count only when OUT holds this tool's summary.json or such a
+    folder (so a folder of the user's that only happens to hold a study.csv is left as it
+    is). Before, a study into an earlier
     study's OUT left that study's extra levels, methods and richardson.csv beside its own,
     and the scripts read them as its own."""
     out = Path(out)
@@ -94,8 +125,7 @@ def earlier_study(out: Path) -> tuple[list[Path], list[Path]]:
         entries = sorted(out.iterdir())
     except OSError:
         return [], []
-    folders = [p for p in entries if RUN_FOLDER.match(p.name) and p.is_dir()
-               and not p.is_symlink() and _a_run(p / "summary.json")]
+    folders = [p for p in _run_folders(out) if _written_here(p)]
     if not folders and not _a_study(out / "summary.json"):
         return [], []
     return [p for p in entries if p.is_file() and STUDY_FILES.match(p.name)], folders

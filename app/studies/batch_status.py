@@ -33,7 +33,7 @@ from petsc4py import PETSc
 from app import hard_stop
 from app.errors import InputError, SolveError
 from app.output import startup_signals, status
-from app.output.out_owner import earlier_study, foreign_files, foreign_message
+from app.output.out_owner import copied_runs, earlier_study, foreign_files, foreign_message
 from app.startup.early_failure import study_head
 
 OUTSIDE_A_STEP = ("interrupted by SIGINT outside a load step; what completed before it is "
@@ -65,6 +65,18 @@ def clear_earlier_study(out: Path) -> None:
             d.rmdir()
         except OSError:  # the user's files in it
             pass
+
+
+def kept_line(kept: list[Path]) -> str:
+    """The warning for OUT's run folders that an earlier study's clean-up keeps: a study
+    run's summary.json that was not written there (out_owner.copied_runs)."""
+    names = ", ".join(p.name for p in kept)
+    return (f"kept {names} in {kept[0].parent}: a study run's results that no study wrote "
+            "there (its summary.json records another folder, or none: copied or moved by "
+            "hand, or from a version before the folder was recorded); a study removes "
+            "only its own runs' files: move or remove it yourself if it is stale (a run "
+            "of this study of the same name replaces its results, as a `run` into that "
+            "folder does)")
 
 
 class BatchStatus:
@@ -111,15 +123,20 @@ class BatchStatus:
             clear_earlier_study(out)
             status.clear_files(out)
             self._lock = lock
+            return copied_runs(out)
 
         try:
-            collective(take)
+            kept = collective(take)
         except InputError:  # every rank: no failed summary.json over the holder's
             self._refused = True
             raise
         self.summary = {**self.head(), "provenance": provenance(
             cfg.raw, self.overrides, PETSc.COMM_WORLD.getSize()),
             "timings": shared_start(self.launched, self.started, time.perf_counter())}
+        if kept:
+            self.summary["warnings"] = [kept_line(kept)]
+            if self.rank == 0:
+                print(f"warning: {kept_line(kept)}", file=sys.stderr)
         self.out = out
         status.on_stop(self._stopped)
         hard_stop.add_extra(self._hard_stop_text)
