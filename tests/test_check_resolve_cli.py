@@ -10,6 +10,7 @@ import os
 import subprocess
 import sys
 
+import numpy as np
 from support import ROOT
 
 
@@ -29,3 +30,31 @@ def test_random_frictionless_lcps_all_settle_and_a_run_equals_itself(tmp_path):
     assert 0 < got["solves_max"] <= 24  # UNSHIFTED_PIVOTS + SINGLE_FLIPS
     same = _run("--compare", str(out), str(out))
     assert same["settled_first_only"] == same["settled_second_only"] == same["differ"] == []
+
+
+def test_every_settled_answer_solves_the_lcp_judged_from_c_alone():
+    """A settled answer is checked against the interface law from C (not by the re-solve's
+    own `_basis_errors`): none is off. The bonded cases have c >= mu a, as app/config.py
+    requires: with c = a and mu > 1 (the harness before) the re-solve settled on slipping
+    pairs whose bound c + mu p was < 0 (2 of the first 120 cases, 76 of 3000, counted as
+    settled), answers no LCP has."""
+    got = _run("--cases", "120")
+    assert got["settled"] >= 110
+    assert got["invalid"] == 0
+
+
+def test_law_error_sees_a_force_off_the_law():
+    """`law_error` is 0 to round-off on a settled answer and flags one with a pair's p moved
+    by 1 (its gap or p + a then leaves complementarity)."""
+    sys.path.insert(0, str(ROOT / "scripts"))
+    try:
+        import check_resolve as cr
+    finally:
+        sys.path.pop(0)
+    rec, (_, d) = next((r, case) for r, case in zip(cr.run(cr.load(None), 3, 2026),
+                                                   cr.cases(3, 2026), strict=True)
+                       if r["settled"])
+    p, q = np.array(rec["p"]), np.array(rec["q"])
+    assert cr.law_error(d, p, q) < 1e-14
+    p[0] += 1.0
+    assert cr.law_error(d, p, q) > cr.LAW_TOL
