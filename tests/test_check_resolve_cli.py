@@ -23,13 +23,31 @@ def _run(*args: str) -> dict:
 
 
 def test_random_frictionless_lcps_all_settle_and_a_run_equals_itself(tmp_path):
-    out = tmp_path / "run.json"
+    out, again = tmp_path / "run.json", tmp_path / "again.json"
     got = _run("--cases", "90", "--out", str(out))
     assert got["cases"] == 90
     assert got["settled_by_kind"]["frictionless"] == [30, 30]
     assert 0 < got["solves_max"] <= 24  # UNSHIFTED_PIVOTS + SINGLE_FLIPS
-    same = _run("--compare", str(out), str(out))
+    _run("--cases", "90", "--out", str(again))  # a second run, not the same file twice
+    same = _run("--compare", str(out), str(again))
     assert same["settled_first_only"] == same["settled_second_only"] == same["differ"] == []
+
+
+def test_compare_runs_the_other_coulomb_module(tmp_path):
+    """--coulomb loads that file, not app.interface.coulomb: a copy with no single flips
+    (SINGLE_FLIPS = 0, the re-solve stops after the block pivots) settles fewer cases, and
+    --compare lists them."""
+    text = (ROOT / "app/interface/coulomb.py").read_text()
+    assert "\nSINGLE_FLIPS = 16\n" in text
+    capped = tmp_path / "coulomb_capped.py"
+    capped.write_text(text.replace("\nSINGLE_FLIPS = 16\n", "\nSINGLE_FLIPS = 0\n"))
+    new, old = tmp_path / "new.json", tmp_path / "old.json"
+    _run("--cases", "90", "--out", str(new))
+    got = _run("--cases", "90", "--coulomb", str(capped), "--out", str(old))
+    assert got["solves_max"] <= 8  # UNSHIFTED_PIVOTS alone
+    diff = _run("--compare", str(old), str(new))
+    assert diff["settled_second_only"] and not diff["settled_first_only"]
+    assert diff["first"]["settled"] < diff["second"]["settled"]
 
 
 def test_every_settled_answer_solves_the_lcp_judged_from_c_alone():

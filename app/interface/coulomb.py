@@ -123,14 +123,17 @@ UNSHIFTED_PIVOTS = 8
 
 PIVOT_RULES = ("block", "worst", "least")
 """The pivot rules of `ContactLCP._polished` in turn (`_flipped`), each from where the one
-before cycled or ran out."""
+before cycled or ran out; once "least" cycles too, a tabu step (`_unseen`) between its
+flips."""
 
 SINGLE_FLIPS = 16
-"""Most one-pair flips `ContactLCP._polished` tries once block pivots cycle or run out, each
-a dense solve of size ~2m, whatever m: the stiff floating block at 1e12
-(tests/test_interface_steps.py) settles after 6 solves in all; without a cap the worst case
-was m more solves (m = 1000: 0.5 s each, 8 min, against 4 s before; reviewer `review6`).
-min(m, 16) before: small LCPs ran out after m flips where a few more settle them."""
+"""The re-solve's budget beyond UNSHIFTED_PIVOTS: `ContactLCP._polished` makes at most
+UNSHIFTED_PIVOTS + SINGLE_FLIPS dense solves of size ~2m in all, whatever m and rule
+(block pivots that cycle early leave their share to the one-pair flips): the stiff
+floating block at 1e12 (tests/test_interface_steps.py) settles after 6 solves in all;
+without a cap the worst case was m more solves (m = 1000: 0.5 s each, 8 min, against 4 s
+before; reviewer `review6`). min(m, 16) before: small LCPs ran out after m flips where a
+few more settle them."""
 
 
 def _fixed_pairs(c: np.ndarray, m: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
