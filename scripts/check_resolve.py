@@ -24,9 +24,11 @@ from __future__ import annotations
 import argparse
 import importlib.util
 import json
+import os
 import sys
 from collections.abc import Iterator
 from types import ModuleType
+from typing import NoReturn
 
 import numpy as np
 
@@ -81,14 +83,20 @@ def law_error(d: dict, p: np.ndarray, q: np.ndarray) -> float:
     return float(max(0.0, *(e.max() for e in errs))) / scale
 
 
+def fail(msg: str) -> NoReturn:
+    """Bad input: one line `error: msg` on stderr, exit 2."""
+    print(f"error: {msg}", file=sys.stderr)
+    sys.exit(2)
+
+
 def load(path: str | None) -> ModuleType:
     """app.interface.coulomb, or another version of it from a file."""
     if path is None:
         from app.interface import coulomb
         return coulomb
     spec = importlib.util.spec_from_file_location("app.interface.coulomb_checked", path)
-    if spec is None or spec.loader is None:
-        sys.exit(f"error: cannot load {path} as a Python module")
+    if not os.path.isfile(path) or spec is None or spec.loader is None:
+        fail(f"--coulomb {path}: not a Python file (give a copy of app/interface/coulomb.py)")
     mod = importlib.util.module_from_spec(spec)
     sys.modules[spec.name] = mod
     spec.loader.exec_module(mod)
@@ -153,9 +161,20 @@ def main() -> None:
                     help="compare two --out files instead of running")
     args = ap.parse_args()
     if args.compare:
-        recs = [json.load(open(f)) for f in args.compare]
+        recs = []
+        for f in args.compare:
+            try:
+                with open(f) as fh:
+                    recs.append(json.load(fh))
+            except (OSError, ValueError) as exc:
+                fail(f"--compare {f}: not a JSON file of --out ({exc})")
+        if len(recs[0]) != len(recs[1]):
+            fail(f"--compare: {len(recs[0])} cases against {len(recs[1])}: run both with the "
+                 "same --cases and --seed")
         print(json.dumps(compare(*recs)))
         return
+    if args.cases < 1:
+        fail(f"--cases {args.cases}: give at least 1")
     recs = run(load(args.coulomb), args.cases, args.seed)
     if args.out:
         with open(args.out, "w") as fh:

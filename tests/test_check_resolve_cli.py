@@ -76,3 +76,21 @@ def test_law_error_sees_a_force_off_the_law():
     assert cr.law_error(d, p, q) < 1e-14
     p[0] += 1.0
     assert cr.law_error(d, p, q) > cr.LAW_TOL
+
+
+def test_bad_input_is_one_error_line_and_exit_2(tmp_path):
+    """A missing --coulomb file, --compare of runs of other sizes or of a file that is not
+    JSON, --cases 0: `error: ...` and exit 2, no traceback."""
+    short, long_ = tmp_path / "short.json", tmp_path / "long.json"
+    short.write_text(json.dumps([{"kind": "mixed", "settled": False, "solves": 1}]))
+    long_.write_text(json.dumps([{"kind": "mixed", "settled": False, "solves": 1}] * 2))
+    (tmp_path / "junk.json").write_text("not json")
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    for args in (["--coulomb", str(tmp_path / "none.py")], ["--cases", "0"],
+                 ["--compare", str(short), str(long_)],
+                 ["--compare", str(tmp_path / "junk.json"), str(short)]):
+        res = subprocess.run([sys.executable, "scripts/check_resolve.py", *args], cwd=ROOT,
+                             env=env, capture_output=True, text=True, timeout=120)
+        assert res.returncode == 2, (args, res.stderr)
+        assert res.stderr.startswith("error: ") and "Traceback" not in res.stderr, args
+        assert res.stderr.count("\n") == 1, res.stderr
