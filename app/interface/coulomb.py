@@ -660,7 +660,9 @@ class ContactLCP:
         then both slid back, with period 3, and Lemke's p, 100% off, was kept) or after
         UNSHIFTED_PIVOTS of them, only the pair furthest off (`_flipped`); once those come
         back, only the first pair off (Murty's least-index rule), from where each rule
-        before stopped; UNSHIFTED_PIVOTS + SINGLE_FLIPS solves in all. A rule's cycle is
+        before stopped; once that comes back too, the first state set one pair off from
+        the current one not yet seen (`_unseen`, a tabu step); UNSHIFTED_PIVOTS +
+        SINGLE_FLIPS solves in all. A rule's cycle is
         a set of states it saw itself (one seen under the rule before leads elsewhere).
         None (Lemke's answer kept) when a system is singular or the pivots do not settle."""
         fric = self._fric_mask()
