@@ -8,12 +8,14 @@
     PYTHONPATH=. .venv/bin/python scripts/check_resolve.py --compare old.json new.json
 
 Cases (seeded, one in three of each kind): a compliance C = A A^T + d I (2m x 2m, A
-normal, d in [0, 0.5]) on m = 2..6 pairs, some with a bond (a = c >= 0), 80% frictional
-(mu in [0.1, 2]); m = 2..4 frictional, no bond; m = 2..4 frictionless (C_nt = 0). Free
+normal, d in [0, 0.5]) on m = 2..6 pairs, some with a bond (a >= 0, c = max(mu, 1) a: c >=
+mu a, as app/config.py requires, else a slipping pair's bound c + mu p can be < 0), 80%
+frictional (mu in [0.1, 2]); m = 2..4 frictional, no bond; m = 2..4 frictionless (C_nt = 0). Free
 gaps and tangential motion normal; the start is a random LCP basis (what Lemke hands the
 re-solve is near the answer; a random one is the hard case). Per case: settled (the states
-and p, q) or not, and the dense solves (`ContactLCP._on_states`) it took. Prints one JSON
-line {"cases", "settled", "settled_by_kind", "solves_max", "solves_total"}; --compare
+and p, q) or not, the dense solves (`ContactLCP._on_states`) it took, and how far a settled
+answer is from solving the LCP, judged from C alone (`law_error`). Prints one JSON line
+{"cases", "settled", "settled_by_kind", "invalid", "solves_max", "solves_total"}; --compare
 prints the cases that settle in one file only, and those whose states or forces differ.
 """
 
@@ -22,13 +24,17 @@ from __future__ import annotations
 import argparse
 import importlib.util
 import json
+import os
 import sys
 from collections.abc import Iterator
 from types import ModuleType
+from typing import NoReturn
 
 import numpy as np
 
 KINDS = ("mixed", "frictional", "frictionless")
+LAW_TOL = 1e-9
+"""A settled answer whose `law_error` is above this does not solve the LCP (`invalid`)."""
 
 
 def cases(n: int, seed: int) -> Iterator[tuple[str, dict]]:
@@ -50,7 +56,37 @@ def cases(n: int, seed: int) -> Iterator[tuple[str, dict]]:
         a = np.abs(rng.normal(size=m)) * (kind == "mixed" and rng.random() < 0.3)
         basis = rng.random(3 * m if fr else m) < 0.5
         yield kind, dict(c=c, mu=mu, fr=fr, gap_free=gap_free, dtau=dtau, a=a,
-                         coh=a * (mu > 0), basis=basis)
+                         coh=a * np.maximum(mu, 1.0) * (mu > 0), basis=basis)
+
+
+def law_error(d: dict, p: np.ndarray, q: np.ndarray) -> float:
+    """The largest violation of the interface law by forces p, q (m,) on case d, from C
+    alone (not `ContactLCP._basis_errors`), over the case's scale (largest |C| |lam| plus
+    the largest free motion, a and 1): p + a >= 0, gap >= 0, min(p + a, gap) = 0; friction
+    bound F = c + mu p >= 0 and |q| <= F; a pair that slides, |slip| above 1e-9 of the
+    scale (slip = C_t lam - dtau = tau - tau_prev), at q = -sign(slip) F; q = 0 without
+    friction."""
+    c, m, a, mu = d["c"], p.size, d["a"], d["mu"]
+    lam = np.concatenate([p, q])
+    gap = d["gap_free"] + c[:m] @ lam
+    slip = c[m:] @ lam - d["dtau"]
+    scale = (np.abs(c).max() * np.abs(lam).max() + np.abs(d["gap_free"]).max()
+             + np.abs(d["dtau"]).max() + np.abs(a).max() + 1.0)
+    errs = [-(p + a), -gap, np.abs(np.minimum(p + a, gap))]
+    if d["fr"]:
+        bound = d["coh"] + mu * p
+        slides = np.abs(slip) > 1e-9 * scale
+        errs += [-bound, np.abs(q) - bound,
+                 np.where(slides, np.abs(q + np.sign(slip) * bound), 0.0)]
+    else:
+        errs.append(np.abs(q))
+    return float(max(0.0, *(e.max() for e in errs))) / scale
+
+
+def fail(msg: str) -> NoReturn:
+    """Bad input: one line `error: msg` on stderr, exit 2."""
+    print(f"error: {msg}", file=sys.stderr)
+    sys.exit(2)
 
 
 def load(path: str | None) -> ModuleType:
@@ -59,8 +95,8 @@ def load(path: str | None) -> ModuleType:
         from app.interface import coulomb
         return coulomb
     spec = importlib.util.spec_from_file_location("app.interface.coulomb_checked", path)
-    if spec is None or spec.loader is None:
-        sys.exit(f"error: cannot load {path} as a Python module")
+    if not os.path.isfile(path) or spec is None or spec.loader is None:
+        fail(f"--coulomb {path}: not a Python file (give a copy of app/interface/coulomb.py)")
     mod = importlib.util.module_from_spec(spec)
     sys.modules[spec.name] = mod
     spec.loader.exec_module(mod)
@@ -87,7 +123,8 @@ def run(mod: ModuleType, n: int, seed: int) -> list[dict]:
         rec = {"kind": kind, "settled": got is not None, "solves": solves[0]}
         if got is not None:
             rec.update(p=got[0].tolist(), q=got[1].tolist(),
-                       states=[np.asarray(s, int).tolist() for s in got[3:]])
+                       states=[np.asarray(s, int).tolist() for s in got[3:]],
+                       law_error=law_error(d, got[0], got[1]))
         out.append(rec)
     mod.ContactLCP._on_states = on_states
     return out
@@ -98,6 +135,7 @@ def summary(recs: list[dict]) -> dict:
     return {"cases": len(recs), "settled": sum(r["settled"] for r in recs),
             "settled_by_kind": {k: [sum(r["settled"] for r in recs if r["kind"] == k),
                                     sum(r["kind"] == k for r in recs)] for k in KINDS},
+            "invalid": int(sum(r.get("law_error", 0.0) > LAW_TOL for r in recs)),
             "solves_max": max((r["solves"] for r in recs), default=0),
             "solves_total": sum(r["solves"] for r in recs)}
 
@@ -123,9 +161,20 @@ def main() -> None:
                     help="compare two --out files instead of running")
     args = ap.parse_args()
     if args.compare:
-        recs = [json.load(open(f)) for f in args.compare]
+        recs = []
+        for f in args.compare:
+            try:
+                with open(f) as fh:
+                    recs.append(json.load(fh))
+            except (OSError, ValueError) as exc:
+                fail(f"--compare {f}: not a JSON file of --out ({exc})")
+        if len(recs[0]) != len(recs[1]):
+            fail(f"--compare: {len(recs[0])} cases against {len(recs[1])}: run both with the "
+                 "same --cases and --seed")
         print(json.dumps(compare(*recs)))
         return
+    if args.cases < 1:
+        fail(f"--cases {args.cases}: give at least 1")
     recs = run(load(args.coulomb), args.cases, args.seed)
     if args.out:
         with open(args.out, "w") as fh:

@@ -123,14 +123,17 @@ UNSHIFTED_PIVOTS = 8
 
 PIVOT_RULES = ("block", "worst", "least")
 """The pivot rules of `ContactLCP._polished` in turn (`_flipped`), each from where the one
-before cycled or ran out."""
+before cycled or ran out; once "least" cycles too, a tabu step (`_unseen`) between its
+flips."""
 
 SINGLE_FLIPS = 16
-"""Most one-pair flips `ContactLCP._polished` tries once block pivots cycle or run out, each
-a dense solve of size ~2m, whatever m: the stiff floating block at 1e12
-(tests/test_interface_steps.py) settles after 6 solves in all; without a cap the worst case
-was m more solves (m = 1000: 0.5 s each, 8 min, against 4 s before; reviewer `review6`).
-min(m, 16) before: small LCPs ran out after m flips where a few more settle them."""
+"""The re-solve's budget beyond UNSHIFTED_PIVOTS: `ContactLCP._polished` makes at most
+UNSHIFTED_PIVOTS + SINGLE_FLIPS dense solves of size ~2m in all, whatever m and rule
+(block pivots that cycle early leave their share to the one-pair flips): the stiff
+floating block at 1e12 (tests/test_interface_steps.py) settles after 6 solves in all;
+without a cap the worst case was m more solves (m = 1000: 0.5 s each, 8 min, against 4 s
+before; reviewer `review6`). min(m, 16) before: small LCPs ran out after m flips where a
+few more settle them."""
 
 
 def _fixed_pairs(c: np.ndarray, m: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -228,42 +231,54 @@ def _symmetric_scaling(big: np.ndarray) -> np.ndarray:
     return 1.0 / np.sqrt(np.where(ref > 0, ref, 1.0))
 
 
-def _flipped(states: tuple[np.ndarray, np.ndarray, np.ndarray],
-             flips: tuple[np.ndarray, ...], rule: str
-             ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+States = tuple[np.ndarray, np.ndarray, np.ndarray]
+"""Pair states (closed, slip+, slip-), (m,) bool each: closed gap = 0 (else p = -a); slip+
+q = -(c + mu p) with tau - tau_prev >= 0, slip- q = +(c + mu p) with it <= 0; a frictional
+pair with neither sticks (tau = tau_prev)."""
+
+
+def _state_key(states: States) -> bytes:
+    """The key of a set of pair states in the re-solve's sets of states seen."""
+    return np.concatenate(states).tobytes()
+
+
+def _with_pair(states: States, i: int, shut: bool, plus: bool, minus: bool) -> States:
+    """New arrays: states with pair i closed = shut, slip+ = plus, slip- = minus."""
+    closed, sp_b, sm_b = (s.copy() for s in states)
+    closed[i], sp_b[i], sm_b[i] = shut, plus, minus
+    return closed, sp_b, sm_b
+
+
+def _flipped(states: States, flips: tuple[np.ndarray, ...], rule: str) -> States:
     """The pair states (closed, slip+, slip-) (m,) bool each after the pivot flips =
     (normal flips, new slip+, new slip-, each pair's violation over its tolerance) of
     `ContactLCP._basis_errors`, by `rule` (`ContactLCP._polished`): "block" every pair
     that left its signs, "worst" only the one that left them most, "least" only the
     first (lowest index) that left them (Murty's least-index rule)."""
-    closed, sp_b, sm_b = states
+    closed = states[0]
     if rule == "block":
         return closed ^ flips[0], flips[1], flips[2]
     off = flips[3]
     i = int(np.argmax(off)) if rule == "worst" else int(np.argmax(off > 1.0))
-    closed, sp_b, sm_b = closed.copy(), sp_b.copy(), sm_b.copy()
-    closed[i] ^= flips[0][i]
-    sp_b[i], sm_b[i] = flips[1][i], flips[2][i]
-    return closed, sp_b, sm_b
+    return _with_pair(states, i, bool(closed[i] ^ flips[0][i]), bool(flips[1][i]),
+                      bool(flips[2][i]))
 
 
-def _unseen(states: tuple[np.ndarray, np.ndarray, np.ndarray], off: np.ndarray,
-            fric: np.ndarray, seen: set[bytes]
-            ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
-    """The first set of pair states not in seen (keys: `np.concatenate(states).tobytes()`)
-    that differs from states (closed, slip+, slip-) (m,) bool each in one pair, the first
-    pair off (off (m,) bool) first: its tangential state (stick, slip+, slip-, frictional
-    pairs fric (m,) only) with its normal state, then with the other; None when every one
-    was seen (`ContactLCP._polished`, once Murty's least-index rule comes back)."""
-    closed, sp_b, sm_b = states
+def _unseen(states: States, off: np.ndarray, fric: np.ndarray,
+            seen: set[bytes]) -> States | None:
+    """The first set of pair states not in seen (keys `_state_key`) that differs from
+    states (closed, slip+, slip-) (m,) bool each in one pair, the first pair off (off (m,)
+    bool) first: its tangential state (stick, slip+, slip-, frictional pairs fric (m,)
+    only) with its normal state, then with the other; None when every one was seen
+    (`ContactLCP._polished`, once Murty's least-index rule comes back)."""
+    closed = states[0]
     tangential = ((False, False), (True, False), (False, True))
     for i in np.flatnonzero(off):
-        for shut in (closed[i], not closed[i]):
+        for shut in (bool(closed[i]), not closed[i]):
             for plus, minus in tangential if fric[i] else tangential[:1]:
-                cl, sp, sm = closed.copy(), sp_b.copy(), sm_b.copy()
-                cl[i], sp[i], sm[i] = shut, plus, minus
-                if np.concatenate([cl, sp, sm]).tobytes() not in seen:
-                    return cl, sp, sm
+                new = _with_pair(states, int(i), shut, plus, minus)
+                if _state_key(new) not in seen:
+                    return new
     return None
 
 
@@ -645,7 +660,9 @@ class ContactLCP:
         then both slid back, with period 3, and Lemke's p, 100% off, was kept) or after
         UNSHIFTED_PIVOTS of them, only the pair furthest off (`_flipped`); once those come
         back, only the first pair off (Murty's least-index rule), from where each rule
-        before stopped; UNSHIFTED_PIVOTS + SINGLE_FLIPS solves in all. A rule's cycle is
+        before stopped; once that comes back too, the first state set one pair off from
+        the current one not yet seen (`_unseen`, a tabu step); UNSHIFTED_PIVOTS +
+        SINGLE_FLIPS solves in all. A rule's cycle is
         a set of states it saw itself (one seen under the rule before leads elsewhere).
         None (Lemke's answer kept) when a system is singular or the pivots do not settle."""
         fric = self._fric_mask()
@@ -655,7 +672,7 @@ class ContactLCP:
         rule = next(rules)
         seen: set[bytes] = set()  # the states visited under this rule
         for _ in range(UNSHIFTED_PIVOTS + SINGLE_FLIPS):
-            seen.add(np.concatenate([closed, sp_b, sm_b]).tobytes())
+            seen.add(_state_key((closed, sp_b, sm_b)))
             x = self._on_states(closed, sp_b, sm_b, fric, free, a, c, mu, e0)
             if x is None:
                 return None
@@ -666,7 +683,7 @@ class ContactLCP:
             # a rule's states come back (it cycles) or block pivots ran UNSHIFTED_PIVOTS:
             # the next rule from the current states (a state seen under another rule is
             # no cycle of this one: its successor differs)
-            while np.concatenate(new).tobytes() in seen or (
+            while _state_key(new) in seen or (
                     rule == "block" and len(seen) >= UNSHIFTED_PIVOTS):
                 if rule == "least":  # the last rule: the first unseen of the pairs' states
                     new = _unseen((closed, sp_b, sm_b), flips[3] > 1.0, fric, seen)
@@ -676,7 +693,7 @@ class ContactLCP:
                 rule = next(rules, None)
                 if rule is None:
                     return None
-                seen = {np.concatenate([closed, sp_b, sm_b]).tobytes()}
+                seen = {_state_key((closed, sp_b, sm_b))}
                 new = _flipped((closed, sp_b, sm_b), flips, rule)
             closed, sp_b, sm_b = new
         return None
