@@ -123,6 +123,16 @@ def test_a_crash_goes_on_only_within_the_time_left(tmp_path, monkeypatch):
     assert found.count("HiGHS passed its time limit") == 1, found
 
 
+def test_a_search_process_stopped_from_outside_ends_the_search(monkeypatch):
+    """SIGTERM, SIGKILL (a user, a job's end, the out-of-memory killer) end the search at
+    the first bound; SIGSEGV (HiGHS's own crash) goes on to the next."""
+    for sig, bounds in (("SIGTERM", 1), ("SIGKILL", 1), ("SIGSEGV", 3)):
+        monkeypatch.setattr(mip, "_CHILD", f"import os, signal; os.kill(os.getpid(), "
+                                           f"signal.{sig})")
+        basis, found = complementary_basis(*_small_lcp())
+        assert basis is None and found.count("HiGHS crashed") == bounds, (sig, found)
+
+
 def test_a_search_past_its_time_limit_is_stopped(monkeypatch):
     """HiGHS checks its clock between LPs: one that does not return is killed MIP_GRACE
     past the limit."""

@@ -23,6 +23,7 @@ from __future__ import annotations
 import io
 import os
 import pickle
+import signal
 import subprocess
 import sys
 import time
@@ -140,6 +141,12 @@ os._exit(0)
 stdout, after a mark: a sitecustomize may print before it; later output goes to stderr)."""
 
 
+STOP_SIGNALS = frozenset({signal.SIGTERM, signal.SIGINT, signal.SIGHUP, signal.SIGKILL})
+"""Signals that end a HiGHS process from outside (a user, a job's end, the kernel's
+out-of-memory killer): the search ends there. Any other death (SIGABRT, SIGSEGV, a
+non-zero exit) is HiGHS's own crash on that bound's problem, and the next bound is tried."""
+
+
 class Answer(NamedTuple):
     """HiGHS's answer as scipy.optimize.milp gives it (status 0 optimal, 1 a limit, 2
     infeasible, 4 other: here also a HiGHS process that crashed or passed its time)."""
@@ -149,8 +156,8 @@ class Answer(NamedTuple):
     message: str
     mip_node_count: int
     crashed: bool = False
-    """The HiGHS process died (a signal, a non-zero exit) or its answer did not read: that
-    bound's search failed, not the search (the next bound is tried)."""
+    """The HiGHS process died (a signal but STOP_SIGNALS, a non-zero exit) or its answer did
+    not read: that bound's search failed, not the search (the next bound is tried)."""
 
 
 def _search(m: np.ndarray, q: np.ndarray, zb: np.ndarray, bound: float, nodes: int,
@@ -188,7 +195,8 @@ def _search(m: np.ndarray, q: np.ndarray, zb: np.ndarray, bound: float, nodes: i
             proc.communicate()
     if proc.returncode != 0 or not out:
         last = (err.decode(errors="replace").strip().splitlines() or [""])[-1][:120]
-        return Answer(None, 4, f"HiGHS crashed (exit {proc.returncode}: {last})", 0, True)
+        return Answer(None, 4, f"HiGHS crashed (exit {proc.returncode}: {last})", 0,
+                      -proc.returncode not in STOP_SIGNALS)
     try:  # (what a sitecustomize printed at start-up comes before the mark)
         x, status, message, count = pickle.loads(out.partition(b"\n--- answer ---\n")[2])
     except Exception as exc:  # (any bytes: pickle raises many kinds) not the run's end
