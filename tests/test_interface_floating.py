@@ -128,9 +128,11 @@ def test_multibody_1sd_at_1_2_in_other_units_completes_alike(tmp_path):
 
 def test_multibody_1sd_at_1_0_stops_naming_the_search(tmp_path):
     """multibody.toml --sd 1 --mesh-size 1.0: the step's LCP has solutions only with
-    hourglass amplitudes in the thousands (Lemke on the unscaled matrix: slips to 5.7e3
-    in a scene 6 wide), none with the scaled unknowns below 1e3: the run stops, its
-    line saying that the search found none, and suggesting --sd 2."""
+    hourglass amplitudes in the thousands (Lemke on the unscaled matrix: a mode amplitude
+    of 6.3e3 in a scene 6 wide, its basis accepted by Lemke's check on the scaled LCP in
+    0 pivots), none with the scaled unknowns below 1e3: the run stops, its line saying
+    that the search found none, that such an equilibrium may need amplitudes far beyond
+    small displacements (before: only `may have no equilibrium`), and suggesting --sd 2."""
     out = tmp_path / "out"
     res = run_cli(["run", str(CONFIGS / "multibody.toml"), "--sd", "1", "--mesh-size", "1.0",
                    "--out", str(out), "--quiet"])
@@ -138,6 +140,7 @@ def test_multibody_1sd_at_1_0_stops_naming_the_search(tmp_path):
     (line,) = res.stderr.strip().splitlines()
     assert line.startswith("error: the contact problem could not be solved at step 1")
     assert "a mixed-integer search found no solution with the scaled unknowns below" in line
+    assert "or one only with hourglass amplitudes far beyond small displacements" in line
     assert "--sd 2 or more" in line
     assert read_summary(out)["status"] == "failed"
 

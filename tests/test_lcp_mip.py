@@ -73,12 +73,64 @@ def _small_lcp() -> tuple[np.ndarray, np.ndarray]:
 
 def test_a_crash_of_highs_ends_the_search_not_the_run(monkeypatch):
     """scipy 1.10's HiGHS aborted in free() on two_blocks.toml's LCP of 39 at E = 1e13
-    (README "Floating bodies"): the whole run died with summary.json `running`."""
+    (README "Floating bodies"): the whole run died with summary.json `running`. Every
+    bound crashing: the words say so per bound."""
     monkeypatch.setattr(mip, "_CHILD", "import os; os.abort()")
     basis, found = complementary_basis(*_small_lcp())
     assert basis is None
-    assert found.startswith("a mixed-integer search found none before its limit (HiGHS "
-                            "crashed (exit -6"), found
+    crash = "(HiGHS crashed (exit -6: ))"
+    assert found == (f"a mixed-integer search found none below 1e+01 {crash}, then none "
+                     f"below 1e+02 {crash}, then none below 1e+03 {crash}"), found
+
+
+def _crashing_first(tmp_path) -> str:
+    """The search process's code, made to abort the first time it runs (a flag file under
+    tmp_path), as scipy 1.10's HiGHS did on one bound of one LCP."""
+    flag = str(tmp_path / "crashed")
+    return (f"import os\nif not os.path.exists({flag!r}):\n    open({flag!r}, 'w').close()\n"
+            f"    os.abort()\n") + mip._CHILD
+
+
+def test_a_crash_at_one_bound_goes_on_to_the_next(tmp_path, monkeypatch):
+    """Before, HiGHS's crash at the first bound (10) ended the search without a basis,
+    though the next bound (100) finds one: two_blocks.toml's E = 1e13 mortar step 3
+    stopped on the crash alone (README "Floating bodies"). Now the next bound is searched
+    and its basis solves; the words name the crash."""
+    m = np.array([[0.0, 0.0, 2.0], [3.0, -3.0, -2.0], [2.0, 3.0, -2.0]])
+    q = np.array([-1.0, 3.0, -1.0])
+    monkeypatch.setattr(mip, "_CHILD", _crashing_first(tmp_path))
+    basis, found = complementary_basis(m, q)
+    assert basis is not None, found
+    assert found.startswith("a mixed-integer search found a basis (the scaled unknowns "
+                            "below 1e+02 x the largest constant term), after none below "
+                            "1e+01 (HiGHS crashed (exit -6"), found
+    res = lemke(m, q, basis=basis, cold_start=False)
+    assert res.status == "solved"
+    np.testing.assert_allclose(res.z, [0.0, 2.0 / 3.0, 0.5], atol=1e-12)
+
+
+def test_a_crash_goes_on_only_within_the_time_left(tmp_path, monkeypatch):
+    """A crash that leaves less than a second of the search's time ends it (`no time
+    left`), and a time limit still ends the search at its bound."""
+    monkeypatch.setattr(mip, "_CHILD", "import os, time; time.sleep(1.5); os.abort()")
+    basis, found = complementary_basis(*_small_lcp(), seconds=2.0)
+    assert basis is None
+    assert found.endswith("(HiGHS crashed (exit -6: )), then no time left"), found
+    assert found.count("crashed") == 1, found
+    monkeypatch.setattr(mip, "_CHILD", "import time; time.sleep(60)")
+    monkeypatch.setattr(mip, "MIP_GRACE", 0.5)
+    basis, found = complementary_basis(*_small_lcp(), seconds=1.0)
+    assert found.count("HiGHS passed its time limit") == 1, found
+
+
+def test_a_search_process_stopped_from_outside_ends_the_search(monkeypatch):
+    """SIGTERM, SIGKILL (a user, a job's end, the out-of-memory killer) end the search at
+    the first bound; SIGSEGV (HiGHS's own crash) goes on to the next."""
+    for sig, bounds in (("SIGTERM", 1), ("SIGKILL", 1), ("SIGSEGV", 3)):
+        monkeypatch.setattr(mip, "_CHILD", f"import os, signal; os.kill(os.getpid(), "
+                                           f"signal.{sig})")
+        basis, found = complementary_basis(*_small_lcp())
+        assert basis is None and found.count("HiGHS crashed") == bounds, (sig, found)
 
 
 def test_a_search_past_its_time_limit_is_stopped(monkeypatch):

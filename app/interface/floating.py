@@ -111,9 +111,14 @@ class FloatingModes:
 
 
 HOURGLASS_HINT = ("CS-FEM-1SD leaves zero-energy (hourglass) modes that only the contact "
-                  "holds, and those may have no equilibrium: use --sd 2 or more "
-                  "(hourglass-free smoothing), --method fem-q4, or a finer mesh")
-"""What a failed contact step adds when zero-energy (hourglass) modes are held by contact."""
+                  "holds, and those may have no equilibrium, or one only with hourglass "
+                  "amplitudes far beyond small displacements (and the search's bound): use "
+                  "--sd 2 or more (hourglass-free smoothing), --method fem-q4, or a finer mesh")
+"""What a failed contact step adds when zero-energy (hourglass) modes are held by contact.
+Both happen: multibody.toml --sd 1 --mesh-size 1.6 has no equilibrium (an LP on the modes'
+forces in their cones), 1.0's step 1 has one with a mode amplitude of 6.3e3 in a scene 6
+wide (Lemke on the unscaled LCP; its scaled unknowns to 3.7e5 x max |q|, README "Floating
+bodies"), where --method fem-q4 completes."""
 
 
 def held_text(floating: FloatingModes) -> str:

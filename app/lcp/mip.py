@@ -23,6 +23,7 @@ from __future__ import annotations
 import io
 import os
 import pickle
+import signal
 import subprocess
 import sys
 import time
@@ -140,6 +141,12 @@ os._exit(0)
 stdout, after a mark: a sitecustomize may print before it; later output goes to stderr)."""
 
 
+STOP_SIGNALS = frozenset({signal.SIGTERM, signal.SIGINT, signal.SIGHUP, signal.SIGKILL})
+"""Signals that end a HiGHS process from outside (a user, a job's end, the kernel's
+out-of-memory killer): the search ends there. Any other death (SIGABRT, SIGSEGV, a
+non-zero exit) is HiGHS's own crash on that bound's problem, and the next bound is tried."""
+
+
 class Answer(NamedTuple):
     """HiGHS's answer as scipy.optimize.milp gives it (status 0 optimal, 1 a limit, 2
     infeasible, 4 other: here also a HiGHS process that crashed or passed its time)."""
@@ -148,6 +155,9 @@ class Answer(NamedTuple):
     status: int
     message: str
     mip_node_count: int
+    crashed: bool = False
+    """The HiGHS process died (a signal but STOP_SIGNALS, a non-zero exit) or its answer did
+    not read: that bound's search failed, not the search (the next bound is tried)."""
 
 
 def _search(m: np.ndarray, q: np.ndarray, zb: np.ndarray, bound: float, nodes: int,
@@ -161,7 +171,7 @@ def _search(m: np.ndarray, q: np.ndarray, zb: np.ndarray, bound: float, nodes: i
     parent-death signal ends it if the rank dies), the time limit holds even
     inside one LP (killed MIP_GRACE s past it), and a HiGHS crash (scipy 1.10's HiGHS aborts
     in free() on two_blocks.toml's LCP of 39 at E = 1e13, README "Floating bodies") ends
-    this search, not the run."""
+    this bound's search (`Answer.crashed`), not the run."""
     n = q.size
     eye, zero = np.eye(n), np.zeros((n, n))
     inf = np.full(n, np.inf)
@@ -185,11 +195,12 @@ def _search(m: np.ndarray, q: np.ndarray, zb: np.ndarray, bound: float, nodes: i
             proc.communicate()
     if proc.returncode != 0 or not out:
         last = (err.decode(errors="replace").strip().splitlines() or [""])[-1][:120]
-        return Answer(None, 4, f"HiGHS crashed (exit {proc.returncode}: {last})", 0)
+        return Answer(None, 4, f"HiGHS crashed (exit {proc.returncode}: {last})", 0,
+                      -proc.returncode not in STOP_SIGNALS)
     try:  # (what a sitecustomize printed at start-up comes before the mark)
         x, status, message, count = pickle.loads(out.partition(b"\n--- answer ---\n")[2])
     except Exception as exc:  # (any bytes: pickle raises many kinds) not the run's end
-        return Answer(None, 4, f"HiGHS's answer unreadable ({type(exc).__name__})", 0)
+        return Answer(None, 4, f"HiGHS's answer unreadable ({type(exc).__name__})", 0, True)
     return Answer(x, status, message, count)
 
 
@@ -226,7 +237,10 @@ def _basis(m: np.ndarray, q: np.ndarray, accept: Callable[[np.ndarray], bool], *
     `app.interface.coulomb.ContactLCP._searched`). None when no bound has an accepted
     solution, the LCP is above MIP_MAX_SIZE or the search ran out of nodes (MIP_WORK / n^2
     over all bounds) or time. A node limit that ends a bound with a solution keeps it (not
-    the least sum(z), but a solution)."""
+    the least sum(z), but a solution). A bound whose HiGHS process crashed (scipy 1.10's
+    HiGHS aborts on some LCPs at one bound and not at another) goes on to the next within
+    the nodes and time left; a time or node limit ends the search. The words say what each
+    bound found (a smaller bound's `no solution` left out when the largest has none)."""
     n = q.size
     if n == 0 or n > MIP_MAX_SIZE:
         return None, f"no mixed-integer search (size {n} > {MIP_MAX_SIZE})"
@@ -248,17 +262,28 @@ def _basis(m: np.ndarray, q: np.ndarray, accept: Callable[[np.ndarray], bool], *
             for basis in ([z] if np.array_equal(z, y) else [z, y]):
                 if accept(basis):
                     return basis, ("a mixed-integer search found a basis (the scaled "
-                                   f"unknowns below {b:.0e} x the largest constant term)")
+                                   f"unknowns below {b:.0e} x the largest constant term)"
+                                   + (f", after {', then '.join(notes)}" if notes else ""))
             notes.append(f"one below {b:.0e} that Lemke's check did not accept")
+        elif getattr(res, "crashed", False):  # that bound's HiGHS died: the next one may not
+            notes.append(f"none below {b:.0e} ({res.message})")
         elif res.status != 2:
             notes.append(f"none before its limit ({res.message})")
             break
-        elif b == bounds[-1]:
+        elif b != bounds[-1]:
+            notes.append(f"no solution below {b:.0e}")
+        else:  # (none below the largest bound: none below the smaller ones either)
+            notes = [note for note in notes if not note.startswith("no solution below")]
             wider = "" if widen is None or not (widen > 1.0).any() else \
                 f" ({int((widen > 1.0).sum())} of them up to {b * factor.max():.1e})"
             notes.append(f"no solution with the scaled unknowns below {b:.0e} x the largest "
                          f"constant term{wider}")
-        if nodes <= 0 and b != bounds[-1]:
+        if b == bounds[-1]:
+            break
+        if nodes <= 0:
             notes.append("no nodes left")
+            break
+        if end - time.monotonic() < 1.0:
+            notes.append("no time left")
             break
     return None, "a mixed-integer search found " + ", then ".join(notes)
