@@ -1,0 +1,55 @@
+"""Integers beyond TOML's 64 bits in a config file or a --set (app/config.py).
+
+Before, `E = 0x` followed by 5000 `f` ended in `OverflowError: int too large to convert to
+float`, `E = 1` followed by 5000 zeros in tomllib's `ValueError: Exceeds the limit (4300
+digits) for integer string conversion`, and `--set body.99...9.E=1` (5000 nines) or
+`--set body.².E=1` in the same ValueError from the index: tracebacks, exit 1.
+"""
+
+import pytest
+from support import CONFIGS, read_summary, run_cli
+
+from app.config import load_config
+from app.errors import InputError
+
+PATCH = (CONFIGS / "patch.toml").read_text()
+
+
+@pytest.mark.parametrize("old, new, match", [
+    ("E = 1000.0", "E = 0x" + "f" * 5000, r"body\.0\.E is an integer of 20000 bits"),
+    ("E = 1000.0", "E = 1" + "0" * 5000, r"an integer of more than 19 digits"),
+    ("E = 1000.0", "E = 9223372036854775808", r"body\.0\.E is an integer of 64 bits"),
+    ("pressure = 10.0", 'pressure = "P"\n[parameters]\nP = 0x' + "f" * 300,
+     r"parameters\.P is an integer of 1200 bits"),
+])
+def test_a_config_file_integer_beyond_64_bits_is_refused(tmp_path, old, new, match):
+    path = tmp_path / "c.toml"
+    path.write_text(PATCH.replace(old, new, 1))
+    with pytest.raises(InputError, match=match):
+        load_config(path)
+
+
+def test_the_largest_64_bit_integer_is_accepted(tmp_path):
+    path = tmp_path / "c.toml"
+    path.write_text(PATCH.replace("E = 1000.0", "E = 9223372036854775807", 1))
+    assert load_config(path).E[0] == 9223372036854775807.0
+
+
+@pytest.mark.parametrize("item, match", [
+    ("body.lower.E=0x" + "f" * 5000, r"--set: body\.0\.E is an integer of 20000 bits"),
+    ("body.lower.E=1" + "0" * 5000, r"an integer of more than 19 digits"),
+    ("body." + "9" * 5000 + ".E=1", r"no entry '9999"),
+    ("body.\u00b2.E=1", r"no entry '\u00b2'"),
+])
+def test_a_set_integer_or_index_beyond_64_bits_is_refused(item, match):
+    with pytest.raises(InputError, match=match):
+        load_config(CONFIGS / "patch.toml", [item])
+
+
+def test_the_run_fails_in_one_line(tmp_path):
+    path = tmp_path / "c.toml"
+    path.write_text(PATCH.replace("E = 1000.0", "E = 0x" + "f" * 5000, 1))
+    res = run_cli(["run", str(path), "--out", str(tmp_path / "o"), "--quiet"])
+    assert res.returncode == 2 and res.stderr.startswith("error: config file"), res.stderr
+    assert len(res.stderr.strip().splitlines()) == 1
+    assert read_summary(tmp_path / "o")["status"] == "failed"
