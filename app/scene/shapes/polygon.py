@@ -9,7 +9,6 @@ from app.scene.geometry import Piece, polygon_areas, xy_point
 from app.scene.shapes.base import Shape
 from app.scene.shapes.polygon_simple import crossing_sides
 
-
 MAX_POINTS = 10_000
 """Corners of one polygon: the self-intersection test takes O(n^2) time (about 50 s at
 10,000 here), and a polygon is typed, not digitised (a finer outline is a mesh.file)."""
