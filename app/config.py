@@ -555,6 +555,12 @@ def _set_entry(entries: list, parts: list[str], value: Any, item: str) -> None:
                          f"an index 0..{len(entries)})")
 
 
+MAX_CONFIG_BYTES = 4 << 20
+"""Largest config file read: the shipped ones have at most a few kB, a 10,000-corner
+polygon about 400 kB. Before, a config's size had no bound: a 4.4 MB file listing 200,000
+`[[mesh.refine]]` points ran 25 s and 488 MB, and parsing and meshing grow with the file."""
+
+
 def load_config(path: str | Path, overrides: list[str] | None = None) -> Config:
     """Read and check a TOML scene file; `overrides` are `--set KEY=VALUE` strings."""
     p = Path(path)
@@ -565,17 +571,21 @@ def load_config(path: str | Path, overrides: list[str] | None = None) -> Config:
         raise InputError(f"config file '{p}' is not a regular file")
     try:
         with p.open("rb") as fh:
-            raw = tomllib.load(fh)
+            data = fh.read(MAX_CONFIG_BYTES + 1)
+        if len(data) > MAX_CONFIG_BYTES:
+            raise InputError(f"config file '{p}' is larger than {MAX_CONFIG_BYTES >> 20} MB: "
+                             "a scene needs far less (a mesh goes in mesh.file)")
+        raw = tomllib.loads(data.decode("utf-8"))
     except tomllib.TOMLDecodeError as exc:
         raise InputError(f"config file '{p}' is not valid TOML: {exc}") from None
+    except UnicodeDecodeError as exc:
+        raise InputError(f"config file '{p}' is not UTF-8 text (byte {exc.start}): save it "
+                         "as UTF-8") from None
     except ValueError:  # int(): more than 4300 digits (sys.get_int_max_str_digits)
         raise InputError(f"config file '{p}' has an integer of more than "
                          f"{INT64_DIGITS} digits: TOML integers are 64-bit") from None
     except RecursionError:  # tomllib recurses per nested array or inline table
         raise InputError(f"config file '{p}' nests arrays or tables too deeply") from None
-    except UnicodeDecodeError as exc:
-        raise InputError(f"config file '{p}' is not UTF-8 text (byte {exc.start}): save it "
-                         "as UTF-8") from None
     except OSError as exc:
         raise InputError(f"config file '{p}' cannot be read: {exc.strerror}") from None
     check_integers(raw, f"config file '{p}': ")
