@@ -451,22 +451,52 @@ error must be thrown" (TOML 1.0), which tomllib does not do."""
 INT64_DIGITS = 19
 
 
-def check_integers(raw: Any, where: str) -> None:
-    """InputError naming the key of the first integer outside 64 bits (iteratively).
+UNPRINTABLE = re.compile("[\x00-\x08\x0b-\x1f\x7f-\x9f\u061c\u200e\u200f\u202a-\u202e"
+                         "\u2066-\u2069]")
+"""Control characters (C0 but tab and newline, DEL, C1) and bidirectional formatting
+characters, refused in every key and string of a config: names reach the terminal in
+progress, warning and error lines."""
+MULTILINE_KEYS = re.compile(r"(^|\.)(title|ux|uy)$|\.traction(\.\d+)?$")
+"""Values that may hold a newline: the title and expressions (never printed raw)."""
+
+
+def _value_problem(key: str, node: Any) -> str | None:
+    """Why a config value (or key) is refused, or None."""
+    if isinstance(node, int) and not isinstance(node, bool) and not (
+            INT64[0] <= node <= INT64[1]):
+        return (f"{key} is an integer of {node.bit_length()} bits: TOML integers are 64-bit "
+                "(write a float, e.g. 1e30, if you mean one)")
+    if isinstance(node, str):
+        bad = UNPRINTABLE.search(node) or (not MULTILINE_KEYS.search(key)
+                                           and re.search("\n", node))
+        if bad:
+            return (f"{key} contains the control character U+{ord(bad.group()):04X}: names "
+                    "and values are printed on the terminal (escape sequences, line breaks "
+                    "and text direction marks are refused)")
+    return None
+
+
+def check_values(raw: Any, where: str) -> None:
+    """InputError naming the key of the first integer outside 64 bits, or of the first
+    key or string with a control character (a tab anywhere, a newline only in `title`
+    and expressions), iteratively.
 
     Before, `E = 0x` followed by 5000 `f` (an integer of 6000 digits) ended in an
-    `OverflowError: int too large to convert to float` traceback, exit 1."""
+    `OverflowError: int too large to convert to float` traceback, exit 1, and an interface
+    named "if\u001b[2J" cleared the terminal from its progress line."""
     stack: list[tuple[str, Any]] = [("", raw)]
     while stack:
         key, node = stack.pop()
         if isinstance(node, dict):
-            stack += [(f"{key}.{k}" if key else str(k), v) for k, v in node.items()]
+            for k, v in node.items():
+                name = f"{key}.{k}" if key else str(k)
+                if why := _value_problem(f"the key {name!r}", str(k)):
+                    raise InputError(f"{where}{why}")
+                stack.append((name, v))
         elif isinstance(node, list):
             stack += [(f"{key}.{i}", v) for i, v in enumerate(node)]
-        elif isinstance(node, int) and not isinstance(node, bool) and not (
-                INT64[0] <= node <= INT64[1]):
-            raise InputError(f"{where}{key} is an integer of {node.bit_length()} bits: TOML "
-                             "integers are 64-bit (write a float, e.g. 1e30, if you mean one)")
+        elif why := _value_problem(key, node):
+            raise InputError(f"{where}{why}")
 
 
 def _is_index(part: str) -> bool:
@@ -588,9 +618,9 @@ def load_config(path: str | Path, overrides: list[str] | None = None) -> Config:
         raise InputError(f"config file '{p}' nests arrays or tables too deeply") from None
     except OSError as exc:
         raise InputError(f"config file '{p}' cannot be read: {exc.strerror}") from None
-    check_integers(raw, f"config file '{p}': ")
+    check_values(raw, f"config file '{p}': ")
     check_config_file_petsc(raw.get("petsc"), p)  # the file's own table, before --set
     if overrides:
         apply_overrides(raw, overrides)
-        check_integers(raw, "--set: ")
+        check_values(raw, "--set: ")
     return parse_config(raw, p)

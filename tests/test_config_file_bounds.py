@@ -72,3 +72,35 @@ def test_a_latin1_file_is_still_named_as_not_utf8(tmp_path):
     path.write_bytes(PATCH.encode() + b'title = "\xe9"\n')
     with pytest.raises(InputError, match=r"is not UTF-8 text \(byte"):
         load_config(path)
+
+
+@pytest.mark.parametrize("old, new, match", [
+    ('name = "interface"', 'name = "if\\u001b[2J\\u202eevil"',
+     r"interface\.0\.name contains the control character U\+001B"),
+    ('on = "upper_top"', 'on = "upper_top\\u001b]0;title\\u0007"', r"load\.0\.on .* U\+001B"),
+    ('name = "upper"', 'name = "up\\u202eper"', r"body\.1\.name .* U\+202E"),
+    ('name = "upper"', 'name = """up\nper"""', r"body\.1\.name .* U\+000A"),
+    ("[[support]]", '[points]\n"p\\u0000" = [0.0, 0.0]\n[[support]]', r"the key 'points.p\\x00'"),
+])
+def test_control_characters_in_names_and_keys_are_refused(tmp_path, old, new, match):
+    path = tmp_path / "c.toml"
+    path.write_text(PATCH.replace(old, new, 1))
+    with pytest.raises(InputError, match=match):
+        load_config(path)
+
+
+def test_a_title_or_expression_may_span_lines_and_a_name_hold_a_tab(tmp_path):
+    path = tmp_path / "c.toml"
+    path.write_text('title = """Patch\ntest"""\n' + PATCH.replace(
+        'name = "upper"', 'name = "up\\tper"').replace('ux = 0.0', 'ux = """(0.0\n* x)"""', 1))
+    assert load_config(path).body_names == ["lower", "up\tper"]
+
+
+def test_an_escape_sequence_in_a_name_never_reaches_the_terminal(tmp_path):
+    """Before: exit 0, and the progress line `step 1/1; ...; if<ESC>[2J<RLO>evil F=...`
+    cleared the terminal and reversed the rest of the line."""
+    path = tmp_path / "c.toml"
+    path.write_text(PATCH.replace('name = "interface"', 'name = "if\\u001b[2J\\u202eevil"'))
+    res = run_cli(["run", str(path), "--out", str(tmp_path / "o")])
+    assert res.returncode == 2 and "\x1b" not in res.stderr + res.stdout, res.stderr
+    assert read_summary(tmp_path / "o")["status"] == "failed"
