@@ -100,11 +100,11 @@ def check_config_file_petsc(table: object, path: Path | str) -> None:
     if not isinstance(table, dict):
         return
     for key, value in table.items():
-        if isinstance(value, bool):
-            value = ""  # the bare flag, or (false) off: only the name counts
-        why = refusal(str(key), str(value))
+        text = "" if isinstance(value, bool) else str(value)  # a flag: only the name counts
+        why = refusal(str(key), text)
         if why:
+            shown = str(value).lower() if isinstance(value, bool) else repr(text)
             raise InputError(
-                f"config file '{path}': petsc.{key} = {str(value)!r} is not allowed in a "
+                f"config file '{path}': petsc.{key} = {shown} is not allowed in a "
                 f"config file ({why}); give it on the command line (-{str(key).lstrip('-')} "
                 f"...) if you mean it")
