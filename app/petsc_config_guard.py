@@ -17,6 +17,7 @@ file, before any `--set`). It is an allow-list:
   only: its type is `ascii` or empty (`true`, `""`, `ascii`, `::FORMAT`); no other value
   names a file (`TYPE:FILE...`; `ksp_view = "ascii:/home/me/.bashrc"` truncated that file
   before) or a viewer type that writes a file or connects somewhere (`binary`, `socket`);
+- `ksp_max_it` is at most MAX_ITERATIONS (a solve that never converges runs that long);
 - MUMPS's output units ICNTL(1)-ICNTL(3) are 6 (the standard output) or <= 0 (none):
   another unit, `mat_mumps_icntl_2 = 58`, wrote the file `fort.58` into the working
   directory.
@@ -55,6 +56,10 @@ REFUSED_WORDS = ("draw", "plot", "python", "binary", "dump", "save", "file", "so
 (`ksp_plot_eigenvalues` opened a drawing that `draw_save` wrote to any path)."""
 VIEWER_NAME = re.compile(r"(^|_)(view|monitor|converged_reason)(_|$)")
 """Options read as a viewer (`-ksp_view`, `-ksp_monitor_short`, `-ksp_converged_reason`)."""
+MAX_ITERATIONS = 100_000
+"""Largest `*ksp_max_it` in a config file (ten times PETSc's default 10,000): before,
+`ksp_type = "richardson"`, `ksp_richardson_scale = 1e-9`, `ksp_max_it = 2000000000` and
+tolerances of 1e-300 kept patch.toml's first solve busy for as long as it was let run."""
 MUMPS_UNIT = re.compile(r"(?:.*_)?mat_mumps_icntl_([123])\Z")
 """MUMPS's ICNTL(1)-ICNTL(3): Fortran output units (a unit N other than 6 is fort.N)."""
 
@@ -73,6 +78,14 @@ def _viewer_refusal(name: str, text: str) -> str | None:
     return None
 
 
+def _at_most(text: str, limit: int) -> bool:
+    """Whether `text` is a number <= limit (PETSc reads 1e5 as an integer too)."""
+    try:
+        return float(text) <= limit
+    except ValueError:
+        return False
+
+
 def refusal(key: str, value: str) -> str | None:
     """Why a config file may not set `-key value` (None: it may)."""
     name = key.strip().lstrip("-").lower()
@@ -84,6 +97,9 @@ def refusal(key: str, value: str) -> str | None:
         return "it draws, plots, names a file or loads Python code"
     if "python" in [t.strip() for t in text.lower().split(",")]:  # also pc_composite_pcs
         return "a Python type imports and calls Python code named in the config"
+    if name.endswith("ksp_max_it") and not _at_most(text, MAX_ITERATIONS):
+        return (f"more than {MAX_ITERATIONS} iterations per solve (a solve that never "
+                "converges would run that long)")
     unit = MUMPS_UNIT.match(name)
     if unit and text not in ("6", "0") and not re.fullmatch(r"-\d+", text):
         return (f"ICNTL({unit.group(1)}) is a Fortran output unit: {text} writes the "

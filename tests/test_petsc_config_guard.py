@@ -34,6 +34,7 @@ from app.petsc_config_guard import refusal
     ("pc_composite_pcs", "lu,python"), ("mat_mumps_icntl_2", "58"),
     ("mg_levels_1_mat_mumps_icntl_1", "7"), ("ksp_view", "stdout"), ("ksp_view", "vu"),
     ("ksp_view_eigenvalues", "draw"), ("ksp_monitor", "string"),
+    ("ksp_max_it", "2000000000"), ("sub_ksp_max_it", "1e9"), ("ksp_max_it", "many"),
 ])
 def test_file_writing_and_code_loading_options_are_refused(key, value):
     assert refusal(key, value)
@@ -48,6 +49,7 @@ def test_file_writing_and_code_loading_options_are_refused(key, value):
     ("mg_coarse_pc_type", "lu"), ("mat_mumps_icntl_4", "3"), ("mat_mumps_icntl_3", "6"),
     ("mat_mumps_icntl_1", "-1"), ("mat_mumps_icntl_2", "0"), ("ksp_view_eigenvalues", ""),
     ("options_left", ""), ("contact_candidate_pairs", "false"), ("ksp_monitor_short", ""),
+    ("ksp_max_it", "100000"), ("mg_levels_ksp_max_it", "2"),
 ])
 def test_ordinary_options_are_allowed(key, value):
     assert refusal(key, value) is None
