@@ -42,3 +42,10 @@ def test_runs_that_fit_or_are_allowed_pass(tmp_path, one_gb_free):
     check_run_input(cfg, _args(tmp_path))  # the config's own mesh: 0.03 GB
     check_run_input(load_config(CONFIGS / "patch.toml"), _args(tmp_path, mesh_size=0.01))
 
+
+
+def test_an_unusable_out_is_left_to_the_out_check(tmp_path):
+    """A 300-character --out made Path.exists raise (File name too long): the fuzzer's
+    regression case then saw an OSError traceback."""
+    cfg = load_config(CONFIGS / "patch.toml")
+    check_run_input(cfg, _args(tmp_path / ("n" * 300) / "x"))

@@ -198,11 +198,11 @@ def check_disk(est: SizeEstimate | None, n_steps: int, folder: str | Path, *,
         return
     need = n_steps * (STEP_FILE_BYTES + STEP_BYTES_PER_DOF * est.dofs)
     path = Path(folder).absolute()
-    while not path.exists() and path != path.parent:
-        path = path.parent
     try:
+        while not path.exists() and path != path.parent:
+            path = path.parent
         free = float(shutil.disk_usage(path).free)
-    except OSError:
+    except OSError:  # a name too long, no access: the --out check names it
         return
     if need > free:
         raise InputError(f"the run's {n_steps} step files would need about {need / 1e9:.3g} "
