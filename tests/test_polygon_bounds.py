@@ -72,3 +72,18 @@ def test_too_many_refinement_zones_is_one_line(kind, entry) -> None:
         parse_scene(cfg)
     cfg["mesh"][kind] = cfg["mesh"][kind][:MAX_ZONES]
     parse_scene(cfg)
+
+
+def test_too_many_named_points_is_one_line() -> None:
+    """Before: 100,000 [points] names ran patch.toml for 106 s (a search of every node per
+    name) and wrote a 14.9 MB summary.json."""
+    from app.scene.parse import MAX_NAMED_POINTS
+
+    body = {"name": "b", "shape": {"type": "rectangle", "origin": [0.0, 0.0], "width": 1.0,
+                                   "height": 1.0}}
+    points = {f"p{k}": [0.0, 0.0] for k in range(MAX_NAMED_POINTS + 1)}
+    with pytest.raises(InputError, match=r"\[points\] has 1001 names, more than 1000"):
+        parse_scene({"mesh": {"size": 0.2}, "body": [body], "points": points})
+    points.pop("p0")
+    assert len(parse_scene({"mesh": {"size": 0.2}, "body": [body], "points": points}).points) \
+        == MAX_NAMED_POINTS

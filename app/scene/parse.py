@@ -22,6 +22,10 @@ from app.scene.shapes import SHAPES
 REFINE_KEYS = ("curves", "points", "size", "distance", "flat")
 PATCH_KEYS = ("box", "size")
 GMSH_ONLY_KEYS = ("refine", "patch", "algorithm")
+MAX_NAMED_POINTS = 1000
+"""[points] names at most: each is matched to its node by a search of every mesh node, and
+written per step; 100,000 of them (2.5 MB) ran patch.toml for 106 s into a 14.9 MB
+summary.json."""
 MAX_ZONES = 1000
 """[[mesh.refine]] and [[mesh.patch]] entries at most, each: every entry is a gmsh size
 field per body, and gmsh's time to add one grows with the fields there are (5000 entries
@@ -179,8 +183,12 @@ def parse_scene(cfg: dict, *, need_shapes: bool | None = None) -> Scene:
                              "the file's mesh in gmsh, or split it with --refine)")
     size = math.nan if file is not None and "size" not in mesh else _number(mesh, "size",
                                                                             "mesh.")
-    named = {name: _xy(v, f"points.{name}")
-             for name, v in _table(cfg.get("points", {}), "[points]").items()}
+    points_cfg = _table(cfg.get("points", {}), "[points]")
+    if len(points_cfg) > MAX_NAMED_POINTS:
+        raise InputError(f"[points] has {len(points_cfg)} names, more than "
+                         f"{MAX_NAMED_POINTS}: name only the points supports, loads and "
+                         "references use")
+    named = {name: _xy(v, f"points.{name}") for name, v in points_cfg.items()}
     bodies_cfg = cfg.get("body")
     if not isinstance(bodies_cfg, list) or not bodies_cfg:
         raise InputError("[[body]] is missing: the config needs at least one body")
