@@ -405,7 +405,7 @@ def check_run_input(cfg, args, finest_level: int = 0) -> float:
     """Checks of the command line against the config before any work; returns the mesh
     size scale (--mesh-size / mesh.size). Raises InputError (one line)."""
     from app.errors import InputError
-    from app.mesh.estimate import check_resolution, check_size
+    from app.mesh.estimate import check_disk, check_resolution, check_size
     from app.petsc_options import check_log_view_file, check_solver_options
 
     check_solver_options(cfg.petsc)
@@ -429,8 +429,9 @@ def check_run_input(cfg, args, finest_level: int = 0) -> float:
     check_resolution(cfg.scene, scale * 2.0**-finest_level,  # splits follow the arcs
                      given=args.mesh_size or cfg.mesh_size,
                      option="--mesh-size" if args.mesh_size else "mesh.size")
-    check_size(cfg.scene, scale * 2.0**-finest_level, allow_large=args.allow_large,
-               base_dir=cfg.path.parent, refine=finest_level)
+    est = check_size(cfg.scene, scale * 2.0**-finest_level, allow_large=args.allow_large,
+                     base_dir=cfg.path.parent, refine=finest_level)
+    check_disk(est, cfg.n_steps, args.out or "out", allow_large=args.allow_large)
     return scale
 
 

@@ -445,12 +445,75 @@ def _reference_table(raw: dict) -> dict | None:
     return dict(table)
 
 
+INT64 = (-(2**63), 2**63 - 1)
+"""TOML's integers are 64-bit signed: "if an integer cannot be represented losslessly, an
+error must be thrown" (TOML 1.0), which tomllib does not do."""
+INT64_DIGITS = 19
+
+
+UNPRINTABLE = re.compile("[\x00-\x08\x0b-\x1f\x7f-\x9f\u061c\u200e\u200f\u202a-\u202e"
+                         "\u2066-\u2069]")
+"""Control characters (C0 but tab and newline, DEL, C1) and bidirectional formatting
+characters, refused in every key and string of a config: names reach the terminal in
+progress, warning and error lines."""
+MULTILINE_KEYS = re.compile(r"(^|\.)(title|ux|uy)$|\.traction(\.\d+)?$")
+"""Values that may hold a newline: the title and expressions (never printed raw)."""
+
+
+def _value_problem(key: str, node: Any) -> str | None:
+    """Why a config value (or key) is refused, or None."""
+    if isinstance(node, int) and not isinstance(node, bool) and not (
+            INT64[0] <= node <= INT64[1]):
+        return (f"{key} is an integer of {node.bit_length()} bits: TOML integers are 64-bit "
+                "(write a float, e.g. 1e30, if you mean one)")
+    if isinstance(node, str):
+        bad = UNPRINTABLE.search(node) or (not MULTILINE_KEYS.search(key)
+                                           and re.search("\n", node))
+        if bad:
+            return (f"{key} contains the control character U+{ord(bad.group()):04X}: names "
+                    "and values are printed on the terminal (escape sequences, line breaks "
+                    "and text direction marks are refused)")
+    return None
+
+
+def check_values(raw: Any, where: str) -> None:
+    """InputError naming the key of the first integer outside 64 bits, or of the first
+    key or string with a control character (a tab anywhere, a newline only in `title`
+    and expressions), iteratively.
+
+    Before, `E = 0x` followed by 5000 `f` (an integer of 6000 digits) ended in an
+    `OverflowError: int too large to convert to float` traceback, exit 1, and an interface
+    named "if\u001b[2J" cleared the terminal from its progress line."""
+    stack: list[tuple[str, Any]] = [("", raw)]
+    while stack:
+        key, node = stack.pop()
+        if isinstance(node, dict):
+            for k, v in node.items():
+                name = f"{key}.{k}" if key else str(k)
+                if why := _value_problem(f"the key {name!r}", str(k)):
+                    raise InputError(f"{where}{why}")
+                stack.append((name, v))
+        elif isinstance(node, list):
+            stack += [(f"{key}.{i}", v) for i, v in enumerate(node)]
+        elif why := _value_problem(key, node):
+            raise InputError(f"{where}{why}")
+
+
+def _is_index(part: str) -> bool:
+    """A 0-based index in a --set key: ASCII digits, at most 19 (`int()` of 5000 digits,
+    or of `²`, raised a ValueError traceback)."""
+    return part.isascii() and part.isdigit() and len(part) <= INT64_DIGITS
+
+
 def _override_value(text: str) -> Any:
     """A TOML value (number, bool, string, array, inline table); bare words are strings."""
     try:
         return tomllib.loads(f"v = {text}")["v"]
     except tomllib.TOMLDecodeError:
         return text
+    except ValueError:  # int(): more than 4300 digits
+        raise InputError(f"--set value {text[:40]!r}...: an integer of more than "
+                         f"{INT64_DIGITS} digits: TOML integers are 64-bit") from None
     except RecursionError:
         raise InputError(f"--set value {text[:40]!r}...: arrays or tables nested too "
                          "deeply") from None
@@ -477,15 +540,15 @@ def apply_overrides(raw: dict[str, Any], overrides: list[str]) -> dict[str, Any]
             here = ".".join(parts[: i + 1])
             if isinstance(node, dict):
                 if part not in node:  # a new table, or a new array of tables ("x.0.key")
-                    node[part] = [] if parts[i + 1].isdigit() else {}
+                    node[part] = [] if _is_index(parts[i + 1]) else {}
                 node = node[part]
             elif isinstance(node, list):
                 names = [t.get("name") for t in node if isinstance(t, dict)]
                 if part in names:
                     node = node[names.index(part)]
-                elif part.isdigit() and int(part) < len(node):
+                elif _is_index(part) and int(part) < len(node):
                     node = node[int(part)]
-                elif part.isdigit() and int(part) == len(node):  # append a new entry
+                elif _is_index(part) and int(part) == len(node):  # append a new entry
                     node.append({})
                     node = node[-1]
                 else:
@@ -513,13 +576,19 @@ def _set_entry(entries: list, parts: list[str], value: Any, item: str) -> None:
     names = [t.get("name") for t in entries if isinstance(t, dict)]
     if last in names:
         entries[names.index(last)] = value
-    elif last.isdigit() and int(last) < len(entries):
+    elif _is_index(last) and int(last) < len(entries):
         entries[int(last)] = value
-    elif last.isdigit() and int(last) == len(entries):
+    elif _is_index(last) and int(last) == len(entries):
         entries.append(value)
     else:
         raise InputError(f"--set {item!r}: no entry '{last}' in {where} (names: {names}, or "
                          f"an index 0..{len(entries)})")
+
+
+MAX_CONFIG_BYTES = 4 << 20
+"""Largest config file read: the shipped ones have at most a few kB, a 10,000-corner
+polygon about 400 kB. Before, a config's size had no bound: a 4.4 MB file listing 200,000
+`[[mesh.refine]]` points ran 25 s and 488 MB, and parsing and meshing grow with the file."""
 
 
 def load_config(path: str | Path, overrides: list[str] | None = None) -> Config:
@@ -532,17 +601,26 @@ def load_config(path: str | Path, overrides: list[str] | None = None) -> Config:
         raise InputError(f"config file '{p}' is not a regular file")
     try:
         with p.open("rb") as fh:
-            raw = tomllib.load(fh)
+            data = fh.read(MAX_CONFIG_BYTES + 1)
+        if len(data) > MAX_CONFIG_BYTES:
+            raise InputError(f"config file '{p}' is larger than {MAX_CONFIG_BYTES >> 20} MB: "
+                             "a scene needs far less (a mesh goes in mesh.file)")
+        raw = tomllib.loads(data.decode("utf-8"))
     except tomllib.TOMLDecodeError as exc:
         raise InputError(f"config file '{p}' is not valid TOML: {exc}") from None
-    except RecursionError:  # tomllib recurses per nested array or inline table
-        raise InputError(f"config file '{p}' nests arrays or tables too deeply") from None
     except UnicodeDecodeError as exc:
         raise InputError(f"config file '{p}' is not UTF-8 text (byte {exc.start}): save it "
                          "as UTF-8") from None
+    except ValueError:  # int(): more than 4300 digits (sys.get_int_max_str_digits)
+        raise InputError(f"config file '{p}' has an integer of more than "
+                         f"{INT64_DIGITS} digits: TOML integers are 64-bit") from None
+    except RecursionError:  # tomllib recurses per nested array or inline table
+        raise InputError(f"config file '{p}' nests arrays or tables too deeply") from None
     except OSError as exc:
         raise InputError(f"config file '{p}' cannot be read: {exc.strerror}") from None
+    check_values(raw, f"config file '{p}': ")
     check_config_file_petsc(raw.get("petsc"), p)  # the file's own table, before --set
     if overrides:
         apply_overrides(raw, overrides)
+        check_values(raw, "--set: ")
     return parse_config(raw, p)

@@ -6,8 +6,11 @@ can write), `mat_view = "binary"` wrote `binaryoutput` into the working director
 (exit 134, a C backtrace). The user's own command line and --set stay unrestricted.
 """
 
+import subprocess
+import sys
+
 import pytest
-from support import CONFIGS, read_summary, run_cli
+from support import CONFIGS, mpi_env, read_summary, run_cli
 
 from app.config import load_config
 from app.errors import InputError
@@ -21,16 +24,32 @@ from app.petsc_config_guard import refusal
     ("ksp_type", "PYTHON"), ("pc_python_type", "os.abort"), ("snes_python_type", "m.C"),
     ("options_file", "/etc/passwd"), ("history", "h.txt"), ("start_in_debugger", "gdb"),
     ("viewer_binary_filename", "b.dat"), ("-ksp_view", "ascii:f"),
+    # not on the allow-list (before, accepted: draw_save wrote images anywhere)
+    ("draw_save", "/tmp/x.ppm"), ("draw_type", "image"), ("dll_append", "/tmp/evil.so"),
+    ("dynamic_library_preload", "e.so"), ("malloc_dump", ""), ("on_error_attach_debugger", ""),
+    ("START_IN_DEBUGGER", ""), ("no_such_option", "1"), ("ksp_rtol -options_file", "x"),
+    # solver names that draw or write, Python anywhere, units that write fort.N files
+    ("ksp_plot_eigenvalues", ""), ("ksp_monitor_lg_residualnorm", ""),
+    ("mat_view_draw", ""), ("pc_mg_dump_binary", ""), ("sub_pc_python_type", "m.C"),
+    ("pc_composite_pcs", "lu,python"), ("mat_mumps_icntl_2", "58"),
+    ("mg_levels_1_mat_mumps_icntl_1", "7"), ("ksp_view", "stdout"), ("ksp_view", "vu"),
+    ("ksp_view_eigenvalues", "draw"), ("ksp_monitor", "string"),
+    ("ksp_max_it", "2000000000"), ("sub_ksp_max_it", "1e9"), ("ksp_max_it", "many"),
 ])
 def test_file_writing_and_code_loading_options_are_refused(key, value):
     assert refusal(key, value)
 
 
 @pytest.mark.parametrize("key, value", [
-    ("log_view", "true"), ("log_view", ""), ("ksp_view", "ascii"), ("ksp_view", "stdout"),
+    ("log_view", "true"), ("log_view", ""), ("ksp_view", "ascii"),
     ("ksp_monitor", "::ascii_info_detail"), ("ksp_type", "cg"), ("pc_type", "gamg"),
     ("pc_factor_mat_solver_type", "mumps"), ("mat_mumps_icntl_14", "50"),
     ("ksp_rtol", "1e-10"), ("contact_compliance", "solve"),
+    ("sub_pc_type", "icc"), ("mg_levels_ksp_type", "chebyshev"), ("mg_levels_2_pc_type", "sor"),
+    ("mg_coarse_pc_type", "lu"), ("mat_mumps_icntl_4", "3"), ("mat_mumps_icntl_3", "6"),
+    ("mat_mumps_icntl_1", "-1"), ("mat_mumps_icntl_2", "0"), ("ksp_view_eigenvalues", ""),
+    ("options_left", ""), ("contact_candidate_pairs", "false"), ("ksp_monitor_short", ""),
+    ("ksp_max_it", "100000"), ("mg_levels_ksp_max_it", "2"),
 ])
 def test_ordinary_options_are_allowed(key, value):
     assert refusal(key, value) is None
@@ -62,3 +81,23 @@ def test_a_shared_config_leaves_files_alone_and_runs_no_code(tmp_path):
             res.stderr.strip().splitlines()) == 1, res.stderr
         assert read_summary(out)["status"] == "failed"
     assert victim.read_text() == "keep me\n"
+
+
+def test_a_shared_config_cannot_draw_images_anywhere_or_write_fortran_units(tmp_path):
+    """Before the allow-list: `draw_type = "image"`, `draw_save = FILE` and
+    `ksp_plot_eigenvalues = true` wrote FILE_0.ppm ... FILE_25.ppm and a folder FILE
+    anywhere, and `mat_mumps_icntl_2 = 58` wrote fort.58 into the working directory."""
+    target = tmp_path / "elsewhere" / "victim"
+    target.parent.mkdir()
+    tables = [f'ksp_type = "gmres"\npc_type = "jacobi"\nksp_plot_eigenvalues = true\n'
+              f'draw_type = "image"\ndraw_save = "{target}.ppm"',
+              "mat_mumps_icntl_2 = 58"]
+    for n, petsc in enumerate(tables):
+        out = tmp_path / f"o{n}"
+        res = subprocess.run([sys.executable, "-m", "app", "run", str(_config(tmp_path, petsc)),
+                              "--out", str(out), "--quiet"], cwd=tmp_path, env=mpi_env(),
+                             capture_output=True, text=True, timeout=300)
+        assert res.returncode == 2, res.stderr
+        assert res.stderr.startswith("error: config file") and "not allowed" in res.stderr
+        assert read_summary(out)["status"] == "failed"
+    assert list(target.parent.iterdir()) == [] and not list(tmp_path.glob("fort.*"))

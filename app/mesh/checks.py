@@ -82,39 +82,49 @@ def check_interface_bodies(mesh: Mesh, interfaces) -> None:
 
 
 def check_overlaps(mesh: Mesh, interfaces) -> None:
-    """Bodies that overlap must be joined by an interface (interference fits are)."""
+    """Bodies that overlap must be joined by an interface (interference fits are).
+
+    Each body's probe points (element centres, and corners pulled CORNER_PULL towards
+    their centre) are tested against each other body whose bounding box overlaps its own
+    and that no interface joins to it, every such body at once (one k-d tree per body).
+    Before, a Python loop over every ordered pair of bodies built a tree per pair: 22 s of
+    the mesh phase at 1000 one-element bodies in a row, 4 times that at 2000."""
     nb = mesh.node_body()
-    joined = set()
+    nbody = len(mesh.body_names)
+    joined = np.zeros((nbody, nbody), bool)
+    np.fill_diagonal(joined, True)
     for it in interfaces:
         for c1 in (it.slave, it.master):
             for c2 in (it.slave, it.master):
                 if c1 in mesh.curves and c2 in mesh.curves:
-                    joined.add((int(nb[mesh.curves[c1][0, 0]]), int(nb[mesh.curves[c2][0, 0]])))
+                    joined[int(nb[mesh.curves[c1][0, 0]]), int(nb[mesh.curves[c2][0, 0]])] = True
     xe = mesh.points[mesh.quads]
     centre = xe.mean(axis=1)
-    nbody = len(mesh.body_names)
     lo = np.full((nbody, 2), np.inf)
     hi = np.full((nbody, 2), -np.inf)
     np.minimum.at(lo, mesh.body, xe.min(axis=1))
     np.maximum.at(hi, mesh.body, xe.max(axis=1))
+    # element centres, and corners pulled CORNER_PULL towards their centre (a thin
+    # overlap: before, bodies overlapping by less than half an element passed)
+    pulled = (1.0 - CORNER_PULL) * xe + CORNER_PULL * centre[:, None, :]
+    probes = np.concatenate([centre, pulled.reshape(-1, 2)])
+    owner = np.concatenate([mesh.body, np.repeat(mesh.body, 4)])
+    order = np.argsort(owner, kind="stable")  # by body; within one, centres then corners
+    probes, owner = probes[order], owner[order]
     for b in range(nbody):
-        for a in range(nbody):
-            if a == b or (a, b) in joined or (b, a) in joined:
-                continue
-            if np.any(lo[a] >= hi[b]) or np.any(lo[b] >= hi[a]):
-                continue  # bounding boxes apart
-            # element centres, and corners pulled CORNER_PULL towards their centre (a thin
-            # overlap: before, bodies overlapping by less than half an element passed)
-            ca, xa = centre[mesh.body == a], xe[mesh.body == a]
-            pulled = (1.0 - CORNER_PULL) * xa + CORNER_PULL * ca[:, None, :]
-            pts = np.concatenate([ca, pulled.reshape(-1, 2)])
-            inside = _centres_inside(pts, xe[mesh.body == b])
-            if inside.any():
-                c = pts[int(np.argmax(inside))]
-                raise InputError(
-                    f"bodies '{mesh.body_names[a]}' and '{mesh.body_names[b]}' overlap (near "
-                    f"x={c[0]:.4g}, y={c[1]:.4g}) and no [[interface]] joins them: move them "
-                    "apart or add an interface (interference = true for an intended fit)")
+        apart = np.any(lo >= hi[b], axis=1) | np.any(lo[b] >= hi, axis=1)
+        others = ~apart & ~joined[:, b] & ~joined[b, :]
+        if not others.any():
+            continue
+        take = others[owner]
+        inside = _centres_inside(probes[take], xe[mesh.body == b])
+        if inside.any():
+            k = int(np.argmax(inside))  # the first point of the first body a that overlaps
+            a, c = int(owner[take][k]), probes[take][k]
+            raise InputError(
+                f"bodies '{mesh.body_names[a]}' and '{mesh.body_names[b]}' overlap (near "
+                f"x={c[0]:.4g}, y={c[1]:.4g}) and no [[interface]] joins them: move them "
+                "apart or add an interface (interference = true for an intended fit)")
 
 
 def _centres_inside(pts: np.ndarray, xe: np.ndarray, k: int = 8,

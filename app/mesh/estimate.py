@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 import os
+import shutil
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -179,6 +180,35 @@ def check_size(scene: Scene, scale: float = 1.0, *, allow_large: bool = False,
                          f"{available / 1e9:.3g} GB of memory: use {fix}, or {option} to run "
                          "anyway")
     return est
+
+
+STEP_FILE_BYTES = 30e3
+STEP_BYTES_PER_DOF = 16.0
+"""A step file's size, about STEP_FILE_BYTES + STEP_BYTES_PER_DOF per DOF (a lower bound:
+patch.toml, 222 DOFs: 33,568 B; 2000 one-element bodies, 16,000 DOFs: 297,610 B)."""
+
+
+def check_disk(est: SizeEstimate | None, n_steps: int, folder: str | Path, *,
+               allow_large: bool = False, option: str = "--allow-large") -> None:
+    """Refuse (InputError, one line) a run whose step files would not fit on the disk of
+    `folder` (or of its nearest existing parent). Before, only memory was estimated:
+    `analysis.steps = 100000` (the largest allowed) on a mesh that fits in memory went on
+    writing step files until the disk was full."""
+    if est is None or allow_large:
+        return
+    need = n_steps * (STEP_FILE_BYTES + STEP_BYTES_PER_DOF * est.dofs)
+    path = Path(folder).absolute()
+    try:
+        while not path.exists() and path != path.parent:
+            path = path.parent
+        free = float(shutil.disk_usage(path).free)
+    except OSError:  # a name too long, no access: the --out check names it
+        return
+    if need > free:
+        raise InputError(f"the run's {n_steps} step files would need about {need / 1e9:.3g} "
+                         f"GB ({est.dofs:.2g} DOFs each), more than the {free / 1e9:.3g} GB "
+                         f"free on the disk of {folder}: use fewer analysis.steps or a larger "
+                         f"--mesh-size, or {option} to run anyway")
 
 
 def check_resolution(scene: Scene, scale: float = 1.0, option: str = "--mesh-size",

@@ -22,6 +22,15 @@ from app.scene.shapes import SHAPES
 REFINE_KEYS = ("curves", "points", "size", "distance", "flat")
 PATCH_KEYS = ("box", "size")
 GMSH_ONLY_KEYS = ("refine", "patch", "algorithm")
+MAX_NAMED_POINTS = 1000
+"""[points] names at most: each is matched to its node by a search of every mesh node, and
+written per step; 100,000 of them (2.5 MB) ran patch.toml for 106 s into a 14.9 MB
+summary.json."""
+MAX_ZONES = 1000
+"""[[mesh.refine]] and [[mesh.patch]] entries at most, each: every entry is a gmsh size
+field per body, and gmsh's time to add one grows with the fields there are (5000 entries
+meshed patch.toml's two blocks in 17.6 s, 10,000 in 88 s; `python -m app run`, its `mesh`
+line). Points or curves sharing a size go into one entry."""
 """[mesh] keys of the gmsh builder: an error with mesh.file."""
 POINT_TOL = 1e-6  # named points must lie within POINT_TOL * body size of a mesh node
 
@@ -174,8 +183,12 @@ def parse_scene(cfg: dict, *, need_shapes: bool | None = None) -> Scene:
                              "the file's mesh in gmsh, or split it with --refine)")
     size = math.nan if file is not None and "size" not in mesh else _number(mesh, "size",
                                                                             "mesh.")
-    named = {name: _xy(v, f"points.{name}")
-             for name, v in _table(cfg.get("points", {}), "[points]").items()}
+    points_cfg = _table(cfg.get("points", {}), "[points]")
+    if len(points_cfg) > MAX_NAMED_POINTS:
+        raise InputError(f"[points] has {len(points_cfg)} names, more than "
+                         f"{MAX_NAMED_POINTS}: name only the points supports, loads and "
+                         "references use")
+    named = {name: _xy(v, f"points.{name}") for name, v in points_cfg.items()}
     bodies_cfg = cfg.get("body")
     if not isinstance(bodies_cfg, list) or not bodies_cfg:
         raise InputError("[[body]] is missing: the config needs at least one body")
@@ -190,6 +203,7 @@ def parse_scene(cfg: dict, *, need_shapes: bool | None = None) -> Scene:
     ref_cfg = mesh.get("refine", [])
     if not isinstance(ref_cfg, list):
         raise InputError("mesh.refine must be an array of tables [[mesh.refine]]")
+    _check_zone_count(ref_cfg, "refine", "its points or curves into fewer entries")
     refine = [_refine(_table(r, f"mesh.refine[{i}]"), f"mesh.refine[{i}].",
                       curve_owner if need_shapes else None) for i, r in enumerate(ref_cfg)]
     source = {"bodies": [{k: b.get(k) for k in ("name", "shape", "size", "curves")}
@@ -199,6 +213,7 @@ def parse_scene(cfg: dict, *, need_shapes: bool | None = None) -> Scene:
     patch_cfg = mesh.get("patch", [])
     if not isinstance(patch_cfg, list):
         raise InputError("mesh.patch must be an array of tables [[mesh.patch]]")
+    _check_zone_count(patch_cfg, "patch", "the boxes into fewer, larger ones")
     patches = [_patch(_table(r, f"mesh.patch[{i}]"), f"mesh.patch[{i}].")
                for i, r in enumerate(patch_cfg)]
     return Scene(size, file, bodies, refine, named, source, algorithm, patches)
@@ -257,6 +272,13 @@ def _check_curves(curves: dict, valid: list[str], kind: str, name: str, where: s
                 f"curve name '{cname}' is used by bodies '{owner}' and '{name}': "
                 "each body needs its own curve names"
             )
+
+
+def _check_zone_count(entries: list, kind: str, merge: str) -> None:
+    """InputError when [[mesh.KIND]] has more than MAX_ZONES entries."""
+    if len(entries) > MAX_ZONES:
+        raise InputError(f"mesh.{kind} has {len(entries)} entries, more than {MAX_ZONES}: "
+                         f"gather {merge} (meshing time grows faster than the entries)")
 
 
 def _refine(r: dict, where: str, curve_owner: dict[str, str] | None) -> Refine:

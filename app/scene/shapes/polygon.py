@@ -9,6 +9,10 @@ from app.scene.geometry import Piece, polygon_areas, xy_point
 from app.scene.shapes.base import Shape
 from app.scene.shapes.polygon_simple import crossing_sides
 
+MAX_POINTS = 10_000
+"""Corners of one polygon: the self-intersection test takes O(n^2) time (about 50 s at
+10,000 here), and a polygon is typed, not digitised (a finer outline is a mesh.file)."""
+
 
 class Polygon(Shape):
     name = "polygon"
@@ -18,6 +22,10 @@ class Polygon(Shape):
         pts = shape.get("points")
         if not isinstance(pts, list) or len(pts) < 3:
             raise InputError(f"{where}points must be a list of at least 3 points [x, y]")
+        if len(pts) > MAX_POINTS:
+            raise InputError(f"{where}points has {len(pts)} points, more than {MAX_POINTS}: "
+                             "give the outline fewer corners, or mesh it in gmsh and use "
+                             "mesh.file")
         p = np.array([xy_point(q, f"{where}points[{i}]") for i, q in enumerate(pts)])
         q = np.roll(p, -1, axis=0)
         seg = np.hypot(*(q - p).T)

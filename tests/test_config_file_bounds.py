@@ -1,0 +1,106 @@
+"""Bounds on what a config file holds (app/config.py): integers within TOML's 64 bits,
+at most MAX_CONFIG_BYTES.
+
+Before, `E = 0x` followed by 5000 `f` ended in `OverflowError: int too large to convert to
+float`, `E = 1` followed by 5000 zeros in tomllib's `ValueError: Exceeds the limit (4300
+digits) for integer string conversion`, and `--set body.99...9.E=1` (5000 nines) or
+`--set body.².E=1` in the same ValueError from the index: tracebacks, exit 1. A config
+file had no size bound: 200,000 `[[mesh.refine]]` points (4.4 MB) ran 25 s and 488 MB.
+"""
+
+import pytest
+from support import CONFIGS, read_summary, run_cli
+
+from app.config import MAX_CONFIG_BYTES, load_config
+from app.errors import InputError
+
+PATCH = (CONFIGS / "patch.toml").read_text()
+
+
+@pytest.mark.parametrize("old, new, match", [
+    ("E = 1000.0", "E = 0x" + "f" * 5000, r"body\.0\.E is an integer of 20000 bits"),
+    ("E = 1000.0", "E = 1" + "0" * 5000, r"an integer of more than 19 digits"),
+    ("E = 1000.0", "E = 9223372036854775808", r"body\.0\.E is an integer of 64 bits"),
+    ("pressure = 10.0", 'pressure = "P"\n[parameters]\nP = 0x' + "f" * 300,
+     r"parameters\.P is an integer of 1200 bits"),
+])
+def test_a_config_file_integer_beyond_64_bits_is_refused(tmp_path, old, new, match):
+    path = tmp_path / "c.toml"
+    path.write_text(PATCH.replace(old, new, 1))
+    with pytest.raises(InputError, match=match):
+        load_config(path)
+
+
+def test_the_largest_64_bit_integer_is_accepted(tmp_path):
+    path = tmp_path / "c.toml"
+    path.write_text(PATCH.replace("E = 1000.0", "E = 9223372036854775807", 1))
+    assert load_config(path).E[0] == 9223372036854775807.0
+
+
+@pytest.mark.parametrize("item, match", [
+    ("body.lower.E=0x" + "f" * 5000, r"--set: body\.0\.E is an integer of 20000 bits"),
+    ("body.lower.E=1" + "0" * 5000, r"an integer of more than 19 digits"),
+    ("body." + "9" * 5000 + ".E=1", r"no entry '9999"),
+    ("body.\u00b2.E=1", r"no entry '\u00b2'"),
+])
+def test_a_set_integer_or_index_beyond_64_bits_is_refused(item, match):
+    with pytest.raises(InputError, match=match):
+        load_config(CONFIGS / "patch.toml", [item])
+
+
+def test_the_run_fails_in_one_line(tmp_path):
+    path = tmp_path / "c.toml"
+    path.write_text(PATCH.replace("E = 1000.0", "E = 0x" + "f" * 5000, 1))
+    res = run_cli(["run", str(path), "--out", str(tmp_path / "o"), "--quiet"])
+    assert res.returncode == 2 and res.stderr.startswith("error: config file"), res.stderr
+    assert len(res.stderr.strip().splitlines()) == 1
+    assert read_summary(tmp_path / "o")["status"] == "failed"
+
+
+def test_a_config_file_larger_than_the_bound_is_refused(tmp_path):
+    path = tmp_path / "c.toml"
+    pad = "# " + "x" * 98 + "\n"
+    path.write_text(PATCH + pad * (MAX_CONFIG_BYTES // len(pad)))
+    with pytest.raises(InputError, match=r"larger than 4 MB"):
+        load_config(path)
+    path.write_text(PATCH + pad * (MAX_CONFIG_BYTES // len(pad) - 100))  # just below
+    assert load_config(path).body_names == ["lower", "upper"]
+
+
+def test_a_latin1_file_is_still_named_as_not_utf8(tmp_path):
+    path = tmp_path / "c.toml"
+    path.write_bytes(PATCH.encode() + b'title = "\xe9"\n')
+    with pytest.raises(InputError, match=r"is not UTF-8 text \(byte"):
+        load_config(path)
+
+
+@pytest.mark.parametrize("old, new, match", [
+    ('name = "interface"', 'name = "if\\u001b[2J\\u202eevil"',
+     r"interface\.0\.name contains the control character U\+001B"),
+    ('on = "upper_top"', 'on = "upper_top\\u001b]0;title\\u0007"', r"load\.0\.on .* U\+001B"),
+    ('name = "upper"', 'name = "up\\u202eper"', r"body\.1\.name .* U\+202E"),
+    ('name = "upper"', 'name = """up\nper"""', r"body\.1\.name .* U\+000A"),
+    ("[[support]]", '[points]\n"p\\u0000" = [0.0, 0.0]\n[[support]]', r"the key 'points.p\\x00'"),
+])
+def test_control_characters_in_names_and_keys_are_refused(tmp_path, old, new, match):
+    path = tmp_path / "c.toml"
+    path.write_text(PATCH.replace(old, new, 1))
+    with pytest.raises(InputError, match=match):
+        load_config(path)
+
+
+def test_a_title_or_expression_may_span_lines_and_a_name_hold_a_tab(tmp_path):
+    path = tmp_path / "c.toml"
+    path.write_text('title = """Patch\ntest"""\n' + PATCH.replace(
+        'name = "upper"', 'name = "up\\tper"').replace('ux = 0.0', 'ux = """(0.0\n* x)"""', 1))
+    assert load_config(path).body_names == ["lower", "up\tper"]
+
+
+def test_an_escape_sequence_in_a_name_never_reaches_the_terminal(tmp_path):
+    """Before: exit 0, and the progress line `step 1/1; ...; if<ESC>[2J<RLO>evil F=...`
+    cleared the terminal and reversed the rest of the line."""
+    path = tmp_path / "c.toml"
+    path.write_text(PATCH.replace('name = "interface"', 'name = "if\\u001b[2J\\u202eevil"'))
+    res = run_cli(["run", str(path), "--out", str(tmp_path / "o")])
+    assert res.returncode == 2 and "\x1b" not in res.stderr + res.stdout, res.stderr
+    assert read_summary(tmp_path / "o")["status"] == "failed"

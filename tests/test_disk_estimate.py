@@ -1,0 +1,51 @@
+"""A run whose step files would not fit on OUT's disk is refused before meshing
+(app/mesh/estimate.py, check_disk; called from app/cli.py, check_run_input).
+
+Before, only memory was estimated: `--set analysis.steps=1000 --mesh-size 0.01` on
+patch.toml (1e5 DOFs estimated) wrote 202 step files in its first 2 minutes, and
+`analysis.steps = 100000` would have gone on until the disk was full.
+"""
+
+from argparse import Namespace
+from collections import namedtuple
+
+import pytest
+from support import CONFIGS
+
+from app.cli import check_run_input
+from app.config import load_config
+from app.errors import InputError
+from app.mesh import estimate
+
+Usage = namedtuple("Usage", "total used free")
+
+
+@pytest.fixture
+def one_gb_free(monkeypatch):
+    monkeypatch.setattr(estimate.shutil, "disk_usage", lambda path: Usage(2e9, 1e9, 1e9))
+
+
+def _args(out, mesh_size=None, allow_large=False) -> Namespace:
+    return Namespace(mesh_size=mesh_size, out=str(out), allow_large=allow_large)
+
+
+def test_step_files_beyond_the_free_disk_are_refused(tmp_path, one_gb_free):
+    cfg = load_config(CONFIGS / "patch.toml", ["analysis.steps=1000"])
+    with pytest.raises(InputError, match=r"the run's 1000 step files would need about 1.6\d* "
+                                         r"GB .* more than the 1 GB free on the disk of"):
+        check_run_input(cfg, _args(tmp_path / "new" / "out", mesh_size=0.01))
+
+
+def test_runs_that_fit_or_are_allowed_pass(tmp_path, one_gb_free):
+    cfg = load_config(CONFIGS / "patch.toml", ["analysis.steps=1000"])
+    check_run_input(cfg, _args(tmp_path, mesh_size=0.01, allow_large=True))
+    check_run_input(cfg, _args(tmp_path))  # the config's own mesh: 0.03 GB
+    check_run_input(load_config(CONFIGS / "patch.toml"), _args(tmp_path, mesh_size=0.01))
+
+
+
+def test_an_unusable_out_is_left_to_the_out_check(tmp_path):
+    """A 300-character --out made Path.exists raise (File name too long): the fuzzer's
+    regression case then saw an OSError traceback."""
+    cfg = load_config(CONFIGS / "patch.toml")
+    check_run_input(cfg, _args(tmp_path / ("n" * 300) / "x"))

@@ -1,0 +1,89 @@
+"""A polygon's corners and the refinement zones cannot exhaust the machine before the
+size check (app/scene/shapes/polygon_simple.py, app/scene/shapes/polygon.py,
+app/scene/parse.py).
+
+Before, the self-intersection test built every one of the n^2 / 2 side pairs at once:
+486 MB at 2000 corners (traced by tracemalloc), 1.1 GB and 11 s at 3000 (RSS), and a
+15,000-corner `shape.points` in a config would have needed more memory than the machine's
+25 GB, all before the mesh-size estimate. It now tests at most PAIRS_PER_BLOCK pairs at
+once, and a polygon has at most MAX_POINTS corners.
+"""
+
+import tracemalloc
+
+import numpy as np
+import pytest
+
+from app.errors import InputError
+from app.mesh.build import build_mesh
+from app.scene import parse_scene
+from app.scene.shapes import polygon_simple
+from app.scene.shapes.polygon import MAX_POINTS
+
+
+def _circle(n: int) -> np.ndarray:
+    t = np.linspace(0.0, 2.0 * np.pi, n, endpoint=False)
+    return np.c_[np.cos(t), np.sin(t)]
+
+
+def test_the_crossing_test_memory_does_not_grow_with_the_pairs() -> None:
+    tracemalloc.start()
+    try:
+        assert polygon_simple.crossing_sides(_circle(2000)) is None
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 150e6, peak  # 486 MB before
+
+
+def test_blocks_find_the_same_first_pair_as_all_pairs(monkeypatch) -> None:
+    """Blocks of 7 pairs against one block of every pair, on random outlines."""
+    rng = np.random.default_rng(3)
+    cases = [rng.random((int(rng.integers(3, 12)), 2)) for _ in range(150)]
+    cases += [_circle(9), _circle(9)[[0, 1, 2, 3, 5, 4, 6, 7, 8]]]
+    whole = [polygon_simple.crossing_sides(p) for p in cases]
+    assert any(w is None for w in whole) and any(w is not None for w in whole)
+    monkeypatch.setattr(polygon_simple, "PAIRS_PER_BLOCK", 7)
+    assert [polygon_simple.crossing_sides(p) for p in cases] == whole
+
+
+def test_too_many_corners_is_one_line() -> None:
+    pts = (0.5 * _circle(MAX_POINTS + 1)).tolist()
+    cfg = {"mesh": {"size": 0.2}, "body": [
+        {"name": "p", "shape": {"type": "polygon", "points": pts}}]}
+    with pytest.raises(InputError, match=r"body 'p': shape.points has 10001 points, more "
+                                         r"than 10000"):
+        build_mesh(parse_scene(cfg))
+
+
+@pytest.mark.parametrize("kind, entry", [
+    ("refine", {"points": [[0.5, 0.5]], "size": 0.1, "distance": 0.0, "flat": 0.0}),
+    ("patch", {"box": [0.0, 0.0, 0.5, 0.5], "size": 0.1}),
+])
+def test_too_many_refinement_zones_is_one_line(kind, entry) -> None:
+    """Before: 5000 [[mesh.refine]] entries meshed patch.toml in 17.6 s, 10,000 in 88 s
+    (gmsh's time to add a field grows with the fields), no bound up to the file's size."""
+    from app.scene.parse import MAX_ZONES
+
+    cfg = {"mesh": {"size": 0.2, kind: [dict(entry) for _ in range(MAX_ZONES + 1)]},
+           "body": [{"name": "b", "shape": {"type": "rectangle", "origin": [0.0, 0.0],
+                                            "width": 1.0, "height": 1.0}}]}
+    with pytest.raises(InputError, match=rf"mesh.{kind} has 1001 entries, more than 1000"):
+        parse_scene(cfg)
+    cfg["mesh"][kind] = cfg["mesh"][kind][:MAX_ZONES]
+    parse_scene(cfg)
+
+
+def test_too_many_named_points_is_one_line() -> None:
+    """Before: 100,000 [points] names ran patch.toml for 106 s (a search of every node per
+    name) and wrote a 14.9 MB summary.json."""
+    from app.scene.parse import MAX_NAMED_POINTS
+
+    body = {"name": "b", "shape": {"type": "rectangle", "origin": [0.0, 0.0], "width": 1.0,
+                                   "height": 1.0}}
+    points = {f"p{k}": [0.0, 0.0] for k in range(MAX_NAMED_POINTS + 1)}
+    with pytest.raises(InputError, match=r"\[points\] has 1001 names, more than 1000"):
+        parse_scene({"mesh": {"size": 0.2}, "body": [body], "points": points})
+    points.pop("p0")
+    assert len(parse_scene({"mesh": {"size": 0.2}, "body": [body], "points": points}).points) \
+        == MAX_NAMED_POINTS
