@@ -530,6 +530,40 @@ def test_mortar_standard_refuses_a_clamped_interference_fit_as_mortar_does(tmp_p
     np.testing.assert_allclose(contact(out, 1)["gap"], 0.0, atol=1e-12)
 
 
+def _tilted(right: str) -> list[str]:
+    """interference.toml's fit tilted by 0.02 (the interface from y = 0.98 at x = 0 to
+    1.02 at x = 1, the upper strip 0.002 into the lower), roller left sides, the right
+    sides held by `right` (ux = 0.0, uy = 0.0: clamped; ux = 0.0: rollers)."""
+    return ['body.lower.shape={type="polygon",points=[[0.0,0.0],[1.0,0.0],[1.0,1.02],'
+            '[0.0,0.98]]}', 'body.lower.curves={side0="lower_base",side1="lower_right",'
+            'side2="lower_top",side3="lower_sides"}',
+            'body.upper.shape={type="polygon",points=[[0.0,0.978],[1.0,1.018],[1.0,2.0],'
+            '[0.0,2.0]]}', 'body.upper.curves={side0="upper_bottom",side1="upper_right",'
+            'side2="upper_top",side3="upper_sides"}',
+            'support=[{on="lower_base",ux=0.0,uy=0.0},{on="lower_sides",ux=0.0},'
+            '{on="upper_sides",ux=0.0},{on="upper_top",uy=0.0},'
+            f'{{on="lower_right",{right}}},{{on="upper_right",{right}}}]']
+
+
+@pytest.mark.parametrize("disc", ["node-to-segment", "mortar", "mortar-standard"])
+def test_a_tilted_clamped_interference_fit_is_refused_as_the_flat_one(tmp_path, disc):
+    """The tilt puts the clamped slave corner's projection 4e-4 into the master's end
+    segment, whose other node is free: the pair did not read as held, and the fit ran with
+    max p 1.66e8 (node-to-segment, mortar) or 117 (mortar-standard) and no warning, where
+    the flat fit is refused. Removing that overlap would move the free node by more than
+    its segment's length: the overlap is the supports' (reviewer `review11`). With roller
+    right sides it runs, max p near the flat fit's E' d0 / (H1 + H2)."""
+    use = f'interface.contact.discretisation="{disc}"'
+    with pytest.raises(SolveError, match=r"hold both sides of 1 pair\(s\) of interface "
+                       r"'contact' .*deepest 0.002 at the slave node x=1, y=1.018: the "
+                       r"interference fit's initial overlap 0.002\).*no finite-energy"):
+        solve(tmp_path, "interference", *_tilted("ux=0.0,uy=0.0"), use)
+    s, out = solve(tmp_path, "interference", *_tilted("ux=0.0"), use, tag="rollers")
+    assert s["status"] == "completed"
+    e_plane = 1000.0 * 0.7 / (1.3 * 0.4)  # E' of E = 1000, nu = 0.3 (plane strain)
+    np.testing.assert_allclose(contact(out, 1)["p"].max(), e_plane * 0.002 / 2.0, rtol=0.15)
+
+
 def test_a_tolerated_initial_overlap_at_clamped_corners_is_touching(tmp_path):
     """Both strips' sides clamped, pressed by 10, the upper strip 1e-9 into the lower one
     without `interference` (below the default penetration_tol, 1e-7 here: input that

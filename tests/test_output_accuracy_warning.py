@@ -181,3 +181,25 @@ def test_duplicate_pairs_are_judged_on_their_determined_forces(tmp_path):
     assert step["dependent_tangential_directions"] == 3
     assert step["lcp_accuracy"] < 1e-12
     assert not [w for w in summary.get("warnings", []) if "round-off limits" in w]
+
+
+def test_no_svd_where_no_null_space_can_be_explained(monkeypatch):
+    """An ill-conditioned states' system (relative_accuracy above SVD_FROM) without mode
+    amplitudes or alike pairs: no null space can lie in free unknowns or splits, so its
+    figure is relative_accuracy's without an SVD (at n = 1500 the SVD took 6 s beside the
+    LU's 0.3 s; it ran whatever the system since the alike pairs came in)."""
+    from app.lcp.conditioning import SVD_FROM
+
+    calls = []
+    svd = np.linalg.svd
+    monkeypatch.setattr(np.linalg, "svd", lambda a, *r, **kw: calls.append(1) or svd(a, *r, **kw))
+    rng = np.random.default_rng(3)
+    q, _ = np.linalg.qr(rng.standard_normal((8, 8)))
+    k = q @ np.diag(np.logspace(0, -12, 8)) @ q.T  # SPD, condition 1e12
+    assert relative_accuracy(k) > SVD_FROM
+    assert determined_accuracy(k, np.zeros(8, dtype=bool)) == relative_accuracy(k)
+    assert calls == []
+    free = np.zeros(8, dtype=bool)
+    free[-1] = True  # a mode amplitude: the SVD judges where the null space lies
+    assert determined_accuracy(k, free) == relative_accuracy(k)
+    assert calls == [1]

@@ -87,16 +87,20 @@ def determined_accuracy(k: np.ndarray, free: np.ndarray) -> float:
     sum to 0, only the group's sum is determined), the others are unique and their
     accuracy is that of k + U0 V0^T (U0, V0 the left and right null vectors: a unit tie on
     the null directions, the rest of k unchanged). Else, or when no null space explains
-    it, `relative_accuracy` of k itself (1.0 for a singular k)."""
+    it, `relative_accuracy` of k itself (1.0 for a singular k). Without free unknowns or
+    alike ones no null space can be explained: no SVD (at n = 1500, 6 s beside the LU's
+    0.3 s: reviewer `review11`)."""
     accuracy = relative_accuracy(k)
     if accuracy <= SVD_FROM or not np.isfinite(k).all():
+        return accuracy
+    group = alike_groups(k, ~free)[~free]
+    if not free.any() and (group < 0).all():
         return accuracy
     u, s, vt = np.linalg.svd(k)
     null = s <= s[0] * k.shape[0] * EPS
     if not null.any():
         return accuracy
     v = vt[null][:, ~free]  # (null, bound) the null vectors on the unknowns to be unique
-    group = alike_groups(k, ~free)[~free]
     heads = np.unique(group[group >= 0])
     sums = np.stack([v[:, group == h].sum(axis=1) for h in heads], axis=1) if heads.size \
         else np.zeros((v.shape[0], 0))
