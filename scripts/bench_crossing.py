@@ -66,6 +66,13 @@ def main() -> None:
                                                      "configs/multibody.toml"])
     ap.add_argument("--repeat", type=int, default=3)
     args = ap.parse_args()
+    if args.repeat < 1:
+        ap.error("--repeat must be at least 1")
+    for config in args.configs:
+        try:
+            (ROOT / config).read_bytes()
+        except OSError as exc:
+            ap.error(f"config {config}: {exc}")
     for config in args.configs:
         runs = [one_run(config) for _ in range(args.repeat)]
         bad = [r for r in runs if "error" in r]
