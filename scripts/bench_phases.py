@@ -3,8 +3,11 @@
 Runs every scene in configs/ and configs/hard/ (and the Hertz scene with CS-FEM-1SD,
 whose floating cylinder's hourglass modes take an eigen-solve) with
 `python -m app run` and prints one JSON line per scene: the total seconds, the sum of the
-phases in `timings`, their ratio, and the largest phase. Scenes that stop with exit 2 on
-purpose (hourglass_1sd.toml) are reported from their summary all the same.
+phases in `timings`, their ratio, the largest phase, and the process's wall seconds seen
+from here with what of them is in no phase (`wall_minus_total_s`: mpiexec's start, and
+the end after summary.json is written: the interpreter's teardown, PetscFinalize).
+Scenes that stop with exit 2 on purpose (hourglass_1sd.toml) are reported from their
+summary all the same.
 
     .venv/bin/python scripts/bench_phases.py [--skip cattaneo_many] [--ranks N]
 """
@@ -16,6 +19,7 @@ import json
 import shutil
 import subprocess
 import tempfile
+import time
 from pathlib import Path
 
 from app_runner import ENV, ROOT, app_command, failure_reason
@@ -25,7 +29,9 @@ def run(config: Path, extra: list[str], ranks: int) -> dict:
     out = Path(tempfile.mkdtemp(prefix="bench_phases_"))
     try:
         cmd = app_command(["run", str(config), "--out", str(out), "--quiet", *extra], ranks)
+        started = time.perf_counter()
         res = subprocess.run(cmd, cwd=ROOT, env=ENV, capture_output=True, text=True)
+        wall = time.perf_counter() - started
         path = out / "summary.json"
         if not path.exists():
             return {"error": failure_reason(res.stderr)}
@@ -40,7 +46,8 @@ def run(config: Path, extra: list[str], ranks: int) -> dict:
     return {"status": s["status"], "total_s": round(t["total"], 3),
             "phases_s": round(sum(phases.values()), 3),
             "phases_over_total": round(sum(phases.values()) / t["total"], 4),
-            "largest_phase": top}
+            "largest_phase": top, "wall_s": round(wall, 3),
+            "wall_minus_total_s": round(wall - t["total"], 3)}
 
 
 def main() -> None:
