@@ -10,6 +10,7 @@ Scenes that stop with exit 2 on purpose (hourglass_1sd.toml) are reported from t
 summary all the same.
 
     .venv/bin/python scripts/bench_phases.py [--skip cattaneo_many] [--ranks N]
+        [--only multibody cattaneo] [--repeat 3]   (--repeat: the median of each figure)
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ from __future__ import annotations
 import argparse
 import json
 import shutil
+import statistics
 import subprocess
 import tempfile
 import time
@@ -54,15 +56,31 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--skip", nargs="*", default=["cattaneo_many"])
     ap.add_argument("--ranks", type=int, default=1)
+    ap.add_argument("--only", nargs="*", default=None, metavar="STEM",
+                    help="only these scenes (config file names without .toml)")
+    ap.add_argument("--repeat", type=int, default=1)
     args = ap.parse_args()
+    if args.repeat < 1:
+        ap.error("--repeat must be at least 1")
     scenes = [(p, []) for p in sorted((ROOT / "configs").glob("*.toml"))]
     scenes += [(p, []) for p in sorted((ROOT / "configs" / "hard").glob("*.toml"))]
     scenes.append((ROOT / "configs" / "hertz.toml", ["--sd", "1"]))
     for path, extra in scenes:
-        if path.stem in args.skip:
+        if path.stem in args.skip or (args.only is not None and path.stem not in args.only):
             continue
         line = {"config": str(path.relative_to(ROOT)), "args": extra, "ranks": args.ranks}
-        print(json.dumps(line | run(path, extra, args.ranks)), flush=True)
+        print(json.dumps(line | _median([run(path, extra, args.ranks)
+                                         for _ in range(args.repeat)])), flush=True)
+
+
+def _median(rows: list[dict]) -> dict:
+    """The first row with every number replaced by its median over the rows (all of them
+    when one has an error: the first error)."""
+    if len(rows) == 1 or any("error" in r for r in rows):
+        return next((r for r in rows if "error" in r), rows[0])
+    return {k: round(statistics.median(r[k] for r in rows), 4)
+            if isinstance(v, float) else v for k, v in rows[0].items()} | {
+            "repeat": len(rows)}
 
 
 if __name__ == "__main__":

@@ -33,6 +33,7 @@ from support import ROOT
     ("bench_crossing.py", ["--configs", "configs/no_such.toml"],
      "config configs/no_such.toml: [Errno 2]"),
     ("bench_crossing.py", ["--repeat", "0"], "--repeat must be at least 1"),
+    ("bench_phases.py", ["--repeat", "0"], "--repeat must be at least 1"),
     ("bench_mip.py", ["--sizes", "201"], "--sizes 201: a size must be 1 to 200"),
     ("check_invariance.py", ["configs/patch.toml", "--mesh-size", "-1"],
      "--mesh-size must be a number > 0 (got -1.0)"),
