@@ -6,5 +6,8 @@ from app.output.closed_pipes import drop_closed_pipes
 drop_closed_pipes()  # a closed stdout / stderr pipe does not end the run
 startup_signals.arm(None, "", act=False)  # a signal while the modules load is recorded
 from app.cli import main  # noqa: E402
+from app.exit_sync import end_process  # noqa: E402
 
-sys.exit(main())
+code = main()
+end_process(code)  # 0: PetscFinalize, then os._exit, past the interpreter's teardown
+sys.exit(code)

@@ -55,3 +55,23 @@ def test_hertz_pressed_far_beyond_its_search_distance_warns(tmp_path):
     ok = run_cli(["run", str(CONFIGS / "hertz.toml"), "--out", str(tmp_path / "p"),
                   "--quiet"])
     assert "moved through" not in ok.stderr
+
+
+def test_the_watch_gives_the_closest_segment_within_any_reach():
+    """The run keeps each node's closest segment at any distance (`watch`, built once);
+    within a reach it must be the one `closest_segments` finds within that reach, which
+    the checks searched afresh every step before."""
+    from app.contact.pairs import closest_segments
+    from app.contact.unpaired import watch
+
+    mesh = stacked(7, 5, gap=0.03, x_up=(0.1, 1.3))
+    rng = np.random.default_rng(3)
+    pts = mesh.points + rng.normal(0.0, 0.01, mesh.points.shape)
+    low = np.unique(mesh.curves["low_top"])
+    edges = np.array(mesh.curves["low_top"])
+    nodes = np.unique(mesh.curves["up_bottom"])
+    w = watch(pts, nodes, edges, (nodes, low))
+    for reach in (0.005, 0.02, 0.04, 0.1, 0.3, 5.0):
+        seg, _, dist = closest_segments(pts[nodes], pts[edges[:, 0]], pts[edges[:, 1]], reach)
+        np.testing.assert_array_equal(w.dist <= reach, seg >= 0)
+        np.testing.assert_array_equal(w.dist[seg >= 0], dist[seg >= 0])

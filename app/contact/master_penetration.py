@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from app.contact.pairs import _curve_edges
-from app.contact.unpaired import nodes_behind
+from app.contact.unpaired import Watch, displacement_scale, nodes_behind, watch
 from app.mesh.model import Mesh, orient_boundary_edges
 
 MASTER_DEPTH_WARN = 0.03
@@ -46,11 +46,9 @@ class MasterPenetration:
     position: np.ndarray
 
 
-def master_penetration(mesh: Mesh, slave: str, master: str, u: np.ndarray,
-                       label: str) -> MasterPenetration | None:
-    """The master nodes of curves (slave, master) that lie behind the slave curve in the
-    displaced configuration u (n_nodes, 2); None when none does by more than
-    MASTER_DEPTH_WARN of the scale."""
+def penetration_watch(mesh: Mesh, slave: str, master: str, label: str) -> Watch | None:
+    """The Watch of the master nodes of curves (slave, master) (not the slave's own)
+    against the oriented slave curve; None when there are none."""
     pts = np.asarray(mesh.points, dtype=float)
     s_edges = orient_boundary_edges(mesh, _curve_edges(mesh, slave, "slave", label),
                                     f"interface '{label}': slave curve '{slave}'")
@@ -58,16 +56,33 @@ def master_penetration(mesh: Mesh, slave: str, master: str, u: np.ndarray,
     m_nodes = np.setdiff1d(np.unique(_curve_edges(mesh, master, "master", label)), s_nodes)
     if m_nodes.size == 0:
         return None
-    scale = float(max(np.linalg.norm(u[s_nodes], axis=1).max(),
-                      np.linalg.norm(u[m_nodes], axis=1).max()))
+    return watch(pts, m_nodes, s_edges, (s_nodes, m_nodes))
+
+
+def penetration(w: Watch | None, u: np.ndarray) -> MasterPenetration | None:
+    """The watched master nodes (`penetration_watch`) that lie behind the slave curve in
+    the displaced configuration u (n_nodes, 2); None when none does by more than
+    MASTER_DEPTH_WARN of the scale."""
+    if w is None:
+        return None
+    scale = displacement_scale(w, u, norm=True)
     if not 0 < scale < np.inf:  # (a non-finite u: the step fails its own check)
         return None
     tol = MASTER_DEPTH_WARN * scale
-    found = nodes_behind(pts, m_nodes, s_edges, u, 2.0 * scale + tol, -tol, tol)
+    found = nodes_behind(w, u, 2.0 * scale + tol, -tol, tol)
     if found is None:
         return None
     count, depth, node = found
-    return MasterPenetration(count, depth, depth / scale, pts[node].copy())
+    return MasterPenetration(count, depth, depth / scale, w.pts[node].copy())
+
+
+def master_penetration(mesh: Mesh, slave: str, master: str, u: np.ndarray,
+                       label: str) -> MasterPenetration | None:
+    """The master nodes of curves (slave, master) that lie behind the slave curve in the
+    displaced configuration u (n_nodes, 2); None when none does by more than
+    MASTER_DEPTH_WARN of the scale. (A run builds the Watch once, `penetration_watch`,
+    and calls `penetration` each step.)"""
+    return penetration(penetration_watch(mesh, slave, master, label), u)
 
 
 def master_penetration_warning(name: str, step: int, slave: str, master: str,

@@ -38,12 +38,13 @@ class Crossing:
 
 
 def _signed_gap(x: np.ndarray, xa: np.ndarray, xb: np.ndarray, free: np.ndarray,
-                radius: float) -> tuple[np.ndarray, np.ndarray]:
+                radius: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Signed distance (q,) of points x (q, 2) to the closest of the oriented segments
-    xa -> xb (s, 2) within radius (positive on the right, outside the master body), and
-    whether it is judged (q,) bool: a segment within radius, the point not beyond a free
-    end (free (s, 2) bool: the segment's ends that end the master curve)."""
-    seg, xr, _ = closest_segments(x, xa, xb, radius)
+    xa -> xb (s, 2) within radius (positive on the right, outside the master body), whether
+    it is judged (q,) bool: a segment within radius, the point not beyond a free end
+    (free (s, 2) bool: the segment's ends that end the master curve), and the distance
+    (q,) to that segment (inf where none lies within radius)."""
+    seg, xr, dist = closest_segments(x, xa, xb, radius)
     found = seg >= 0
     s = np.where(found, seg, 0)
     beyond = (((xr < -XI_EPS) & free[s, 0]) | ((xr > 1 + XI_EPS) & free[s, 1]))
@@ -51,26 +52,61 @@ def _signed_gap(x: np.ndarray, xa: np.ndarray, xb: np.ndarray, free: np.ndarray,
     xi = np.clip(np.nan_to_num(xr), 0.0, 1.0)[:, None]
     r = x - (xa[s] + xi * d)
     gap = (r[:, 0] * d[:, 1] - r[:, 1] * d[:, 0]) / np.linalg.norm(d, axis=1)
-    return gap, found & ~beyond
+    return gap, found & ~beyond, dist
 
 
-def nodes_behind(pts: np.ndarray, nodes: np.ndarray, edges: np.ndarray, u: np.ndarray,
-                 reach: float, start_min: float, depth_tol: float
-                 ) -> tuple[int, float, int] | None:
-    """Of `nodes` (k,), those whose undeformed signed gap to the oriented curve `edges`
-    (s, 2) exceeds start_min and that lie behind the deformed curve (pts + u) by more than
-    depth_tol, both judged by the closest segment (searched within reach, then 2 reach;
-    a node beyond a free end of the curve is not judged): (count, the deepest one's
-    depth, its node id), or None when there is none."""
+@dataclass(frozen=True)
+class Watch:
+    """The step-independent half of `nodes_behind`, built once per run: the undeformed
+    points pts (n, 2), the watched nodes (k,), the oriented curve edges (s, 2) and their
+    ends that end the curve (free (s, 2) bool), the nodes of the two curves (`sides`, the
+    displacement scale), and each watched node's closest
+    segment at any distance, undeformed: signed gap (k,), distance (k,) and whether it is
+    judged (k,) bool. The closest segment within a radius is that one when its distance
+    is within the radius (`closest_segments`), so a step needs no undeformed search."""
+
+    pts: np.ndarray
+    nodes: np.ndarray
+    edges: np.ndarray
+    free: np.ndarray
+    sides: tuple[np.ndarray, np.ndarray]
+    gap: np.ndarray
+    dist: np.ndarray
+    judged: np.ndarray
+
+
+def watch(pts: np.ndarray, nodes: np.ndarray, edges: np.ndarray,
+          sides: tuple[np.ndarray, np.ndarray]) -> Watch:
+    """The Watch of `nodes` (k,) against the oriented curve `edges` (s, 2) on the
+    undeformed points pts (n, 2); sides: the nodes of the two curves."""
     free = np.bincount(edges.ravel(), minlength=pts.shape[0])[edges] == 1
     a, b = edges[:, 0], edges[:, 1]
-    g_start, ok_start = _signed_gap(pts[nodes], pts[a], pts[b], free, reach)
-    near = ok_start & (g_start > start_min)
+    gap, judged, dist = _signed_gap(pts[nodes], pts[a], pts[b], free, np.inf)
+    return Watch(pts, nodes, edges, free, sides, gap, dist, judged)
+
+
+def displacement_scale(w: Watch, u: np.ndarray, norm: bool) -> float:
+    """The largest nodal displacement of the two curves, summed over them (norm False:
+    the largest component of each) or the larger of the two (norm True: the lengths)."""
+    if norm:
+        return float(max(np.linalg.norm(u[side], axis=1).max() for side in w.sides))
+    return float(sum(np.abs(u[side]).max() for side in w.sides))
+
+
+def nodes_behind(w: Watch, u: np.ndarray, reach: float, start_min: float, depth_tol: float
+                 ) -> tuple[int, float, int] | None:
+    """Of the watched nodes, those whose undeformed signed gap to the curve exceeds
+    start_min and that lie behind the deformed curve (pts + u, u (n, 2)) by more than
+    depth_tol, both judged by the closest segment (within reach undeformed, 2 reach
+    deformed; a node beyond a free end of the curve is not judged): (count, the deepest
+    one's depth, its node id), or None when there is none."""
+    near = w.judged & (w.dist <= reach) & (w.gap > start_min)
     if not near.any():
         return None
-    nodes = nodes[near]
-    x1 = pts + u
-    g_now, ok_now = _signed_gap(x1[nodes], x1[a], x1[b], free, 2.0 * reach)
+    nodes = w.nodes[near]
+    x1 = w.pts + u
+    a, b = w.edges[:, 0], w.edges[:, 1]
+    g_now, ok_now, _ = _signed_gap(x1[nodes], x1[a], x1[b], w.free, 2.0 * reach)
     behind = ok_now & (g_now < -depth_tol)
     if not behind.any():
         return None
@@ -78,11 +114,11 @@ def nodes_behind(pts: np.ndarray, nodes: np.ndarray, edges: np.ndarray, u: np.nd
     return int(behind.sum()), float(-g_now[deepest]), int(nodes[deepest])
 
 
-def crossed_unpaired(mesh: Mesh, slave: str, master: str, paired: np.ndarray,
-                     u: np.ndarray, label: str) -> Crossing | None:
-    """The unpaired nodes of curve `slave` (paired (k,): the slave nodes with a pair)
-    that were outside the master curve `master` and lie behind it in the displaced
-    configuration u (n_nodes, 2); None when there are none."""
+def unpaired_watch(mesh: Mesh, slave: str, master: str, paired: np.ndarray,
+                   label: str) -> Watch | None:
+    """The Watch of the unpaired nodes of curve `slave` (paired (k,): the slave nodes with
+    a pair; not the master's own nodes) against the master curve; None when there are
+    none. InputError (naming `label`) for a curve that is not one."""
     pts = np.asarray(mesh.points, dtype=float)
     s_nodes = np.unique(_curve_edges(mesh, slave, "slave", label))
     m_edges = orient_boundary_edges(mesh, _curve_edges(mesh, master, "master", label),
@@ -91,14 +127,31 @@ def crossed_unpaired(mesh: Mesh, slave: str, master: str, paired: np.ndarray,
     nodes = np.setdiff1d(np.setdiff1d(s_nodes, paired), m_nodes)
     if nodes.size == 0:
         return None
-    reach = float(np.abs(u[s_nodes]).max() + np.abs(u[m_nodes]).max()) * np.sqrt(2.0)
+    return watch(pts, nodes, m_edges, (s_nodes, m_nodes))
+
+
+def crossing(w: Watch | None, u: np.ndarray) -> Crossing | None:
+    """The watched unpaired nodes (`unpaired_watch`) that were outside the master curve
+    and lie behind it in the displaced configuration u (n_nodes, 2); None when none."""
+    if w is None:
+        return None
+    reach = displacement_scale(w, u, norm=False) * np.sqrt(2.0)
     if not reach > 0:
         return None
-    found = nodes_behind(pts, nodes, m_edges, u, reach, 0.0, CROSS_REL_TOL * reach)
+    found = nodes_behind(w, u, reach, 0.0, CROSS_REL_TOL * reach)
     if found is None:
         return None
     count, depth, node = found
-    return Crossing(count, depth, pts[node].copy())
+    return Crossing(count, depth, w.pts[node].copy())
+
+
+def crossed_unpaired(mesh: Mesh, slave: str, master: str, paired: np.ndarray,
+                     u: np.ndarray, label: str) -> Crossing | None:
+    """The unpaired nodes of curve `slave` (paired (k,): the slave nodes with a pair)
+    that were outside the master curve `master` and lie behind it in the displaced
+    configuration u (n_nodes, 2); None when there are none. (A run builds the Watch once,
+    `unpaired_watch`, and calls `crossing` each step.)"""
+    return crossing(unpaired_watch(mesh, slave, master, paired, label), u)
 
 
 def paired_sides(mesh: Mesh, slave: str, master: str, paired: np.ndarray) -> tuple[str, str]:

@@ -12,9 +12,13 @@ import numpy as np
 from app.assembly.solve import LinearSolver
 from app.condensation.compliance import compliance_from_factor, compliance_solve
 from app.condensation.recovery import contact_displacement, mismatch
-from app.contact.master_penetration import master_penetration, master_penetration_warning
+from app.contact.master_penetration import (
+    master_penetration_warning,
+    penetration,
+    penetration_watch,
+)
 from app.contact.resolution import stripe_checks, stripe_warning
-from app.contact.unpaired import crossed_unpaired, crossing_warning
+from app.contact.unpaired import Watch, crossing, crossing_warning, unpaired_watch
 from app.driver.context import RunContext, write_summary
 from app.driver.linear import LinearSystem, UnitSolutions, warn_solve_accuracy
 from app.driver.model import Model
@@ -115,21 +119,40 @@ def solve_rel(solver: LinearSolver) -> float:
 
 def _crossing_warnings(ctx: RunContext, model: Model, u: np.ndarray, step: int) -> None:
     """A warning the first time slave nodes without a pair have moved through an
-    interface's master (app/contact/unpaired.py); every rank holds the same u."""
-    pairs = model.contact.pairs
-    for i, itf in enumerate(ctx.cfg.interfaces):
-        paired = pairs.slave[pairs.interface == i]
-        on = model.contact.described.get(itf.name, {}).get("pairs_on", itf.slave)
-        slave, master = (itf.slave, itf.master) if on == itf.slave else (itf.master, itf.slave)
-        crossing = crossed_unpaired(model.mesh, slave, master, paired, u.reshape(-1, 2),
-                                    itf.name)
-        if crossing is not None:
-            ctx.warn(crossing_warning(itf.name, step + 1, crossing, itf.search_distance),
+    interface's master, or master nodes through its slave (app/contact/unpaired.py,
+    master_penetration.py); every rank holds the same u. The undeformed half of both
+    checks is built at the first step and kept in `model.watches`."""
+    for itf, (unpaired, masters) in zip(ctx.cfg.interfaces, _watches(ctx, model),
+                                        strict=True):
+        crossed = crossing(unpaired, u.reshape(-1, 2))
+        if crossed is not None:
+            ctx.warn(crossing_warning(itf.name, step + 1, crossed, itf.search_distance),
                      ("crossing", itf.name))
-        behind = master_penetration(model.mesh, slave, master, u.reshape(-1, 2), itf.name)
+        behind = penetration(masters, u.reshape(-1, 2))
         if behind is not None:
+            slave, master = _sides(model, itf)
             ctx.warn(master_penetration_warning(itf.name, step + 1, slave, master, behind),
                      ("master behind slave", itf.name))
+
+
+def _sides(model: Model, itf) -> tuple[str, str]:
+    """(slave, master) curves of an interface as its pairs have them."""
+    on = model.contact.described.get(itf.name, {}).get("pairs_on", itf.slave)
+    return (itf.slave, itf.master) if on == itf.slave else (itf.master, itf.slave)
+
+
+def _watches(ctx: RunContext, model: Model) -> list[tuple[Watch | None, Watch | None]]:
+    """Per interface, the Watch of its unpaired slave nodes and of its master nodes, built
+    once (the pairs are chosen once, on the undeformed mesh)."""
+    if not model.watches:
+        pairs = model.contact.pairs
+        for i, itf in enumerate(ctx.cfg.interfaces):
+            paired = pairs.slave[pairs.interface == i]
+            slave, master = _sides(model, itf)
+            model.watches.append(
+                (unpaired_watch(model.mesh, slave, master, paired, itf.name),
+                 penetration_watch(model.mesh, slave, master, itf.name)))
+    return model.watches
 
 
 def _answer_checks(ctx: RunContext, model: Model, result: StepSolution, step: int,

@@ -4,7 +4,7 @@ contact constraints and the modes of bodies held only by contact."""
 from __future__ import annotations
 
 import sys
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -37,6 +37,9 @@ class Model:
     fixed_all: np.ndarray
     contact: ContactSetup | None
     floating: FloatingModes | None
+    watches: list = field(default_factory=list)
+    """per interface, the undeformed half of the crossing checks (app/driver/contact.py
+    `_watches`, built at the first step): (unpaired slave nodes, master nodes) Watches"""
 
     @property
     def n_dofs(self) -> int:
