@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
 import pytest
 
@@ -428,18 +426,18 @@ def strips(n_slave: int, n_master: int) -> Mesh:
 
 
 def test_vectorised_large_search():
+    """200,000 pairs on non-matching strips come out right (its speed is a benchmark's:
+    the `pair_search` phase of `scripts/bench_scale.py`, not a timed test: the machines
+    are shared and noisy)."""
     mesh = strips(200_000 - 1, 150_000)
-    t0 = time.perf_counter()
     p = contact_pairs(mesh, "up_bottom", "low_top", 1e-3)
     g = constraint_matrix(p, mesh.n_nodes)
-    elapsed = time.perf_counter() - t0
     assert p.n_pairs == 200_000
     np.testing.assert_allclose(p.g0, 0.0, atol=1e-15)
     np.testing.assert_allclose(p.length.sum(), 1.0)
     x = (1 - p.xi) * mesh.points[p.master[:, 0], 0] + p.xi * mesh.points[p.master[:, 1], 0]
     np.testing.assert_allclose(x, p.position[:, 0], atol=1e-14)
     assert g.shape == (400_000, 2 * mesh.n_nodes)
-    assert elapsed < 5.0, f"pair search took {elapsed:.2f} s"
 
 
 def test_one_slave_on_two_masters_meeting_inside_an_edge_counts_all_of_it():
