@@ -43,6 +43,9 @@ def test_a_widened_bound_admits_a_larger_unknown_of_its_own():
     |q| = 1e3, and found with widen = 3 on it."""
     m, q = np.array([[1.0, -1999.0], [0.0, 1.0]]), np.array([0.0, -1.0])
     assert complementary_basis(m, q)[0] is None
+    assert complementary_basis(-np.eye(2), -np.ones(2), widen=np.array([3.0, 1.0]))[1] == (
+        "a mixed-integer search found no solution with the scaled unknowns below 1e+03 x the"
+        " largest constant term (1 of them up to 3.0e+03)")  # (w = -z - 1: none at all)
     basis, text = complementary_basis(m, q, widen=np.array([3.0, 1.0]))
     assert basis is not None and basis.all(), text
     res = lemke(m, q, basis=basis, cold_start=False)

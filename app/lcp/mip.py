@@ -241,6 +241,16 @@ def _add_crash(notes: list[str], b: float, message: str) -> None:
         notes.append(f"none below {b:.0e}{tail}")
 
 
+def _none_below_largest(notes: list[str], b: float, widen: np.ndarray | None) -> list[str]:
+    """`notes` when the largest bound b has no solution: the smaller bounds' `no solution`
+    left out (none below b, none below them either), and the widened unknowns named."""
+    wider = "" if widen is None or not (widen > 1.0).any() else \
+        f" ({int((widen > 1.0).sum())} of them up to {b * widen.max():.1e})"
+    return [note for note in notes if not note.startswith("no solution below")] + [
+        f"no solution with the scaled unknowns below {b:.0e} x the largest constant term"
+        f"{wider}"]
+
+
 def _basis(m: np.ndarray, q: np.ndarray, accept: Callable[[np.ndarray], bool], *,
            widen: np.ndarray | None, bounds: tuple[float, ...], work: float, seconds: float
            ) -> tuple[np.ndarray | None, str]:
@@ -255,8 +265,9 @@ def _basis(m: np.ndarray, q: np.ndarray, accept: Callable[[np.ndarray], bool], *
     over all bounds) or time. A node limit that ends a bound with a solution keeps it (not
     the least sum(z), but a solution). A bound whose HiGHS process crashed (scipy 1.10's
     HiGHS aborts on some LCPs at one bound and not at another) goes on to the next within
-    the nodes and time left; a time or node limit ends the search. The words say what each
-    bound found (a smaller bound's `no solution` left out when the largest has none)."""
+    the nodes and time left; a time or node limit, or a HiGHS process stopped from outside
+    (STOP_SIGNALS), ends the search. The words say what each bound found (`_add_crash`,
+    `_none_below_largest`)."""
     n = q.size
     if n == 0 or n > MIP_MAX_SIZE:
         return None, f"no mixed-integer search (size {n} > {MIP_MAX_SIZE})"
@@ -289,12 +300,8 @@ def _basis(m: np.ndarray, q: np.ndarray, accept: Callable[[np.ndarray], bool], *
             break
         elif b != bounds[-1]:
             notes.append(f"no solution below {b:.0e}")
-        else:  # (none below the largest bound: none below the smaller ones either)
-            notes = [note for note in notes if not note.startswith("no solution below")]
-            wider = "" if widen is None or not (widen > 1.0).any() else \
-                f" ({int((widen > 1.0).sum())} of them up to {b * factor.max():.1e})"
-            notes.append(f"no solution with the scaled unknowns below {b:.0e} x the largest "
-                         f"constant term{wider}")
+        else:
+            notes = _none_below_largest(notes, b, widen)
         if b == bounds[-1]:
             break
         if nodes <= 0:
