@@ -5,10 +5,17 @@ seeded) of the sizes given, each searched as the app does (without a caller's ch
 solution is taken). With --run, `python -m app run` in this process on the arguments after
 it, with every search of the run recorded. One JSON line per search: its size, the result,
 and per bound (`app.lcp.mip.MIP_BOUNDS`) HiGHS's nodes, seconds and seconds per node.
+--dump DIR (before --run) also writes each search's scaled LCP as DIR/search_K.npz (m, q,
+widen; K from 1 in the run's order). --lcp FILE replays one such LCP: Lemke cold (status,
+pivots, its largest z / max |q|), then the search with --bounds (x MIP_SCALE x max |q|, the
+app's MIP_BOUNDS by default) and --seconds, each basis judged by Lemke's check warm-started
+from it (`app.interface.coulomb.ContactLCP._searched`), one JSON line each.
 
     PYTHONPATH=. .venv/bin/python scripts/bench_mip.py [--sizes 50 100 150 200] [--seed 0]
-    PYTHONPATH=. .venv/bin/python scripts/bench_mip.py --run configs/multibody.toml --sd 1 \\
-        --mesh-size 1.2 --out /tmp/o --quiet
+    PYTHONPATH=. .venv/bin/python scripts/bench_mip.py [--dump /tmp/d] --run \\
+        configs/multibody.toml --sd 1 --mesh-size 1.2 --out /tmp/o --quiet
+    PYTHONPATH=. .venv/bin/python scripts/bench_mip.py --lcp /tmp/d/search_1.npz \\
+        [--bounds 1e4] [--seconds 120]
 """
 
 from __future__ import annotations
@@ -43,9 +50,18 @@ _SEARCH = mip._search
 mip._search = _recorded_search
 
 
+DUMP: list[Path] = []
+"""The folder of --dump, if given."""
+
+
 def searched(m: np.ndarray, q: np.ndarray, *args, **kwargs):
-    """`mip.complementary_basis`, recorded (one JSON line per search)."""
+    """`mip.complementary_basis`, recorded (one JSON line per search; its LCP saved under
+    --dump's folder)."""
     RECORD.append({"n": int(q.size), "bounds": []})
+    if DUMP:
+        widen = kwargs.get("widen")
+        RECORD[-1]["file"] = str(DUMP[0] / f"search_{len(RECORD)}.npz")
+        np.savez(RECORD[-1]["file"], m=m, q=q, widen=np.ones(q.size) if widen is None else widen)
     t = time.perf_counter()
     basis, words = _BASIS(m, q, *args, **kwargs)
     RECORD[-1].update(found=basis is not None, seconds=round(time.perf_counter() - t, 3),
@@ -57,17 +73,48 @@ def searched(m: np.ndarray, q: np.ndarray, *args, **kwargs):
 _BASIS = mip.complementary_basis
 
 
+def replay(path: Path, bounds: tuple[float, ...], seconds: float) -> None:
+    """The LCP that --dump saved in `path`: Lemke cold, then the search (module doc)."""
+    from app.lcp import lemke
+
+    d = np.load(path)
+    m, q, widen = d["m"], d["q"], d["widen"]
+    top = float(np.abs(q).max())
+    res = lemke(m, q)
+    print(json.dumps({"lemke": res.status, "pivots": int(res.pivots),
+                      "max_z_over_max_q": float(res.z.max() / top) if res.z is not None
+                      and top > 0 else None}), file=sys.stderr, flush=True)
+
+    def accept(basis: np.ndarray) -> bool:
+        return lemke(m, q, basis=basis, cold_start=False).status == "solved"
+
+    searched(m, q, accept, widen=widen, bounds=bounds, seconds=seconds)
+
+
 def main() -> int:
-    if "--run" in sys.argv:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--sizes", type=int, nargs="+", default=[50, 100, 150, 200])
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--dump", type=Path, help="folder for each search's LCP (npz)")
+    ap.add_argument("--lcp", type=Path, help="an LCP that --dump saved: replay its search")
+    ap.add_argument("--bounds", type=float, nargs="+", default=list(mip.MIP_BOUNDS))
+    ap.add_argument("--seconds", type=float, default=mip.MIP_SECONDS)
+    run = sys.argv.index("--run") if "--run" in sys.argv else len(sys.argv)
+    a = ap.parse_args(sys.argv[1:run])
+    if a.dump is not None:
+        a.dump.mkdir(parents=True, exist_ok=True)
+        DUMP.append(a.dump)
+    if run < len(sys.argv):
         import app.interface.coulomb as coulomb
         from app.cli import main as app_main
 
         coulomb.complementary_basis = searched
-        return app_main(["run", *sys.argv[sys.argv.index("--run") + 1:]])
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--sizes", type=int, nargs="+", default=[50, 100, 150, 200])
-    ap.add_argument("--seed", type=int, default=0)
-    a = ap.parse_args()
+        return app_main(["run", *sys.argv[run + 1:]])
+    if a.lcp is not None:
+        if not a.lcp.is_file():
+            ap.error(f"--lcp {a.lcp}: no such file (one that --dump wrote)")
+        replay(a.lcp, tuple(a.bounds), a.seconds)
+        return 0
     bad = [n for n in a.sizes if not 1 <= n <= mip.MIP_MAX_SIZE]
     if bad:
         ap.error(f"--sizes {bad[0]}: a size must be 1 to {mip.MIP_MAX_SIZE} (MIP_MAX_SIZE)")
