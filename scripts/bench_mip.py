@@ -6,16 +6,19 @@ solution is taken). With --run, `python -m app run` in this process on the argum
 it, with every search of the run recorded. One JSON line per search: its size, the result,
 and per bound (`app.lcp.mip.MIP_BOUNDS`) HiGHS's nodes, seconds and seconds per node.
 --dump DIR (before --run) also writes each search's scaled LCP as DIR/search_K.npz (m, q,
-widen; K from 1 in the run's order). --lcp FILE replays one such LCP: Lemke cold (status,
-pivots, its largest z / max |q|), then the search with --bounds (x MIP_SCALE x max |q|, the
-app's MIP_BOUNDS by default) and --seconds, each basis judged by Lemke's check warm-started
-from it (`app.interface.coulomb.ContactLCP._searched`), one JSON line each.
+widen, and the scaling of `ContactLCP.M_scaled`: rows R D, cols D, ones outside a run; K
+from 1 in the run's order). --lcp FILE replays one such LCP: Lemke cold (status, pivots,
+its largest z / max |q|), with --unscaled also Lemke cold on the unscaled LCP (M, q as the
+app forms them: its largest z in the scene's units and its index) and Lemke's check on the
+scaled LCP from that basis, then the search with --bounds (x MIP_SCALE x max |q|, the app's
+MIP_BOUNDS by default) and --seconds, each basis judged by Lemke's check warm-started from
+it (`app.interface.coulomb.ContactLCP._searched`), one JSON line each.
 
     PYTHONPATH=. .venv/bin/python scripts/bench_mip.py [--sizes 50 100 150 200] [--seed 0]
     PYTHONPATH=. .venv/bin/python scripts/bench_mip.py [--dump /tmp/d] --run \\
         configs/multibody.toml --sd 1 --mesh-size 1.2 --out /tmp/o --quiet
     PYTHONPATH=. .venv/bin/python scripts/bench_mip.py --lcp /tmp/d/search_1.npz \\
-        [--bounds 1e4] [--seconds 120]
+        [--unscaled] [--bounds 1e4] [--seconds 120]
 """
 
 from __future__ import annotations
@@ -53,6 +56,9 @@ mip._search = _recorded_search
 DUMP: list[Path] = []
 """The folder of --dump, if given."""
 
+SCALING: list[tuple[np.ndarray, np.ndarray]] = []
+"""(rows, cols) of the LCP being searched in a run: M_scaled = rows M cols (`_scaled`)."""
+
 
 def searched(m: np.ndarray, q: np.ndarray, *args, **kwargs):
     """`mip.complementary_basis`, recorded (one JSON line per search; its LCP saved under
@@ -61,7 +67,9 @@ def searched(m: np.ndarray, q: np.ndarray, *args, **kwargs):
     if DUMP:
         widen = kwargs.get("widen")
         RECORD[-1]["file"] = str(DUMP[0] / f"search_{len(RECORD)}.npz")
-        np.savez(RECORD[-1]["file"], m=m, q=q, widen=np.ones(q.size) if widen is None else widen)
+        rows, cols = SCALING[-1] if SCALING else (np.ones(q.size), np.ones(q.size))
+        np.savez(RECORD[-1]["file"], m=m, q=q, rows=rows, cols=cols,
+                 widen=np.ones(q.size) if widen is None else widen)
     t = time.perf_counter()
     basis, words = _BASIS(m, q, *args, **kwargs)
     RECORD[-1].update(found=basis is not None, seconds=round(time.perf_counter() - t, 3),
@@ -73,7 +81,30 @@ def searched(m: np.ndarray, q: np.ndarray, *args, **kwargs):
 _BASIS = mip.complementary_basis
 
 
-def replay(path: Path, bounds: tuple[float, ...], seconds: float) -> None:
+def _scaled(searched_of):
+    """ContactLCP._searched with the LCP's scaling kept for --dump."""
+    def wrapped(self, res, ms, qs):
+        SCALING.append((self.scaling * self.row_scale, self.scaling))
+        return searched_of(self, res, ms, qs)
+    return wrapped
+
+
+def _unscaled(m: np.ndarray, q: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> None:
+    """Lemke cold on the unscaled LCP (m / rows / cols, q / rows), then Lemke's check on
+    the scaled one from its basis: one JSON line."""
+    from app.lcp import lemke
+
+    res = lemke(m / rows[:, None] / cols[None, :], q / rows)
+    line = {"unscaled_lemke": res.status, "pivots": int(res.pivots)}
+    if res.z is not None and res.status == "solved":
+        check = lemke(m, q, basis=res.basis, cold_start=False)
+        line.update(max_z=float(res.z.max()), argmax=int(res.z.argmax()),
+                    scaled_max_z_over_max_q=float((res.z / cols).max() / np.abs(q).max()),
+                    check=check.status, check_pivots=int(check.pivots))
+    print(json.dumps(line), file=sys.stderr, flush=True)
+
+
+def replay(path: Path, bounds: tuple[float, ...], seconds: float, unscaled: bool) -> None:
     """The LCP that --dump saved in `path`: Lemke cold, then the search (module doc)."""
     from app.lcp import lemke
 
@@ -84,6 +115,8 @@ def replay(path: Path, bounds: tuple[float, ...], seconds: float) -> None:
     print(json.dumps({"lemke": res.status, "pivots": int(res.pivots),
                       "max_z_over_max_q": float(res.z.max() / top) if res.z is not None
                       and top > 0 else None}), file=sys.stderr, flush=True)
+    if unscaled:
+        _unscaled(m, q, d["rows"], d["cols"])
 
     def accept(basis: np.ndarray) -> bool:
         return lemke(m, q, basis=basis, cold_start=False).status == "solved"
@@ -99,6 +132,7 @@ def main() -> int:
     ap.add_argument("--lcp", type=Path, help="an LCP that --dump saved: replay its search")
     ap.add_argument("--bounds", type=float, nargs="+", default=list(mip.MIP_BOUNDS))
     ap.add_argument("--seconds", type=float, default=mip.MIP_SECONDS)
+    ap.add_argument("--unscaled", action="store_true", help="with --lcp: Lemke unscaled too")
     run = sys.argv.index("--run") if "--run" in sys.argv else len(sys.argv)
     a = ap.parse_args(sys.argv[1:run])
     if a.dump is not None:
@@ -109,11 +143,12 @@ def main() -> int:
         from app.cli import main as app_main
 
         coulomb.complementary_basis = searched
+        coulomb.ContactLCP._searched = _scaled(coulomb.ContactLCP._searched)
         return app_main(["run", *sys.argv[run + 1:]])
     if a.lcp is not None:
         if not a.lcp.is_file():
             ap.error(f"--lcp {a.lcp}: no such file (one that --dump wrote)")
-        replay(a.lcp, tuple(a.bounds), a.seconds)
+        replay(a.lcp, tuple(a.bounds), a.seconds, a.unscaled)
         return 0
     bad = [n for n in a.sizes if not 1 <= n <= mip.MIP_MAX_SIZE]
     if bad:

@@ -30,11 +30,15 @@ def test_a_searched_lcp_is_saved_and_its_search_replayed(tmp_path):
     np.fill_diagonal(m, 1.0)
     np.testing.assert_array_equal(saved["m"], m)
     np.testing.assert_array_equal(saved["q"], rng.standard_normal(6))
-    np.testing.assert_array_equal(saved["widen"], np.ones(6))
-    res = _run("--lcp", record["file"], "--bounds", "10", "100", "--seconds", "60")
+    for key in ("widen", "rows", "cols"):  # (no run: no scaling)
+        np.testing.assert_array_equal(saved[key], np.ones(6))
+    res = _run("--lcp", record["file"], "--unscaled", "--bounds", "10", "100",
+               "--seconds", "60")
     assert res.returncode == 0, res.stderr
-    cold, search = [json.loads(line) for line in res.stderr.splitlines()]
+    cold, unscaled, search = [json.loads(line) for line in res.stderr.splitlines()]
     assert set(cold) == {"lemke", "pivots", "max_z_over_max_q"}
+    assert unscaled["unscaled_lemke"] == cold["lemke"]  # (the same LCP: ones)
+    assert unscaled["pivots"] == cold["pivots"]
     assert search["n"] == 6 and 1 <= len(search["bounds"]) <= 2
     assert search["words"].startswith("a mixed-integer search found")
 
