@@ -47,3 +47,23 @@ def test_an_lcp_that_is_not_there_is_a_usage_error(tmp_path):
     res = _run("--lcp", str(tmp_path / "none.npz"))
     assert res.returncode == 2 and "Traceback" not in res.stderr, res.stderr
     assert res.stderr.strip().splitlines()[-1].startswith("bench_mip.py: error: --lcp ")
+
+
+def test_a_runs_solves_keep_their_bases_and_a_basis_is_checked_on_an_lcp(tmp_path):
+    """--dump with --run also saves each `ContactLCP.solve`'s basis (the README's E = 1e12
+    basis on E = 1e13's LCP); --basis checks one on a saved LCP instead of the search."""
+    res = _run("--dump", str(tmp_path / "d"), "--run", "configs/two_blocks.toml", "--set",
+               "analysis.steps=1", "--out", str(tmp_path / "o"), "--quiet")
+    assert res.returncode == 0, res.stderr
+    basis = np.load(tmp_path / "d" / "solve_1.npy")
+    assert basis.dtype == bool and basis.ndim == 1
+    res = _run("--sizes", str(basis.size), "--dump", str(tmp_path / "r"))
+    assert res.returncode == 0, res.stderr
+    res = _run("--lcp", str(tmp_path / "r" / "search_1.npz"), "--basis",
+               str(tmp_path / "d" / "solve_1.npy"))
+    assert res.returncode == 0, res.stderr
+    cold, check = [json.loads(line) for line in res.stderr.splitlines()]
+    assert set(check) >= {"from_basis", "pivots"}, check
+    res = _run("--lcp", str(tmp_path / "r" / "search_1.npz"), "--basis",
+               str(tmp_path / "none.npy"))
+    assert res.returncode == 2 and "error: --basis " in res.stderr.splitlines()[-1]
