@@ -43,6 +43,9 @@ def test_a_widened_bound_admits_a_larger_unknown_of_its_own():
     |q| = 1e3, and found with widen = 3 on it."""
     m, q = np.array([[1.0, -1999.0], [0.0, 1.0]]), np.array([0.0, -1.0])
     assert complementary_basis(m, q)[0] is None
+    assert complementary_basis(-np.eye(2), -np.ones(2), widen=np.array([3.0, 1.0]))[1] == (
+        "a mixed-integer search found no solution with the scaled unknowns below 1e+03 x the"
+        " largest constant term (1 of them up to 3.0e+03)")  # (w = -z - 1: none at all)
     basis, text = complementary_basis(m, q, widen=np.array([3.0, 1.0]))
     assert basis is not None and basis.all(), text
     res = lemke(m, q, basis=basis, cold_start=False)
@@ -74,13 +77,17 @@ def _small_lcp() -> tuple[np.ndarray, np.ndarray]:
 def test_a_crash_of_highs_ends_the_search_not_the_run(monkeypatch):
     """scipy 1.10's HiGHS aborted in free() on two_blocks.toml's LCP of 39 at E = 1e13
     (README "Floating bodies"): the whole run died with summary.json `running`. Every
-    bound crashing: the words say so per bound."""
+    bound crashing alike: the words say so once (before: the crash's words once per bound,
+    each with an empty `exit -6: `)."""
     monkeypatch.setattr(mip, "_CHILD", "import os; os.abort()")
     basis, found = complementary_basis(*_small_lcp())
     assert basis is None
-    crash = "(HiGHS crashed (exit -6: ))"
-    assert found == (f"a mixed-integer search found none below 1e+01 {crash}, then none "
-                     f"below 1e+02 {crash}, then none below 1e+03 {crash}"), found
+    assert found == ("a mixed-integer search found none below 1e+01, 1e+02 or 1e+03 "
+                     "(HiGHS crashed (exit -6))"), found
+    monkeypatch.setattr(mip, "_CHILD", "import os, sys; print('free(): invalid pointer', "
+                                       "file=sys.stderr); os.abort()")
+    assert complementary_basis(*_small_lcp())[1].endswith(
+        "or 1e+03 (HiGHS crashed (exit -6: free(): invalid pointer))")
 
 
 def _crashing_first(tmp_path) -> str:
@@ -115,7 +122,7 @@ def test_a_crash_goes_on_only_within_the_time_left(tmp_path, monkeypatch):
     monkeypatch.setattr(mip, "_CHILD", "import os, time; time.sleep(1.5); os.abort()")
     basis, found = complementary_basis(*_small_lcp(), seconds=2.0)
     assert basis is None
-    assert found.endswith("(HiGHS crashed (exit -6: )), then no time left"), found
+    assert found.endswith("(HiGHS crashed (exit -6)), then no time left"), found
     assert found.count("crashed") == 1, found
     monkeypatch.setattr(mip, "_CHILD", "import time; time.sleep(60)")
     monkeypatch.setattr(mip, "MIP_GRACE", 0.5)
@@ -125,12 +132,37 @@ def test_a_crash_goes_on_only_within_the_time_left(tmp_path, monkeypatch):
 
 def test_a_search_process_stopped_from_outside_ends_the_search(monkeypatch):
     """SIGTERM, SIGKILL (a user, a job's end, the out-of-memory killer) end the search at
-    the first bound; SIGSEGV (HiGHS's own crash) goes on to the next."""
-    for sig, bounds in (("SIGTERM", 1), ("SIGKILL", 1), ("SIGSEGV", 3)):
+    the first bound, its words naming the signal (before: `none before its limit (HiGHS
+    crashed (exit -9: ))`, neither a limit nor a crash); SIGSEGV (HiGHS's own crash) goes
+    on to the next."""
+    for sig, code in (("SIGTERM", -15), ("SIGKILL", -9)):
         monkeypatch.setattr(mip, "_CHILD", f"import os, signal; os.kill(os.getpid(), "
                                            f"signal.{sig})")
         basis, found = complementary_basis(*_small_lcp())
-        assert basis is None and found.count("HiGHS crashed") == bounds, (sig, found)
+        assert basis is None and found == (
+            f"a mixed-integer search found none below 1e+01 (HiGHS was stopped by {sig} "
+            f"from outside (exit {code}))"), found
+    monkeypatch.setattr(mip, "_CHILD", "import os, signal; os.kill(os.getpid(), "
+                                       "signal.SIGSEGV)")
+    assert complementary_basis(*_small_lcp())[1] == (
+        "a mixed-integer search found none below 1e+01, 1e+02 or 1e+03 (HiGHS crashed "
+        "(exit -11))")
+
+
+def test_the_step_bounds_the_search_when_every_bound_crashes(monkeypatch):
+    """Each bound's HiGHS crashing 1.5 s in, within a step's 2 s: the search ends after
+    the first (`no time left`), its words naming the step's budget (before: no reason)."""
+    monkeypatch.setattr(mip, "CLOCK", mip.SearchClock())
+    monkeypatch.setattr(mip, "MIP_STEP_SECONDS", 2.0)
+    monkeypatch.setattr(mip, "_CHILD", "import os, time; time.sleep(1.5); os.abort()")
+    t = time.monotonic()
+    basis, found = complementary_basis(*_small_lcp())
+    assert time.monotonic() - t < 3.0
+    assert basis is None and found == (
+        "a mixed-integer search found none below 1e+01 (HiGHS crashed (exit -6)), then no "
+        "time left (this step's 2 s of searches are spent)"), found
+    assert complementary_basis(*_small_lcp())[1] == \
+        "no mixed-integer search (this step's 2 s of searches are spent)"
 
 
 def test_a_search_past_its_time_limit_is_stopped(monkeypatch):

@@ -115,8 +115,9 @@ def _alive(pid: int) -> bool:
 def test_the_search_process_outlives_a_group_signal_not_its_run():
     """The HiGHS process runs in a session of its own: mpiexec's SIGTERM to a rank's process
     group (and Ctrl-C's SIGINT to the terminal's) reaches the rank, not HiGHS, so the rank's
-    watchdog records the stop instead of the search reporting `HiGHS crashed (exit -15)`;
-    the parent-death signal still ends it with the rank (here: the rank dies of SIGTERM)."""
+    watchdog records the stop instead of the search reporting `HiGHS was stopped by SIGTERM
+    from outside (exit -15)`; the parent-death signal still ends it with the rank (here: the
+    rank dies of SIGTERM)."""
     import os
     import subprocess
     import time

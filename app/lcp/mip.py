@@ -148,8 +148,9 @@ non-zero exit) is HiGHS's own crash on that bound's problem, and the next bound 
 
 
 class Answer(NamedTuple):
-    """HiGHS's answer as scipy.optimize.milp gives it (status 0 optimal, 1 a limit, 2
-    infeasible, 4 other: here also a HiGHS process that crashed or passed its time)."""
+    """HiGHS's answer as scipy.optimize.milp gives it (status 0 optimal, 1 a limit, here
+    also a HiGHS process killed MIP_GRACE past its time limit, 2 infeasible, 4 other: here
+    also a HiGHS process that crashed or was stopped from outside)."""
 
     x: np.ndarray | None
     status: int
@@ -187,7 +188,7 @@ def _search(m: np.ndarray, q: np.ndarray, zb: np.ndarray, bound: float, nodes: i
     try:
         out, err = proc.communicate(data.getvalue(), timeout=seconds + MIP_GRACE)
     except subprocess.TimeoutExpired:
-        return Answer(None, 4, f"HiGHS passed its time limit ({seconds:.0f} s) by "
+        return Answer(None, 1, f"HiGHS passed its time limit ({seconds:.0f} s) by "
                       f"{MIP_GRACE:.0f} s and was stopped", 0)
     finally:  # (also on a signal's exception: the search ends with the run)
         if proc.poll() is None:
@@ -195,8 +196,11 @@ def _search(m: np.ndarray, q: np.ndarray, zb: np.ndarray, bound: float, nodes: i
             proc.communicate()
     if proc.returncode != 0 or not out:
         last = (err.decode(errors="replace").strip().splitlines() or [""])[-1][:120]
-        return Answer(None, 4, f"HiGHS crashed (exit {proc.returncode}: {last})", 0,
-                      -proc.returncode not in STOP_SIGNALS)
+        code = f"exit {proc.returncode}" + (f": {last}" if last else "")
+        if -proc.returncode in STOP_SIGNALS:
+            name = signal.Signals(-proc.returncode).name
+            return Answer(None, 4, f"HiGHS was stopped by {name} from outside ({code})", 0)
+        return Answer(None, 4, f"HiGHS crashed ({code})", 0, True)
     try:  # (what a sitecustomize printed at start-up comes before the mark)
         x, status, message, count = pickle.loads(out.partition(b"\n--- answer ---\n")[2])
     except Exception as exc:  # (any bytes: pickle raises many kinds) not the run's end
@@ -220,9 +224,31 @@ def complementary_basis(m: np.ndarray, q: np.ndarray,
                               seconds=min(seconds, left))
     finally:
         CLOCK.spend(time.monotonic() - start)
-    if basis is None and seconds > left and "time limit" in found.lower():
+    if basis is None and seconds > left and ("time limit" in found.lower()
+                                             or found.endswith("no time left")):
         found += f" ({CLOCK.spent()})"
     return basis, found
+
+
+def _add_crash(notes: list[str], b: float, message: str) -> None:
+    """Bound b's HiGHS crash (`message`) added to `notes`, one note with the bound before's
+    when that crashed alike: `none below 1e+01, 1e+02 or 1e+03 (HiGHS crashed (exit -6))`,
+    not the crash's words once per bound."""
+    tail = f" ({message})"
+    if notes and notes[-1].startswith("none below ") and notes[-1].endswith(tail):
+        notes[-1] = f"{notes[-1][:-len(tail)].replace(' or ', ', ')} or {b:.0e}{tail}"
+    else:
+        notes.append(f"none below {b:.0e}{tail}")
+
+
+def _none_below_largest(notes: list[str], b: float, widen: np.ndarray | None) -> list[str]:
+    """`notes` when the largest bound b has no solution: the smaller bounds' `no solution`
+    left out (none below b, none below them either), and the widened unknowns named."""
+    wider = "" if widen is None or not (widen > 1.0).any() else \
+        f" ({int((widen > 1.0).sum())} of them up to {b * widen.max():.1e})"
+    return [note for note in notes if not note.startswith("no solution below")] + [
+        f"no solution with the scaled unknowns below {b:.0e} x the largest constant term"
+        f"{wider}"]
 
 
 def _basis(m: np.ndarray, q: np.ndarray, accept: Callable[[np.ndarray], bool], *,
@@ -239,8 +265,9 @@ def _basis(m: np.ndarray, q: np.ndarray, accept: Callable[[np.ndarray], bool], *
     over all bounds) or time. A node limit that ends a bound with a solution keeps it (not
     the least sum(z), but a solution). A bound whose HiGHS process crashed (scipy 1.10's
     HiGHS aborts on some LCPs at one bound and not at another) goes on to the next within
-    the nodes and time left; a time or node limit ends the search. The words say what each
-    bound found (a smaller bound's `no solution` left out when the largest has none)."""
+    the nodes and time left; a time or node limit, or a HiGHS process stopped from outside
+    (STOP_SIGNALS), ends the search. The words say what each bound found (`_add_crash`,
+    `_none_below_largest`)."""
     n = q.size
     if n == 0 or n > MIP_MAX_SIZE:
         return None, f"no mixed-integer search (size {n} > {MIP_MAX_SIZE})"
@@ -253,7 +280,7 @@ def _basis(m: np.ndarray, q: np.ndarray, accept: Callable[[np.ndarray], bool], *
         bound = b * MIP_SCALE
         zb = bound * factor
         res = _search(m, qs, zb, bound, nodes, max(end - time.monotonic(), 1.0))
-        nodes -= int(getattr(res, "mip_node_count", 0) or 0)
+        nodes -= res.mip_node_count
         if res.x is not None:
             z, y = res.x[:n] > BASIC_REL * zb, res.x[n:] > 0.5
             # both: within HiGHS's integrality tolerance a y_i of 1e-6 lets z_i reach 1e-6
@@ -265,19 +292,16 @@ def _basis(m: np.ndarray, q: np.ndarray, accept: Callable[[np.ndarray], bool], *
                                    f"unknowns below {b:.0e} x the largest constant term)"
                                    + (f", after {', then '.join(notes)}" if notes else ""))
             notes.append(f"one below {b:.0e} that Lemke's check did not accept")
-        elif getattr(res, "crashed", False):  # that bound's HiGHS died: the next one may not
-            notes.append(f"none below {b:.0e} ({res.message})")
-        elif res.status != 2:
-            notes.append(f"none before its limit ({res.message})")
+        elif res.crashed:  # that bound's HiGHS died: the next one may not
+            _add_crash(notes, b, res.message)
+        elif res.status != 2:  # a limit, HiGHS's other failures, a stop from outside
+            notes.append(f"none {'before its limit' if res.status == 1 else f'below {b:.0e}'}"
+                         f" ({res.message})")
             break
         elif b != bounds[-1]:
             notes.append(f"no solution below {b:.0e}")
-        else:  # (none below the largest bound: none below the smaller ones either)
-            notes = [note for note in notes if not note.startswith("no solution below")]
-            wider = "" if widen is None or not (widen > 1.0).any() else \
-                f" ({int((widen > 1.0).sum())} of them up to {b * factor.max():.1e})"
-            notes.append(f"no solution with the scaled unknowns below {b:.0e} x the largest "
-                         f"constant term{wider}")
+        else:
+            notes = _none_below_largest(notes, b, widen)
         if b == bounds[-1]:
             break
         if nodes <= 0:
