@@ -50,6 +50,16 @@ def test_file_writing_and_code_loading_options_are_refused(key, value):
     ("mat_mumps_icntl_1", "-1"), ("mat_mumps_icntl_2", "0"), ("ksp_view_eigenvalues", ""),
     ("options_left", ""), ("contact_candidate_pairs", "false"), ("ksp_monitor_short", ""),
     ("ksp_max_it", "100000"), ("mg_levels_ksp_max_it", "2"),
+    # inner solvers' prefixes (before, refused as not solver options): GAMG's Chebyshev
+    # smoother's eigenvalue estimate, a Schur fieldsplit's inner and upper solvers,
+    # PCTELESCOPE, PCREDISTRIBUTE; and -log_view's own flags
+    ("mg_levels_esteig_ksp_type", "cg"), ("mg_levels_esteig_ksp_max_it", "10"),
+    ("fieldsplit_1_inner_ksp_type", "preonly"), ("fieldsplit_1_upper_pc_type", "jacobi"),
+    ("telescope_pc_type", "gamg"), ("redistribute_ksp_type", "cg"),
+    ("log_view_memory", ""), ("log_view_gpu_time", ""),
+    ("pc_hypre_boomeramg_relax_type_all", "symmetric-SOR/Jacobi"),
+    ("pc_hypre_boomeramg_strong_threshold", "0.7"), ("mat_superlu_dist_rowperm", "NOROWPERM"),
+    ("mat_mumps_cntl_3", "1e-12"), ("pc_fieldsplit_schur_fact_type", "full"),
 ])
 def test_ordinary_options_are_allowed(key, value):
     assert refusal(key, value) is None
