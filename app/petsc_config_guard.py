@@ -7,10 +7,11 @@ file, before any `--set`). It is an allow-list:
   prefixes of inner solvers: `sub_`, `mg_levels_`, `mg_levels_N_`, `mg_coarse_`,
   `redundant_`, `fieldsplit_NAME_`, `esteig_`, `inner_`, `upper_`, `telescope_`,
   `redistribute_`), one of this program's `contact_*` options, `log_view` (with its
-  flags `log_view_memory`, `log_view_gpu_time`) or `options_left`. Anything else (`options_file`, `history`,
-  `start_in_debugger`, `dll_append`, `draw_save`, `draw_type`, `malloc_*`, ...) is
-  refused, whatever its value: before, `draw_type = "image"` with `draw_save = "FILE"` and
-  `ksp_plot_eigenvalues = true` wrote 26 images FILE_0.ppm ... and a folder FILE, anywhere;
+  flags `log_view_memory`, `log_view_gpu_time`) or `options_left`. Anything else
+  (`options_file`, `history`, `start_in_debugger`, `dll_append`, `draw_save`,
+  `draw_type`, `malloc_*`, ...) is refused, whatever its value: before, `draw_type =
+  "image"` with `draw_save = "FILE"` and `ksp_plot_eigenvalues = true` wrote 26 images
+  FILE_0.ppm ... and a folder FILE, anywhere;
 - within those, no name about drawing, plotting, files or Python (`ksp_plot_eigenvalues`,
   `*_draw*`, `*_binary*`, `*_python_type`, ...), and no Python type (`pc_type = "python"`
   with `pc_python_type = "os.abort"` imported and called that function before);
