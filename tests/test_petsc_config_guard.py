@@ -42,7 +42,7 @@ def test_file_writing_and_code_loading_options_are_refused(key, value):
 
 @pytest.mark.parametrize("key, value", [
     ("log_view", "true"), ("log_view", ""), ("ksp_view", "ascii"),
-    ("ksp_monitor", "::ascii_info_detail"), ("ksp_type", "cg"), ("pc_type", "gamg"),
+    ("ksp_monitor", "::default"), ("ksp_type", "cg"), ("pc_type", "gamg"),
     ("pc_factor_mat_solver_type", "mumps"), ("mat_mumps_icntl_14", "50"),
     ("ksp_rtol", "1e-10"), ("contact_compliance", "solve"),
     ("sub_pc_type", "icc"), ("mg_levels_ksp_type", "chebyshev"), ("mg_levels_2_pc_type", "sor"),
@@ -111,3 +111,24 @@ def test_a_shared_config_cannot_draw_images_anywhere_or_write_fortran_units(tmp_
         assert res.stderr.startswith("error: config file") and "not allowed" in res.stderr
         assert read_summary(out)["status"] == "failed"
     assert list(target.parent.iterdir()) == [] and not list(tmp_path.glob("fort.*"))
+
+
+def test_a_monitor_format_is_one_line_not_a_segmentation_fault(tmp_path):
+    """`ksp_monitor = "::ascii_info_detail"` passes the guard (a viewer to the standard
+    output), but PETSc 3.18 has ASCII KSP monitors for the default format only and called
+    a NULL monitor: exit 139 at the first iteration, from the config or the command line."""
+    table = 'ksp_type = "cg"\npc_type = "jacobi"\nksp_monitor = "::ascii_info_detail"'
+    runs = [[str(_config(tmp_path, table))],
+            [str(CONFIGS / "patch.toml"), "-ksp_type", "cg", "-pc_type", "jacobi",
+             "-mg_levels_ksp_monitor_short", "ascii::ascii_info"]]
+    for n, args in enumerate(runs):
+        out = tmp_path / f"o{n}"
+        res = run_cli(["run", *args, "--out", str(out), "--quiet"])
+        assert res.returncode == 2, res.stderr
+        assert res.stderr.startswith("error: PETSc option -") and "monitor" in res.stderr
+        assert len(res.stderr.strip().splitlines()) == 1, res.stderr
+        assert read_summary(out)["status"] == "failed"
+    res = run_cli(["run", str(_config(tmp_path, 'ksp_type = "cg"\npc_type = "jacobi"\n'
+                                      'ksp_monitor_short = "ascii::default"')),
+                   "--out", str(tmp_path / "ok"), "--quiet"])
+    assert res.returncode == 0 and "KSP Residual norm" in res.stdout, res.stderr
