@@ -142,6 +142,11 @@ def check_log_view_file(config_petsc: dict[str, str]) -> None:
                          "not exist or is not writable, or it is a folder)")
 
 
+READ_AT_FINALIZE = frozenset({"options_left"})
+"""Options PETSc reads only at PetscFinalize, after the summary is written: never unused
+(before, `-options_left` listed itself in `petsc_options_unused`)."""
+
+
 def unused_options(user_names: set[str]) -> list[str]:
     """Names (with the dash) of the user's options that nothing used during the run."""
     lib = load_petsc()
@@ -157,7 +162,7 @@ def unused_options(user_names: set[str]) -> list[str]:
     finally:
         lib.PetscOptionsLeftRestore(None, ctypes.byref(n), ctypes.byref(names),
                                     ctypes.byref(values))
-    return sorted(f"-{x}" for x in left if x in user_names)
+    return sorted(f"-{x}" for x in left if x in user_names and x not in READ_AT_FINALIZE)
 
 
 def petsc_error_line(exc: Exception) -> str:
