@@ -210,8 +210,9 @@ def check_disk(est: SizeEstimate | None, n_steps: int, folder: str | Path, *,
         return
     if need > free:
         whose = "the run's" if len(runs) == 1 else f"the study's {len(runs)} runs'"
+        each = "each" if max(runs) == min(runs) else "each at the finest level"
         raise InputError(f"{whose} {n_steps} step files would need about {need / 1e9:.3g} "
-                         f"GB ({est.dofs:.2g} DOFs each), more than the {free / 1e9:.3g} GB "
+                         f"GB ({est.dofs:.2g} DOFs {each}), more than the {free / 1e9:.3g} GB "
                          f"free on the disk of {folder}: use fewer analysis.steps or a larger "
                          f"--mesh-size, or {option} to run anyway")
 
