@@ -316,7 +316,7 @@ def _study_rows(args, batch) -> tuple[list[dict], Path]:
                          "method at --refine; set analysis.method / analysis.sd with --set)")
     finest = (args.refine if args.sweep
               else args.first_level + args.levels - 1 + args.reference_levels)
-    scale = check_run_input(cfg, args, finest)
+    scale = check_run_input(cfg, args, finest, _study_runs(args, finest))
     if args.sweep:
         from app.studies.sweep import parse_sweeps, run_sweep
 
@@ -339,6 +339,23 @@ def _study_rows(args, batch) -> tuple[list[dict], Path]:
         raise InputError(f"every run of the study failed (see the lines above and "
                          f"{out}/*/summary.json)")
     return rows, out
+
+
+def _study_runs(args, finest: int) -> list[float]:
+    """A study's runs, each as its DOFs over its finest level's: a sweep's combinations
+    (at one level), or every method at each level and the reference method alone at the
+    --reference-levels beyond (4^(level - finest) each)."""
+    import math
+
+    if args.sweep:
+        from app.studies.sweep import parse_sweeps
+
+        return [1.0] * math.prod(len(v) for _, v in parse_sweeps(args.sweep))
+    from app.studies.convergence import parse_methods
+
+    n = len(parse_methods(args.methods))
+    return [4.0 ** (level - finest) for level in range(args.first_level, finest + 1)
+            for _ in range(n if level <= finest - args.reference_levels else 1)]
 
 
 def _run_command(args, petsc_args: list[str], rank: int) -> int:
@@ -401,9 +418,11 @@ def _print_bracket(b: dict | None) -> None:
               "relative", file=sys.stderr)
 
 
-def check_run_input(cfg, args, finest_level: int = 0) -> float:
+def check_run_input(cfg, args, finest_level: int = 0, runs: list[float] | None = None
+                    ) -> float:
     """Checks of the command line against the config before any work; returns the mesh
-    size scale (--mesh-size / mesh.size). Raises InputError (one line)."""
+    size scale (--mesh-size / mesh.size). Raises InputError (one line). `runs`: a
+    study's runs, each as its DOFs over the finest level's (the disk check)."""
     from app.errors import InputError
     from app.mesh.estimate import check_disk, check_resolution, check_size
     from app.petsc_options import check_log_view_file, check_solver_options
@@ -431,7 +450,7 @@ def check_run_input(cfg, args, finest_level: int = 0) -> float:
                      option="--mesh-size" if args.mesh_size else "mesh.size")
     est = check_size(cfg.scene, scale * 2.0**-finest_level, allow_large=args.allow_large,
                      base_dir=cfg.path.parent, refine=finest_level)
-    check_disk(est, cfg.n_steps, args.out or "out", allow_large=args.allow_large)
+    check_disk(est, cfg.n_steps, args.out or "out", allow_large=args.allow_large, runs=runs)
     return scale
 
 

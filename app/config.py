@@ -464,8 +464,9 @@ def _value_problem(key: str, node: Any) -> str | None:
     """Why a config value (or key) is refused, or None."""
     if isinstance(node, int) and not isinstance(node, bool) and not (
             INT64[0] <= node <= INT64[1]):
-        return (f"{key} is an integer of {node.bit_length()} bits: TOML integers are 64-bit "
-                "(write a float, e.g. 1e30, if you mean one)")
+        return (f"{key} is an integer of {node.bit_length()} bits, beyond TOML's 64-bit "
+                "signed integers (-2^63 .. 2^63 - 1): write a float, e.g. 1e30, if you mean "
+                "one")
     if isinstance(node, str):
         bad = UNPRINTABLE.search(node) or (not MULTILINE_KEYS.search(key)
                                            and re.search("\n", node))

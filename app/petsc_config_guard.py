@@ -5,11 +5,13 @@ command line is not (`check_config_file_petsc`, called on the table as read from
 file, before any `--set`). It is an allow-list:
 - an option's name must be a solver option, `ksp_*`, `pc_*` or `mat_*` (also behind the
   prefixes of inner solvers: `sub_`, `mg_levels_`, `mg_levels_N_`, `mg_coarse_`,
-  `redundant_`, `fieldsplit_NAME_`), one of this program's `contact_*` options,
-  `log_view` or `options_left`. Anything else (`options_file`, `history`,
-  `start_in_debugger`, `dll_append`, `draw_save`, `draw_type`, `malloc_*`, ...) is
-  refused, whatever its value: before, `draw_type = "image"` with `draw_save = "FILE"` and
-  `ksp_plot_eigenvalues = true` wrote 26 images FILE_0.ppm ... and a folder FILE, anywhere;
+  `redundant_`, `fieldsplit_NAME_`, `esteig_`, `inner_`, `upper_`, `telescope_`,
+  `redistribute_`), one of this program's `contact_*` options, `log_view` (with its
+  flags `log_view_memory`, `log_view_gpu_time`) or `options_left`. Anything else
+  (`options_file`, `history`, `start_in_debugger`, `dll_append`, `draw_save`,
+  `draw_type`, `malloc_*`, ...) is refused, whatever its value: before, `draw_type =
+  "image"` with `draw_save = "FILE"` and `ksp_plot_eigenvalues = true` wrote 26 images
+  FILE_0.ppm ... and a folder FILE, anywhere;
 - within those, no name about drawing, plotting, files or Python (`ksp_plot_eigenvalues`,
   `*_draw*`, `*_binary*`, `*_python_type`, ...), and no Python type (`pc_type = "python"`
   with `pc_python_type = "os.abort"` imported and called that function before);
@@ -42,10 +44,15 @@ socket or open a window (refused as the value of any option)."""
 STDOUT_VIEWER_TYPES = frozenset({"", "ascii", "true"})
 """The viewer types a config file's viewer option may have: text on the standard output."""
 
-_INNER_PREFIX = r"(?:sub_|redundant_|mg_coarse_|mg_levels_(?:\d+_)?|fieldsplit_[a-z0-9]+_)*"
+_INNER_PREFIX = (r"(?:sub_|redundant_|mg_coarse_|mg_levels_(?:\d+_)?|fieldsplit_[a-z0-9]+_|esteig_"
+                 r"|inner_|upper_|telescope_|redistribute_)*")
 ALLOWED_NAME = re.compile(rf"{_INNER_PREFIX}(?:ksp|pc|mat)_[a-z0-9_]+\Z")
-"""Solver options (KSP, PC, Mat), also of inner solvers behind their prefixes."""
-ALLOWED_OTHER = frozenset({"log_view", "options_left", "contact_compliance",
+"""Solver options (KSP, PC, Mat), also of inner solvers behind their prefixes: GAMG's
+Chebyshev smoother's eigenvalue estimate (`mg_levels_esteig_ksp_type`), a Schur
+fieldsplit's `fieldsplit_1_inner_`/`_upper_`, PCTELESCOPE and PCREDISTRIBUTE (before,
+these were refused as not solver options)."""
+ALLOWED_OTHER = frozenset({"log_view", "log_view_memory", "log_view_gpu_time", "options_left",
+                           "contact_compliance",
                            "contact_candidate_pairs", "contact_lcp_cache"})
 """Other options a config file may set (this program's own `contact_*` options, read in
 app/assembly and app/condensation)."""

@@ -13,6 +13,7 @@
 from __future__ import annotations
 
 import ctypes
+import re
 
 from petsc4py import PETSc
 
@@ -41,12 +42,36 @@ def given_options(config_petsc: dict[str, str]) -> dict[str, str]:
     return {**config_petsc, **PETSc.Options().getAll()}
 
 
+KSP_MONITOR = re.compile(r"(^|_)ksp_monitor(_[a-z_]+)?\Z")
+"""A KSP monitor option (`-ksp_monitor`, `-mg_levels_ksp_monitor_short`, ...)."""
+
+
+def _monitor_format_problem(name: str, value: str) -> str | None:
+    """Why a KSP monitor's viewer format is refused: PETSc 3.18 registers its ASCII
+    monitors for the default format only and calls a NULL monitor for any other:
+    `-ksp_monitor ::ascii_info` (allowed in a config file's [petsc] as a viewer to the
+    standard output) ended the run in a segmentation fault at the first iteration."""
+    if not KSP_MONITOR.search(name) or name.endswith("_cancel"):
+        return None
+    parts = value.split(":")
+    kind = parts[0].strip().lower()
+    fmt = parts[2].strip().lower() if len(parts) > 2 else ""
+    if kind in ("", "ascii", "true") and fmt not in ("", "default"):
+        return (f"PETSc option -{name} {value}: a KSP monitor writes text in its default "
+                f"format only (PETSc crashes on the format {fmt!r}); leave the format "
+                "out: -{name} or -{name} ascii[:FILE]").replace("{name}", name)
+    return None
+
+
 def check_solver_options(config_petsc: dict[str, str]) -> None:
-    """InputError (one line) for an unknown solver type or a `*_type` option with no value."""
+    """InputError (one line) for an unknown solver type, a `*_type` option with no value
+    or a KSP monitor with a format PETSc crashes on."""
     for name, value in given_options(config_petsc).items():
         value = "" if value is None else str(value).strip()
         if name.endswith("_type") and not value:
             raise InputError(f"PETSc option -{name} needs a value")
+        if problem := _monitor_format_problem(name, value):
+            raise InputError(problem)
         if name in CHECKED_TYPES:
             known = CHECKED_TYPES[name]()
             if value.lower() not in known:
@@ -117,6 +142,11 @@ def check_log_view_file(config_petsc: dict[str, str]) -> None:
                          "not exist or is not writable, or it is a folder)")
 
 
+READ_AT_FINALIZE = frozenset({"options_left"})
+"""Options PETSc reads only at PetscFinalize, after the summary is written: never unused
+(before, `-options_left` listed itself in `petsc_options_unused`)."""
+
+
 def unused_options(user_names: set[str]) -> list[str]:
     """Names (with the dash) of the user's options that nothing used during the run."""
     lib = load_petsc()
@@ -132,7 +162,7 @@ def unused_options(user_names: set[str]) -> list[str]:
     finally:
         lib.PetscOptionsLeftRestore(None, ctypes.byref(n), ctypes.byref(names),
                                     ctypes.byref(values))
-    return sorted(f"-{x}" for x in left if x in user_names)
+    return sorted(f"-{x}" for x in left if x in user_names and x not in READ_AT_FINALIZE)
 
 
 def petsc_error_line(exc: Exception) -> str:

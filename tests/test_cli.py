@@ -295,6 +295,16 @@ def test_misspelled_petsc_option_is_reported_as_unused(tmp_path):
         "petsc_options_unused" not in read_summary(out))
 
 
+def test_options_left_is_not_reported_as_unused(tmp_path):
+    """PETSc reads -options_left only at PetscFinalize, after the summary: it was listed in
+    petsc_options_unused (a "misspelled?" option) on every run that asked for the list."""
+    out = tmp_path / "o"
+    res = run_cli(["run", str(CONFIGS / "patch.toml"), "--out", str(out), "--quiet",
+                   "-options_left", "-ksp_typ", "cg"])
+    assert res.returncode == 0, res.stderr
+    assert read_summary(out)["petsc_options_unused"] == ["-ksp_typ"]
+
+
 PLOT = ROOT / "scripts" / "plot_results.py"
 
 

@@ -20,7 +20,9 @@ PATCH = (CONFIGS / "patch.toml").read_text()
 @pytest.mark.parametrize("old, new, match", [
     ("E = 1000.0", "E = 0x" + "f" * 5000, r"body\.0\.E is an integer of 20000 bits"),
     ("E = 1000.0", "E = 1" + "0" * 5000, r"an integer of more than 19 digits"),
-    ("E = 1000.0", "E = 9223372036854775808", r"body\.0\.E is an integer of 64 bits"),
+    ("E = 1000.0", "E = 9223372036854775808", r"body\.0\.E is an integer of 64 bits, beyond "
+     r"TOML's 64-bit signed integers \(-2\^63 \.\. 2\^63 - 1\)"),  # (read "64 bits: ... 64-bit")
+    ("E = 1000.0", "E = -9223372036854775809", r"E is an integer of 64 bits, beyond"),
     ("pressure = 10.0", 'pressure = "P"\n[parameters]\nP = 0x' + "f" * 300,
      r"parameters\.P is an integer of 1200 bits"),
 ])
@@ -35,6 +37,8 @@ def test_the_largest_64_bit_integer_is_accepted(tmp_path):
     path = tmp_path / "c.toml"
     path.write_text(PATCH.replace("E = 1000.0", "E = 9223372036854775807", 1))
     assert load_config(path).E[0] == 9223372036854775807.0
+    path.write_text(PATCH.replace("E = 1000.0", "E = 210000000000", 1))  # steel in Pa
+    assert load_config(path).E[0] == 2.1e11
 
 
 @pytest.mark.parametrize("item, match", [

@@ -49,3 +49,27 @@ def test_an_unusable_out_is_left_to_the_out_check(tmp_path):
     regression case then saw an OSError traceback."""
     cfg = load_config(CONFIGS / "patch.toml")
     check_run_input(cfg, _args(tmp_path / ("n" * 300) / "x"))
+
+
+def _study(**kw) -> Namespace:
+    given = dict(sweep=None, methods="4,q4", first_level=0, reference_levels=0)
+    return Namespace(**{**given, **kw})
+
+
+def test_a_study_counts_all_its_runs(tmp_path, one_gb_free):
+    """Before, a study's check counted its finest run only: `study --methods 4,q4
+    --levels 3` writes 2 x (1/16 + 1/4 + 1) of that run's DOFs, a sweep one run per
+    combination."""
+    from app.cli import _study_runs
+
+    cfg = load_config(CONFIGS / "patch.toml", ["analysis.steps=1000"])
+    args = _args(tmp_path, mesh_size=0.08)
+    check_run_input(cfg, args, 2)  # the finest run alone: about 0.4 GB
+    runs = _study_runs(_study(), 2)
+    assert sorted(runs) == [1 / 16, 1 / 16, 1 / 4, 1 / 4, 1, 1]
+    with pytest.raises(InputError, match=r"the study's 6 runs' 1000 step files would need "
+                                         r"about 1.\d* GB \(.* DOFs each at the finest level\)"):
+        check_run_input(cfg, args, 2, runs)
+    assert _study_runs(_study(reference_levels=1), 2) == [1 / 16, 1 / 16, 1 / 4, 1 / 4, 1]
+    sweep = _study(sweep=["interface.interface.mu=0.1,0.2", "body.lower.E=1,2,3"])
+    assert _study_runs(sweep, 0) == [1.0] * 6

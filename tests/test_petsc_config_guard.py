@@ -42,7 +42,7 @@ def test_file_writing_and_code_loading_options_are_refused(key, value):
 
 @pytest.mark.parametrize("key, value", [
     ("log_view", "true"), ("log_view", ""), ("ksp_view", "ascii"),
-    ("ksp_monitor", "::ascii_info_detail"), ("ksp_type", "cg"), ("pc_type", "gamg"),
+    ("ksp_monitor", "::default"), ("ksp_type", "cg"), ("pc_type", "gamg"),
     ("pc_factor_mat_solver_type", "mumps"), ("mat_mumps_icntl_14", "50"),
     ("ksp_rtol", "1e-10"), ("contact_compliance", "solve"),
     ("sub_pc_type", "icc"), ("mg_levels_ksp_type", "chebyshev"), ("mg_levels_2_pc_type", "sor"),
@@ -50,6 +50,16 @@ def test_file_writing_and_code_loading_options_are_refused(key, value):
     ("mat_mumps_icntl_1", "-1"), ("mat_mumps_icntl_2", "0"), ("ksp_view_eigenvalues", ""),
     ("options_left", ""), ("contact_candidate_pairs", "false"), ("ksp_monitor_short", ""),
     ("ksp_max_it", "100000"), ("mg_levels_ksp_max_it", "2"),
+    # inner solvers' prefixes (before, refused as not solver options): GAMG's Chebyshev
+    # smoother's eigenvalue estimate, a Schur fieldsplit's inner and upper solvers,
+    # PCTELESCOPE, PCREDISTRIBUTE; and -log_view's own flags
+    ("mg_levels_esteig_ksp_type", "cg"), ("mg_levels_esteig_ksp_max_it", "10"),
+    ("fieldsplit_1_inner_ksp_type", "preonly"), ("fieldsplit_1_upper_pc_type", "jacobi"),
+    ("telescope_pc_type", "gamg"), ("redistribute_ksp_type", "cg"),
+    ("log_view_memory", ""), ("log_view_gpu_time", ""),
+    ("pc_hypre_boomeramg_relax_type_all", "symmetric-SOR/Jacobi"),
+    ("pc_hypre_boomeramg_strong_threshold", "0.7"), ("mat_superlu_dist_rowperm", "NOROWPERM"),
+    ("mat_mumps_cntl_3", "1e-12"), ("pc_fieldsplit_schur_fact_type", "full"),
 ])
 def test_ordinary_options_are_allowed(key, value):
     assert refusal(key, value) is None
@@ -101,3 +111,24 @@ def test_a_shared_config_cannot_draw_images_anywhere_or_write_fortran_units(tmp_
         assert res.stderr.startswith("error: config file") and "not allowed" in res.stderr
         assert read_summary(out)["status"] == "failed"
     assert list(target.parent.iterdir()) == [] and not list(tmp_path.glob("fort.*"))
+
+
+def test_a_monitor_format_is_one_line_not_a_segmentation_fault(tmp_path):
+    """`ksp_monitor = "::ascii_info_detail"` passes the guard (a viewer to the standard
+    output), but PETSc 3.18 has ASCII KSP monitors for the default format only and called
+    a NULL monitor: exit 139 at the first iteration, from the config or the command line."""
+    table = 'ksp_type = "cg"\npc_type = "jacobi"\nksp_monitor = "::ascii_info_detail"'
+    runs = [[str(_config(tmp_path, table))],
+            [str(CONFIGS / "patch.toml"), "-ksp_type", "cg", "-pc_type", "jacobi",
+             "-mg_levels_ksp_monitor_short", "ascii::ascii_info"]]
+    for n, args in enumerate(runs):
+        out = tmp_path / f"o{n}"
+        res = run_cli(["run", *args, "--out", str(out), "--quiet"])
+        assert res.returncode == 2, res.stderr
+        assert res.stderr.startswith("error: PETSc option -") and "monitor" in res.stderr
+        assert len(res.stderr.strip().splitlines()) == 1, res.stderr
+        assert read_summary(out)["status"] == "failed"
+    res = run_cli(["run", str(_config(tmp_path, 'ksp_type = "cg"\npc_type = "jacobi"\n'
+                                      'ksp_monitor_short = "ascii::default"')),
+                   "--out", str(tmp_path / "ok"), "--quiet"])
+    assert res.returncode == 0 and "KSP Residual norm" in res.stdout, res.stderr

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 from petsc4py import PETSc
 
-from app.assembly.loads import LoadCase, support_dofs, unique_names
+from app.assembly.loads import LoadCase, all_support_dofs, unique_names
 from app.assembly.solve import LinearSolver
 from app.assembly.stiffness import node_ownership
 from app.config import Config
@@ -208,7 +208,7 @@ def _reaction_setup(mesh: Mesh, cfg: Config, cases: list[LoadCase], probe: React
     from app.output.reactions import body_extents, step_reactions
 
     names = unique_names([f"support:{s.on}" for s in cfg.supports])
-    owner = support_owner([support_dofs(mesh, s, cfg.parameters)[0] for s in cfg.supports],
+    owner = support_owner([d for d, _ in all_support_dofs(mesh, cfg.supports, cfg.parameters)],
                           2 * mesh.n_nodes)
     node_body = mesh.node_body()
     extents = body_extents(mesh.points, node_body, len(mesh.body_names))

@@ -189,14 +189,18 @@ patch.toml, 222 DOFs: 33,568 B; 2000 one-element bodies, 16,000 DOFs: 297,610 B)
 
 
 def check_disk(est: SizeEstimate | None, n_steps: int, folder: str | Path, *,
-               allow_large: bool = False, option: str = "--allow-large") -> None:
+               allow_large: bool = False, option: str = "--allow-large",
+               runs: list[float] | None = None) -> None:
     """Refuse (InputError, one line) a run whose step files would not fit on the disk of
     `folder` (or of its nearest existing parent). Before, only memory was estimated:
     `analysis.steps = 100000` (the largest allowed) on a mesh that fits in memory went on
-    writing step files until the disk was full."""
+    writing step files until the disk was full. `runs`: a study's runs, each as its DOFs
+    over `est`'s (a convergence study's level l of L: 4^(l - L)); before, a study counted
+    its finest run only."""
     if est is None or allow_large:
         return
-    need = n_steps * (STEP_FILE_BYTES + STEP_BYTES_PER_DOF * est.dofs)
+    runs = [1.0] if runs is None else runs
+    need = n_steps * sum(STEP_FILE_BYTES + STEP_BYTES_PER_DOF * est.dofs * r for r in runs)
     path = Path(folder).absolute()
     try:
         while not path.exists() and path != path.parent:
@@ -205,8 +209,10 @@ def check_disk(est: SizeEstimate | None, n_steps: int, folder: str | Path, *,
     except OSError:  # a name too long, no access: the --out check names it
         return
     if need > free:
-        raise InputError(f"the run's {n_steps} step files would need about {need / 1e9:.3g} "
-                         f"GB ({est.dofs:.2g} DOFs each), more than the {free / 1e9:.3g} GB "
+        whose = "the run's" if len(runs) == 1 else f"the study's {len(runs)} runs'"
+        each = "each" if max(runs) == min(runs) else "each at the finest level"
+        raise InputError(f"{whose} {n_steps} step files would need about {need / 1e9:.3g} "
+                         f"GB ({est.dofs:.2g} DOFs {each}), more than the {free / 1e9:.3g} GB "
                          f"free on the disk of {folder}: use fewer analysis.steps or a larger "
                          f"--mesh-size, or {option} to run anyway")
 

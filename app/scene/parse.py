@@ -255,6 +255,14 @@ def _body(b: dict, i: int, size: float, need_shapes: bool, named: dict[str, np.n
     return spec
 
 
+def _listed(names: list[str], most: int = 12) -> str:
+    """The names, comma-separated; of more than `most`, the first ones and the last (a
+    10,000-corner polygon's error line listed all its sides, 119 kB)."""
+    if len(names) <= most:
+        return ", ".join(names)
+    return f"{', '.join(names[:most - 2])}, ... ({len(names)} in all), {names[-1]}"
+
+
 def _check_curves(curves: dict, valid: list[str], kind: str, name: str, where: str,
                   curve_owner: dict[str, str]) -> None:
     """[body.curves]: each key a side of the shape, each name owned by one body."""
@@ -262,7 +270,7 @@ def _check_curves(curves: dict, valid: list[str], kind: str, name: str, where: s
         if side not in valid:
             raise InputError(
                 f"{where}curves.{side} is not a side of a {kind}"
-                f"{suggestion(side, valid)} (sides: {', '.join(valid)})"
+                f"{suggestion(side, valid)} (sides: {_listed(valid)})"
             )
         if not isinstance(cname, str) or not cname:
             raise InputError(f"{where}curves.{side} must be a curve name (got {cname!r})")
