@@ -179,9 +179,9 @@ def end_process(code: int) -> None:
     outside any phase"). Any other status, PETSc not started or already finalized, or a
     petsc4py without `_finalize`: returns, and the interpreter ends as before.
 
-    `PETSc._finalize` is private, but it is what petsc4py itself registers (Py_AtExit) to
-    run at the interpreter's end, and petsc4py has no public PetscFinalize: calling it here
-    runs the same code, only before the teardown instead of after it. A petsc4py that
+    `PETSc._finalize` is private, but petsc4py has no public PetscFinalize, and it runs
+    the C `finalize` that petsc4py registers with Py_AtExit for the interpreter's end:
+    the same code, only before the teardown instead of after it. A petsc4py that
     drops it is checked for before anything is run (tests/test_process_end.py)."""
     petsc = sys.modules.get("petsc4py.PETSc")
     if code != 0 or petsc is None or not petsc.Sys.isInitialized() or petsc.Sys.isFinalized():
