@@ -71,3 +71,15 @@ def test_a_petsc4py_without_its_private_finalize_ends_as_before(tmp_path):
     assert res.stderr.rstrip().endswith("TEARDOWN")  # the interpreter's own end
     assert read_summary(out)["status"] == "completed"
     assert res.stdout.count("PETSc Performance Summary") == 1  # PetscFinalize ran once
+
+
+def test_a_profiled_run_ends_through_the_interpreter_with_its_profile(tmp_path):
+    """README's `python -m cProfile -s cumtime -m app run ...`: cProfile prints its table
+    after the app returns; the fast end (os._exit) left it out, exit 0 and no table."""
+    res = subprocess.run([sys.executable, "-m", "cProfile", "-s", "cumtime", "-m", "app",
+                          "run", str(CONFIGS / "patch.toml"), "--out", str(tmp_path / "o"),
+                          "--quiet"], cwd=ROOT, env=mpi_env(), capture_output=True,
+                         text=True, timeout=600)
+    assert res.returncode == 0, res.stderr
+    assert "function calls" in res.stdout and "cumulative" in res.stdout
+    assert read_summary(tmp_path / "o")["status"] == "completed"
