@@ -455,3 +455,60 @@ def test_one_slave_on_two_masters_meeting_inside_an_edge_counts_all_of_it():
     assert pa.n_pairs + pb.n_pairs == 7
     np.testing.assert_allclose(pa.length.sum(), 1.0, atol=1e-12)
     np.testing.assert_allclose(pb.length.sum(), 1.0, atol=1e-12)
+
+
+def corner_scene(f: float, gap: float, deg: float) -> tuple[Mesh, int]:
+    """A slave of 5 edges of 0.2 (bottom of the upper block) whose left node lies f x 0.2
+    beyond the left end of a master of 4 edges of 0.25 on [0, 1] (the lower block's
+    top), the slave gap above the master's line (negative: an overlap), turned by deg;
+    the mesh and the slave's left node."""
+    low = block(np.linspace(0.0, 1.0, 5), np.linspace(-0.5, 0.0, 3))
+    up = block(-0.2 * f + 0.2 * np.arange(6), np.linspace(gap, 0.5 + gap, 3))
+    mesh, _ = rotate(scene({"low": low, "up": up}), deg)
+    return mesh, low[0].shape[0]
+
+
+@pytest.mark.parametrize("deg", [0.0, 30.0, -89.99])
+@pytest.mark.parametrize("f", [1e-5, 1e-3, 0.1, 0.29, 0.3, 0.5])
+def test_overlapping_slave_node_just_beyond_a_master_end_pairs_with_the_end(deg, f):
+    """A slave node beyond a free master end that overlaps the end segment's line pairs
+    with that segment (xi at the end, g0 its distance to the line) when it faces the
+    master over at least half its support, int_cov N ds = 0.1 (1 - f)^2 >= 0.05, i.e.
+    f <= 1 - 1/sqrt(2) = 0.293, the rule of mortar's rows: its length is its half edge up
+    to the end's line. Before, a node beyond the end by more than XI_EPS had no pair
+    (f = 1e-5: 8e-6 of the end segment) and its overlap of 0.002 was ignored without a
+    word (a tilted interference fit ran with it where mortar refused it). Beyond that
+    cover its neighbour's length reaches the end's line, as before; either way the
+    lengths add up to the covered length 1 - 0.2 f."""
+    mesh, corner = corner_scene(f, -0.002, deg)
+    p = contact_pairs(mesh, "up_bottom", "low_top", 0.1, interference=True)
+    np.testing.assert_allclose(p.length.sum(), 1.0 - 0.2 * f, atol=1e-12)
+    at = np.flatnonzero(p.slave == corner)
+    if f > 1.0 - np.sqrt(0.5):
+        assert at.size == 0
+        return
+    assert at.size == 1
+    (i,) = at
+    assert p.xi[i] in (0.0, 1.0)
+    np.testing.assert_allclose(p.g0[i], -0.002, atol=1e-12)
+    np.testing.assert_allclose(p.length[i], 0.1 - 0.2 * f, atol=1e-12)
+    np.testing.assert_allclose(p.g0, -0.002, atol=1e-12)
+
+
+@pytest.mark.parametrize("gap", [0.002, 0.0, -1e-9])
+def test_open_or_touching_slave_node_beyond_a_master_end_stays_unpaired(gap):
+    """Open, touching, or overlapping within penetration_tol: nothing to push out, so a
+    slave node beyond a free master end stays without a pair, as before."""
+    mesh, corner = corner_scene(0.1, gap, 30.0)
+    p = contact_pairs(mesh, "up_bottom", "low_top", 0.1)
+    assert corner not in p.slave
+    np.testing.assert_allclose(p.length.sum(), 0.98, atol=1e-12)
+
+
+def test_overlap_beyond_a_master_end_without_interference_is_refused_naming_the_node():
+    """Without `interference` the overlapping node beyond the end is a penetration like
+    any other, named in the error (before: no pair, the run went on with it)."""
+    mesh, _ = corner_scene(0.1, -0.002, 0.0)
+    with pytest.raises(InputError, match=r"6 slave nodes penetrate .*first at x=-0.02, "
+                       r"y=-0.002"):
+        contact_pairs(mesh, "up_bottom", "low_top", 0.1, name="c")

@@ -12,7 +12,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 import pytest
-from support import CONFIGS, kkt_violations, run_cli
+from support import CONFIGS, kkt_violations, read_summary, run_cli
 
 from app.config import apply_overrides, parse_config
 from app.errors import InputError, SolveError
@@ -530,18 +530,20 @@ def test_mortar_standard_refuses_a_clamped_interference_fit_as_mortar_does(tmp_p
     np.testing.assert_allclose(contact(out, 1)["gap"], 0.0, atol=1e-12)
 
 
-def _tilted(right: str) -> list[str]:
+def _tilted(right: str, left: str = "ux=0.0") -> list[str]:
     """interference.toml's fit tilted by 0.02 (the interface from y = 0.98 at x = 0 to
-    1.02 at x = 1, the upper strip 0.002 into the lower), roller left sides, the right
-    sides held by `right` (ux = 0.0, uy = 0.0: clamped; ux = 0.0: rollers)."""
+    1.02 at x = 1, the upper strip 0.002 into the lower), the left sides held by `left`
+    (default rollers), the right sides by `right` (ux = 0.0, uy = 0.0: clamped; ux = 0.0:
+    rollers)."""
     return ['body.lower.shape={type="polygon",points=[[0.0,0.0],[1.0,0.0],[1.0,1.02],'
             '[0.0,0.98]]}', 'body.lower.curves={side0="lower_base",side1="lower_right",'
             'side2="lower_top",side3="lower_sides"}',
             'body.upper.shape={type="polygon",points=[[0.0,0.978],[1.0,1.018],[1.0,2.0],'
             '[0.0,2.0]]}', 'body.upper.curves={side0="upper_bottom",side1="upper_right",'
             'side2="upper_top",side3="upper_sides"}',
-            'support=[{on="lower_base",ux=0.0,uy=0.0},{on="lower_sides",ux=0.0},'
-            '{on="upper_sides",ux=0.0},{on="upper_top",uy=0.0},'
+            'support=[{on="lower_base",ux=0.0,uy=0.0},'
+            f'{{on="lower_sides",{left}}},{{on="upper_sides",{left}}},'
+            '{on="upper_top",uy=0.0},'
             f'{{on="lower_right",{right}}},{{on="upper_right",{right}}}]']
 
 
@@ -562,6 +564,47 @@ def test_a_tilted_clamped_interference_fit_is_refused_as_the_flat_one(tmp_path, 
     assert s["status"] == "completed"
     e_plane = 1000.0 * 0.7 / (1.3 * 0.4)  # E' of E = 1000, nu = 0.3 (plane strain)
     np.testing.assert_allclose(contact(out, 1)["p"].max(), e_plane * 0.002 / 2.0, rtol=0.15)
+
+
+@pytest.mark.parametrize("disc", ["node-to-segment", "mortar", "mortar-standard"])
+def test_a_tilted_fit_clamped_at_the_left_is_refused_as_at_the_right(tmp_path, disc):
+    """The same tilted fit clamped at its LEFT sides: the tilt puts the clamped slave
+    corner (0, 0.978) 4e-5 beyond the master's free end (2e-4 of the end segment, past
+    XI_EPS), so node-to-segment gave it no pair and ran with max p 3.54 and the corner's
+    0.002 overlap ignored, without a word, where mortar and mortar-standard refuse it
+    (reviewer `review11`). The corner now pairs with the end segment (`end_overlaps` in
+    app/contact/pairs.py): refused with every discretisation."""
+    use = f'interface.contact.discretisation="{disc}"'
+    with pytest.raises(SolveError, match=r"hold both sides of 1 pair\(s\) of interface "
+                       r"'contact' .*deepest 0.002 at the slave node x=0, y=0.978: the "
+                       r"interference fit's initial overlap 0.002\).*no finite-energy"):
+        solve(tmp_path, "interference", *_tilted("ux=0.0", left="ux=0.0,uy=0.0"), use)
+
+
+def test_a_tilted_fit_clamped_at_the_left_is_refused_on_two_ranks(tmp_path):
+    """The left-clamped tilted fit with node-to-segment on 2 ranks: the same refusal, one
+    line, exit 2, summary.json `failed` (it ran before, max p 3.42)."""
+    sets = [a for s in _tilted("ux=0.0", left="ux=0.0,uy=0.0") for a in ("--set", s)]
+    r = run_cli(["run", str(HARD / "interference.toml"), "--out", str(tmp_path / "o"),
+                 "--quiet", *sets, "--set",
+                 'interface.contact.discretisation="node-to-segment"'], ranks=2)
+    assert r.returncode == 2, r.stderr
+    errors = [ln for ln in r.stderr.splitlines() if ln.startswith("error:")]
+    assert len(errors) == 1 and "deepest 0.002 at the slave node x=0, y=0.978" in errors[0]
+    assert read_summary(tmp_path / "o")["status"] == "failed"
+
+
+def test_a_tilted_fit_on_rollers_reads_as_mortar_with_node_to_segment(tmp_path):
+    """The tilted fit on rollers: node-to-segment's strain energy was 1.1% below
+    mortar's, 0.0013308 against 0.0013459 (the slave corner 4e-5 beyond the master's end
+    had no pair, its overlap not pushed out); with the corner paired it is mortar's to
+    1.1e-7 (max p 1.370 against 1.371; 1.477 before)."""
+    energy = {}
+    for disc in ("node-to-segment", "mortar"):
+        s, _ = solve(tmp_path, "interference", *_tilted("ux=0.0"),
+                     f'interface.contact.discretisation="{disc}"', tag=disc)
+        energy[disc] = s["strain_energy"]
+    np.testing.assert_allclose(energy["node-to-segment"], energy["mortar"], rtol=1e-6)
 
 
 def test_a_tolerated_initial_overlap_at_clamped_corners_is_touching(tmp_path):

@@ -35,6 +35,13 @@ from app.mesh.model import Mesh, orient_boundary_edges
 XI_EPS = 1e-6
 """Tolerance on the unclipped xi beyond a free end of the master curve (dimensionless)."""
 
+END_MIN_COVER = 0.5
+"""A slave node beyond a free master end that overlaps the end segment's line keeps a pair
+with that segment (xi clamped to the end) when it faces the master over at least this
+share of its support (int_cov N_j ds >= END_MIN_COVER x D_j, N_j its linear shape
+function, D_j its tributary length): the rule by which mortar's rows keep such a node
+(`MIN_COVER` in app/contact/mortar.py)."""
+
 PENETRATION_REL_TOL = 1e-6
 """Default penetration_tol = this x the mean master segment length (plus round-off floor)."""
 
@@ -289,7 +296,12 @@ def contact_pairs(mesh: Mesh, slave: str, master: str, search_distance: float, *
     nodes are skipped). search_distance (length, > 0): pairs whose slave node is farther
     than this from its projection, or whose gap g0 exceeds it, are dropped. A slave node
     that projects beyond a free end of the master curve (a node used by one master edge)
-    by more than XI_EPS in xi is dropped too. interface: index stored in the pairs.
+    by more than XI_EPS in xi is dropped too, unless it overlaps the end segment's line
+    by more than penetration_tol and faces the master over at least END_MIN_COVER of its
+    support (`end_overlaps`, mortar's rule): then it is paired with the end segment, xi
+    clamped to the end, g0 its distance to that line (a tilted interference fit's slave
+    corner 4e-5 past the master's end had no pair and its overlap of 0.002 was ignored).
+    interface: index stored in the pairs.
     penetration_tol (length): a kept pair with g0 < -penetration_tol is an initial
     penetration and raises InputError; default PENETRATION_REL_TOL x the mean master
     segment length (at least 1e-12 x the scene size, for round-off). Gaps in
@@ -310,14 +322,19 @@ def contact_pairs(mesh: Mesh, slave: str, master: str, search_distance: float, *
     m_edges, seg_len, tol = master_segments(mesh, pts, m_edges, label, master,
                                              penetration_tol)
 
-    nodes, trib = tributary_length(pts, s_edges)
+    nodes, _ = tributary_length(pts, s_edges)
     m_degree = np.bincount(m_edges.ravel(), minlength=mesh.n_nodes)
-    trib = covered_tributary(pts, s_edges, m_edges, seg_len, m_degree, sd)
     keep_s = m_degree[nodes] == 0
-    nodes, trib = nodes[keep_s], trib[keep_s]
-    xs = pts[nodes]
+    xs = pts[nodes[keep_s]]
 
-    keep, sg, xi, t, nrm, g0 = _project_slaves(xs, pts, m_edges, seg_len, m_degree, sd)
+    keep, sg, xi, t, nrm, g0, beyond = _project_slaves(xs, pts, m_edges, seg_len,
+                                                       m_degree, sd)
+    at_end = end_overlaps(pts, s_edges, nodes[keep_s], m_edges, seg_len, m_degree, sd,
+                          g0, tol, beyond)
+    keep |= at_end
+    trib = covered_tributary(pts, s_edges, m_edges, seg_len, m_degree, sd,
+                             kept=nodes[keep_s][at_end])[keep_s]
+    nodes = nodes[keep_s]
     if not keep.any():
         raise no_slave_error(label, slave, master, sd)
     if not interference:
@@ -330,7 +347,8 @@ def contact_pairs(mesh: Mesh, slave: str, master: str, search_distance: float, *
 
 
 def covered_tributary(pts: np.ndarray, s_edges: np.ndarray, m_edges: np.ndarray,
-                      seg_len: np.ndarray, m_degree: np.ndarray, sd: float) -> np.ndarray:
+                      seg_len: np.ndarray, m_degree: np.ndarray, sd: float,
+                      kept: np.ndarray | None = None) -> np.ndarray:
     """Tributary lengths of the slave-curve nodes (in `tributary_length`'s order, length)
     counting only what faces the master: a half edge (node to edge midpoint) whose midpoint
     projects beyond a free master end (a node of one master edge) by more than XI_EPS
@@ -345,9 +363,12 @@ def covered_tributary(pts: np.ndarray, s_edges: np.ndarray, m_edges: np.ndarray,
 
     pts (n, 2); s_edges (k, 2) slave edges; m_edges (j, 2) oriented master edges and
     seg_len (j,) their lengths; m_degree (n_nodes,) master edges per node; sd the
-    search distance (length).
+    search distance (length). kept (r,): nodes beyond a free end that keep a pair
+    (`end_overlaps`): each counts its half edges from that end's line, and its edge
+    partner only its own half edge.
     """
     s_edges = np.asarray(s_edges, dtype=np.int64)
+    kept = np.zeros(0, dtype=np.int64) if kept is None else np.asarray(kept)
     xs = (pts[s_edges[:, 0]], pts[s_edges[:, 1]])
     mid = 0.5 * (xs[0] + xs[1])
     half = 0.5 * np.linalg.norm(xs[1] - xs[0], axis=1)
@@ -358,10 +379,48 @@ def covered_tributary(pts: np.ndarray, s_edges: np.ndarray, m_edges: np.ndarray,
         frac[out, k] = np.minimum(np.maximum(-s_node[k], 0.0) / (s_mid - s_node[k]), 1.0)
     for j in (0, 1):  # node j beyond: node 1 - j's share reaches the end line
         out, s_j, (s_k,) = _beyond_free_end(xs[j], (xs[1 - j],), *ends)
+        own = np.isin(s_edges[out, j], kept)
+        s_m = 0.5 * (s_j + s_k)
+        frac[out[own], j] = np.clip(-s_m[own] / (s_j[own] - s_m[own]), 0.0, 1.0)
+        out, s_j, s_k = out[~own], s_j[~own], s_k[~own]
         frac[out, 1 - j] = 2.0 * np.clip(-s_k / (s_j - s_k), 0.0, 1.0)
     nodes, inv = np.unique(s_edges.ravel(), return_inverse=True)
     return np.bincount(inv.ravel(), weights=(half[:, None] * frac).ravel(),
                        minlength=nodes.size)
+
+
+def end_overlaps(pts: np.ndarray, s_edges: np.ndarray, nodes: np.ndarray,
+                 m_edges: np.ndarray, seg_len: np.ndarray, m_degree: np.ndarray, sd: float,
+                 g0: np.ndarray, tol: float, candidates: np.ndarray) -> np.ndarray:
+    """(q,) bool: the slave nodes `nodes` (q,) among `candidates` (q,) bool (beyond a
+    free master end by more than XI_EPS, within sd: `_project_slaves`) that overlap the
+    end segment's line (g0 (q,) < -tol, lengths) and face the master over at least
+    END_MIN_COVER of their support: int_cov N_j ds over their slave edges s_edges (k, 2),
+    the covered part being on the master's side of the line through the end normal to
+    the end segment, against D_j (only the candidates' edges are searched). Such a node
+    is paired with the end segment (`contact_pairs`); with less cover, mortar hands its
+    share to a neighbour and node-to-segment extends the neighbour's tributary length to
+    the end line."""
+    ok = np.zeros(nodes.size, dtype=bool)
+    s_edges = np.asarray(s_edges, dtype=np.int64)
+    s_edges = s_edges[np.isin(s_edges, nodes[candidates & (g0 < -tol)]).any(axis=1)]
+    if s_edges.shape[0] == 0:
+        return ok
+    xs = (pts[s_edges[:, 0]], pts[s_edges[:, 1]])
+    h = np.linalg.norm(xs[1] - xs[0], axis=1)
+    reach = sd + float(h.max(initial=0.0))
+    cover = np.zeros(pts.shape[0])
+    beyond = np.zeros(pts.shape[0], dtype=bool)
+    for j in (0, 1):
+        out, s_j, (s_k,) = _beyond_free_end(xs[j], (xs[1 - j],), pts, m_edges, seg_len,
+                                            m_degree, reach)
+        t0 = np.where(s_k < 0, s_j / np.where(s_k < 0, s_j - s_k, 1.0), 1.0)
+        np.add.at(cover, s_edges[out, j], 0.5 * h[out] * (1.0 - t0) ** 2)
+        beyond[s_edges[out, j]] = True
+    d_len = np.bincount(s_edges.ravel(), weights=np.repeat(0.5 * h, 2),
+                        minlength=pts.shape[0])
+    ok = beyond & (cover >= END_MIN_COVER * (1.0 - 1e-12) * d_len)
+    return ok[nodes] & candidates & (g0 < -tol)
 
 
 def _beyond_free_end(probe: np.ndarray, others: tuple[np.ndarray, ...], pts: np.ndarray,
@@ -418,7 +477,9 @@ def _project_slaves(xs: np.ndarray, pts: np.ndarray, m_edges: np.ndarray,
     m_edges (k, 2) oriented master edges, seg_len (k,) their lengths, m_degree (n_nodes,)
     master edges per node. Returns keep (q,) bool (a segment within sd, not beyond a free
     master end by more than XI_EPS, g0 <= sd), sg (q,) segment (0 if none), xi (q,) in
-    [0, 1], tangent t (q, 2), normal (q, 2) and gap g0 (q,) (module sign conventions).
+    [0, 1], tangent t (q, 2), normal (q, 2), gap g0 (q,) (module sign conventions; beyond
+    a free end: the distance to the end segment's line) and beyond (q,) bool (within sd
+    as keep, but beyond a free end).
     """
     xa, xb = pts[m_edges[:, 0]], pts[m_edges[:, 1]]
     seg, xr, dist = closest_segments(xs, xa, xb, sd)
@@ -435,8 +496,8 @@ def _project_slaves(xs: np.ndarray, pts: np.ndarray, m_edges: np.ndarray,
     # from coordinate differences (xs - xp with xp = (1 - xi) xa + xi xb carried the
     # round-off of |x|, not of the gap)
     g0 = np.einsum("ij,ij->i", nrm, (xs - xa[sg]) - xi[:, None] * (xb - xa)[sg])
-    keep = found & ~beyond & (dist <= sd) & (g0 <= sd)
-    return keep, sg, xi, t, nrm, g0
+    near = found & (dist <= sd) & (g0 <= sd)
+    return near & ~beyond, sg, xi, t, nrm, g0, near & beyond
 
 
 def constraint_matrix(pairs: ContactPairs, n_nodes: int) -> sp.csr_matrix:
