@@ -575,6 +575,39 @@ def test_the_gate_sees_an_open_pair_penetrating_and_a_slip_off_its_sign(pair, fi
         assert lcp._off_basis(bad, basis, tau_prev, cc, np.full(m, mu)) is fired
 
 
+@pytest.mark.parametrize("rel, fired", [(1e-2, False), (1e2, True)])
+def test_the_gate_judges_an_open_unbonded_pairs_q_against_its_motions_force(rel, fired):
+    """An open pair without a bond (p = -a = 0, c = 0: bound 0, q = 0) sticking in Lemke's
+    basis, its q moved to rel x POLISH_GATE x motion / C_tt,ii: the round-off of q
+    recovered as H times motion. 1e-2 of that is round-off and does not call for the
+    re-solve; 1e2 does. Before, the stick test judged |q| against the pair's own forces
+    alone, |q| itself there, so any round-off fired: multibody.toml --sd 1 --mesh-size 1.2
+    re-solved steps 2..4 for q of 1e-13 on such pairs (bound 0), and at step 3 the tabu
+    step settled on other states (a hourglass amplitude of 316 for Lemke's 9.4, a pair
+    closed at p = 5e-15) with `kkt_pairs` 6e-12, then 2.8e-11 at step 4 (1.7e-13 with
+    Lemke's answer kept)."""
+    import dataclasses
+
+    m, mu, a = 5, 0.3, np.array([0.0, 0.0, 0.0, 0.0, 1.0])
+    block = np.eye(m) + 0.1 * np.ones((m, m))
+    c = np.block([[CN * block, np.zeros((m, m))], [np.zeros((m, m)), CT * block]])
+    lcp = ContactLCP(c, np.full(m, mu), np.ones(m, bool), None, None)
+    gap_free = np.array([-1e-3, -1e-3, -1e-3, 1e-3, 5e-3])
+    tau_free = np.array([1e-5, 1e-2, -1e-2, 0.0, 0.0])
+    tau_prev, cc = np.zeros(m), 2.0 * a
+    sol = lcp.solve(gap_free, tau_free, tau_prev, a, cc, np.full(m, mu), np.zeros(0))
+    basis = np.asarray(sol.basis, bool).copy()
+    assert not basis[3] and cc[3] == 0.0 and sol.p[3] == 0.0  # pair 3: open, no bond
+    basis[lcp.edges[1] + 3] = basis[lcp.edges[2] + 3] = False  # sticking (Lemke: slip-),
+    tau, q = sol.tau.copy(), sol.q.copy()  # not moving, at q = 0
+    tau[3], q[3] = tau_prev[3], 0.0
+    assert not lcp._off_basis(dataclasses.replace(sol, tau=tau, q=q), basis, tau_prev, cc,
+                              np.full(m, mu))
+    q[3] = rel * POLISH_GATE * sol.motion[3] / (1.1 * CT)  # (C_tt,ii = 1.1 CT)
+    bad = dataclasses.replace(sol, tau=tau, q=q)
+    assert lcp._off_basis(bad, basis, tau_prev, cc, np.full(m, mu)) is fired
+
+
 def test_a_stiff_floating_block_sticking_on_a_soft_one_keeps_every_pair_closed(tmp_path):
     """two_blocks.toml, the upper block floating, E = 1e12 on 1e3, mu = 0.5, no bond. The
     mortar maps 11 slave pairs onto 9 master nodes, so force patterns the soft block does

@@ -588,9 +588,13 @@ class ContactLCP:
         with a negative gap, a frictional pair without a basic slip variable that moved
         tangentially; or of its forces: such a sticking pair with |q| over its bound
         c + mu p (c, mu (m,); at a contrast of 1e11 one was 3.3e-5 over, `kkt` 3.3e-5, and
-        the load step's states differed from those at 1e6); or a slipping pair off its
-        side of the cone (`_slip_off`). Round-off of the condensed LCP (`_polished`);
-        elsewhere Lemke's answer is kept as it is."""
+        the load step's states differed from those at 1e6), beyond POLISH_GATE of its
+        forces plus `_q_reach` (an open pair without a bond has bound 0 and no forces: its
+        q of 1e-13, round-off, fired on multibody.toml --sd 1 --mesh-size 1.2, and the
+        re-solve's tabu step settled on other states with a hourglass amplitude of 316 for
+        9.4 and `kkt_pairs` 2.8e-11 for 1.7e-13); or a slipping pair off its side of the
+        cone (`_slip_off`). Round-off of the condensed LCP (`_polished`); elsewhere
+        Lemke's answer is kept as it is."""
         m, f = self.m, self.fric
         motion = np.broadcast_to(np.asarray(sol.motion, dtype=float), (m,))
         tol = POLISH_GATE * motion
@@ -600,7 +604,7 @@ class ContactLCP:
         moved = sol.tau - tau_prev
         bound = c + mu * sol.p
         forces = np.abs(c) + np.abs(mu * sol.p) + np.abs(sol.q)
-        over = np.abs(sol.q) - bound > POLISH_GATE * forces
+        over = np.abs(sol.q) - bound > POLISH_GATE * (forces + self._q_reach(motion))
         closed = basis[:m]
         return bool((closed & (np.abs(sol.gap) > tol)).any() or
                     (~closed & (sol.gap < -tol)).any() or
@@ -619,14 +623,19 @@ class ContactLCP:
         q at bound 0). Node-to-segment at a contrast of 1e10 (two_blocks.toml, the upper
         block floating, mu = 0.5, a tangential cycle) gave an open pair q = -4.1e-4, `kkt`
         3.4e-5 and `kkt_pairs` 1.7e-4 with a warning; no gap or motion was off."""
-        m = self.m
         one = plus ^ minus
-        ctt = np.diagonal(self.c)[m:]
-        reach = np.divide(motion, ctt, out=np.zeros(m), where=ctt > 0)
         side = np.where(plus, q + bound, q - bound)
         tol = POLISH_GATE * motion
         back = np.where(plus, moved < -tol, moved > tol)
-        return one & (back | (np.abs(side) > POLISH_GATE * (forces + reach)))
+        return one & (back | (np.abs(side) > POLISH_GATE * (forces + self._q_reach(motion))))
+
+    def _q_reach(self, motion: np.ndarray) -> np.ndarray:
+        """(m,) the force a pair's motion terms (motion (m,)) make through its own
+        tangential compliance, motion / C_tt,ii (0 where C_tt,ii = 0): the size of the
+        round-off of Lemke's q, recovered as H times motion, where the pair's own forces
+        are zero (an open pair of no bond: bound c + mu p = 0)."""
+        ctt = np.diagonal(self.c)[self.m:]
+        return np.divide(motion, ctt, out=np.zeros(self.m), where=ctt > 0)
 
     def _fric_mask(self) -> np.ndarray:
         """(m,) bool: the pairs with tangential unknowns (frictional)."""
