@@ -482,6 +482,10 @@ class ContactLCP:
         states = self._basis_states(basis)
         if settled is None and self._off_basis(sol, basis, tau_prev, c, mu):
             settled = self._polished(basis, free, a, c, mu, e0)
+            # kept only when it keeps the law at least as well as Lemke's answer
+            if settled is not None and self._law_error(settled[:3], free, a, c, mu) > max(
+                    self._law_error((sol.p, sol.q, sol.alpha), free, a, c, mu), POLISH_REL):
+                settled = None
         if settled is not None:  # slip variables from the polished motion
             p, q, alpha, closed, sp_b, sm_b = settled
             states = (closed, sp_b, sm_b)
@@ -803,6 +807,38 @@ class ContactLCP:
         new_sp = (sp_b & ~back) | (over & (q < 0))
         new_sm = (sm_b & ~back) | (over & (q > 0))
         return flip_n, new_sp, new_sm, np.maximum(off_n, off_t)
+
+    def _law_error(self, x: tuple[np.ndarray, np.ndarray, np.ndarray],
+                   free: tuple[np.ndarray, np.ndarray], a: np.ndarray, c: np.ndarray,
+                   mu: np.ndarray) -> float:
+        """The largest violation of the interface law by x = (p, q, alpha), whatever the
+        pair states, each pair against its own terms (as `_basis_errors`, without
+        POLISH_REL; the slip against all its motion terms, as `_off_basis`): p + a >= 0,
+        gap >= 0, min(p + a, gap) = 0; frictional pairs |q| <= c + mu p and min(|slip|,
+        |q + sign(slip) (c + mu p)|) = 0 (stick or slide on the cone); p and q against
+        its forces plus the force its motion terms make through its own compliance
+        (motion / C_nn,ii, `_q_reach`: their round-off where the pair has no force, e.g.
+        an open pair's p of 1e-15 at a = 0). `solve` keeps Lemke's answer where the re-solve's is
+        worse by this and above POLISH_REL: multibody.toml --sd 1 --mesh-size 1.2, before
+        the gate judged q with `_q_reach`, re-solved step 3 onto other states at 2.9e-11
+        (a hourglass amplitude of 316 for 9.4) where Lemke's answer kept the law to
+        1.9e-13."""
+        p, q, alpha = x
+        gap, slip, gap_terms, tau_terms = self._kinematics(p, q, alpha, free[0], -free[1])
+        fs = np.abs(a) + np.abs(c) + np.abs(p) + np.abs(q) + np.abs(mu * p) + 1e-300
+        gs = motion_size(*gap_terms) + 1e-300
+        motion = np.maximum(gs, motion_size(*tau_terms))  # (as `_off_basis`'s slip test)
+        cnn = np.diagonal(self.c)[: self.m]  # (p's round-off where a pair has no force)
+        pa = (p + a) / (fs + np.divide(motion, cnn, out=np.zeros(self.m), where=cnn > 0))
+        g = gap / gs
+        err = np.maximum(np.maximum(-pa, -g), np.abs(np.minimum(pa, g)))
+        bound = c + mu * p
+        qs = fs + self._q_reach(motion)  # (q's round-off at bound 0)
+        on_cone = np.abs(q + np.sign(slip) * bound) / qs
+        fric = np.maximum((np.abs(q) - bound) / qs,
+                          np.minimum(np.abs(slip) / motion, on_cone))
+        err = np.where(self._fric_mask(), np.maximum(err, fric), err)
+        return float(err.max(initial=0.0))
 
     def _unshifted(self, basis: np.ndarray, a: np.ndarray, gap_free: np.ndarray,
                    tau_free: np.ndarray, tau_prev: np.ndarray, c: np.ndarray,
