@@ -17,6 +17,14 @@ from app.errors import InputError
 PATCH = (CONFIGS / "patch.toml").read_text()
 
 
+def _refused(tmp_path, old: str, new: str, match: str) -> None:
+    """patch.toml with its first `old` replaced by `new` is refused at load with `match`."""
+    path = tmp_path / "c.toml"
+    path.write_text(PATCH.replace(old, new, 1))
+    with pytest.raises(InputError, match=match):
+        load_config(path)
+
+
 @pytest.mark.parametrize("old, new, match", [
     ("E = 1000.0", "E = 0x" + "f" * 5000, r"body\.0\.E is an integer of 20000 bits"),
     ("E = 1000.0", "E = 1" + "0" * 5000, r"an integer of more than 19 digits"),
@@ -27,10 +35,7 @@ PATCH = (CONFIGS / "patch.toml").read_text()
      r"parameters\.P is an integer of 1200 bits"),
 ])
 def test_a_config_file_integer_beyond_64_bits_is_refused(tmp_path, old, new, match):
-    path = tmp_path / "c.toml"
-    path.write_text(PATCH.replace(old, new, 1))
-    with pytest.raises(InputError, match=match):
-        load_config(path)
+    _refused(tmp_path, old, new, match)
 
 
 def test_the_largest_64_bit_integer_is_accepted(tmp_path):
@@ -87,10 +92,7 @@ def test_a_latin1_file_is_still_named_as_not_utf8(tmp_path):
     ("[[support]]", '[points]\n"p\\u0000" = [0.0, 0.0]\n[[support]]', r"the key 'points.p\\x00'"),
 ])
 def test_control_characters_in_names_and_keys_are_refused(tmp_path, old, new, match):
-    path = tmp_path / "c.toml"
-    path.write_text(PATCH.replace(old, new, 1))
-    with pytest.raises(InputError, match=match):
-        load_config(path)
+    _refused(tmp_path, old, new, match)
 
 
 def test_a_title_or_expression_may_span_lines_and_a_name_hold_a_tab(tmp_path):

@@ -541,6 +541,21 @@ def test_a_pair_whose_single_flips_come_back_tries_its_other_states():
     assert (list(got[3]), list(got[4]), list(got[5])) in answers
 
 
+def _five_pairs() -> tuple[ContactLCP, object, np.ndarray, np.ndarray, float, int]:
+    """The gate tests' LCP: 5 pairs, mu = 0.3, pair 4 bonded (a = 1, c = 2), pairs 0-2
+    pressed (pair 1 pushed +, 2 pushed -), pair 3 open; its accurate solve.
+    Returns (lcp, solution, tau_prev, c, mu, m)."""
+    m, mu, a = 5, 0.3, np.array([0.0, 0.0, 0.0, 0.0, 1.0])
+    block = np.eye(m) + 0.1 * np.ones((m, m))
+    c = np.block([[CN * block, np.zeros((m, m))], [np.zeros((m, m)), CT * block]])
+    lcp = ContactLCP(c, np.full(m, mu), np.ones(m, bool), None, None)
+    gap_free = np.array([-1e-3, -1e-3, -1e-3, 1e-3, 5e-3])
+    tau_free = np.array([1e-5, 1e-2, -1e-2, 0.0, 0.0])
+    tau_prev, cc = np.zeros(m), 2.0 * a
+    sol = lcp.solve(gap_free, tau_free, tau_prev, a, cc, np.full(m, mu), np.zeros(0))
+    return lcp, sol, tau_prev, cc, mu, m
+
+
 @pytest.mark.parametrize("pair, field, sign", [(3, "gap", -1.0), (1, "tau", -1.0),
                                                 (2, "tau", 1.0), (1, "q", 1.0),
                                                 (2, "q", -1.0)])
@@ -554,14 +569,7 @@ def test_the_gate_sees_an_open_pair_penetrating_and_a_slip_off_its_sign(pair, fi
     (round-off, below the gate) does not."""
     import dataclasses
 
-    m, mu, a = 5, 0.3, np.array([0.0, 0.0, 0.0, 0.0, 1.0])
-    block = np.eye(m) + 0.1 * np.ones((m, m))
-    c = np.block([[CN * block, np.zeros((m, m))], [np.zeros((m, m)), CT * block]])
-    lcp = ContactLCP(c, np.full(m, mu), np.ones(m, bool), None, None)
-    gap_free = np.array([-1e-3, -1e-3, -1e-3, 1e-3, 5e-3])
-    tau_free = np.array([1e-5, 1e-2, -1e-2, 0.0, 0.0])
-    tau_prev, cc = np.zeros(m), 2.0 * a
-    sol = lcp.solve(gap_free, tau_free, tau_prev, a, cc, np.full(m, mu), np.zeros(0))
+    lcp, sol, tau_prev, cc, mu, m = _five_pairs()
     basis = np.asarray(sol.basis, bool)
     assert sol.slip_plus[1] > 0 and sol.slip_minus[2] > 0 and not basis[3]
     scale = {"gap": sol.motion[pair], "tau": sol.motion[pair],
@@ -589,14 +597,7 @@ def test_the_gate_judges_an_open_unbonded_pairs_q_against_its_motions_force(rel,
     Lemke's answer kept)."""
     import dataclasses
 
-    m, mu, a = 5, 0.3, np.array([0.0, 0.0, 0.0, 0.0, 1.0])
-    block = np.eye(m) + 0.1 * np.ones((m, m))
-    c = np.block([[CN * block, np.zeros((m, m))], [np.zeros((m, m)), CT * block]])
-    lcp = ContactLCP(c, np.full(m, mu), np.ones(m, bool), None, None)
-    gap_free = np.array([-1e-3, -1e-3, -1e-3, 1e-3, 5e-3])
-    tau_free = np.array([1e-5, 1e-2, -1e-2, 0.0, 0.0])
-    tau_prev, cc = np.zeros(m), 2.0 * a
-    sol = lcp.solve(gap_free, tau_free, tau_prev, a, cc, np.full(m, mu), np.zeros(0))
+    lcp, sol, tau_prev, cc, mu, m = _five_pairs()
     basis = np.asarray(sol.basis, bool).copy()
     assert not basis[3] and cc[3] == 0.0 and sol.p[3] == 0.0  # pair 3: open, no bond
     basis[lcp.edges[1] + 3] = basis[lcp.edges[2] + 3] = False  # sticking (Lemke: slip-),
@@ -670,6 +671,26 @@ def _upper_block_at(tmp_path, e: str, sets: list[str]):
     return res, read_summary(tmp_path / e)["steps"]
 
 
+def _pushed_to_0_8_mu_p(tmp_path, moduli: tuple[str, ...]) -> tuple[dict, dict]:
+    """two_blocks.toml, node-to-segment, the upper block floating at each E of `moduli`,
+    mu = 0.5, a pressure of 10 and a tangential force 0, 4, 8 (0.8 mu P) in 3 steps:
+    per E the summary's steps and step 3's (p, q) (2, pairs) sorted by the pairs' x."""
+    import h5py
+
+    sets = ["--set", "interface.interface.mu=0.5", "--set", "analysis.steps=3", "--set",
+            'interface.interface.discretisation="node-to-segment"', "--set",
+            'support=[{on="lower_base",ux=0.0,uy=0.0}]', "--set",
+            'load=[{on="upper_top",pressure=10.0},{on="upper_top",total_force=[8.0,0.0],'
+            'history=[0.0,0.5,1.0]}]']
+    steps, forces = {}, {}
+    for e in moduli:
+        _, steps[e] = _upper_block_at(tmp_path, e, sets)
+        with h5py.File(tmp_path / e / "step_0003.h5") as f:
+            order = np.argsort(f["contact/x"][()])
+            forces[e] = np.stack([f["contact/p"][()][order], f["contact/q"][()][order]])
+    return steps, forces
+
+
 def test_a_stiff_floating_block_under_a_tangential_cycle_keeps_its_friction_bound(tmp_path):
     """two_blocks.toml, the upper block floating (held only by contact), mu = 0.5, a
     pressure of 10 and a tangential force 0, 3, 6, 3, -3, -6. At E = 1e11 on 1e3 Lemke's
@@ -721,19 +742,8 @@ def test_a_stiff_floating_block_at_1e11_finds_the_equilibrium_lemkes_ray_missed(
     (11 slave nodes on 9 master nodes), and the answer's scaled slip (2.4e3) lay beyond its
     1e3. Bounded in each pair's own compliance's units, the search finds it: the states of
     E = 1e6 and 1e12 (2 stick, 6 slip-, 3 open), p and q as 1e12's to 1e-4 of P."""
-    import h5py
 
-    sets = ["--set", "interface.interface.mu=0.5", "--set", "analysis.steps=3", "--set",
-            'interface.interface.discretisation="node-to-segment"', "--set",
-            'support=[{on="lower_base",ux=0.0,uy=0.0}]', "--set",
-            'load=[{on="upper_top",pressure=10.0},{on="upper_top",total_force=[8.0,0.0],'
-            'history=[0.0,0.5,1.0]}]']
-    steps, forces = {}, {}
-    for e in ("1e6", "1e11", "1e12"):
-        res, steps[e] = _upper_block_at(tmp_path, e, sets)
-        with h5py.File(tmp_path / e / "step_0003.h5") as f:
-            order = np.argsort(f["contact/x"][()])
-            forces[e] = np.stack([f["contact/p"][()][order], f["contact/q"][()][order]])
+    steps, forces = _pushed_to_0_8_mu_p(tmp_path, ("1e6", "1e11", "1e12"))
     last = steps["1e11"][2]
     assert last["states"] == steps["1e6"][2]["states"] == steps["1e12"][2]["states"]
     assert last["states"]["open"] == 3 and last["states"]["slip-"] == 6
@@ -822,19 +832,8 @@ def test_a_stiff_floating_block_at_1e13_settles_lemkes_inaccurate_basis(tmp_path
     The re-solve from Lemke's final basis settles it in 5 solves before any search: the
     run completes, its forces those of E = 1e12 to what round-off allows (`lcp_accuracy`
     1.1e-2 at 1e13; measured 1.3e-6 of the largest p at step 3)."""
-    import h5py
 
-    sets = ["--set", "interface.interface.mu=0.5", "--set", "analysis.steps=3", "--set",
-            'interface.interface.discretisation="node-to-segment"', "--set",
-            'support=[{on="lower_base",ux=0.0,uy=0.0}]', "--set",
-            'load=[{on="upper_top",pressure=10.0},{on="upper_top",total_force=[8.0,0.0],'
-            'history=[0.0,0.5,1.0]}]']
-    steps, forces = {}, {}
-    for e in ("1e12", "1e13"):
-        _, steps[e] = _upper_block_at(tmp_path, e, sets)
-        with h5py.File(tmp_path / e / "step_0003.h5") as f:
-            order = np.argsort(f["contact/x"][()])
-            forces[e] = np.stack([f["contact/p"][()][order], f["contact/q"][()][order]])
+    steps, forces = _pushed_to_0_8_mu_p(tmp_path, ("1e12", "1e13"))
     assert len(steps["1e13"]) == 3 and steps["1e13"][2]["states"] == steps["1e12"][2]["states"]
     scale = np.abs(forces["1e12"][0]).max()
     bound = steps["1e13"][2]["lcp_accuracy"]
