@@ -501,8 +501,10 @@ class ContactLCP:
                             c: np.ndarray, mu: np.ndarray,
                             e0: np.ndarray) -> tuple[np.ndarray, ...] | None:
         """`_polished` from the final basis of Lemke's 'inaccurate' result res, before the
-        mixed-integer search: when its pivots settle, res becomes 'solved' (its message
-        says so) and their answer is returned; else None, res as it was. Lemke's answer
+        mixed-integer search: when its pivots settle on an answer that keeps the law
+        (`_law_error`, its equations too) to DEFAULT_TOL, Lemke's own tolerance, res
+        becomes 'solved', its residual that law error and its message says so, and the
+        answer is returned; else None, res as it was. Lemke's answer
         failed its check by round-off of the condensed LCP, its basis is often right or a
         few pivots off (two_blocks.toml, the upper block floating at E = 1e13 on 1e3, mu =
         0.5, node-to-segment, the tangential cycle's step 3: 'inaccurate', 1.3e-7 > 1e-9;
@@ -511,10 +513,17 @@ class ContactLCP:
         if res.status != "inaccurate" or res.basis is None:
             return None
         settled = self._polished(np.asarray(res.basis, dtype=bool), free, a, c, mu, e0)
-        if settled is not None:
-            res.status = "solved"
-            res.message += ("; its pair states re-solved from the compliance settle "
-                            "(the answer is theirs, not Lemke's)")
+        if settled is None:
+            return None
+        # judged on the law itself (its equations too: a near-singular state system keeps
+        # the signs `_polished` checks and not its gaps), at Lemke's own tolerance; the
+        # step's `lcp_residual` is then this measure, not Lemke's failed check
+        law = self._law_error(settled[:3], free, a, c, mu)
+        if not law <= DEFAULT_TOL:
+            return None
+        res.status, res.residual = "solved", law
+        res.message += ("; its pair states re-solved from the compliance settle (the answer "
+                        f"is theirs, not Lemke's; law error {law:.3g})")
         return settled
 
     def _accuracy(self, closed: np.ndarray, sp_b: np.ndarray, sm_b: np.ndarray,
