@@ -437,9 +437,9 @@ def test_the_uncondensed_re_solve_gives_lemkes_answer_on_an_accurate_basis():
     tau_prev, cc, e0 = np.zeros(m), 2.0 * a, np.zeros(0)
     sol = lcp.solve(gap_free, tau_free, tau_prev, a, cc, np.full(m, mu), e0)
     assert sol.status == "solved"
-    assert not lcp._off_basis(sol, np.asarray(sol.basis, bool), tau_prev, cc,
-                           np.full(m, mu))
     free = lcp._free_motion(gap_free, tau_free, tau_prev)
+    assert not lcp._off_basis(sol, np.asarray(sol.basis, bool), tau_prev, free, cc,
+                           np.full(m, mu))
     got = lcp._polished(np.asarray(sol.basis, bool), free, a, cc, np.full(m, mu), e0)
     assert got is not None
     p, q, _, closed, sp_b, sm_b = got
@@ -562,6 +562,7 @@ def test_the_gate_sees_an_open_pair_penetrating_and_a_slip_off_its_sign(pair, fi
     tau_free = np.array([1e-5, 1e-2, -1e-2, 0.0, 0.0])
     tau_prev, cc = np.zeros(m), 2.0 * a
     sol = lcp.solve(gap_free, tau_free, tau_prev, a, cc, np.full(m, mu), np.zeros(0))
+    free = lcp._free_motion(gap_free, tau_free, tau_prev)
     basis = np.asarray(sol.basis, bool)
     assert sol.slip_plus[1] > 0 and sol.slip_minus[2] > 0 and not basis[3]
     scale = {"gap": sol.motion[pair], "tau": sol.motion[pair],
@@ -573,7 +574,7 @@ def test_the_gate_sees_an_open_pair_penetrating_and_a_slip_off_its_sign(pair, fi
         moved = getattr(sol, field).copy()
         moved[pair] = base[field] + rel * scale[field]
         bad = dataclasses.replace(sol, **{field: moved})
-        assert lcp._off_basis(bad, basis, tau_prev, cc, np.full(m, mu)) is fired
+        assert lcp._off_basis(bad, basis, tau_prev, free, cc, np.full(m, mu)) is fired
 
 
 @pytest.mark.parametrize("rel, fired", [(1e-2, False), (1e2, True)])
@@ -597,16 +598,46 @@ def test_the_gate_judges_an_open_unbonded_pairs_q_against_its_motions_force(rel,
     tau_free = np.array([1e-5, 1e-2, -1e-2, 0.0, 0.0])
     tau_prev, cc = np.zeros(m), 2.0 * a
     sol = lcp.solve(gap_free, tau_free, tau_prev, a, cc, np.full(m, mu), np.zeros(0))
+    free = lcp._free_motion(gap_free, tau_free, tau_prev)
     basis = np.asarray(sol.basis, bool).copy()
     assert not basis[3] and cc[3] == 0.0 and sol.p[3] == 0.0  # pair 3: open, no bond
     basis[lcp.edges[1] + 3] = basis[lcp.edges[2] + 3] = False  # sticking (Lemke: slip-),
     tau, q = sol.tau.copy(), sol.q.copy()  # not moving, at q = 0
     tau[3], q[3] = tau_prev[3], 0.0
-    assert not lcp._off_basis(dataclasses.replace(sol, tau=tau, q=q), basis, tau_prev, cc,
-                              np.full(m, mu))
+    assert not lcp._off_basis(dataclasses.replace(sol, tau=tau, q=q), basis, tau_prev,
+                              free, cc, np.full(m, mu))
     q[3] = rel * POLISH_GATE * sol.motion[3] / (1.1 * CT)  # (C_tt,ii = 1.1 CT)
     bad = dataclasses.replace(sol, tau=tau, q=q)
-    assert lcp._off_basis(bad, basis, tau_prev, cc, np.full(m, mu)) is fired
+    assert lcp._off_basis(bad, basis, tau_prev, free, cc, np.full(m, mu)) is fired
+
+
+@pytest.mark.parametrize("shift", [0.0, 1e2, 1e4])
+def test_the_gate_judges_q_against_the_steps_motion_not_the_slide_so_far(shift):
+    """A sticking pair with |q| over its bound c + mu p by 1e-6 of it fires the gate
+    wherever the pairs have slid to before the step (tau_prev = tau_free - the step's
+    motion = shift); q off by round-off of the step's motion through C_tt,ii does not.
+    Before, `_q_reach` took the answer's motion terms with the absolute tau_free in them
+    (`ContactSolution.motion`): at shift 1e2 a q 1e-6 over its bound, at 1e4 1e-4 over,
+    read as round-off, though Lemke's q is H times the step's motion (tau_prev - tau_free)
+    alone (reviewer `review15`)."""
+    import dataclasses
+
+    m, mu, a = 5, 0.3, np.zeros(5)
+    block = np.eye(m) + 0.1 * np.ones((m, m))
+    c = np.block([[CN * block, np.zeros((m, m))], [np.zeros((m, m)), CT * block]])
+    lcp = ContactLCP(c, np.full(m, mu), np.ones(m, bool), None, None)
+    gap_free, tau_prev = np.full(m, -1e-3), np.full(m, shift)
+    tau_free = tau_prev + np.array([1e-5, 2e-6, -2e-6, 1e-6, 0.0])
+    sol = lcp.solve(gap_free, tau_free, tau_prev, a, a, np.full(m, mu), np.zeros(0))
+    basis = np.asarray(sol.basis, bool)
+    free = lcp._free_motion(gap_free, tau_free, tau_prev)
+    assert not basis[lcp.edges[1]] and not basis[lcp.edges[2]]  # pair 0 sticks
+    assert not lcp._off_basis(sol, basis, tau_prev, free, a, np.full(m, mu))
+    for rel, fired in ((1e-6, True), (1e-16, False)):
+        q = sol.q.copy()
+        q[0] = -mu * sol.p[0] * (1.0 + rel)
+        bad = dataclasses.replace(sol, q=q)
+        assert lcp._off_basis(bad, basis, tau_prev, free, a, np.full(m, mu)) is fired
 
 
 @pytest.mark.parametrize("rel, kept", [(1e-6, True), (1e-15, False)])
