@@ -480,7 +480,7 @@ class ContactLCP:
             return sol
         basis = np.asarray(res.basis, dtype=bool)
         states = self._basis_states(basis)
-        if settled is None and self._off_basis(sol, basis, tau_prev, c, mu):
+        if settled is None and self._off_basis(sol, basis, tau_prev, free, c, mu):
             settled = self._polished(basis, free, a, c, mu, e0)
             # kept only when it keeps the law at least as well as Lemke's answer
             if settled is not None and self._law_error(settled[:3], free, a, c, mu) > max(
@@ -501,8 +501,10 @@ class ContactLCP:
                             c: np.ndarray, mu: np.ndarray,
                             e0: np.ndarray) -> tuple[np.ndarray, ...] | None:
         """`_polished` from the final basis of Lemke's 'inaccurate' result res, before the
-        mixed-integer search: when its pivots settle, res becomes 'solved' (its message
-        says so) and their answer is returned; else None, res as it was. Lemke's answer
+        mixed-integer search: when its pivots settle on an answer that keeps the law
+        (`_law_error`, its equations too) to DEFAULT_TOL, Lemke's own tolerance, res
+        becomes 'solved', its residual that law error and its message says so, and the
+        answer is returned; else None, res as it was. Lemke's answer
         failed its check by round-off of the condensed LCP, its basis is often right or a
         few pivots off (two_blocks.toml, the upper block floating at E = 1e13 on 1e3, mu =
         0.5, node-to-segment, the tangential cycle's step 3: 'inaccurate', 1.3e-7 > 1e-9;
@@ -511,10 +513,17 @@ class ContactLCP:
         if res.status != "inaccurate" or res.basis is None:
             return None
         settled = self._polished(np.asarray(res.basis, dtype=bool), free, a, c, mu, e0)
-        if settled is not None:
-            res.status = "solved"
-            res.message += ("; its pair states re-solved from the compliance settle "
-                            "(the answer is theirs, not Lemke's)")
+        if settled is None:
+            return None
+        # judged on the law itself (its equations too: a near-singular state system keeps
+        # the signs `_polished` checks and not its gaps), at Lemke's own tolerance; the
+        # step's `lcp_residual` is then this measure, not Lemke's failed check
+        law = self._law_error(settled[:3], free, a, c, mu)
+        if not law <= DEFAULT_TOL:
+            return None
+        res.status, res.residual = "solved", law
+        res.message += ("; its pair states re-solved from the compliance settle (the answer "
+                        f"is theirs, not Lemke's; law error {law:.3g})")
         return settled
 
     def _accuracy(self, closed: np.ndarray, sp_b: np.ndarray, sm_b: np.ndarray,
@@ -607,7 +616,8 @@ class ContactLCP:
                                self.tm_all if self.r else None, alpha, gap_base, tau_base)
 
     def _off_basis(self, sol: ContactSolution, basis: np.ndarray, tau_prev: np.ndarray,
-                   c: np.ndarray, mu: np.ndarray) -> bool:
+                   free: tuple[np.ndarray, np.ndarray], c: np.ndarray,
+                   mu: np.ndarray) -> bool:
         """Whether Lemke's answer contradicts its own basis by more than POLISH_GATE of a
         pair's motion terms: a closed pair (p + a basic) with a gap, an open one (p = -a)
         with a negative gap, a frictional pair without a basic slip variable that moved
@@ -618,8 +628,12 @@ class ContactLCP:
         q of 1e-13, round-off, fired on multibody.toml --sd 1 --mesh-size 1.2, and the
         re-solve's tabu step settled on other states with a hourglass amplitude of 316 for
         9.4 and `kkt_pairs` 2.8e-11 for 1.7e-13); or a slipping pair off its side of the
-        cone (`_slip_off`). Round-off of the condensed LCP (`_polished`); elsewhere
-        Lemke's answer is kept as it is."""
+        cone (`_slip_off`). `_q_reach` of the step's motion terms (free = (gap_free,
+        tau_prev - tau_free), the LCP's constant: Lemke's q is H times them), not of
+        `sol.motion`, whose tau terms hold the absolute tau_free: a pair slid 1e2 before
+        the step read a sticking q 1e-6 over its bound as round-off (reviewer `review15`).
+        Round-off of the condensed LCP (`_polished`); elsewhere Lemke's answer is kept
+        as it is."""
         m, f = self.m, self.fric
         motion = np.broadcast_to(np.asarray(sol.motion, dtype=float), (m,))
         tol = POLISH_GATE * motion
@@ -629,12 +643,15 @@ class ContactLCP:
         moved = sol.tau - tau_prev
         bound = c + mu * sol.p
         forces = np.abs(c) + np.abs(mu * sol.p) + np.abs(sol.q)
-        over = np.abs(sol.q) - bound > POLISH_GATE * (forces + self._q_reach(motion))
+        _, _, gap_terms, tau_terms = self._kinematics(sol.p, sol.q, sol.alpha, free[0],
+                                                      -free[1])
+        reach = self._q_reach(motion_size(*gap_terms, *tau_terms))
+        over = np.abs(sol.q) - bound > POLISH_GATE * (forces + reach)
         closed = basis[:m]
         return bool((closed & (np.abs(sol.gap) > tol)).any() or
                     (~closed & (sol.gap < -tol)).any() or
                     (stick & ((np.abs(moved) > tol) | over)).any() or
-                    self._slip_off(sol.q, moved, bound, forces, motion, plus, minus).any())
+                    self._slip_off(sol.q, moved, bound, forces + reach, motion, plus, minus).any())
 
     def _slip_off(self, q: np.ndarray, moved: np.ndarray, bound: np.ndarray,
                   forces: np.ndarray, motion: np.ndarray, plus: np.ndarray,
@@ -642,17 +659,18 @@ class ContactLCP:
         """(m,) bool: the pairs with one basic slip variable (plus: slip+, q = -bound,
         tau - tau_prev = moved >= 0; minus: slip-) whose answer leaves it by more than
         POLISH_GATE: moved against it beyond that of the motion terms, or q off -+bound
-        beyond that of the pair's forces plus the force its motion terms make through its
-        own tangential compliance (motion / C_tt,ii: q is recovered as H times motion, so
-        its round-off is of that size where the pair's forces are not, e.g. an open pair's
-        q at bound 0). Node-to-segment at a contrast of 1e10 (two_blocks.toml, the upper
-        block floating, mu = 0.5, a tangential cycle) gave an open pair q = -4.1e-4, `kkt`
-        3.4e-5 and `kkt_pairs` 1.7e-4 with a warning; no gap or motion was off."""
+        beyond that of forces: the pair's forces plus the force the step's motion terms
+        make through its own tangential compliance (`_q_reach`: q is recovered as H times
+        that motion, so its round-off is of that size where the pair's forces are not,
+        e.g. an open pair's q at bound 0). Node-to-segment at a contrast of 1e10
+        (two_blocks.toml, the upper block floating, mu = 0.5, a tangential cycle) gave an
+        open pair q = -4.1e-4, `kkt` 3.4e-5 and `kkt_pairs` 1.7e-4 with a warning; no gap
+        or motion was off."""
         one = plus ^ minus
         side = np.where(plus, q + bound, q - bound)
         tol = POLISH_GATE * motion
         back = np.where(plus, moved < -tol, moved > tol)
-        return one & (back | (np.abs(side) > POLISH_GATE * (forces + self._q_reach(motion))))
+        return one & (back | (np.abs(side) > POLISH_GATE * forces))
 
     def _q_reach(self, motion: np.ndarray) -> np.ndarray:
         """(m,) the force a pair's motion terms (motion (m,)) make through its own
