@@ -147,7 +147,8 @@ def test_splits_of_a_mesh_file_count_in_the_estimate():
     went on to split 1348 quads into 8.8e7."""
     punch = CONFIGS.parent / "meshes" / "punch.toml"
     scene = parse_scene(tomllib.loads(punch.read_text()))
-    assert check_size(scene, base_dir=punch.parent) is None  # unsplit: not read here
+    unsplit = check_size(scene, base_dir=punch.parent)  # read, for the disk check
+    assert unsplit.elements == 1348 and unsplit.dofs == 2924  # two DOFs per node
     assert check_size(scene, base_dir=punch.parent, refine=1).elements == 4 * 1348
     with pytest.raises(InputError, match="about 8.8e\\+07 elements.*use fewer splits"):
         check_size(scene, base_dir=punch.parent, refine=8)

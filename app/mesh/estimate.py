@@ -153,12 +153,14 @@ def _patched(spec: BodySpec, patch, scale: np.float64) -> float:
 
 
 def file_estimate(path: str | Path, times: int) -> SizeEstimate:
-    """Size of the mesh of a .msh file after `times` uniform splits (4^times its quads)."""
+    """Size of the mesh of a .msh file after `times` uniform splits: 4^times its quads,
+    and two DOFs per node, nodes also about 4^times as many."""
     from app.mesh.read import _load_msh
 
     m = _load_msh(Path(path))
     elements = float(sum(len(b.data) for b in m.cells if b.type == "quad")) * 4.0**times
-    return SizeEstimate(elements, 2.0 * elements, BYTES_PER_DOF * 2.0 * elements)
+    dofs = 2.0 * len(m.points) * 4.0**times
+    return SizeEstimate(elements, dofs, BYTES_PER_DOF * dofs)
 
 
 def check_size(scene: Scene, scale: float = 1.0, *, allow_large: bool = False,
@@ -166,10 +168,11 @@ def check_size(scene: Scene, scale: float = 1.0, *, allow_large: bool = False,
                refine: int = 0) -> SizeEstimate | None:
     """Refuse (InputError, one line) a run whose estimated memory exceeds this machine's.
 
-    A mesh.file (relative to base_dir) is counted only when it is split (`refine` > 0):
-    before, `--refine 8` on a read mesh went on to 65536 times its elements."""
+    A mesh.file (relative to base_dir) is read and its nodes counted (the build reads it
+    again): before, `--refine 8` on a read mesh went on to 65536 times its elements, and
+    an unsplit file had no estimate, so no disk check."""
     est = estimate(scene, scale)
-    if scene.file is not None and refine > 0:
+    if scene.file is not None:
         path = Path(scene.file)
         est = file_estimate(path if base_dir is None or path.is_absolute()
                             else Path(base_dir) / path, refine)
@@ -182,10 +185,16 @@ def check_size(scene: Scene, scale: float = 1.0, *, allow_large: bool = False,
     return est
 
 
-STEP_FILE_BYTES = 30e3
-STEP_BYTES_PER_DOF = 16.0
-"""A step file's size, about STEP_FILE_BYTES + STEP_BYTES_PER_DOF per DOF (a lower bound:
-patch.toml, 222 DOFs: 33,568 B; 2000 one-element bodies, 16,000 DOFs: 297,610 B)."""
+STEP_FILE_BYTES = 43e3
+STEP_BYTES_PER_DOF = 50.0
+"""Disk bytes of one step, about STEP_FILE_BYTES + STEP_BYTES_PER_DOF per estimated DOF:
+the step file (about 30 kB of HDF5 structure plus the fields) and the growth of the
+XDMF files and summary.json (about 13 kB per step), calibrated on `du -sb OUT` of runs of
+patch, hertz, multibody and cattaneo (README "Input checks"). The mesh file counts as one
+more step. Contact datasets scale with the contact nodes, fewer than the DOFs: they are
+in the per-DOF figure (the estimate has no pair count before meshing). A step whose
+fields do not change is written as a small file (8.3 kB on cantilever.toml): such runs
+are overstated, as the check does not see the loads."""
 
 
 def check_disk(est: SizeEstimate | None, n_steps: int, folder: str | Path, *,
@@ -200,7 +209,7 @@ def check_disk(est: SizeEstimate | None, n_steps: int, folder: str | Path, *,
     if est is None or allow_large:
         return
     runs = [1.0] if runs is None else runs
-    need = n_steps * sum(STEP_FILE_BYTES + STEP_BYTES_PER_DOF * est.dofs * r for r in runs)
+    need = (n_steps + 1) * sum(STEP_FILE_BYTES + STEP_BYTES_PER_DOF * est.dofs * r for r in runs)
     path = Path(folder).absolute()
     try:
         while not path.exists() and path != path.parent:
