@@ -45,3 +45,32 @@ def test_a_mesh_file_under_out_is_judged_alike_on_every_rank(tmp_path):
     assert res.returncode == 2, res.stderr
     assert res.stderr.startswith("error: mesh file") and "Traceback" not in res.stderr
     assert read_summary(out)["status"] == "failed"
+
+
+SMALL_NODE = """
+import os, runpy, sys
+import app.driver.model as model
+if os.environ.get("OMPI_COMM_WORLD_RANK", "0") != "0":  # rank 1 on a node of 1 kB
+    model.machine_memory = lambda: 1e3
+sys.argv = ["app", *sys.argv[1:]]
+runpy.run_module("app", run_name="__main__")
+"""
+"""The app with its ranks other than 0 on a machine of 1 kB of memory (another node)."""
+
+
+def test_the_dense_contact_memory_check_is_rank_0s_on_every_rank(tmp_path):
+    """The dense contact block's memory check (app/driver/model.py) read each rank's
+    machine: on nodes of different memory a rank refused alone while rank 0 went on.
+    Rank 0's machine judges (as the size check of the command line)."""
+    from support import CONFIGS
+
+    out = tmp_path / "o"
+    try:
+        res = subprocess.run(["mpiexec", "--allow-run-as-root", "-n", "2", sys.executable,
+                              "-c", SMALL_NODE, "run", str(CONFIGS / "patch.toml"), "--out",
+                              str(out), "--quiet"], cwd=ROOT, env=mpi_env(),
+                             capture_output=True, text=True, timeout=60)
+    except subprocess.TimeoutExpired:
+        raise AssertionError("the job hung: ranks disagreed on the memory check") from None
+    assert res.returncode == 0, res.stderr
+    assert read_summary(out)["status"] == "completed"
