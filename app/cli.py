@@ -423,12 +423,23 @@ def check_run_input(cfg, args, finest_level: int = 0, runs: list[float] | None =
     """Checks of the command line against the config before any work; returns the mesh
     size scale (--mesh-size / mesh.size). Raises InputError (one line). `runs`: a
     study's runs, each as its DOFs over the finest level's (the disk check)."""
-    from app.errors import InputError
-    from app.mesh.estimate import check_disk, check_resolution, check_size
+    from app.parallel import rank0_call
     from app.petsc_options import check_log_view_file, check_solver_options
 
     check_solver_options(cfg.petsc)
-    check_log_view_file(cfg.petsc)
+    check_log_view_file(cfg.petsc)  # (collective: rank 0 judges, all drop a bad -log_view)
+    return rank0_call(_judged_run_input, cfg, args, finest_level, runs)
+
+
+def _judged_run_input(cfg, args, finest_level: int, runs: list[float] | None) -> float:
+    """check_run_input's checks that read the file system (mesh.file, --mesh-cache, the
+    free disk) or the machine: on rank 0 only, its verdict broadcast (rank0_call). Before,
+    every rank judged for itself: a rank that came later could find what rank 0, failing,
+    had made (OUT, to record the failure: mesh.file `OUT/../m.msh`), pass, and go on into
+    the run alone: the job hung or ended in tracebacks (tests/test_input_checks_ranks.py)."""
+    from app.errors import InputError
+    from app.mesh.estimate import check_disk, check_resolution, check_size
+
     file = cfg.scene.file
     if args.mesh_size is not None:
         if not args.mesh_size > 0 or args.mesh_size == float("inf"):

@@ -631,3 +631,30 @@ def test_a_solution_beyond_the_float_range_is_a_finite_inaccurate_answer(M, q):
     assert np.isfinite(res.z).all() and np.isfinite(res.w).all()
     np.testing.assert_array_equal(res.w, M @ res.z + q)
     assert res.residual == 1.0 and not res.basis.any()
+
+
+def test_a_warm_start_whose_basis_fails_the_check_is_not_said_to_have_solved_it():
+    """Before: "warm start ended with 'solved' after 3 pivots; the basis became numerically
+    singular after 5 pivots", which contradicts itself: the warm run reached a complementary
+    basis whose answer failed the check, then the cold start's basis became singular. (A
+    core that ends so, on M = I, q = (-1, -1): the same words as any core's.)"""
+    from types import SimpleNamespace
+
+    from app.lcp.lemke import _run
+
+    ends = iter([("solved", 3), ("singular", 2)])
+
+    def core(Ms, qs, d, B0, budget):
+        status, pivots = next(ends)
+        return SimpleNamespace(status=status, pivots=pivots, refactorizations=0,
+                               z=np.zeros(2), zset=np.zeros(2, dtype=bool))
+
+    r = _run(core, np.eye(2), np.array([-1.0, -1.0]), None, None,
+             np.array([True, False]), crash=False)
+    assert r.status == "inaccurate"
+    assert r.message.startswith(
+        "warm start reached a complementary basis after 3 pivots but its solution failed "
+        "the check (worst relative violation "), r.message
+    assert r.message.endswith("); then the cold start's basis became numerically singular "
+                              "(5 pivots in all)"), r.message
+    assert "'solved'" not in r.message

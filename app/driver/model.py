@@ -103,8 +103,11 @@ def build_model(ctx: RunContext) -> Model:
         with ctx.phase("pair_search"):
             contact = ContactSetup.build(mesh, cfg)
             contact.hold(mesh, fixed)
-            check_dense_contact(contact.g, fixed, BYTES_PER_DOF * 2 * mesh.n_nodes,
-                                machine_memory(), opts.allow_large)  # before S is formed
+            # before S is formed; rank 0's machine judges, where the dense block lives
+            # (each rank's own verdict split nodes of different memory: one refused alone)
+            collective(lambda: check_dense_contact(contact.g, fixed, BYTES_PER_DOF * 2
+                                                   * mesh.n_nodes, machine_memory(),
+                                                   opts.allow_large))
         ctx.summary["n_pairs"] = contact.pairs.n_pairs
         for text in contact.warnings:
             ctx.warn(text)

@@ -577,7 +577,8 @@ class ContactLCP:
                              f"free modes and friction); {again.message}")
             return again
         if tried:
-            found += f" (Lemke: {tried[-1].status})"
+            found += (f"; Lemke from the search's last candidate basis ended "
+                      f"'{tried[-1].status}'")  # (before: "(Lemke: ...)" after the count)
         res.message += f"; {found}"
         return res
 

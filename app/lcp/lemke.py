@@ -466,6 +466,7 @@ def _from_start(core, P: _Problem, start: _Start, given: bool, crash: bool, cold
     res = core(P.Ms, P.qs, d, B0, max_pivots)
     pivots, refacts = res.pivots, res.refactorizations
     note = start.note
+    run = "warm start" if given else "the run from the crash basis"
     if res.status == "solved":
         z, w, ok, comp, worst = P.candidate(res)
         if ok:
@@ -473,8 +474,11 @@ def _from_start(core, P: _Problem, start: _Start, given: bool, crash: bool, cold
                    f"in {pivots} pivots")
             return LCPResult(z, w, pivots, "solved", comp, res.zset.copy(), msg,
                              "lemke" if given else "crash+lemke", refacts, worst)
-    note += (f"{'warm start' if given else 'the run from the crash basis'} ended with "
-             f"'{res.status}' after {res.pivots} pivots; ")
+        # (before: "ended with 'solved'", then a failure: it reached a basis, not a solution)
+        note += (f"{run} reached a complementary basis after {res.pivots} pivots but its "
+                 f"solution failed the check (worst relative violation {worst:.3g}); ")
+    else:
+        note += f"{run} ended with '{res.status}' after {res.pivots} pivots; "
     if given and not cold_start:
         z = np.maximum(res.z * P.zfac, 0.0)
         w, _, comp, worst = _check(P.M, P.q, z, P.tol, cache=P.cache)
@@ -528,7 +532,9 @@ def _cold(core, P: _Problem, M, q, tol: float, max_pivots: int, pivots: int, ref
         )
     elif res.status == "singular":
         status = "inaccurate"
-        msg = f"{note}the basis became numerically singular after {pivots} pivots"
+        msg = (f"{note}then the cold start's basis became numerically singular "
+               f"({pivots} pivots in all)" if note else
+               f"the basis became numerically singular after {pivots} pivots")
     else:
         status = "pivot limit"
         msg = f"{note}pivot limit ({max_pivots}) reached; z, w are the last iterate"

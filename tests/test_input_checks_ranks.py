@@ -1,0 +1,76 @@
+"""The command line's checks (app/cli.py `check_run_input`) are judged by rank 0 and its
+verdict is every rank's: a check that reads the file system could pass on a rank that came
+later, once rank 0, failing, had made OUT to record that; that rank went on into the run
+alone and the job hung (the same as -log_view, tests/test_log_view_file.py)."""
+
+import shutil
+import subprocess
+import sys
+
+from support import ROOT, mpi_env, read_summary
+
+LATE_RANK = """
+import os, runpy, sys, time
+import app.cli as cli
+check = cli.check_run_input
+def late(*args, **kwargs):  # every rank but 0 checks after rank 0 failed and made OUT
+    if os.environ.get("OMPI_COMM_WORLD_RANK", "0") != "0":
+        time.sleep(3.0)
+    return check(*args, **kwargs)
+cli.check_run_input = late
+sys.argv = ["app", *sys.argv[1:]]
+runpy.run_module("app", run_name="__main__")
+"""
+"""The app with its ranks other than 0 late to the command line's checks."""
+
+
+def test_a_mesh_file_under_out_is_judged_alike_on_every_rank(tmp_path):
+    """mesh.file `OUT/../punch.msh` with OUT not there yet, split (--refine 1: the check
+    reads it): rank 0 cannot look it up and makes OUT to record that; before, rank 1,
+    checking later, read it and went on into the run alone: the job hung."""
+    out = tmp_path / "a" / "o"
+    out.parent.mkdir()
+    shutil.copy(ROOT / "meshes" / "punch.msh", out.parent / "punch.msh")
+    config = tmp_path / "punch.toml"
+    config.write_text((ROOT / "meshes" / "punch.toml").read_text().replace(
+        'file = "punch.msh"', f'file = "{out}/../punch.msh"'))
+    try:
+        res = subprocess.run(["mpiexec", "--allow-run-as-root", "-n", "2", sys.executable,
+                              "-c", LATE_RANK, "run", str(config), "--out", str(out),
+                              "--quiet", "--refine", "1", "--set", "analysis.steps=1"],
+                             cwd=ROOT, env=mpi_env(), capture_output=True, text=True,
+                             timeout=60)
+    except subprocess.TimeoutExpired:
+        raise AssertionError("the job hung: ranks disagreed on the input") from None
+    assert res.returncode == 2, res.stderr
+    assert res.stderr.startswith("error: mesh file") and "Traceback" not in res.stderr
+    assert read_summary(out)["status"] == "failed"
+
+
+SMALL_NODE = """
+import os, runpy, sys
+import app.driver.model as model
+if os.environ.get("OMPI_COMM_WORLD_RANK", "0") != "0":  # rank 1 on a node of 1 kB
+    model.machine_memory = lambda: 1e3
+sys.argv = ["app", *sys.argv[1:]]
+runpy.run_module("app", run_name="__main__")
+"""
+"""The app with its ranks other than 0 on a machine of 1 kB of memory (another node)."""
+
+
+def test_the_dense_contact_memory_check_is_rank_0s_on_every_rank(tmp_path):
+    """The dense contact block's memory check (app/driver/model.py) read each rank's
+    machine: on nodes of different memory a rank refused alone while rank 0 went on.
+    Rank 0's machine judges (as the size check of the command line)."""
+    from support import CONFIGS
+
+    out = tmp_path / "o"
+    try:
+        res = subprocess.run(["mpiexec", "--allow-run-as-root", "-n", "2", sys.executable,
+                              "-c", SMALL_NODE, "run", str(CONFIGS / "patch.toml"), "--out",
+                              str(out), "--quiet"], cwd=ROOT, env=mpi_env(),
+                             capture_output=True, text=True, timeout=60)
+    except subprocess.TimeoutExpired:
+        raise AssertionError("the job hung: ranks disagreed on the memory check") from None
+    assert res.returncode == 0, res.stderr
+    assert read_summary(out)["status"] == "completed"
