@@ -512,3 +512,27 @@ def test_overlap_beyond_a_master_end_without_interference_is_refused_naming_the_
     with pytest.raises(InputError, match=r"6 slave nodes penetrate .*first at x=-0.02, "
                        r"y=-0.002"):
         contact_pairs(mesh, "up_bottom", "low_top", 0.1, name="c")
+
+
+@pytest.mark.parametrize("deg", [0.0, 30.0])
+@pytest.mark.parametrize("slope", [0.1, 0.5])
+def test_slave_end_below_the_end_line_whose_edge_clears_the_master_stays_unpaired(slope, deg):
+    """A slave corner 0.02 beyond the master's end (a block corner) and 0.002 below the
+    end segment's line, its edge rising with `slope` so that it reaches the master at the
+    end's line at y = 0 (slope 0.1: touching the corner) or above it (0.5: 0.008 clear):
+    the corner lies beside the master body, not in it, and no part of the slave overlaps
+    it, so it gets no pair and nothing is refused (before: paired with g0 = -0.002,
+    refused as a penetration, and with interference pushed out by 0.002)."""
+    low = block(np.linspace(0.0, 1.0, 5), np.linspace(-0.5, 0.0, 3))
+    pts, quads, curves = block(-0.02 + 0.2 * np.arange(6), np.linspace(0.0, 0.5, 3))
+    pts = pts.copy()
+    bottom = pts[:, 1] == 0.0
+    pts[bottom, 1] = -0.002 + slope * (pts[bottom, 0] + 0.02)
+    mesh, _ = rotate(scene({"low": low, "up": (pts, quads, curves)}), deg)
+    corner = low[0].shape[0]
+    for interference in (False, True):
+        p = contact_pairs(mesh, "up_bottom", "low_top", 0.1, interference=interference)
+        assert corner not in p.slave
+        assert p.g0.min() >= 0.0
+        if slope == 0.1:  # the slave's length over the master, x in [0, 0.98]
+            np.testing.assert_allclose(p.length.sum(), 0.98 * np.hypot(1.0, slope), atol=1e-12)

@@ -397,7 +397,9 @@ def end_overlaps(pts: np.ndarray, s_edges: np.ndarray, nodes: np.ndarray,
     end segment's line (g0 (q,) < -tol, lengths) and face the master over at least
     END_MIN_COVER of their support: int_cov N_j ds over their slave edges s_edges (k, 2),
     the covered part being on the master's side of the line through the end normal to
-    the end segment, against D_j (only the candidates' edges are searched). Such a node
+    the end segment, against D_j (only the candidates' edges are searched; an edge counts
+    only if its gap at that line, interpolated along it, is below -tol: a corner beside a
+    block whose edge clears the block's corner has nothing to push out). Such a node
     is paired with the end segment (`contact_pairs`); with less cover, mortar hands its
     share to a neighbour and node-to-segment extends the neighbour's tributary length to
     the end line."""
@@ -415,12 +417,29 @@ def end_overlaps(pts: np.ndarray, s_edges: np.ndarray, nodes: np.ndarray,
         out, s_j, (s_k,) = _beyond_free_end(xs[j], (xs[1 - j],), pts, m_edges, seg_len,
                                             m_degree, reach)
         t0 = np.where(s_k < 0, s_j / np.where(s_k < 0, s_j - s_k, 1.0), 1.0)
+        g_j, g_k = _end_line_gaps(xs[j], xs[1 - j], out, pts, m_edges, seg_len, reach)
+        out = out[g_j + t0 * (g_k - g_j) < -tol]  # the edge overlaps at the end's line
+        t0 = t0[g_j + t0 * (g_k - g_j) < -tol]
         np.add.at(cover, s_edges[out, j], 0.5 * h[out] * (1.0 - t0) ** 2)
         beyond[s_edges[out, j]] = True
     d_len = np.bincount(s_edges.ravel(), weights=np.repeat(0.5 * h, 2),
                         minlength=pts.shape[0])
     ok = beyond & (cover >= END_MIN_COVER * (1.0 - 1e-12) * d_len)
     return ok[nodes] & candidates & (g0 < -tol)
+
+
+def _end_line_gaps(probe: np.ndarray, other: np.ndarray, out: np.ndarray, pts: np.ndarray,
+                   m_edges: np.ndarray, seg_len: np.ndarray, reach: float
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """Signed distances (o,) of probe[out] and other[out] (points (k, 2)) to the line of
+    the closest master segment of probe[out] (within reach; oriented master edges, body on
+    the left: positive outside, length), for the probes `_beyond_free_end` found."""
+    seg, _, _ = closest_segments(probe[out], pts[m_edges[:, 0]], pts[m_edges[:, 1]], reach)
+    xa, xb = pts[m_edges[seg, 0]], pts[m_edges[seg, 1]]
+    t = (xb - xa) / seg_len[seg, None]
+    nrm = np.column_stack([t[:, 1], -t[:, 0]])
+    return (np.einsum("ij,ij->i", nrm, probe[out] - xa),
+            np.einsum("ij,ij->i", nrm, other[out] - xa))
 
 
 def _beyond_free_end(probe: np.ndarray, others: tuple[np.ndarray, ...], pts: np.ndarray,
