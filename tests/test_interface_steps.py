@@ -541,21 +541,27 @@ def test_a_pair_whose_single_flips_come_back_tries_its_other_states():
     assert (list(got[3]), list(got[4]), list(got[5])) in answers
 
 
-def _five_pairs() -> tuple[ContactLCP, object, tuple[np.ndarray, np.ndarray], np.ndarray,
-                         np.ndarray, float, int]:
+def _five_pair_problem() -> tuple[ContactLCP, tuple]:
     """The gate tests' LCP: 5 pairs, mu = 0.3, pair 4 bonded (a = 1, c = 2), pairs 0-2
-    pressed (pair 1 pushed +, 2 pushed -), pair 3 open; its accurate solve.
-    Returns (lcp, solution, the step's free motion, tau_prev, c, mu, m)."""
+    pressed (pair 1 pushed +, 2 pushed -), pair 3 open: (lcp, the arguments of its
+    `solve`: gap_free, tau_free, tau_prev, a, c, mu, mode amplitudes' bounds)."""
     m, mu, a = 5, 0.3, np.array([0.0, 0.0, 0.0, 0.0, 1.0])
     block = np.eye(m) + 0.1 * np.ones((m, m))
     c = np.block([[CN * block, np.zeros((m, m))], [np.zeros((m, m)), CT * block]])
     lcp = ContactLCP(c, np.full(m, mu), np.ones(m, bool), None, None)
-    gap_free = np.array([-1e-3, -1e-3, -1e-3, 1e-3, 5e-3])
-    tau_free = np.array([1e-5, 1e-2, -1e-2, 0.0, 0.0])
-    tau_prev, cc = np.zeros(m), 2.0 * a
-    sol = lcp.solve(gap_free, tau_free, tau_prev, a, cc, np.full(m, mu), np.zeros(0))
-    free = lcp._free_motion(gap_free, tau_free, tau_prev)
-    return lcp, sol, free, tau_prev, cc, mu, m
+    args = (np.array([-1e-3, -1e-3, -1e-3, 1e-3, 5e-3]),
+            np.array([1e-5, 1e-2, -1e-2, 0.0, 0.0]), np.zeros(m), a, 2.0 * a, np.full(m, mu),
+            np.zeros(0))
+    return lcp, args
+
+
+def _five_pairs() -> tuple[ContactLCP, object, tuple[np.ndarray, np.ndarray], np.ndarray,
+                         np.ndarray, float, int]:
+    """`_five_pair_problem`'s accurate solve: (lcp, solution, the step's free motion,
+    tau_prev, c, mu, m)."""
+    lcp, args = _five_pair_problem()
+    sol = lcp.solve(*args)
+    return lcp, sol, lcp._free_motion(*args[:3]), args[2], args[4], 0.3, 5
 
 
 @pytest.mark.parametrize("pair, field, sign", [(3, "gap", -1.0), (1, "tau", -1.0),
@@ -648,13 +654,8 @@ def test_a_re_solve_that_keeps_the_law_worse_than_lemkes_answer_is_not_taken(rel
     `solve` keeps Lemke's answer (`ContactLCP._law_error`); at round-off (1e-15, within
     POLISH_REL) it takes the re-solve's. Before, any settled answer replaced Lemke's:
     multibody.toml --sd 1 --mesh-size 1.2 took one at 2.9e-11 for 1.9e-13 (README)."""
-    m, mu, a = 5, 0.3, np.array([0.0, 0.0, 0.0, 0.0, 1.0])
-    block = np.eye(m) + 0.1 * np.ones((m, m))
-    c = np.block([[CN * block, np.zeros((m, m))], [np.zeros((m, m)), CT * block]])
-    lcp = ContactLCP(c, np.full(m, mu), np.ones(m, bool), None, None)
-    args = (np.array([-1e-3, -1e-3, -1e-3, 1e-3, 5e-3]),
-            np.array([1e-5, 1e-2, -1e-2, 0.0, 0.0]), np.zeros(m), a, 2.0 * a, np.full(m, mu),
-            np.zeros(0))
+    lcp, args = _five_pair_problem()
+    m, mu, a = 5, 0.3, args[3]
     lemkes = lcp.solve(*args)
     assert lcp._law_error((lemkes.p, lemkes.q, lemkes.alpha), lcp._free_motion(*args[:3]),
                           a, 2.0 * a, np.full(m, mu)) < POLISH_REL
@@ -676,13 +677,7 @@ def test_a_settled_re_solve_of_an_inaccurate_basis_is_judged_on_the_law(rel, tak
     settled answer was taken and the residual kept."""
     from types import SimpleNamespace
 
-    m, mu, a = 5, 0.3, np.array([0.0, 0.0, 0.0, 0.0, 1.0])
-    block = np.eye(m) + 0.1 * np.ones((m, m))
-    c = np.block([[CN * block, np.zeros((m, m))], [np.zeros((m, m)), CT * block]])
-    lcp = ContactLCP(c, np.full(m, mu), np.ones(m, bool), None, None)
-    args = (np.array([-1e-3, -1e-3, -1e-3, 1e-3, 5e-3]),
-            np.array([1e-5, 1e-2, -1e-2, 0.0, 0.0]), np.zeros(m), a, 2.0 * a, np.full(m, mu),
-            np.zeros(0))
+    lcp, args = _five_pair_problem()
     lemkes = lcp.solve(*args)
     p = np.where(lemkes.p > 0.0, lemkes.p * (1.0 + rel), lemkes.p)
     states = lcp._basis_states(np.asarray(lemkes.basis, bool))
