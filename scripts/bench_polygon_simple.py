@@ -1,5 +1,5 @@
-"""Benchmark: CPU seconds of the polygon self-intersection test (app/scene/shapes/
-polygon_simple.py crossing_sides) on a round outline and on a star of thin spikes (long
+"""Benchmark: CPU seconds of the polygon self-intersection test (`crossing_sides` in
+app/scene/shapes/polygon_simple.py) on a round outline and on a star of thin spikes (long
 sides overlapping along both axes, the sweep's worst case), at a few corner counts.
 
     PYTHONPATH=. .venv/bin/python scripts/bench_polygon_simple.py [--corners 2000 10000]
@@ -24,7 +24,7 @@ def outline(kind: str, n: int) -> np.ndarray:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--corners", type=int, nargs="+", default=[2000, 10000])
     args = ap.parse_args()
     for kind in ("round", "star"):
