@@ -136,6 +136,13 @@ before; reviewer `review6`). min(m, 16) before: small LCPs ran out after m flips
 few more settle them."""
 
 
+def _force_size(p: np.ndarray, q: np.ndarray, a: np.ndarray, c: np.ndarray,
+                mu: np.ndarray) -> np.ndarray:
+    """(m,) a pair's own force terms, |a| + |c| + |p| + |q| + |mu p| (+1e-300): the scale
+    its normal and stick signs are judged against (`_basis_errors`, `_law_error`)."""
+    return np.abs(a) + np.abs(c) + np.abs(p) + np.abs(q) + np.abs(mu * p) + 1e-300
+
+
 def _fixed_pairs(c: np.ndarray, m: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(fixed_n, fixed_t, c): the pairs whose normal (tangential) compliance is round-off,
     below FIXED_REL of the largest (`fixed_rows`; both sides of the pair prescribed, e.g. the end
@@ -673,13 +680,13 @@ class ContactLCP:
         back = np.where(plus, moved < -tol, moved > tol)
         return one & (back | (np.abs(side) > POLISH_GATE * forces))
 
-    def _q_reach(self, motion: np.ndarray) -> np.ndarray:
+    def _q_reach(self, motion: np.ndarray, normal: bool = False) -> np.ndarray:
         """(m,) the force a pair's motion terms (motion (m,)) make through its own
-        tangential compliance, motion / C_tt,ii (0 where C_tt,ii = 0): the size of the
-        round-off of Lemke's q, recovered as H times motion, where the pair's own forces
-        are zero (an open pair of no bond: bound c + mu p = 0)."""
-        ctt = np.diagonal(self.c)[self.m:]
-        return np.divide(motion, ctt, out=np.zeros(self.m), where=ctt > 0)
+        tangential compliance, motion / C_tt,ii (normal: C_nn,ii; 0 where it is 0): the
+        size of the round-off of Lemke's q (p), recovered as H times motion, where the
+        pair's own forces are zero (an open pair of no bond: bound c + mu p = 0)."""
+        own = np.diagonal(self.c)[: self.m] if normal else np.diagonal(self.c)[self.m:]
+        return np.divide(motion, own, out=np.zeros(self.m), where=own > 0)
 
     def _fric_mask(self) -> np.ndarray:
         """(m,) bool: the pairs with tangential unknowns (frictional)."""
@@ -809,8 +816,7 @@ class ContactLCP:
         p, q, alpha = x
         # free[1] = tau_prev - tau_free: slip = tau - tau_prev
         gap, slip, gap_terms, tau_terms = self._kinematics(p, q, alpha, free[0], -free[1])
-        ftol = POLISH_REL * (np.abs(a) + np.abs(c) + np.abs(p) + np.abs(q)
-                             + np.abs(mu * p) + 1e-300)
+        ftol = POLISH_REL * _force_size(p, q, a, c, mu)
         gtol = POLISH_REL * (motion_size(*gap_terms) + 1e-300)
         ttol = POLISH_REL * (motion_size(*tau_terms) + 1e-300)
         bound = c + mu * p
@@ -844,11 +850,10 @@ class ContactLCP:
         1.9e-13."""
         p, q, alpha = x
         gap, slip, gap_terms, tau_terms = self._kinematics(p, q, alpha, free[0], -free[1])
-        fs = np.abs(a) + np.abs(c) + np.abs(p) + np.abs(q) + np.abs(mu * p) + 1e-300
+        fs = _force_size(p, q, a, c, mu)
         gs = motion_size(*gap_terms) + 1e-300
         motion = np.maximum(gs, motion_size(*tau_terms))  # (as `_off_basis`'s slip test)
-        cnn = np.diagonal(self.c)[: self.m]  # (p's round-off where a pair has no force)
-        pa = (p + a) / (fs + np.divide(motion, cnn, out=np.zeros(self.m), where=cnn > 0))
+        pa = (p + a) / (fs + self._q_reach(motion, normal=True))
         g = gap / gs
         err = np.maximum(np.maximum(-pa, -g), np.abs(np.minimum(pa, g)))
         bound = c + mu * p
