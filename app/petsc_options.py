@@ -129,10 +129,9 @@ def check_log_view_file(config_petsc: dict[str, str]) -> None:
     name = parts[1].strip() if len(parts) > 1 else ""
     if not name:
         return
-    comm = PETSc.COMM_WORLD.tompi4py()
-    problem = _log_view_file_problem(str(value), name) if comm.rank == 0 else None
-    if comm.size > 1:
-        problem = comm.bcast(problem, root=0)
+    from app.parallel import rank0_call
+
+    problem = rank0_call(_log_view_file_problem, str(value), name)
     if problem is not None:
         PETSc.Options().delValue("log_view")  # else PetscFinalize fails on it at exit
         raise InputError(problem)
