@@ -10,7 +10,7 @@ import scipy.sparse as sp
 from app.config import Config
 from app.contact.constraints import ContactConstraints
 from app.contact.discretisation import DEFAULT, contact_discretisation
-from app.contact.pairs import ContactPairs
+from app.contact.pairs import ContactPairs, constraint_matrix
 from app.contact.unpaired import paired_sides
 from app.errors import InputError
 from app.interface.floating import FloatingModes
@@ -92,12 +92,7 @@ class ContactSetup:
         held_a, held_b = normal_held(a), normal_held(b)
         self.held_n = (normal_held(pr.slave) & (held_a | (xi >= 1.0) | (held_b & near))
                        & (held_b | (xi <= 0.0) | (held_a & near)))
-        w = np.stack([np.ones(m), xi - 1.0, -xi], axis=1)  # (m, 3) slave, A, B
-        nodes = np.stack([pr.slave, a, b], axis=1)
-        cols = 2 * nodes[:, :, None] + np.arange(2)  # (m, 3, 2)
-        vals = w[:, :, None] * pr.normal[:, None, :]
-        self.node_rows = sp.csr_matrix((vals.ravel(), (np.repeat(np.arange(m), 6),
-                                                       cols.ravel())), shape=(m, held.size))
+        self.node_rows = constraint_matrix(pr, mesh.n_nodes)[:m]  # node-to-segment's rows
 
     def bodies(self, mesh: Mesh) -> set[int]:
         """Ids of the bodies that own a slave or master node of some pair."""
