@@ -149,3 +149,25 @@ def test_a_failed_run_writes_the_documented_failure_keys(tmp_path):
     assert proc.returncode == 2
     d = read_summary(tmp_path)
     assert d["status"] == "failed" and d["error"] and d["failed_step"] == 1
+
+
+# Paths the README names that are not meant to exist: placeholders, the extension
+# examples of "Extension points" (files a user would add), and a module it says is gone.
+NOT_FILES = {"configs/NAME.toml", "configs/hard/SCENE.toml", "meshes/x.msh",
+             "app/references/punch.py", "app/scene/shapes/rounded_rectangle.py",
+             "app/contact/smooth_ends.py"}
+
+
+def test_every_file_and_test_the_readme_names_exists():
+    """A command or pointer into the tree (scripts/, configs/, tests/, app/, meshes/, docs/)
+    names a file that is there, and a `tests/x.py::name` a test that is there."""
+    paths = set(re.findall(r"(?<![\w/.])((?:scripts|configs|tests|app|meshes|docs)/"
+                           r"[\w./-]+\.(?:py|toml|c|msh|png|sh|md))", README))
+    assert len(paths) > 100  # the pattern still finds the README's paths
+    assert sorted(p for p in paths - NOT_FILES if not (ROOT / p).exists()) == []
+    missing = []
+    for path, name in set(re.findall(r"(tests/[\w/]+\.py)::(\w+)", README)):
+        text = (ROOT / path).read_text(encoding="utf-8")
+        if not re.search(rf"^(?:def|class) {name}\b", text, flags=re.M):
+            missing.append(f"{path}::{name}")
+    assert sorted(missing) == []
