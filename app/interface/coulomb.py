@@ -724,21 +724,30 @@ class ContactLCP:
         the current one not yet seen (`_unseen`, a tabu step); UNSHIFTED_PIVOTS +
         SINGLE_FLIPS solves in all. A rule's cycle is
         a set of states it saw itself (one seen under the rule before leads elsewhere).
-        None (Lemke's answer kept) when a system is singular or the pivots do not settle."""
+        A set of states whose system is singular (a floating body's mode that no closed
+        or sticking pair holds) counts as seen: the rule goes on from the last solved
+        states (it gave up there: 6 of check_resolve's 3000 LCPs with one mode added).
+        None (Lemke's answer kept) when Lemke's own states' system is singular or the
+        pivots do not settle."""
         fric = self._fric_mask()
         closed, sp_b, sm_b = self._basis_states(basis)
         sm_b &= ~sp_b
         rules = iter(PIVOT_RULES)
         rule = next(rules)
         seen: set[bytes] = set()  # the states visited under this rule
+        last = None  # the last set of states whose system was solved, and its flips
         for _ in range(UNSHIFTED_PIVOTS + SINGLE_FLIPS):
             seen.add(_state_key((closed, sp_b, sm_b)))
             x = self._on_states(closed, sp_b, sm_b, fric, free, a, c, mu, e0)
-            if x is None:
-                return None
-            flips = self._basis_errors(x, closed, sp_b, sm_b, fric, free, a, c, mu)
-            if flips is None:
-                return (*x, closed, sp_b, sm_b)
+            if x is None:  # singular (e.g. no closed pair holds a floating mode): back
+                if last is None:  # to the last solved states, whose flip is now seen
+                    return None
+                (closed, sp_b, sm_b), flips = last
+            else:
+                flips = self._basis_errors(x, closed, sp_b, sm_b, fric, free, a, c, mu)
+                if flips is None:
+                    return (*x, closed, sp_b, sm_b)
+                last = (closed, sp_b, sm_b), flips
             new = _flipped((closed, sp_b, sm_b), flips, rule)
             # a rule's states come back (it cycles) or block pivots ran UNSHIFTED_PIVOTS:
             # the next rule from the current states (a state seen under another rule is
