@@ -501,6 +501,9 @@ class ContactLCP:
             splus = np.where(sp_b, np.maximum(moved, 0.0), 0.0)
             sminus = np.where(sm_b, np.maximum(-moved, 0.0), 0.0)
             sol = self._solution(p, q, alpha, gap_free, tau_free, splus, sminus, res)
+            # (sol.basis stays Lemke's: the settled states' basis as the next step's warm
+            # start cost as many pivots and led one run to a wrong answer, README "Hard
+            # cases", the basis handed on)
         sol.accuracy = self._accuracy(*states, mu)
         return sol
 
