@@ -697,6 +697,37 @@ def test_the_gate_judges_q_against_the_steps_motion_not_the_slide_so_far(shift):
         assert lcp._off_basis(bad, basis, tau_prev, free, a, np.full(m, mu)) is fired
 
 
+@pytest.mark.parametrize("field", ["gap", "tau"])
+@pytest.mark.parametrize("shift", [0.0, 1e2, 1e4])
+def test_the_gate_judges_gaps_and_motion_against_the_steps_motion_not_the_slide_so_far(
+        field, shift):
+    """A closed pair with a gap, or a sticking one that moved, by 1e-9 (1e-6 of the step's
+    motion terms, ~1e-3) fires the gate wherever the pairs have slid to before the step
+    (tau_prev = shift); 1e-14 (round-off) does not, nor does the answer itself, whose tau
+    - tau_prev carries the round-off of the slide (4 eps |tau|: 8.9e-12 at 1e4). Before,
+    both tolerances were POLISH_GATE times `ContactSolution.motion`, whose tau terms hold
+    the absolute tau_free: 1e-8 at shift 1e2 and 1e-6 at 1e4 hid such a gap or motion."""
+    import dataclasses
+
+    m, mu, a = 5, 0.3, np.zeros(5)
+    block = np.eye(m) + 0.1 * np.ones((m, m))
+    c = np.block([[CN * block, np.zeros((m, m))], [np.zeros((m, m)), CT * block]])
+    lcp = ContactLCP(c, np.full(m, mu), np.ones(m, bool), None, None)
+    gap_free, tau_prev = np.full(m, -1e-3), np.full(m, shift)
+    tau_free = tau_prev + np.array([1e-5, 2e-6, -2e-6, 1e-6, 0.0])
+    sol = lcp.solve(gap_free, tau_free, tau_prev, a, a, np.full(m, mu), np.zeros(0))
+    basis = np.asarray(sol.basis, bool)
+    free = lcp._free_motion(gap_free, tau_free, tau_prev)
+    assert basis[0] and not basis[lcp.edges[1]] and not basis[lcp.edges[2]]  # 0 sticks
+    assert not lcp._off_basis(sol, basis, tau_prev, free, a, np.full(m, mu))
+    base = {"gap": 0.0, "tau": tau_prev[0]}[field]
+    for off, fired in ((1e-9, True), (1e-14, False)):
+        moved = getattr(sol, field).copy()
+        moved[0] = base + off
+        bad = dataclasses.replace(sol, **{field: moved})
+        assert lcp._off_basis(bad, basis, tau_prev, free, a, np.full(m, mu)) is fired
+
+
 @pytest.mark.parametrize("rel, kept", [(1e-6, True), (1e-15, False)])
 def test_a_re_solve_that_keeps_the_law_worse_than_lemkes_answer_is_not_taken(rel, kept):
     """The gate fires and the re-solve settles on p off Lemke's (accurate) answer by rel:

@@ -639,37 +639,43 @@ class ContactLCP:
         q of 1e-13, round-off, fired on multibody.toml --sd 1 --mesh-size 1.2, and the
         re-solve's tabu step settled on other states with a hourglass amplitude of 316 for
         9.4 and `kkt_pairs` 2.8e-11 for 1.7e-13); or a slipping pair off its side of the
-        cone (`_slip_off`). `_q_reach` of the step's motion terms (free = (gap_free,
-        tau_prev - tau_free), the LCP's constant: Lemke's q is H times them), not of
-        `sol.motion`, whose tau terms hold the absolute tau_free: a pair slid 1e2 before
-        the step read a sticking q 1e-6 over its bound as round-off (reviewer `review15`).
+        cone (`_slip_off`). The gap and motion tolerances and `_q_reach` are of the step's
+        motion terms (free = (gap_free, tau_prev - tau_free), the LCP's constant: Lemke's
+        q is H times them), not of `sol.motion`, whose tau terms hold the absolute
+        tau_free: a pair slid 1e2 before the step read a sticking q 1e-6 over its bound as
+        round-off (reviewer `review15`), and a pair slid 1e4 a closed gap or a sticking
+        motion 1e-4 of the step's motion (session 30); the motion tau - tau_prev is
+        judged beyond its own round-off, 4 eps max(|tau|, |tau_prev|), too.
         Round-off of the condensed LCP (`_polished`); elsewhere Lemke's answer is kept
         as it is."""
         m, f = self.m, self.fric
-        motion = np.broadcast_to(np.asarray(sol.motion, dtype=float), (m,))
+        _, _, gap_terms, tau_terms = self._kinematics(sol.p, sol.q, sol.alpha, free[0],
+                                                      -free[1])
+        motion = motion_size(*gap_terms, *tau_terms)  # the step's, not the slide so far
         tol = POLISH_GATE * motion
         _, plus, minus = self._basis_states(basis)
         stick = np.zeros(m, dtype=bool)
         stick[f] = ~plus[f] & ~minus[f]
         moved = sol.tau - tau_prev
+        # (tau and tau_prev hold the slide so far: their difference its round-off)
+        tol_t = tol + 4 * np.finfo(float).eps * np.maximum(np.abs(sol.tau), np.abs(tau_prev))
         bound = c + mu * sol.p
         forces = np.abs(c) + np.abs(mu * sol.p) + np.abs(sol.q)
-        _, _, gap_terms, tau_terms = self._kinematics(sol.p, sol.q, sol.alpha, free[0],
-                                                      -free[1])
-        reach = self._q_reach(motion_size(*gap_terms, *tau_terms))
+        reach = self._q_reach(motion)
         over = np.abs(sol.q) - bound > POLISH_GATE * (forces + reach)
         closed = basis[:m]
         return bool((closed & (np.abs(sol.gap) > tol)).any() or
                     (~closed & (sol.gap < -tol)).any() or
-                    (stick & ((np.abs(moved) > tol) | over)).any() or
-                    self._slip_off(sol.q, moved, bound, forces + reach, motion, plus, minus).any())
+                    (stick & ((np.abs(moved) > tol_t) | over)).any() or
+                    self._slip_off(sol.q, moved, bound, forces + reach, tol_t, plus, minus).any())
 
     def _slip_off(self, q: np.ndarray, moved: np.ndarray, bound: np.ndarray,
-                  forces: np.ndarray, motion: np.ndarray, plus: np.ndarray,
+                  forces: np.ndarray, tol: np.ndarray, plus: np.ndarray,
                   minus: np.ndarray) -> np.ndarray:
         """(m,) bool: the pairs with one basic slip variable (plus: slip+, q = -bound,
         tau - tau_prev = moved >= 0; minus: slip-) whose answer leaves it by more than
-        POLISH_GATE: moved against it beyond that of the motion terms, or q off -+bound
+        POLISH_GATE: moved against it beyond tol (m,) (`_off_basis`: that of the step's
+        motion terms, plus the round-off of moved), or q off -+bound
         beyond that of forces: the pair's forces plus the force the step's motion terms
         make through its own tangential compliance (`_q_reach`: q is recovered as H times
         that motion, so its round-off is of that size where the pair's forces are not,
@@ -679,7 +685,6 @@ class ContactLCP:
         or motion was off."""
         one = plus ^ minus
         side = np.where(plus, q + bound, q - bound)
-        tol = POLISH_GATE * motion
         back = np.where(plus, moved < -tol, moved > tol)
         return one & (back | (np.abs(side) > POLISH_GATE * forces))
 
