@@ -439,9 +439,37 @@ class ContactLCP:
         if not np.isfinite(qv).all():
             raise SolveError("the contact LCP's constant vector is not finite (overflow in "
                              "the free gaps): check the loads and the Young's moduli")
-        d = self.scaling
-        ms, qs = self.M_scaled, d * self.row_scale * qv
-        # warm starts: each candidate basis in turn (the newest first), then a cold start
+        ms, qs = self.M_scaled, self.scaling * self.row_scale * qv
+        res = self._lemke(ms, qs, basis, max_pivots)
+        if res.status == "inaccurate":
+            _rejudged(res, ms, qs, self.scaling * self.row_scale * qsize)
+        settled = self._settled_inaccurate(res, free, a, c, mu, e0)
+        # (frictionless, M is copositive-plus and the ray proves there is no solution)
+        if self.r and (res.status == "inaccurate" or
+                       (res.status == "secondary ray" and self.mf)):
+            res = self._searched(res, ms, qs)
+        z = self._lemkes_z(res, settled is None, a, gap_free, tau_free, tau_prev, c, mu, e0)
+        sol = self._recovered(z, free, gap_free, tau_free, res)
+        if res.status != "solved" or res.basis is None:
+            return sol
+        basis = np.asarray(res.basis, dtype=bool)
+        states = self._basis_states(basis)
+        if settled is None and self._off_basis(sol, basis, tau_prev, free, c, mu):
+            settled = self._polished_kept(sol, basis, free, a, c, mu, e0)
+        if settled is not None:
+            states = settled[3:]
+            sol = self._settled_solution(settled, sol, gap_free, tau_free, tau_prev, res)
+            # (sol.basis stays Lemke's: the settled states' basis as the next step's warm
+            # start cost as many pivots and led one run to a wrong answer, README "Hard
+            # cases", the basis handed on)
+        sol.accuracy = self._accuracy(*states, mu)
+        return sol
+
+    def _lemke(self, ms: np.ndarray, qs: np.ndarray,
+               basis: np.ndarray | list[np.ndarray] | None, max_pivots: int | None):
+        """The solver's result on the scaled LCP (ms, qs): from each warm-start basis in
+        turn (the newest first) until one does not fail, else from the crash basis, then
+        cold; its pivots summed over the tries."""
         candidates = [b for b in (basis if isinstance(basis, list) else [basis])
                       if b is not None]
         pivots = 0
@@ -455,22 +483,29 @@ class ContactLCP:
             res = self.solver(ms, qs, max_pivots=max_pivots, cache=self.cache)
             pivots += res.pivots
         res.pivots = pivots
-        if res.status == "inaccurate":
-            _rejudged(res, ms, qs, d * self.row_scale * qsize)
-        settled = self._settled_inaccurate(res, free, a, c, mu, e0)
-        # (frictionless, M is copositive-plus and the ray proves there is no solution)
-        if self.r and (res.status == "inaccurate" or
-                       (res.status == "secondary ray" and self.mf)):
-            res = self._searched(res, ms, qs)
-        m, f, e = self.m, self.fric, self.edges
-        z = d * res.z
+        return res
+
+    def _lemkes_z(self, res, unshift: bool, a: np.ndarray, gap_free: np.ndarray,
+                  tau_free: np.ndarray, tau_prev: np.ndarray, c: np.ndarray, mu: np.ndarray,
+                  e0: np.ndarray) -> np.ndarray:
+        """(size,) the unscaled z of the solver's result res with p (not p + a) on the
+        normal rows; where unshift and res is solved with a >> the forces (p holds
+        round-off of a), solved again on its basis without the shift (`_unshifted`)."""
+        e = self.edges
+        z = self.scaling * res.z
         z[: e[1]] -= a  # p on the normal rows
-        # p holds round-off of a: solved again without the shift where a >> the forces
-        if settled is None and res.status == "solved" and res.basis is not None and \
+        if unshift and res.status == "solved" and res.basis is not None and \
                 a.max(initial=0.0) > 1e3 * np.abs(z[: e[1]]).max(initial=0.0):
             unshifted = self._unshifted(res.basis, a, gap_free, tau_free, tau_prev, c, mu, e0)
             if unshifted is not None:
                 z = unshifted
+        return z
+
+    def _recovered(self, z: np.ndarray, free: tuple[np.ndarray, np.ndarray],
+                   gap_free: np.ndarray, tau_free: np.ndarray, res) -> ContactSolution:
+        """The ContactSolution of z (`_lemkes_z`): p, the slips and alpha from z, q = H
+        (tau_prev - tau_free - C_tn p + s+ - s- - T alpha) on the frictional pairs."""
+        m, f, e = self.m, self.fric, self.edges
         p = z[: e[1]]
         sp_, sm_ = z[e[1]: e[2]], z[e[2]: e[3]]
         alpha = z[e[3]: e[4]] - z[e[4]: e[5]]
@@ -482,30 +517,30 @@ class ContactLCP:
             rhs = free[1][f] - cnt_f.T @ p + sp_ - sm_ - self.tm @ alpha
             q[f] = self.apply_h(rhs)
             splus[f], sminus[f] = sp_, sm_
-        sol = self._solution(p, q, alpha, gap_free, tau_free, splus, sminus, res)
-        if res.status != "solved" or res.basis is None:
-            return sol
-        basis = np.asarray(res.basis, dtype=bool)
-        states = self._basis_states(basis)
-        if settled is None and self._off_basis(sol, basis, tau_prev, free, c, mu):
-            settled = self._polished(basis, free, a, c, mu, e0)
-            # kept only when it keeps the law at least as well as Lemke's answer
-            if settled is not None and self._law_error(settled[:3], free, a, c, mu) > max(
-                    self._law_error((sol.p, sol.q, sol.alpha), free, a, c, mu), POLISH_REL):
-                settled = None
-        if settled is not None:  # slip variables from the polished motion
-            p, q, alpha, closed, sp_b, sm_b = settled
-            states = (closed, sp_b, sm_b)
-            moved = self._solution(p, q, alpha, gap_free, tau_free, splus, sminus,
-                                   res).tau - tau_prev
-            splus = np.where(sp_b, np.maximum(moved, 0.0), 0.0)
-            sminus = np.where(sm_b, np.maximum(-moved, 0.0), 0.0)
-            sol = self._solution(p, q, alpha, gap_free, tau_free, splus, sminus, res)
-            # (sol.basis stays Lemke's: the settled states' basis as the next step's warm
-            # start cost as many pivots and led one run to a wrong answer, README "Hard
-            # cases", the basis handed on)
-        sol.accuracy = self._accuracy(*states, mu)
-        return sol
+        return self._solution(p, q, alpha, gap_free, tau_free, splus, sminus, res)
+
+    def _polished_kept(self, sol: ContactSolution, basis: np.ndarray,
+                       free: tuple[np.ndarray, np.ndarray], a: np.ndarray, c: np.ndarray,
+                       mu: np.ndarray, e0: np.ndarray) -> tuple[np.ndarray, ...] | None:
+        """`_polished` from Lemke's basis, kept only when it keeps the law
+        (`_law_error`) at least as well as Lemke's answer sol (or within POLISH_REL)."""
+        settled = self._polished(basis, free, a, c, mu, e0)
+        if settled is not None and self._law_error(settled[:3], free, a, c, mu) > max(
+                self._law_error((sol.p, sol.q, sol.alpha), free, a, c, mu), POLISH_REL):
+            return None
+        return settled
+
+    def _settled_solution(self, settled: tuple[np.ndarray, ...], sol: ContactSolution,
+                          gap_free: np.ndarray, tau_free: np.ndarray, tau_prev: np.ndarray,
+                          res) -> ContactSolution:
+        """The ContactSolution of a settled re-solve (p, q, alpha, closed, slip+, slip-),
+        its slip variables from its own motion tau - tau_prev on its slipping pairs."""
+        p, q, alpha, _, sp_b, sm_b = settled
+        moved = self._solution(p, q, alpha, gap_free, tau_free, sol.slip_plus,
+                               sol.slip_minus, res).tau - tau_prev
+        splus = np.where(sp_b, np.maximum(moved, 0.0), 0.0)
+        sminus = np.where(sm_b, np.maximum(-moved, 0.0), 0.0)
+        return self._solution(p, q, alpha, gap_free, tau_free, splus, sminus, res)
 
     def _settled_inaccurate(self, res, free: tuple[np.ndarray, np.ndarray], a: np.ndarray,
                             c: np.ndarray, mu: np.ndarray,
@@ -831,11 +866,8 @@ class ContactLCP:
         its sign slipping); else (normal flips, new slip+ mask, new slip- mask, each pair's
         largest violation over its tolerance (m,): above 1 where it left its signs)."""
         p, q, alpha = x
-        # free[1] = tau_prev - tau_free: slip = tau - tau_prev
-        gap, slip, gap_terms, tau_terms = self._kinematics(p, q, alpha, free[0], -free[1])
-        ftol = POLISH_REL * _force_size(p, q, a, c, mu)
-        gtol = POLISH_REL * (motion_size(*gap_terms) + 1e-300)
-        ttol = POLISH_REL * (motion_size(*tau_terms) + 1e-300)
+        gap, slip, fs, gs, ts = self._pair_scales(x, free, a, c, mu)
+        ftol, gtol, ttol = POLISH_REL * fs, POLISH_REL * gs, POLISH_REL * ts
         bound = c + mu * p
         stick = fric & ~sp_b & ~sm_b
         off_n = np.where(closed, -(p + a) / ftol, -gap / gtol)
@@ -849,6 +881,19 @@ class ContactLCP:
         new_sp = (sp_b & ~back) | (over & (q < 0))
         new_sm = (sm_b & ~back) | (over & (q > 0))
         return flip_n, new_sp, new_sm, np.maximum(off_n, off_t)
+
+    def _pair_scales(self, x: tuple[np.ndarray, np.ndarray, np.ndarray],
+                     free: tuple[np.ndarray, np.ndarray], a: np.ndarray, c: np.ndarray,
+                     mu: np.ndarray) -> tuple[np.ndarray, ...]:
+        """(gap, slip, force size, gap size, tau size), (m,) each, of x = (p, q, alpha) on
+        the step's free motion free = (gap_free, tau_prev - tau_free): slip = tau -
+        tau_prev, the pair's own force terms (`_force_size`) and its gap's and tau's
+        motion terms (`motion_size`, + 1e-300): the scales `_basis_errors` and
+        `_law_error` judge each pair's signs against."""
+        p, q, alpha = x
+        gap, slip, gap_terms, tau_terms = self._kinematics(p, q, alpha, free[0], -free[1])
+        return (gap, slip, _force_size(p, q, a, c, mu), motion_size(*gap_terms) + 1e-300,
+                motion_size(*tau_terms) + 1e-300)
 
     def _law_error(self, x: tuple[np.ndarray, np.ndarray, np.ndarray],
                    free: tuple[np.ndarray, np.ndarray], a: np.ndarray, c: np.ndarray,
@@ -866,10 +911,8 @@ class ContactLCP:
         (a hourglass amplitude of 316 for 9.4) where Lemke's answer kept the law to
         1.9e-13."""
         p, q, alpha = x
-        gap, slip, gap_terms, tau_terms = self._kinematics(p, q, alpha, free[0], -free[1])
-        fs = _force_size(p, q, a, c, mu)
-        gs = motion_size(*gap_terms) + 1e-300
-        motion = np.maximum(gs, motion_size(*tau_terms))  # (as `_off_basis`'s slip test)
+        gap, slip, fs, gs, ts = self._pair_scales(x, free, a, c, mu)
+        motion = np.maximum(gs, ts)  # (as `_off_basis`'s slip test)
         pa = (p + a) / (fs + self._q_reach(motion, normal=True))
         g = gap / gs
         err = np.maximum(np.maximum(-pa, -g), np.abs(np.minimum(pa, g)))
