@@ -460,8 +460,8 @@ class ContactLCP:
             states = settled[3:]
             sol = self._settled_solution(settled, sol, gap_free, tau_free, tau_prev, res)
             # (sol.basis stays Lemke's: the settled states' basis as the next step's warm
-            # start cost as many pivots and led one run to a wrong answer, README "Hard
-            # cases", the basis handed on)
+            # start gave the same answers with more pivots, README "Hard cases", the
+            # basis handed on)
         sol.accuracy = self._accuracy(*states, mu)
         return sol
 
