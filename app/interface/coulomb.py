@@ -37,7 +37,7 @@ from app.lcp.conditioning import determined_accuracy
 from app.lcp.coulomb_matrix import coulomb_matrix, fixed_rows, tie_fixed
 from app.lcp.matrix_cache import MatrixCache
 from app.lcp.mip import complementary_basis
-from app.lcp.result import DEFAULT_TOL
+from app.lcp.result import DEFAULT_TOL, LCPResult
 from app.lcp.scaling import absmax, row_blocks
 from app.lcp.solvers import LCPSolver
 
@@ -466,7 +466,8 @@ class ContactLCP:
         return sol
 
     def _lemke(self, ms: np.ndarray, qs: np.ndarray,
-               basis: np.ndarray | list[np.ndarray] | None, max_pivots: int | None):
+               basis: np.ndarray | list[np.ndarray] | None,
+               max_pivots: int | None) -> LCPResult:
         """The solver's result on the scaled LCP (ms, qs): from each warm-start basis in
         turn (the newest first) until one does not fail, else from the crash basis, then
         cold; its pivots summed over the tries."""
