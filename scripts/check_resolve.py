@@ -6,13 +6,18 @@
     PYTHONPATH=. .venv/bin/python scripts/check_resolve.py --coulomb /tmp/old_coulomb.py \\
         --out old.json
     PYTHONPATH=. .venv/bin/python scripts/check_resolve.py --compare old.json new.json
+    PYTHONPATH=. .venv/bin/python scripts/check_resolve.py --modes 1  # a floating mode
 
 Cases (seeded, one in three of each kind): a compliance C = A A^T + d I (2m x 2m, A
 normal, d in [0, 0.5]) on m = 2..6 pairs, some with a bond (a >= 0, c = max(mu, 1) a: c >=
 mu a, as app/config.py requires, else a slipping pair's bound c + mu p can be < 0), 80%
 frictional (mu in [0.1, 2]); m = 2..4 frictional, no bond; m = 2..4 frictionless (C_nt = 0). Free
 gaps and tangential motion normal; the start is a random LCP basis (what Lemke hands the
-re-solve is near the answer; a random one is the hard case). Per case: settled (the states
+re-solve is near the answer; a random one is the hard case). --modes R adds R floating
+modes to every case (free columns: gap += N alpha, tau += T alpha, balance e0 + N^T p + T^T
+q = 0; N in [0.5, 1.5] (R = 1; of random sign for R > 1), T 0.3 x normal (0 frictionless),
+e0 -[0.5, 3] x m, and a random alpha+- basis; drawn from a second generator, so the
+cases' C, gaps and bases are those without modes). Per case: settled (the states
 and p, q) or not, the dense solves (`ContactLCP._on_states`) it took, and how far a settled
 answer is from solving the LCP, judged from C alone (`law_error`). Prints one JSON line
 {"cases", "settled", "settled_by_kind", "invalid", "solves_max", "solves_total"}; --compare
@@ -37,10 +42,13 @@ LAW_TOL = 1e-9
 """A settled answer whose `law_error` is above this does not solve the LCP (`invalid`)."""
 
 
-def cases(n: int, seed: int) -> Iterator[tuple[str, dict]]:
+def cases(n: int, seed: int, modes: int = 0) -> Iterator[tuple[str, dict]]:
     """(kind, data) of n random LCPs: c (2m, 2m), mu (m,), fr, gap_free, dtau, a, coh (m,)
-    and an LCP basis (3m frictional, m frictionless) bool."""
+    and an LCP basis (3m frictional, m frictionless, + 2 modes) bool; with modes r > 0 the
+    mode couplings nm, tm (m, r) and load e0 (r,) (module docstring), else nm, tm None and
+    e0 (0,)."""
     rng = np.random.default_rng(seed)
+    mode_rng = np.random.default_rng([seed, 1])
     for trial in range(n):
         kind = KINDS[trial % 3]
         m = int(rng.integers(2, 7)) if kind == "mixed" else int(rng.integers(2, 5))
@@ -55,24 +63,42 @@ def cases(n: int, seed: int) -> Iterator[tuple[str, dict]]:
         dtau = rng.normal(size=m) if fr else np.zeros(m)
         a = np.abs(rng.normal(size=m)) * (kind == "mixed" and rng.random() < 0.3)
         basis = rng.random(3 * m if fr else m) < 0.5
+        nm = tm = None
+        e0 = np.zeros(0)
+        if modes:
+            sign = 1.0 if modes == 1 else mode_rng.choice([-1.0, 1.0], size=(m, modes))
+            nm = mode_rng.uniform(0.5, 1.5, size=(m, modes)) * sign
+            tm = 0.3 * mode_rng.normal(size=(m, modes)) * fr
+            e0 = -mode_rng.uniform(0.5, 3.0, size=modes) * m
+            basis = np.concatenate([basis, mode_rng.random(2 * modes) < 0.5])
         yield kind, dict(c=c, mu=mu, fr=fr, gap_free=gap_free, dtau=dtau, a=a,
-                         coh=a * np.maximum(mu, 1.0) * (mu > 0), basis=basis)
+                         coh=a * np.maximum(mu, 1.0) * (mu > 0), basis=basis, nm=nm,
+                         tm=tm, e0=e0)
 
 
-def law_error(d: dict, p: np.ndarray, q: np.ndarray) -> float:
-    """The largest violation of the interface law by forces p, q (m,) on case d, from C
-    alone (not `ContactLCP._basis_errors`), over the case's scale (largest |C| |lam| plus
-    the largest free motion, a and 1): p + a >= 0, gap >= 0, min(p + a, gap) = 0; friction
-    bound F = c + mu p >= 0 and |q| <= F; a pair that slides, |slip| above 1e-9 of the
-    scale (slip = C_t lam - dtau = tau - tau_prev), at q = -sign(slip) F; q = 0 without
-    friction."""
+def law_error(d: dict, p: np.ndarray, q: np.ndarray,
+              alpha: np.ndarray | None = None) -> float:
+    """The largest violation of the interface law by forces p, q (m,) and mode amplitudes
+    alpha (r,) (None: no modes) on case d, from C alone (not `ContactLCP._basis_errors`),
+    over the case's scale (largest |C| |lam| plus the largest free motion, modes' motion,
+    e0, a and 1): p + a >= 0, gap >= 0, min(p + a, gap) = 0; friction bound F = c + mu p
+    >= 0 and |q| <= F; a pair that slides, |slip| above 1e-9 of the scale (slip = C_t lam
+    + T alpha - dtau = tau - tau_prev), at q = -sign(slip) F; q = 0 without friction; with
+    modes the balance e0 + N^T p + T^T q = 0."""
     c, m, a, mu = d["c"], p.size, d["a"], d["mu"]
     lam = np.concatenate([p, q])
     gap = d["gap_free"] + c[:m] @ lam
     slip = c[m:] @ lam - d["dtau"]
     scale = (np.abs(c).max() * np.abs(lam).max() + np.abs(d["gap_free"]).max()
              + np.abs(d["dtau"]).max() + np.abs(a).max() + 1.0)
-    errs = [-(p + a), -gap, np.abs(np.minimum(p + a, gap))]
+    errs = [np.zeros(1)]
+    if d.get("nm") is not None and alpha is not None:
+        gap = gap + d["nm"] @ alpha
+        slip = slip + d["tm"] @ alpha
+        scale += (np.abs(d["nm"]).max() + np.abs(d["tm"]).max()) * np.abs(alpha).max() \
+            + np.abs(d["e0"]).max()
+        errs.append(np.abs(d["e0"] + d["nm"].T @ p + d["tm"].T @ q))
+    errs += [-(p + a), -gap, np.abs(np.minimum(p + a, gap))]
     if d["fr"]:
         bound = d["coh"] + mu * p
         slides = np.abs(slip) > 1e-9 * scale
@@ -103,7 +129,7 @@ def load(path: str | None) -> ModuleType:
     return mod
 
 
-def run(mod: ModuleType, n: int, seed: int) -> list[dict]:
+def run(mod: ModuleType, n: int, seed: int, modes: int = 0) -> list[dict]:
     """One record per case: kind, settled, solves, and the states and p, q when settled."""
     solves = [0]
     on_states = mod.ContactLCP._on_states
@@ -114,17 +140,18 @@ def run(mod: ModuleType, n: int, seed: int) -> list[dict]:
 
     mod.ContactLCP._on_states = counted
     out = []
-    for kind, d in cases(n, seed):
+    for kind, d in cases(n, seed, modes):
         m = d["mu"].size
-        lcp = mod.ContactLCP(d["c"], d["mu"], np.full(m, d["fr"]), cache=False)
+        lcp = mod.ContactLCP(d["c"], d["mu"], np.full(m, d["fr"]), d["nm"], d["tm"],
+                             cache=False)
         solves[0] = 0
         got = lcp._polished(d["basis"], (d["gap_free"], d["dtau"]), d["a"], d["coh"],
-                            d["mu"], np.zeros(0))
+                            d["mu"], d["e0"])
         rec = {"kind": kind, "settled": got is not None, "solves": solves[0]}
         if got is not None:
             rec.update(p=got[0].tolist(), q=got[1].tolist(),
                        states=[np.asarray(s, int).tolist() for s in got[3:]],
-                       law_error=law_error(d, got[0], got[1]))
+                       law_error=law_error(d, got[0], got[1], got[2]))
         out.append(rec)
     mod.ContactLCP._on_states = on_states
     return out
@@ -155,6 +182,8 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--cases", type=int, default=3000)
     ap.add_argument("--seed", type=int, default=2026)
+    ap.add_argument("--modes", type=int, default=0,
+                    help="floating modes added to every case (free columns; default 0)")
     ap.add_argument("--coulomb", help="another version of app/interface/coulomb.py")
     ap.add_argument("--out", help="write every case's record (JSON) here")
     ap.add_argument("--compare", nargs=2, metavar=("FIRST", "SECOND"),
@@ -175,7 +204,9 @@ def main() -> None:
         return
     if args.cases < 1:
         fail(f"--cases {args.cases}: give at least 1")
-    recs = run(load(args.coulomb), args.cases, args.seed)
+    if args.modes < 0:
+        fail(f"--modes {args.modes}: give 0 or more")
+    recs = run(load(args.coulomb), args.cases, args.seed, args.modes)
     if args.out:
         with open(args.out, "w") as fh:
             json.dump(recs, fh)

@@ -94,3 +94,17 @@ def test_bad_input_is_one_error_line_and_exit_2(tmp_path):
         assert res.returncode == 2, (args, res.stderr)
         assert res.stderr.startswith("error: ") and "Traceback" not in res.stderr, args
         assert res.stderr.count("\n") == 1, res.stderr
+
+
+def test_cases_with_a_floating_mode_settle_on_answers_that_keep_the_balance():
+    """--modes 1: each case gets a floating body's mode (free columns N alpha, T alpha and
+    the balance e0 + N^T p + T^T q = 0, judged by `law_error` too); the settled answers
+    solve the LCP, and the cases without modes are those of the run without the flag."""
+    got = _run("--cases", "60", "--modes", "1")
+    plain = _run("--cases", "60")
+    assert got["invalid"] == 0 and got["settled"] >= 40
+    assert got["settled"] != plain["settled"] or got["solves_total"] != plain["solves_total"]
+    res = subprocess.run([sys.executable, "scripts/check_resolve.py", "--modes", "-1"],
+                         cwd=ROOT, env=dict(os.environ, PYTHONPATH=str(ROOT)),
+                         capture_output=True, text=True, timeout=60)
+    assert res.returncode == 2 and res.stderr.startswith("error: --modes -1")

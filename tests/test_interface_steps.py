@@ -8,6 +8,7 @@ One or two pairs with a diagonal compliance: gap = gap_free + c_n p, tau = tau_f
 import numpy as np
 import pytest
 
+from app.interface import coulomb
 from app.interface.coulomb import (
     POLISH_GATE,
     POLISH_REL,
@@ -478,20 +479,22 @@ def test_the_re_solve_tries_a_bounded_number_of_single_flips_on_a_large_lcp():
 
 
 def _settled_states(cc: np.ndarray, mu: float, gap_free: np.ndarray, dtau: np.ndarray,
-                    basis: list[int]) -> tuple[tuple | None, list]:
+                    basis: list[int], modes: tuple | None = None) -> tuple[tuple | None, list]:
     """`_polished` on a frictional LCP of compliance cc (2m, 2m) from an LCP basis, and
     every set of pair states (closed, slip+, slip-) that solves it, by enumeration of the
-    6^m sets (each checked by `_on_states` and `_basis_errors`)."""
+    6^m sets (each checked by `_on_states` and `_basis_errors`). modes: (N (m, r), T (m,
+    r), e0 (r,)) of floating modes (the basis then holds alpha+ and alpha-), or None."""
     m = gap_free.size
     mus, z = np.full(m, mu), np.zeros(m)
-    lcp = ContactLCP(cc, mus, np.ones(m, bool), cache=False)
+    n_modes, t_modes, e0 = modes if modes is not None else (None, None, np.zeros(0))
+    lcp = ContactLCP(cc, mus, np.ones(m, bool), n_modes, t_modes, cache=False)
     free, fric = (gap_free, dtau), np.ones(m, bool)
-    got = lcp._polished(np.array(basis, bool), free, z, z, mus, np.zeros(0))
+    got = lcp._polished(np.array(basis, bool), free, z, z, mus, e0)
     answers = []
     for code in np.ndindex(*(6,) * m):
         st = np.array(code)
         closed, sp_b, sm_b = st % 2 == 1, st // 2 == 1, st // 2 == 2
-        x = lcp._on_states(closed, sp_b, sm_b, fric, free, z, z, mus, np.zeros(0))
+        x = lcp._on_states(closed, sp_b, sm_b, fric, free, z, z, mus, e0)
         if x is not None and lcp._basis_errors(x, closed, sp_b, sm_b, fric, free, z, z,
                                                mus) is None:
             answers.append((list(closed), list(sp_b), list(sm_b)))
@@ -539,6 +542,53 @@ def test_a_pair_whose_single_flips_come_back_tries_its_other_states():
                                    np.array([-1.56, 0.41]), [1, 0, 1, 0, 0, 1])
     assert got is not None
     assert (list(got[3]), list(got[4]), list(got[5])) in answers
+
+
+@pytest.mark.parametrize("case", ["tabu", "least"])
+def test_the_re_solve_with_a_floating_mode_goes_on_past_a_singular_set_of_states(
+        case, monkeypatch):
+    """A floating body's mode (gap += N alpha, tau += T alpha, balance e0 + N^T p + T^T q =
+    0) adds free columns: a set of states whose closed and sticking pairs do not hold the
+    mode has a singular system. The re-solve gave up there, Lemke's answer kept; now the
+    singular set counts as seen and the rule goes on from the last solved states: the tabu
+    step (2 pairs) and Murty's least-index rule (3 pairs) settle on the LCP's one answer.
+    Found among check_resolve.py's random LCPs with one mode added (N in [0.5, 1.5], T
+    0.3 x normal, e0 -[0.5, 3] x m; 6 of 3000 gave up on a singular set, scratch)."""
+    if case == "tabu":
+        cc = np.array([[7.61, -2.93, -0.96, 5.91], [-2.93, 5.85, 2.97, -1.35],
+                       [-0.96, 2.97, 2.87, 0.08], [5.91, -1.35, 0.08, 5.78]])
+        mu, gap, dtau = 1.31, [-0.44, -0.88], [-1.44, 0.78]
+        modes = ([[1.22], [0.78]], [[-0.28], [0.67]], [-5.81])
+        basis = [0, 1, 0, 1, 1, 0, 0, 1]
+    else:
+        cc = np.array([[5.38, 0.64, 1.0, 1.38, 1.34, -1.28],
+                       [0.64, 8.37, -3.66, -0.39, -4.29, -3.57],
+                       [1.0, -3.66, 5.34, 0.57, 0.87, 3.49],
+                       [1.38, -0.39, 0.57, 6.14, -0.79, 2.75],
+                       [1.34, -4.29, 0.87, -0.79, 6.15, 0.46],
+                       [-1.28, -3.57, 3.49, 2.75, 0.46, 8.51]])
+        mu, gap, dtau = 1.78, [-0.1, 0.38, -1.23], [0.2, -0.38, -0.32]
+        modes = ([[0.68], [0.94], [0.94]], [[0.77], [-0.34], [-0.01]], [-2.31])
+        basis = [0, 1, 1, 0, 1, 0, 0, 0, 1, 1, 0]
+    rules, singular = [], []
+    flipped, unseen = coulomb._flipped, coulomb._unseen
+    on_states = ContactLCP._on_states
+
+    def counted_on_states(self, *args):
+        x = on_states(self, *args)
+        singular.append(x is None)
+        return x
+
+    monkeypatch.setattr(coulomb, "_flipped", lambda s, f, rule: (rules.append(rule),
+                                                                 flipped(s, f, rule))[1])
+    monkeypatch.setattr(coulomb, "_unseen", lambda *a: (rules.append("tabu"), unseen(*a))[1])
+    monkeypatch.setattr(ContactLCP, "_on_states", counted_on_states)
+    got, answers = _settled_states(cc, mu, np.array(gap), np.array(dtau), basis,
+                                   tuple(np.array(x, float) for x in modes))
+    # the path this test is about: the last rule reached (the tabu step, else Murty's)
+    assert any(singular) and ("tabu" if "tabu" in rules else rules[-1]) == case
+    assert got is not None and len(answers) == 1
+    assert (list(got[3]), list(got[4]), list(got[5])) == answers[0]
 
 
 def _five_pair_problem() -> tuple[ContactLCP, tuple]:
@@ -644,6 +694,37 @@ def test_the_gate_judges_q_against_the_steps_motion_not_the_slide_so_far(shift):
         q = sol.q.copy()
         q[0] = -mu * sol.p[0] * (1.0 + rel)
         bad = dataclasses.replace(sol, q=q)
+        assert lcp._off_basis(bad, basis, tau_prev, free, a, np.full(m, mu)) is fired
+
+
+@pytest.mark.parametrize("field", ["gap", "tau"])
+@pytest.mark.parametrize("shift", [0.0, 1e2, 1e4])
+def test_the_gate_judges_gaps_and_motion_against_the_steps_motion_not_the_slide_so_far(
+        field, shift):
+    """A closed pair with a gap, or a sticking one that moved, by 1e-9 (1e-6 of the step's
+    motion terms, ~1e-3) fires the gate wherever the pairs have slid to before the step
+    (tau_prev = shift); 1e-14 (round-off) does not, nor does the answer itself, whose tau
+    - tau_prev carries the round-off of the slide (4 eps |tau|: 8.9e-12 at 1e4). Before,
+    both tolerances were POLISH_GATE times `ContactSolution.motion`, whose tau terms hold
+    the absolute tau_free: 1e-8 at shift 1e2 and 1e-6 at 1e4 hid such a gap or motion."""
+    import dataclasses
+
+    m, mu, a = 5, 0.3, np.zeros(5)
+    block = np.eye(m) + 0.1 * np.ones((m, m))
+    c = np.block([[CN * block, np.zeros((m, m))], [np.zeros((m, m)), CT * block]])
+    lcp = ContactLCP(c, np.full(m, mu), np.ones(m, bool), None, None)
+    gap_free, tau_prev = np.full(m, -1e-3), np.full(m, shift)
+    tau_free = tau_prev + np.array([1e-5, 2e-6, -2e-6, 1e-6, 0.0])
+    sol = lcp.solve(gap_free, tau_free, tau_prev, a, a, np.full(m, mu), np.zeros(0))
+    basis = np.asarray(sol.basis, bool)
+    free = lcp._free_motion(gap_free, tau_free, tau_prev)
+    assert basis[0] and not basis[lcp.edges[1]] and not basis[lcp.edges[2]]  # 0 sticks
+    assert not lcp._off_basis(sol, basis, tau_prev, free, a, np.full(m, mu))
+    base = {"gap": 0.0, "tau": tau_prev[0]}[field]
+    for off, fired in ((1e-9, True), (1e-14, False)):
+        moved = getattr(sol, field).copy()
+        moved[0] = base + off
+        bad = dataclasses.replace(sol, **{field: moved})
         assert lcp._off_basis(bad, basis, tau_prev, free, a, np.full(m, mu)) is fired
 
 

@@ -37,7 +37,7 @@ from app.lcp.conditioning import determined_accuracy
 from app.lcp.coulomb_matrix import coulomb_matrix, fixed_rows, tie_fixed
 from app.lcp.matrix_cache import MatrixCache
 from app.lcp.mip import complementary_basis
-from app.lcp.result import DEFAULT_TOL
+from app.lcp.result import DEFAULT_TOL, LCPResult
 from app.lcp.scaling import absmax, row_blocks
 from app.lcp.solvers import LCPSolver
 
@@ -439,9 +439,38 @@ class ContactLCP:
         if not np.isfinite(qv).all():
             raise SolveError("the contact LCP's constant vector is not finite (overflow in "
                              "the free gaps): check the loads and the Young's moduli")
-        d = self.scaling
-        ms, qs = self.M_scaled, d * self.row_scale * qv
-        # warm starts: each candidate basis in turn (the newest first), then a cold start
+        ms, qs = self.M_scaled, self.scaling * self.row_scale * qv
+        res = self._lemke(ms, qs, basis, max_pivots)
+        if res.status == "inaccurate":
+            _rejudged(res, ms, qs, self.scaling * self.row_scale * qsize)
+        settled = self._settled_inaccurate(res, free, a, c, mu, e0)
+        # (frictionless, M is copositive-plus and the ray proves there is no solution)
+        if self.r and (res.status == "inaccurate" or
+                       (res.status == "secondary ray" and self.mf)):
+            res = self._searched(res, ms, qs)
+        z = self._lemkes_z(res, settled is None, a, gap_free, tau_free, tau_prev, c, mu, e0)
+        sol = self._recovered(z, free, gap_free, tau_free, res)
+        if res.status != "solved" or res.basis is None:
+            return sol
+        basis = np.asarray(res.basis, dtype=bool)
+        states = self._basis_states(basis)
+        if settled is None and self._off_basis(sol, basis, tau_prev, free, c, mu):
+            settled = self._polished_kept(sol, basis, free, a, c, mu, e0)
+        if settled is not None:
+            states = settled[3:]
+            sol = self._settled_solution(settled, sol, gap_free, tau_free, tau_prev, res)
+            # (sol.basis stays Lemke's: the settled states' basis as the next step's warm
+            # start gave the same answers with more pivots, README "Hard cases", the
+            # basis handed on)
+        sol.accuracy = self._accuracy(*states, mu)
+        return sol
+
+    def _lemke(self, ms: np.ndarray, qs: np.ndarray,
+               basis: np.ndarray | list[np.ndarray] | None,
+               max_pivots: int | None) -> LCPResult:
+        """The solver's result on the scaled LCP (ms, qs): from each warm-start basis in
+        turn (the newest first) until one does not fail, else from the crash basis, then
+        cold; its pivots summed over the tries."""
         candidates = [b for b in (basis if isinstance(basis, list) else [basis])
                       if b is not None]
         pivots = 0
@@ -455,22 +484,29 @@ class ContactLCP:
             res = self.solver(ms, qs, max_pivots=max_pivots, cache=self.cache)
             pivots += res.pivots
         res.pivots = pivots
-        if res.status == "inaccurate":
-            _rejudged(res, ms, qs, d * self.row_scale * qsize)
-        settled = self._settled_inaccurate(res, free, a, c, mu, e0)
-        # (frictionless, M is copositive-plus and the ray proves there is no solution)
-        if self.r and (res.status == "inaccurate" or
-                       (res.status == "secondary ray" and self.mf)):
-            res = self._searched(res, ms, qs)
-        m, f, e = self.m, self.fric, self.edges
-        z = d * res.z
+        return res
+
+    def _lemkes_z(self, res, unshift: bool, a: np.ndarray, gap_free: np.ndarray,
+                  tau_free: np.ndarray, tau_prev: np.ndarray, c: np.ndarray, mu: np.ndarray,
+                  e0: np.ndarray) -> np.ndarray:
+        """(size,) the unscaled z of the solver's result res with p (not p + a) on the
+        normal rows; where unshift and res is solved with a >> the forces (p holds
+        round-off of a), solved again on its basis without the shift (`_unshifted`)."""
+        e = self.edges
+        z = self.scaling * res.z
         z[: e[1]] -= a  # p on the normal rows
-        # p holds round-off of a: solved again without the shift where a >> the forces
-        if settled is None and res.status == "solved" and res.basis is not None and \
+        if unshift and res.status == "solved" and res.basis is not None and \
                 a.max(initial=0.0) > 1e3 * np.abs(z[: e[1]]).max(initial=0.0):
             unshifted = self._unshifted(res.basis, a, gap_free, tau_free, tau_prev, c, mu, e0)
             if unshifted is not None:
                 z = unshifted
+        return z
+
+    def _recovered(self, z: np.ndarray, free: tuple[np.ndarray, np.ndarray],
+                   gap_free: np.ndarray, tau_free: np.ndarray, res) -> ContactSolution:
+        """The ContactSolution of z (`_lemkes_z`): p, the slips and alpha from z, q = H
+        (tau_prev - tau_free - C_tn p + s+ - s- - T alpha) on the frictional pairs."""
+        m, f, e = self.m, self.fric, self.edges
         p = z[: e[1]]
         sp_, sm_ = z[e[1]: e[2]], z[e[2]: e[3]]
         alpha = z[e[3]: e[4]] - z[e[4]: e[5]]
@@ -482,27 +518,30 @@ class ContactLCP:
             rhs = free[1][f] - cnt_f.T @ p + sp_ - sm_ - self.tm @ alpha
             q[f] = self.apply_h(rhs)
             splus[f], sminus[f] = sp_, sm_
-        sol = self._solution(p, q, alpha, gap_free, tau_free, splus, sminus, res)
-        if res.status != "solved" or res.basis is None:
-            return sol
-        basis = np.asarray(res.basis, dtype=bool)
-        states = self._basis_states(basis)
-        if settled is None and self._off_basis(sol, basis, tau_prev, free, c, mu):
-            settled = self._polished(basis, free, a, c, mu, e0)
-            # kept only when it keeps the law at least as well as Lemke's answer
-            if settled is not None and self._law_error(settled[:3], free, a, c, mu) > max(
-                    self._law_error((sol.p, sol.q, sol.alpha), free, a, c, mu), POLISH_REL):
-                settled = None
-        if settled is not None:  # slip variables from the polished motion
-            p, q, alpha, closed, sp_b, sm_b = settled
-            states = (closed, sp_b, sm_b)
-            moved = self._solution(p, q, alpha, gap_free, tau_free, splus, sminus,
-                                   res).tau - tau_prev
-            splus = np.where(sp_b, np.maximum(moved, 0.0), 0.0)
-            sminus = np.where(sm_b, np.maximum(-moved, 0.0), 0.0)
-            sol = self._solution(p, q, alpha, gap_free, tau_free, splus, sminus, res)
-        sol.accuracy = self._accuracy(*states, mu)
-        return sol
+        return self._solution(p, q, alpha, gap_free, tau_free, splus, sminus, res)
+
+    def _polished_kept(self, sol: ContactSolution, basis: np.ndarray,
+                       free: tuple[np.ndarray, np.ndarray], a: np.ndarray, c: np.ndarray,
+                       mu: np.ndarray, e0: np.ndarray) -> tuple[np.ndarray, ...] | None:
+        """`_polished` from Lemke's basis, kept only when it keeps the law
+        (`_law_error`) at least as well as Lemke's answer sol (or within POLISH_REL)."""
+        settled = self._polished(basis, free, a, c, mu, e0)
+        if settled is not None and self._law_error(settled[:3], free, a, c, mu) > max(
+                self._law_error((sol.p, sol.q, sol.alpha), free, a, c, mu), POLISH_REL):
+            return None
+        return settled
+
+    def _settled_solution(self, settled: tuple[np.ndarray, ...], sol: ContactSolution,
+                          gap_free: np.ndarray, tau_free: np.ndarray, tau_prev: np.ndarray,
+                          res) -> ContactSolution:
+        """The ContactSolution of a settled re-solve (p, q, alpha, closed, slip+, slip-),
+        its slip variables from its own motion tau - tau_prev on its slipping pairs."""
+        p, q, alpha, _, sp_b, sm_b = settled
+        moved = self._solution(p, q, alpha, gap_free, tau_free, sol.slip_plus,
+                               sol.slip_minus, res).tau - tau_prev
+        splus = np.where(sp_b, np.maximum(moved, 0.0), 0.0)
+        sminus = np.where(sm_b, np.maximum(-moved, 0.0), 0.0)
+        return self._solution(p, q, alpha, gap_free, tau_free, splus, sminus, res)
 
     def _settled_inaccurate(self, res, free: tuple[np.ndarray, np.ndarray], a: np.ndarray,
                             c: np.ndarray, mu: np.ndarray,
@@ -636,37 +675,43 @@ class ContactLCP:
         q of 1e-13, round-off, fired on multibody.toml --sd 1 --mesh-size 1.2, and the
         re-solve's tabu step settled on other states with a hourglass amplitude of 316 for
         9.4 and `kkt_pairs` 2.8e-11 for 1.7e-13); or a slipping pair off its side of the
-        cone (`_slip_off`). `_q_reach` of the step's motion terms (free = (gap_free,
-        tau_prev - tau_free), the LCP's constant: Lemke's q is H times them), not of
-        `sol.motion`, whose tau terms hold the absolute tau_free: a pair slid 1e2 before
-        the step read a sticking q 1e-6 over its bound as round-off (reviewer `review15`).
+        cone (`_slip_off`). The gap and motion tolerances and `_q_reach` are of the step's
+        motion terms (free = (gap_free, tau_prev - tau_free), the LCP's constant: Lemke's
+        q is H times them), not of `sol.motion`, whose tau terms hold the absolute
+        tau_free: a pair slid 1e2 before the step read a sticking q 1e-6 over its bound as
+        round-off (reviewer `review15`), and a pair slid 1e4 a closed gap or a sticking
+        motion 1e-4 of the step's motion (session 30); the motion tau - tau_prev is
+        judged beyond its own round-off, 4 eps max(|tau|, |tau_prev|), too.
         Round-off of the condensed LCP (`_polished`); elsewhere Lemke's answer is kept
         as it is."""
         m, f = self.m, self.fric
-        motion = np.broadcast_to(np.asarray(sol.motion, dtype=float), (m,))
+        _, _, gap_terms, tau_terms = self._kinematics(sol.p, sol.q, sol.alpha, free[0],
+                                                      -free[1])
+        motion = motion_size(*gap_terms, *tau_terms)  # the step's, not the slide so far
         tol = POLISH_GATE * motion
         _, plus, minus = self._basis_states(basis)
         stick = np.zeros(m, dtype=bool)
         stick[f] = ~plus[f] & ~minus[f]
         moved = sol.tau - tau_prev
+        # (tau and tau_prev hold the slide so far: their difference its round-off)
+        tol_t = tol + 4 * np.finfo(float).eps * np.maximum(np.abs(sol.tau), np.abs(tau_prev))
         bound = c + mu * sol.p
         forces = np.abs(c) + np.abs(mu * sol.p) + np.abs(sol.q)
-        _, _, gap_terms, tau_terms = self._kinematics(sol.p, sol.q, sol.alpha, free[0],
-                                                      -free[1])
-        reach = self._q_reach(motion_size(*gap_terms, *tau_terms))
+        reach = self._q_reach(motion)
         over = np.abs(sol.q) - bound > POLISH_GATE * (forces + reach)
         closed = basis[:m]
         return bool((closed & (np.abs(sol.gap) > tol)).any() or
                     (~closed & (sol.gap < -tol)).any() or
-                    (stick & ((np.abs(moved) > tol) | over)).any() or
-                    self._slip_off(sol.q, moved, bound, forces + reach, motion, plus, minus).any())
+                    (stick & ((np.abs(moved) > tol_t) | over)).any() or
+                    self._slip_off(sol.q, moved, bound, forces + reach, tol_t, plus, minus).any())
 
     def _slip_off(self, q: np.ndarray, moved: np.ndarray, bound: np.ndarray,
-                  forces: np.ndarray, motion: np.ndarray, plus: np.ndarray,
+                  forces: np.ndarray, tol: np.ndarray, plus: np.ndarray,
                   minus: np.ndarray) -> np.ndarray:
         """(m,) bool: the pairs with one basic slip variable (plus: slip+, q = -bound,
         tau - tau_prev = moved >= 0; minus: slip-) whose answer leaves it by more than
-        POLISH_GATE: moved against it beyond that of the motion terms, or q off -+bound
+        POLISH_GATE: moved against it beyond tol (m,) (`_off_basis`: that of the step's
+        motion terms, plus the round-off of moved), or q off -+bound
         beyond that of forces: the pair's forces plus the force the step's motion terms
         make through its own tangential compliance (`_q_reach`: q is recovered as H times
         that motion, so its round-off is of that size where the pair's forces are not,
@@ -676,7 +721,6 @@ class ContactLCP:
         or motion was off."""
         one = plus ^ minus
         side = np.where(plus, q + bound, q - bound)
-        tol = POLISH_GATE * motion
         back = np.where(plus, moved < -tol, moved > tol)
         return one & (back | (np.abs(side) > POLISH_GATE * forces))
 
@@ -724,21 +768,30 @@ class ContactLCP:
         the current one not yet seen (`_unseen`, a tabu step); UNSHIFTED_PIVOTS +
         SINGLE_FLIPS solves in all. A rule's cycle is
         a set of states it saw itself (one seen under the rule before leads elsewhere).
-        None (Lemke's answer kept) when a system is singular or the pivots do not settle."""
+        A set of states whose system is singular (a floating body's mode that no closed
+        or sticking pair holds) counts as seen: the rule goes on from the last solved
+        states (it gave up there: 6 of check_resolve's 3000 LCPs with one mode added).
+        None (Lemke's answer kept) when Lemke's own states' system is singular or the
+        pivots do not settle."""
         fric = self._fric_mask()
         closed, sp_b, sm_b = self._basis_states(basis)
         sm_b &= ~sp_b
         rules = iter(PIVOT_RULES)
         rule = next(rules)
         seen: set[bytes] = set()  # the states visited under this rule
+        last = None  # the last set of states whose system was solved, and its flips
         for _ in range(UNSHIFTED_PIVOTS + SINGLE_FLIPS):
             seen.add(_state_key((closed, sp_b, sm_b)))
             x = self._on_states(closed, sp_b, sm_b, fric, free, a, c, mu, e0)
-            if x is None:
-                return None
-            flips = self._basis_errors(x, closed, sp_b, sm_b, fric, free, a, c, mu)
-            if flips is None:
-                return (*x, closed, sp_b, sm_b)
+            if x is None:  # singular (e.g. no closed pair holds a floating mode): back
+                if last is None:  # to the last solved states, whose flip is now seen
+                    return None
+                (closed, sp_b, sm_b), flips = last
+            else:
+                flips = self._basis_errors(x, closed, sp_b, sm_b, fric, free, a, c, mu)
+                if flips is None:
+                    return (*x, closed, sp_b, sm_b)
+                last = (closed, sp_b, sm_b), flips
             new = _flipped((closed, sp_b, sm_b), flips, rule)
             # a rule's states come back (it cycles) or block pivots ran UNSHIFTED_PIVOTS:
             # the next rule from the current states (a state seen under another rule is
@@ -814,11 +867,8 @@ class ContactLCP:
         its sign slipping); else (normal flips, new slip+ mask, new slip- mask, each pair's
         largest violation over its tolerance (m,): above 1 where it left its signs)."""
         p, q, alpha = x
-        # free[1] = tau_prev - tau_free: slip = tau - tau_prev
-        gap, slip, gap_terms, tau_terms = self._kinematics(p, q, alpha, free[0], -free[1])
-        ftol = POLISH_REL * _force_size(p, q, a, c, mu)
-        gtol = POLISH_REL * (motion_size(*gap_terms) + 1e-300)
-        ttol = POLISH_REL * (motion_size(*tau_terms) + 1e-300)
+        gap, slip, fs, gs, ts = self._pair_scales(x, free, a, c, mu)
+        ftol, gtol, ttol = POLISH_REL * fs, POLISH_REL * gs, POLISH_REL * ts
         bound = c + mu * p
         stick = fric & ~sp_b & ~sm_b
         off_n = np.where(closed, -(p + a) / ftol, -gap / gtol)
@@ -832,6 +882,19 @@ class ContactLCP:
         new_sp = (sp_b & ~back) | (over & (q < 0))
         new_sm = (sm_b & ~back) | (over & (q > 0))
         return flip_n, new_sp, new_sm, np.maximum(off_n, off_t)
+
+    def _pair_scales(self, x: tuple[np.ndarray, np.ndarray, np.ndarray],
+                     free: tuple[np.ndarray, np.ndarray], a: np.ndarray, c: np.ndarray,
+                     mu: np.ndarray) -> tuple[np.ndarray, ...]:
+        """(gap, slip, force size, gap size, tau size), (m,) each, of x = (p, q, alpha) on
+        the step's free motion free = (gap_free, tau_prev - tau_free): slip = tau -
+        tau_prev, the pair's own force terms (`_force_size`) and its gap's and tau's
+        motion terms (`motion_size`, + 1e-300): the scales `_basis_errors` and
+        `_law_error` judge each pair's signs against."""
+        p, q, alpha = x
+        gap, slip, gap_terms, tau_terms = self._kinematics(p, q, alpha, free[0], -free[1])
+        return (gap, slip, _force_size(p, q, a, c, mu), motion_size(*gap_terms) + 1e-300,
+                motion_size(*tau_terms) + 1e-300)
 
     def _law_error(self, x: tuple[np.ndarray, np.ndarray, np.ndarray],
                    free: tuple[np.ndarray, np.ndarray], a: np.ndarray, c: np.ndarray,
@@ -849,10 +912,8 @@ class ContactLCP:
         (a hourglass amplitude of 316 for 9.4) where Lemke's answer kept the law to
         1.9e-13."""
         p, q, alpha = x
-        gap, slip, gap_terms, tau_terms = self._kinematics(p, q, alpha, free[0], -free[1])
-        fs = _force_size(p, q, a, c, mu)
-        gs = motion_size(*gap_terms) + 1e-300
-        motion = np.maximum(gs, motion_size(*tau_terms))  # (as `_off_basis`'s slip test)
+        gap, slip, fs, gs, ts = self._pair_scales(x, free, a, c, mu)
+        motion = np.maximum(gs, ts)  # (as `_off_basis`'s slip test)
         pa = (p + a) / (fs + self._q_reach(motion, normal=True))
         g = gap / gs
         err = np.maximum(np.maximum(-pa, -g), np.abs(np.minimum(pa, g)))
