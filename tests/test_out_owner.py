@@ -6,12 +6,14 @@ the tool's names next to it (mesh.h5, step_NNNN.h5, ...) were removed or replace
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 
+import pytest
 from support import CONFIGS, ROOT, mpi_env, run_cli
 
-from app.output.out_owner import foreign_files
+from app.output.out_owner import UnsafeLock, foreign_files, open_lock
 from app.output.startup_signals import STALE
 
 
@@ -76,3 +78,41 @@ def test_sigint_during_startup_leaves_another_programs_summary(tmp_path):
                          capture_output=True, text=True, timeout=300)
     assert res.returncode == 130, res.stderr
     assert (out / "summary.json").read_text() == theirs
+
+
+def test_open_lock_never_follows_a_link_nor_opens_a_fifo(tmp_path):
+    """OUT/.lock planted as a symbolic link (a shared folder prepared by someone else) or a
+    FIFO is refused, and the link's target is neither created nor locked; a plain file, or
+    none, is opened. Before, `open(.lock, "a")` created the link's target and a FIFO hung."""
+
+    target = tmp_path / "elsewhere"
+    (tmp_path / ".lock").symlink_to(target)
+    with pytest.raises(UnsafeLock, match="lock file .lock is a symbolic link"):
+        open_lock(tmp_path / ".lock")
+    assert not target.exists()
+    fifo = tmp_path / "f"
+    fifo.mkdir()
+    os.mkfifo(fifo / ".lock")
+    with pytest.raises(UnsafeLock, match="is not a plain file"):
+        open_lock(fifo / ".lock")
+    with open_lock(tmp_path / "new.lock") as fh:
+        assert not fh.closed and (tmp_path / "new.lock").is_file()
+
+
+def test_a_run_refuses_a_planted_lock_link_on_1_and_2_ranks(tmp_path):
+    """`python -m app run` into an OUT whose .lock is a link: one `error:` line, exit 2,
+    nothing created at the link's target, nothing written into OUT."""
+    for ranks in (1, 2):
+        out = tmp_path / f"o{ranks}"
+        out.mkdir()
+        target = tmp_path / f"victim{ranks}"
+        (out / ".lock").symlink_to(target)
+        res = run_cli(["run", str(CONFIGS / "patch.toml"), "--out", str(out), "--quiet",
+                       "--mesh-size", "0.5"], ranks=ranks, timeout=120)
+        assert res.returncode == 2, res.stderr
+        errors = [ln for ln in res.stderr.splitlines() if ln.startswith("error:")]
+        assert errors == [f"error: --out {out}: its lock file .lock is a symbolic link (a "
+                          "run creates a plain file there; it was put there by someone or "
+                          "something else): remove it or choose another --out"], res.stderr
+        assert not target.exists()
+        assert sorted(p.name for p in out.iterdir()) == [".lock"]

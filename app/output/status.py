@@ -28,7 +28,7 @@ from petsc4py import PETSc
 from app import exit_sync, hard_stop
 from app.errors import InputError, SolveError
 from app.output import startup_signals
-from app.output.out_owner import foreign_files, foreign_message
+from app.output.out_owner import UnsafeLock, foreign_files, foreign_message, open_lock
 from app.output.plot_mark import is_marked_png
 
 LOCK_NAME = startup_signals.LOCK_NAME
@@ -267,7 +267,9 @@ def lock_folder(out: Path) -> TextIO:
     """Create OUT, take its lock (non-blocking); returns the open lock file."""
     try:
         out.mkdir(parents=True, exist_ok=True)
-        fh = open(out / LOCK_NAME, "a")
+        fh = open_lock(out / LOCK_NAME)
+    except UnsafeLock as exc:  # a link or a FIFO planted there: not followed
+        raise InputError(str(exc)) from None
     except OSError as exc:
         raise InputError(f"--out {out}: cannot write there ({exc.strerror})") from None
     try:
