@@ -609,6 +609,16 @@ polygon about 400 kB. Before, a config's size had no bound: a 4.4 MB file listin
 `[[mesh.refine]]` points ran 25 s and 488 MB, and parsing and meshing grow with the file."""
 
 
+def _config_text(data: bytes, p: Path) -> str:
+    """The file's text: UTF-8, a leading UTF-8 byte order mark dropped (Windows editors
+    write one; before, it read as `not valid TOML: Invalid statement (at line 1, column
+    1)`); a UTF-16 one is named (UnicodeDecodeError otherwise)."""
+    if data.startswith((b"\xff\xfe", b"\xfe\xff")):
+        raise InputError(f"config file '{p}' is UTF-16 text (it starts with a UTF-16 byte "
+                         "order mark): save it as UTF-8")
+    return data.decode("utf-8-sig")
+
+
 def load_config(path: str | Path, overrides: list[str] | None = None) -> Config:
     """Read and check a TOML scene file; `overrides` are `--set KEY=VALUE` strings."""
     p = Path(path)
@@ -623,7 +633,7 @@ def load_config(path: str | Path, overrides: list[str] | None = None) -> Config:
         if len(data) > MAX_CONFIG_BYTES:
             raise InputError(f"config file '{p}' is larger than {MAX_CONFIG_BYTES >> 20} MB: "
                              "a scene needs far less (a mesh goes in mesh.file)")
-        raw = tomllib.loads(data.decode("utf-8"))
+        raw = tomllib.loads(_config_text(data, p))
     except tomllib.TOMLDecodeError as exc:
         raise InputError(f"config file '{p}' is not valid TOML: {exc}") from None
     except UnicodeDecodeError as exc:

@@ -144,3 +144,22 @@ def test_too_many_bodies_in_a_run_fails_with_a_summary(tmp_path):
     assert res.stderr.strip() == ("error: [[body]] has 1003 entries, more than 1000: split "
                                   "the scene into smaller ones"), res.stderr
     assert read_summary(out)["status"] == "failed"
+
+
+def test_a_utf8_byte_order_mark_is_read_and_utf16_is_named(tmp_path):
+    """Before: a UTF-8 BOM (Windows editors) read as `not valid TOML: Invalid statement
+    (at line 1, column 1)`, and UTF-16 as `not UTF-8 text (byte 0)`."""
+    cfg = tmp_path / "bom.toml"
+    cfg.write_bytes(b"\xef\xbb\xbf" + PATCH.encode())
+    assert load_config(cfg).body_names == ["lower", "upper"]
+    out = tmp_path / "o"
+    res = run_cli(["run", str(cfg), "--out", str(out), "--quiet", "--mesh-size", "0.5"],
+                  timeout=120)
+    assert res.returncode == 0, res.stderr
+    assert read_summary(out)["status"] == "completed"
+    for encoding in ("utf-16", "utf-16-be"):
+        text = PATCH.encode(encoding)
+        cfg.write_bytes(text if encoding == "utf-16" else b"\xfe\xff" + text)
+        with pytest.raises(InputError, match=r"is UTF-16 text \(it starts with a UTF-16 "
+                                             r"byte order mark\): save it as UTF-8$"):
+            load_config(cfg)
