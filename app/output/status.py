@@ -347,6 +347,9 @@ def _petsc_reason(exc: Exception) -> str:
     opts = " ".join(f"-{k} {v}".rstrip() for k, v in sorted(PETSc.Options().getAll().items()))
     line = petsc_error_line(exc)
     meaning = PETSC_ERRORS.get(code, "see the PETSc manual")
+    if "must have at least two fields" in line:  # -pc_type fieldsplit, no fields given
+        meaning = ("the stiffness matrix names no fields: -pc_fieldsplit_block_size 2 "
+                   "splits it into the x and y displacements, interleaved per node")
     detail = f"{line} ({meaning})" if line and not line.startswith("error code") else \
         f"error {code} ({meaning})"
     return f"PETSc: {detail}; check the PETSc options in force: {opts}"
