@@ -116,3 +116,34 @@ def test_a_run_refuses_a_planted_lock_link_on_1_and_2_ranks(tmp_path):
                           "something else): remove it or choose another --out"], res.stderr
         assert not target.exists()
         assert sorted(p.name for p in out.iterdir()) == [".lock"]
+
+
+def test_dangling_links_under_the_tools_names_are_removed_not_written_through(tmp_path):
+    """Links planted in OUT under the tool's names, to files not there yet: before, the
+    run wrote mesh.h5, the step files, the XDMF files and summary.json through them,
+    outside OUT (their `.tmp` links followed, then renamed into place), and OUT kept the
+    links. Now they are removed like an earlier run's files; OUT holds plain files."""
+    out = tmp_path / "o"
+    out.mkdir()
+    names = ["summary.json", "summary.json.tmp", "mesh.h5.tmp", "step_0001.h5.tmp",
+             "results.xdmf.tmp", "contact.xdmf.tmp", "step_0001.h5"]
+    for name in names:
+        (out / name).symlink_to(tmp_path / f"elsewhere_{name}")
+    res = run_cli(["run", str(CONFIGS / "patch.toml"), "--out", str(out), "--quiet",
+                   "--mesh-size", "0.5"], timeout=120)
+    assert res.returncode == 0, res.stderr
+    assert sorted(p.name for p in tmp_path.glob("elsewhere_*")) == []
+    assert not any(p.is_symlink() for p in out.iterdir())
+    assert json.loads((out / "summary.json").read_text())["status"] == "completed"
+
+
+def test_an_early_failure_removes_a_planted_link_before_it_writes(tmp_path):
+    """The summary of bad input found before PETSc starts (startup_signals.record_failure)
+    clears the same way: before, it wrote through a dangling `summary.json.tmp` link."""
+    from app.output.startup_signals import record_failure
+
+    (tmp_path / "summary.json.tmp").symlink_to(tmp_path / "elsewhere")
+    assert record_failure(tmp_path, "bad input", {"config": "c.toml"}) is None
+    assert not (tmp_path / "elsewhere").exists()
+    assert not (tmp_path / "summary.json").is_symlink()
+    assert json.loads((tmp_path / "summary.json").read_text())["error"] == "bad input"

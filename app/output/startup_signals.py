@@ -226,7 +226,7 @@ def _record(out: Path, reason: str, status: str = "interrupted",
         if foreign:  # the user's files under this tool's names: untouched
             return foreign_message(out, foreign)
         for p in out.iterdir():
-            if STALE.match(p.name) and p.is_file():
+            if STALE.match(p.name) and (p.is_file() or p.is_symlink()):
                 p.unlink(missing_ok=True)
         text = json.dumps({**(head or {"config": _STATE["config"], "n_steps": None,
                                        "steps": []}),

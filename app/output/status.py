@@ -287,7 +287,10 @@ def clear_files(out: Path, pattern: re.Pattern = STALE,
     output only: e.g. `is_marked_png`, scripts/plot_results.py's pictures)."""
     removed = []
     for p in sorted(out.iterdir()):
-        if p.is_file() and (pattern.match(p.name) or (also is not None and also(p))):
+        # a link under the tool's names too (dangling ones: `is_file` is False), not only
+        # files: else the run wrote through it, outside OUT (a `.tmp` one planted there)
+        if (p.is_symlink() and pattern.match(p.name)) or \
+                (p.is_file() and (pattern.match(p.name) or (also is not None and also(p)))):
             try:
                 p.unlink()
                 removed.append(p.name)
