@@ -231,3 +231,20 @@ def test_a_load_on_a_point_group_names_what_to_do_instead():
     with pytest.raises(InputError, match="'tip' is a point group, and a \\[\\[load\\]\\] "
                                          "acts on a curve .*name a curve \\(\\['top'\\]\\)"):
         load_vector(mesh, None, load)
+
+
+def test_an_unknown_groups_line_lists_a_dozen_names_of_many():
+    """Before: every curve's name; 5000 bodies' 10,000 curves made a 111 kB error line."""
+    from types import SimpleNamespace
+
+    from app.assembly.loads import group_nodes
+    from app.errors import InputError
+
+    mesh = SimpleNamespace(curves={f"c{k:05d}": [0] for k in range(10_000)},
+                           point_groups={"p": [0]})
+    with pytest.raises(InputError) as got:
+        group_nodes(mesh, "nope", "support on 'nope'")
+    assert str(got.value) == ("support on 'nope': unknown group 'nope' (curves: ['c00000', "
+                              "'c00001', 'c00002', 'c00003', 'c00004', 'c00005', 'c00006', "
+                              "'c00007', 'c00008', 'c00009', ... (10000 in all), 'c09999'], "
+                              "points: ['p'])")

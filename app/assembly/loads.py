@@ -24,13 +24,23 @@ def _curve(mesh: Mesh, name: str, where: str) -> np.ndarray:
     if name in mesh.point_groups and name not in mesh.curves:
         raise InputError(
             f"{where}: '{name}' is a point group, and a [[load]] acts on a curve (traction, "
-            f"pressure or total_force over its length): name a curve ({sorted(mesh.curves)}),"
+            f"pressure or total_force over its length): name a curve ({_names(mesh.curves)}),"
             " or prescribe the point's displacement with a [[support]]")
     if name not in mesh.curves:
         raise InputError(
-            f"{where}: unknown curve {name!r} (mesh curves: {sorted(mesh.curves)})"
+            f"{where}: unknown curve {name!r} (mesh curves: {_names(mesh.curves)})"
         )
     return mesh.curves[name]
+
+
+def _names(groups, most: int = 12) -> str:
+    """The sorted names of `groups` as a list; of more than `most`, the first ones and the
+    last (before, all: 10,000 curves of 5000 bodies made a 111 kB error line)."""
+    names = sorted(groups)
+    if len(names) <= most:
+        return str(names)
+    shown = ", ".join(repr(n) for n in names[:most - 2])
+    return f"[{shown}, ... ({len(names)} in all), {names[-1]!r}]"
 
 
 def group_nodes(mesh: Mesh, name: str, where: str) -> np.ndarray:
@@ -40,8 +50,8 @@ def group_nodes(mesh: Mesh, name: str, where: str) -> np.ndarray:
     if name in mesh.point_groups:
         return np.unique(mesh.point_groups[name])
     raise InputError(
-        f"{where}: unknown group {name!r} (curves: {sorted(mesh.curves)}, "
-        f"points: {sorted(mesh.point_groups)})"
+        f"{where}: unknown group {name!r} (curves: {_names(mesh.curves)}, "
+        f"points: {_names(mesh.point_groups)})"
     )
 
 
