@@ -147,3 +147,24 @@ def test_an_early_failure_removes_a_planted_link_before_it_writes(tmp_path):
     assert not (tmp_path / "elsewhere").exists()
     assert not (tmp_path / "summary.json").is_symlink()
     assert json.loads((tmp_path / "summary.json").read_text())["error"] == "bad input"
+
+
+def test_a_study_removes_links_under_its_names_instead_of_writing_through(tmp_path):
+    """Before: a sweep into an OUT holding `run_000 -> elsewhere/r0` (a folder) wrote that
+    run's files into elsewhere/r0, `mesh_cache -> elsewhere/mc` its meshes, and a dangling
+    `sweep_steps.csv.tmp` link made elsewhere/sweep_steps.csv.tmp."""
+    out, elsewhere = tmp_path / "o", tmp_path / "elsewhere"
+    out.mkdir()
+    (elsewhere / "r0").mkdir(parents=True)
+    (elsewhere / "mc").mkdir()
+    (out / "run_000").symlink_to(elsewhere / "r0")
+    (out / "mesh_cache").symlink_to(elsewhere / "mc")
+    for name in ("sweep.csv.tmp", "sweep_steps.csv.tmp"):
+        (out / name).symlink_to(elsewhere / name)
+    res = run_cli(["study", str(CONFIGS / "patch.toml"), "--sweep",
+                   "interface.interface.mu=0.1,0.2", "--out", str(out), "--quiet",
+                   "--mesh-size", "0.5"], timeout=300)
+    assert res.returncode == 0, res.stderr
+    assert sorted(str(p.relative_to(elsewhere)) for p in elsewhere.rglob("*")) == ["mc", "r0"]
+    assert not any(p.is_symlink() for p in out.iterdir())
+    assert json.loads((out / "run_000" / "summary.json").read_text())["status"] == "completed"

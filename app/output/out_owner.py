@@ -86,6 +86,19 @@ RUN_FOLDER = re.compile(r"^(L\d+_[\w-]+|run_\d{3,})$")
 """The folders of a study's runs (L<level>_<label>) and of a sweep's (run_NNN)."""
 
 
+def planted_links(out: Path) -> list[Path]:
+    """OUT's symbolic links under the names a study writes (STUDY_FILES and their `.tmp`,
+    RUN_FOLDER, `mesh_cache`): a study takes those names as its own, and through a link
+    it wrote outside OUT (a run folder `run_000 -> /elsewhere` got that run's files, a
+    dangling `sweep_steps.csv.tmp` made /elsewhere's file). To be removed, not followed."""
+    try:
+        entries = sorted(Path(out).iterdir())
+    except OSError:
+        return []
+    return [p for p in entries if p.is_symlink() and (
+        STUDY_FILES.match(p.name) or RUN_FOLDER.match(p.name) or p.name == "mesh_cache")]
+
+
 def _keys(summary: Path) -> dict:
     """summary.json's object (empty when it is missing, not JSON or not an object)."""
     try:
