@@ -111,9 +111,13 @@ def _leave_note(rank: int, code: int, error: str, printed: bool) -> bool:
     if note is None:
         return False
     tmp = note.with_name(f"{note.name}.{rank}.tmp")
-    try:
-        tmp.write_text(json.dumps({"rank": rank, "code": code, "error": error,
-                                   "printed": printed, "run": _STATE["token"]}))
+    text = json.dumps({"rank": rank, "code": code, "error": error, "printed": printed,
+                       "run": _STATE["token"]})
+    try:  # a new file, never through a link planted under its name (O_EXCL, O_NOFOLLOW)
+        tmp.unlink(missing_ok=True)
+        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o644)
+        with os.fdopen(fd, "w") as fh:
+            fh.write(text)
         os.replace(tmp, note)
     except OSError:
         return False
