@@ -425,9 +425,11 @@ def check_run_input(cfg, args, finest_level: int = 0, runs: list[float] | None =
     """Checks of the command line against the config before any work; returns the mesh
     size scale (--mesh-size / mesh.size). Raises InputError (one line). `runs`: a
     study's runs, each as its DOFs over the finest level's (the disk check)."""
+    from app.assembly.loads import check_groups_before_meshing
     from app.parallel import rank0_call
     from app.petsc_options import check_log_view_file, check_solver_options
 
+    check_groups_before_meshing(cfg)  # (the config's own: alike on every rank)
     check_solver_options(cfg.petsc)
     check_log_view_file(cfg.petsc)  # (collective: rank 0 judges, all drop a bad -log_view)
     return rank0_call(_judged_run_input, cfg, args, finest_level, runs)

@@ -248,3 +248,23 @@ def test_an_unknown_groups_line_lists_a_dozen_names_of_many():
                               "'c00001', 'c00002', 'c00003', 'c00004', 'c00005', 'c00006', "
                               "'c00007', 'c00008', 'c00009', ... (10000 in all), 'c09999'], "
                               "points: ['p'])")
+
+
+@pytest.mark.parametrize("key, line", [
+    ("support.0.on", "support on 'nope': unknown group 'nope' (curves: ['lower_base', "
+                     "'lower_sides', 'lower_top', 'upper_bottom', 'upper_sides', 'upper_top'],"
+                     " points: [])"),
+    ("load.0.on", "load on 'nope': unknown curve 'nope' (mesh curves: ['lower_base', "
+                  "'lower_sides', 'lower_top', 'upper_bottom', 'upper_sides', 'upper_top'])"),
+])
+def test_an_unknown_group_is_found_before_meshing(tmp_path, key, line):
+    """Before: after meshing and set-up (1000 bodies: 7.3 s, now 3.0 s), the same line;
+    now with the command line's checks (summary.json of bad input: n_steps null)."""
+    out = tmp_path / "o"
+    res = run_cli(["run", str(CONFIGS / "patch.toml"), "--set", f'{key}="nope"', "--out",
+                   str(out), "--quiet"], timeout=120)
+    assert res.returncode == 2
+    assert res.stderr.strip() == f"error: {line}"
+    summary = read_summary(out)
+    assert summary["error"] == line and summary["n_steps"] is None
+    assert "timings" not in summary or "mesh" not in summary["timings"]

@@ -8,6 +8,7 @@ body forces are per unit volume. Both are multiplied by the thickness.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -53,6 +54,24 @@ def group_nodes(mesh: Mesh, name: str, where: str) -> np.ndarray:
         f"{where}: unknown group {name!r} (curves: {_names(mesh.curves)}, "
         f"points: {_names(mesh.point_groups)})"
     )
+
+
+def check_groups_before_meshing(cfg: Config) -> None:
+    """The supports' and loads' groups against the scene's own names ([body.curves] and
+    [points]), with the errors `group_nodes` and `_curve` give after meshing: a misspelled
+    name is found before gmsh runs (5000 bodies: 47 s of meshing and set-up before). A
+    mesh.file's groups are known only once it is read: checked then."""
+    scene = cfg.scene
+    if scene.file is not None:
+        return
+    curves = {s.curve for b in scene.bodies for s in b.sides if s.curve is not None}
+    names = SimpleNamespace(curves=dict.fromkeys(curves, np.zeros((0, 2), dtype=np.int64)),
+                            point_groups=dict.fromkeys(scene.points,
+                                                       np.zeros(0, dtype=np.int64)))
+    for support in cfg.supports:
+        group_nodes(names, support.on, f"support on {support.on!r}")
+    for load in cfg.loads:
+        _curve(names, load.on, f"load on {load.on!r}")
 
 
 def traction_vector(mesh: Mesh, edges: np.ndarray, traction) -> np.ndarray:
