@@ -10,6 +10,7 @@ import argparse
 import os
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 from app.discretisation.methods import BULK_METHODS
@@ -276,7 +277,7 @@ def _study_command(args, petsc_args: list[str], rank: int) -> int:
     from app.studies.batch_status import BatchStatus
 
     with BatchStatus("sweep" if args.sweep else "convergence", args.config, list(args.set),
-                     _out_folder(args, Path("out") / f"study_{args.config.stem}"),
+                     _judged_out_folder(args, Path("out") / f"study_{args.config.stem}"),
                      launched=args.launched, started=args.started) as batch:
         rows, out = _study_rows(args, batch)
         batch.completed(len(rows), "sweep.csv" if args.sweep else "study.csv")
@@ -372,7 +373,7 @@ def _run_command(args, petsc_args: list[str], rank: int) -> int:
         if not 0 <= args.refine <= 8:
             raise InputError(f"--refine must be 0..8 (got {args.refine})")
         scale = check_run_input(cfg, args, args.refine)
-        opts = RunOptions(out=output_folder(args.out, default_out),
+        opts = RunOptions(out=_judged_output_folder(args.out, default_out),
                           method=args.method, sd=args.sd, mesh_scale=scale, quiet=args.quiet,
                           mesh_cache=args.mesh_cache and Path(args.mesh_cache),
                           overrides=list(args.set),
@@ -387,7 +388,8 @@ def _run_command(args, petsc_args: list[str], rank: int) -> int:
     except InputError as exc:
         from app.startup.input_failure import record_input_failure
 
-        record_input_failure(exc, _out_folder(args, default_out), args.config, list(args.set))
+        record_input_failure(exc, _judged_out_folder(args, default_out), args.config,
+                             list(args.set))
     try:
         summary = run(cfg, opts)
     except RunInterrupted as exc:  # the closing line, then the one-line error in main
@@ -423,9 +425,11 @@ def check_run_input(cfg, args, finest_level: int = 0, runs: list[float] | None =
     """Checks of the command line against the config before any work; returns the mesh
     size scale (--mesh-size / mesh.size). Raises InputError (one line). `runs`: a
     study's runs, each as its DOFs over the finest level's (the disk check)."""
+    from app.assembly.loads import check_groups_before_meshing
     from app.parallel import rank0_call
     from app.petsc_options import check_log_view_file, check_solver_options
 
+    check_groups_before_meshing(cfg)  # (the config's own: alike on every rank)
     check_solver_options(cfg.petsc)
     check_log_view_file(cfg.petsc)  # (collective: rank 0 judges, all drop a bad -log_view)
     return rank0_call(_judged_run_input, cfg, args, finest_level, runs)
@@ -463,6 +467,28 @@ def _judged_run_input(cfg, args, finest_level: int, runs: list[float] | None) ->
                      base_dir=cfg.path.parent, refine=finest_level)
     check_disk(est, cfg.n_steps, args.out or "out", allow_large=args.allow_large, runs=runs)
     return scale
+
+
+def _judged_output_folder(text: str | None, default: Path) -> Path:
+    """output_folder on rank 0, its verdict (the folder or the InputError) every rank's
+    (after PETSc's start). Before, each rank checked --out for itself: with ranks whose
+    file systems differ (a relative --out, ranks started in other folders or on other
+    nodes), a rank that refused it failed alone while rank 0 went into the run: the job
+    ended 35 s later with OUT/summary.json still `running` (tests/test_input_checks_ranks.py).
+    Only rank 0 writes into OUT."""
+    from app.parallel import rank0_call
+
+    return rank0_call(output_folder, text, default)
+
+
+def _judged_out_folder(args, default: Path) -> Callable[[], Path] | None:
+    """_out_folder after PETSc's start: whether there is a folder, and the folder or its
+    InputError, are rank 0's verdicts, every rank's (as _judged_output_folder)."""
+    from app.parallel import rank0_call
+
+    if rank0_call(lambda: _out_folder(args, default) is None):
+        return None
+    return lambda: rank0_call(output_folder, args.out, default)
 
 
 def output_folder(text: str | None, default: Path, what: str = "--out") -> Path:

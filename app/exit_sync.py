@@ -111,9 +111,13 @@ def _leave_note(rank: int, code: int, error: str, printed: bool) -> bool:
     if note is None:
         return False
     tmp = note.with_name(f"{note.name}.{rank}.tmp")
-    try:
-        tmp.write_text(json.dumps({"rank": rank, "code": code, "error": error,
-                                   "printed": printed, "run": _STATE["token"]}))
+    text = json.dumps({"rank": rank, "code": code, "error": error, "printed": printed,
+                       "run": _STATE["token"]})
+    try:  # a new file, never through a link planted under its name (O_EXCL, O_NOFOLLOW)
+        tmp.unlink(missing_ok=True)
+        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o644)
+        with os.fdopen(fd, "w") as fh:
+            fh.write(text)
         os.replace(tmp, note)
     except OSError:
         return False
@@ -169,6 +173,21 @@ def leave_if_alone(code: int, message: str | None = None, with_traceback: bool =
             pass
 
 
+def _run_by_other_code(frame) -> bool:
+    """Whether Python code other than runpy's is below `frame` (app/__main__'s): a
+    program that ran the app (runpy.run_module or exec from memray, coverage, a hook) and
+    may go on after it returns, to write its report in a `finally` or after the call.
+    `python -m app` has only runpy's frames there."""
+    import runpy
+
+    below = frame.f_back
+    while below is not None:
+        if below.f_globals is not vars(runpy):  # (runpy is frozen: no file name to test)
+            return True
+        below = below.f_back
+    return False
+
+
 def end_process(code: int) -> None:
     """The process's end after a command returned 0 (app/__main__.py only; `main` called
     in a process that goes on, as the tests do, never comes here): the atexit handlers
@@ -177,8 +196,10 @@ def end_process(code: int) -> None:
     then os._exit(0). That skips the interpreter's teardown of its ~860 modules: 0.4-0.5 s
     after every run on this machine, after summary.json, in no phase (README "Time
     outside any phase"). Any other status, PETSc not started or already finalized, a
-    petsc4py without `_finalize`, or a profiler or tracer at work (`python -m cProfile -m
-    app ...`, trace, pdb: they report after the app returns): returns, and the
+    petsc4py without `_finalize`, a profiler or tracer at work (`python -m cProfile -m
+    app ...`, trace, pdb: they report after the app returns), or the app run by other
+    Python code (`_run_by_other_code`: memray, a hook that writes in a `finally` after
+    `runpy.run_module`; before, their output after the app was lost): returns, and the
     interpreter ends as before.
 
     `PETSc._finalize` is private, but petsc4py has no public PetscFinalize, and it runs
@@ -189,7 +210,8 @@ def end_process(code: int) -> None:
     if code != 0 or petsc is None or not petsc.Sys.isInitialized() or petsc.Sys.isFinalized():
         return
     finalize = getattr(petsc, "_finalize", None)
-    if not callable(finalize) or sys.getprofile() is not None or sys.gettrace() is not None:
+    if not callable(finalize) or sys.getprofile() is not None or sys.gettrace() is not None \
+            or _run_by_other_code(sys._getframe(1)):
         return
     import atexit
     import ctypes

@@ -39,7 +39,7 @@ def init(*a, **k):  # the app's own start first (app.driver.contact would start 
             spent[1] += 1
     dc._crossing_warnings = timed
 petsc4py.init = init
-# (atexit: a completed run ends in app.exit_sync.end_process, os._exit past any `finally`)
+# (atexit: also right if the app's fast end, app.exit_sync.end_process, ever applied here)
 atexit.register(lambda: print("CROSSING " + json.dumps(spent), file=sys.stderr, flush=True))
 sys.argv = ["app", *sys.argv[1:]]
 runpy.run_module("app", run_name="__main__")

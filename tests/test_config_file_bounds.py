@@ -110,3 +110,56 @@ def test_an_escape_sequence_in_a_name_never_reaches_the_terminal(tmp_path):
     res = run_cli(["run", str(path), "--out", str(tmp_path / "o")])
     assert res.returncode == 2 and "\x1b" not in res.stderr + res.stdout, res.stderr
     assert read_summary(tmp_path / "o")["status"] == "failed"
+
+
+@pytest.mark.parametrize("key", ["body", "interface", "support", "load"])
+def test_too_many_entries_is_one_line_before_anything_is_built(key):
+    """Before: no bound; 5000 bodies, supports and loads meshed and set up for 47 s before
+    a wrong support's group was reported (in a 111 kB line listing every curve)."""
+    import tomllib
+
+    from app.config import MAX_ENTRIES, parse_config
+
+    raw = tomllib.loads(PATCH)
+    most = MAX_ENTRIES[key]
+    entry = raw[key][0]
+    raw[key] = [dict(entry) for _ in range(most + 1)]
+    with pytest.raises(InputError, match=rf"^\[\[{key}\]\] has {most + 1} entries, more "
+                                         rf"than {most}: split the scene"):
+        parse_config(raw)
+    raw[key] = raw[key][:most]
+    try:
+        parse_config(raw)  # other checks may refuse the copies (the same body name twice)
+    except InputError as exc:
+        assert "entries, more than" not in str(exc)
+
+
+def test_too_many_bodies_in_a_run_fails_with_a_summary(tmp_path):
+    body = PATCH[PATCH.index("[[body]]"):PATCH.index("[[body]]", PATCH.index("[[body]]") + 1)]
+    cfg = tmp_path / "many.toml"
+    cfg.write_text(PATCH + "\n" + body * 1001)
+    out = tmp_path / "o"
+    res = run_cli(["run", str(cfg), "--out", str(out), "--quiet"], timeout=120)
+    assert res.returncode == 2
+    assert res.stderr.strip() == ("error: [[body]] has 1003 entries, more than 1000: split "
+                                  "the scene into smaller ones"), res.stderr
+    assert read_summary(out)["status"] == "failed"
+
+
+def test_a_utf8_byte_order_mark_is_read_and_utf16_is_named(tmp_path):
+    """Before: a UTF-8 BOM (Windows editors) read as `not valid TOML: Invalid statement
+    (at line 1, column 1)`, and UTF-16 as `not UTF-8 text (byte 0)`."""
+    cfg = tmp_path / "bom.toml"
+    cfg.write_bytes(b"\xef\xbb\xbf" + PATCH.encode())
+    assert load_config(cfg).body_names == ["lower", "upper"]
+    out = tmp_path / "o"
+    res = run_cli(["run", str(cfg), "--out", str(out), "--quiet", "--mesh-size", "0.5"],
+                  timeout=120)
+    assert res.returncode == 0, res.stderr
+    assert read_summary(out)["status"] == "completed"
+    for encoding in ("utf-16", "utf-16-be"):
+        text = PATCH.encode(encoding)
+        cfg.write_bytes(text if encoding == "utf-16" else b"\xfe\xff" + text)
+        with pytest.raises(InputError, match=r"is UTF-16 text \(it starts with a UTF-16 "
+                                             r"byte order mark\): save it as UTF-8$"):
+            load_config(cfg)

@@ -74,3 +74,56 @@ def test_the_dense_contact_memory_check_is_rank_0s_on_every_rank(tmp_path):
         raise AssertionError("the job hung: ranks disagreed on the memory check") from None
     assert res.returncode == 0, res.stderr
     assert read_summary(out)["status"] == "completed"
+
+
+def _mpmd(folders: list, args: list[str]) -> subprocess.CompletedProcess:
+    """`python -m app ARGS` on one rank per folder, each started in its folder (-wdir):
+    ranks whose file systems differ, as on nodes without a shared one."""
+    cmd = ["mpiexec", "--allow-run-as-root"]
+    for i, folder in enumerate(folders):
+        cmd += ([":"] if i else []) + ["-n", "1", "-wdir", str(folder), sys.executable,
+                                       "-m", "app", *args]
+    try:
+        return subprocess.run(cmd, cwd=ROOT, env=mpi_env(), capture_output=True, text=True,
+                              timeout=90)
+    except subprocess.TimeoutExpired:
+        raise AssertionError("the job hung: ranks disagreed on the input") from None
+
+
+def test_out_is_judged_by_rank_0(tmp_path):
+    """A relative --out that is a file where rank 1 starts, a new folder where rank 0
+    does: before, rank 1 refused alone (`(rank 1; the other ranks did not fail)`), rank 0
+    went into the run, and the job ended 35 s later, exit 2, OUT/summary.json `running`.
+    Only rank 0 writes into OUT: its verdict is every rank's, both ways."""
+    from support import CONFIGS
+
+    a, b = tmp_path / "a", tmp_path / "b"
+    a.mkdir()
+    b.mkdir()
+    (b / "o").write_text("rank 1's file")
+    args = ["run", str(CONFIGS / "patch.toml"), "--out", "o", "--quiet", "--mesh-size", "0.5"]
+    res = _mpmd([a, b], args)
+    assert res.returncode == 0, res.stderr
+    assert read_summary(a / "o")["status"] == "completed"
+    assert (b / "o").read_text() == "rank 1's file"
+    res = _mpmd([b, a], args)  # now rank 0's --out is the file: refused, once
+    assert res.returncode == 2
+    errors = [ln for ln in res.stderr.splitlines() if ln.startswith("error:")]
+    assert errors == ["error: --out o exists and is not a folder"], res.stderr
+
+
+def test_history_file_is_judged_by_rank_0(tmp_path):
+    """`-history sub/h.txt` (PETSc writes it on rank 0 only) with `sub` only where rank 0
+    starts: before, rank 1 refused alone before PETSc started, printing nothing, and the
+    job was aborted, exit 2, with no summary.json."""
+    from support import CONFIGS
+
+    a, b = tmp_path / "a", tmp_path / "b"
+    (a / "sub").mkdir(parents=True)
+    b.mkdir()
+    out = tmp_path / "o"
+    res = _mpmd([a, b], ["run", str(CONFIGS / "patch.toml"), "--out", str(out), "--quiet",
+                         "--mesh-size", "0.5", "-history", "sub/h.txt"])
+    assert res.returncode == 0, res.stderr
+    assert read_summary(out)["status"] == "completed"
+    assert (a / "sub" / "h.txt").stat().st_size > 0 and list(b.iterdir()) == []

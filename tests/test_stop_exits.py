@@ -291,3 +291,17 @@ def test_a_note_left_by_an_earlier_run_is_not_this_runs_failure(tmp_path, monkey
         assert s["status"] == "interrupted" and "earlier" not in json.dumps(s), s
         status._STOP_LOCK.release()
         summary["status"] = "completed"
+
+
+def test_a_ranks_note_is_not_written_through_a_planted_link(tmp_path, monkeypatch):
+    """A rank that failed alone writes its note through `.failed_rank.json.<rank>.tmp`:
+    before, a dangling link planted there made it create the link's target, outside OUT."""
+    from app import exit_sync
+
+    monkeypatch.setitem(exit_sync._STATE, "note", tmp_path / exit_sync.NOTE_NAME)
+    monkeypatch.setitem(exit_sync._STATE, "token", "t")
+    (tmp_path / f"{exit_sync.NOTE_NAME}.1.tmp").symlink_to(tmp_path / "elsewhere")
+    assert exit_sync._leave_note(1, 2, "bad", False)
+    assert not (tmp_path / "elsewhere").exists()
+    note = tmp_path / exit_sync.NOTE_NAME
+    assert not note.is_symlink() and json.loads(note.read_text())["error"] == "bad"

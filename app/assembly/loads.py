@@ -8,6 +8,7 @@ body forces are per unit volume. Both are multiplied by the thickness.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -24,13 +25,23 @@ def _curve(mesh: Mesh, name: str, where: str) -> np.ndarray:
     if name in mesh.point_groups and name not in mesh.curves:
         raise InputError(
             f"{where}: '{name}' is a point group, and a [[load]] acts on a curve (traction, "
-            f"pressure or total_force over its length): name a curve ({sorted(mesh.curves)}),"
+            f"pressure or total_force over its length): name a curve ({_names(mesh.curves)}),"
             " or prescribe the point's displacement with a [[support]]")
     if name not in mesh.curves:
         raise InputError(
-            f"{where}: unknown curve {name!r} (mesh curves: {sorted(mesh.curves)})"
+            f"{where}: unknown curve {name!r} (mesh curves: {_names(mesh.curves)})"
         )
     return mesh.curves[name]
+
+
+def _names(groups, most: int = 12) -> str:
+    """The sorted names of `groups` as a list; of more than `most`, the first ones and the
+    last (before, all: 10,000 curves of 5000 bodies made a 111 kB error line)."""
+    names = sorted(groups)
+    if len(names) <= most:
+        return str(names)
+    shown = ", ".join(repr(n) for n in names[:most - 2])
+    return f"[{shown}, ... ({len(names)} in all), {names[-1]!r}]"
 
 
 def group_nodes(mesh: Mesh, name: str, where: str) -> np.ndarray:
@@ -40,9 +51,27 @@ def group_nodes(mesh: Mesh, name: str, where: str) -> np.ndarray:
     if name in mesh.point_groups:
         return np.unique(mesh.point_groups[name])
     raise InputError(
-        f"{where}: unknown group {name!r} (curves: {sorted(mesh.curves)}, "
-        f"points: {sorted(mesh.point_groups)})"
+        f"{where}: unknown group {name!r} (curves: {_names(mesh.curves)}, "
+        f"points: {_names(mesh.point_groups)})"
     )
+
+
+def check_groups_before_meshing(cfg: Config) -> None:
+    """The supports' and loads' groups against the scene's own names ([body.curves] and
+    [points]), with the errors `group_nodes` and `_curve` give after meshing: a misspelled
+    name is found before gmsh runs (5000 bodies: 47 s of meshing and set-up before). A
+    mesh.file's groups are known only once it is read: checked then."""
+    scene = cfg.scene
+    if scene.file is not None:
+        return
+    curves = {s.curve for b in scene.bodies for s in b.sides if s.curve is not None}
+    names = SimpleNamespace(curves=dict.fromkeys(curves, np.zeros((0, 2), dtype=np.int64)),
+                            point_groups=dict.fromkeys(scene.points,
+                                                       np.zeros(0, dtype=np.int64)))
+    for support in cfg.supports:
+        group_nodes(names, support.on, f"support on {support.on!r}")
+    for load in cfg.loads:
+        _curve(names, load.on, f"load on {load.on!r}")
 
 
 def traction_vector(mesh: Mesh, edges: np.ndarray, traction) -> np.ndarray:

@@ -9,9 +9,41 @@ Stdlib only: the start-up signal handler (startup_signals) uses it before numpy 
 
 from __future__ import annotations
 
+import errno
 import json
+import os
 import re
+import stat
 from pathlib import Path
+from typing import TextIO
+
+
+class UnsafeLock(OSError):
+    """OUT's lock file is not a plain file (a symbolic link, a FIFO, a folder...): its
+    message is the run's one-line error."""
+
+
+def open_lock(path: Path) -> TextIO:
+    """Open (creating it, 0644) the lock file OUT/.lock for appending, never through a
+    symbolic link: O_NOFOLLOW, so that a link planted in a shared folder does not make a
+    run create or lock a file elsewhere (before, `.lock -> /some/file` created /some/file),
+    and O_NONBLOCK, so that a FIFO there does not hang the open. Nothing is written to it.
+    Raises UnsafeLock when it is a link or not a regular file, OSError otherwise."""
+    flags = (os.O_WRONLY | os.O_CREAT | os.O_APPEND | os.O_NOFOLLOW | os.O_NONBLOCK
+             | os.O_CLOEXEC)
+    try:
+        fd = os.open(path, flags, 0o644)
+    except OSError as exc:
+        if exc.errno not in (errno.ELOOP, errno.ENXIO, errno.EISDIR):
+            raise
+    else:
+        if stat.S_ISREG(os.fstat(fd).st_mode):
+            return os.fdopen(fd, "a")
+        os.close(fd)
+    why = "is a symbolic link" if os.path.islink(path) else "is not a plain file"
+    raise UnsafeLock(f"--out {Path(path).parent}: its lock file {Path(path).name} {why} "
+                     "(a run creates a plain file there; it was put there by someone or "
+                     "something else): remove it or choose another --out")
 
 
 def _ours(summary: Path) -> bool:
@@ -52,6 +84,19 @@ STUDY_FILES = re.compile(
 """The files a study or sweep writes into OUT (its runs' folders aside)."""
 RUN_FOLDER = re.compile(r"^(L\d+_[\w-]+|run_\d{3,})$")
 """The folders of a study's runs (L<level>_<label>) and of a sweep's (run_NNN)."""
+
+
+def planted_links(out: Path) -> list[Path]:
+    """OUT's symbolic links under the names a study writes (STUDY_FILES and their `.tmp`,
+    RUN_FOLDER, `mesh_cache`): a study takes those names as its own, and through a link
+    it wrote outside OUT (a run folder `run_000 -> /elsewhere` got that run's files, a
+    dangling `sweep_steps.csv.tmp` made /elsewhere's file). To be removed, not followed."""
+    try:
+        entries = sorted(Path(out).iterdir())
+    except OSError:
+        return []
+    return [p for p in entries if p.is_symlink() and (
+        STUDY_FILES.match(p.name) or RUN_FOLDER.match(p.name) or p.name == "mesh_cache")]
 
 
 def _keys(summary: Path) -> dict:

@@ -33,7 +33,7 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
-from app.output.out_owner import foreign_files, foreign_message
+from app.output.out_owner import UnsafeLock, foreign_files, foreign_message, open_lock
 
 STALE = re.compile(r"^(step_\d{4,}\.h5|results\.xdmf|contact\.xdmf|mesh\.h5|summary\.json)"
                    r"(\.tmp)?$")
@@ -215,7 +215,9 @@ def _record(out: Path, reason: str, status: str = "interrupted",
     Returns None, or why nothing was written."""
     try:
         out.mkdir(parents=True, exist_ok=True)  # as the run would have
-        fh = open(out / LOCK_NAME, "a")
+        fh = open_lock(out / LOCK_NAME)
+    except UnsafeLock as exc:  # not followed: nothing written
+        return str(exc)
     except OSError as exc:  # not usable: the run would have stopped there too
         return f"--out {out}: cannot write there ({exc.strerror or exc})"
     try:
@@ -224,7 +226,7 @@ def _record(out: Path, reason: str, status: str = "interrupted",
         if foreign:  # the user's files under this tool's names: untouched
             return foreign_message(out, foreign)
         for p in out.iterdir():
-            if STALE.match(p.name) and p.is_file():
+            if STALE.match(p.name) and (p.is_file() or p.is_symlink()):
                 p.unlink(missing_ok=True)
         text = json.dumps({**(head or {"config": _STATE["config"], "n_steps": None,
                                        "steps": []}),

@@ -28,7 +28,7 @@ from petsc4py import PETSc
 from app import exit_sync, hard_stop
 from app.errors import InputError, SolveError
 from app.output import startup_signals
-from app.output.out_owner import foreign_files, foreign_message
+from app.output.out_owner import UnsafeLock, foreign_files, foreign_message, open_lock
 from app.output.plot_mark import is_marked_png
 
 LOCK_NAME = startup_signals.LOCK_NAME
@@ -267,7 +267,9 @@ def lock_folder(out: Path) -> TextIO:
     """Create OUT, take its lock (non-blocking); returns the open lock file."""
     try:
         out.mkdir(parents=True, exist_ok=True)
-        fh = open(out / LOCK_NAME, "a")
+        fh = open_lock(out / LOCK_NAME)
+    except UnsafeLock as exc:  # a link or a FIFO planted there: not followed
+        raise InputError(str(exc)) from None
     except OSError as exc:
         raise InputError(f"--out {out}: cannot write there ({exc.strerror})") from None
     try:
@@ -285,7 +287,10 @@ def clear_files(out: Path, pattern: re.Pattern = STALE,
     output only: e.g. `is_marked_png`, scripts/plot_results.py's pictures)."""
     removed = []
     for p in sorted(out.iterdir()):
-        if p.is_file() and (pattern.match(p.name) or (also is not None and also(p))):
+        # a link under the tool's names too (dangling ones: `is_file` is False), not only
+        # files: else the run wrote through it, outside OUT (a `.tmp` one planted there)
+        if (p.is_symlink() and pattern.match(p.name)) or \
+                (p.is_file() and (pattern.match(p.name) or (also is not None and also(p)))):
             try:
                 p.unlink()
                 removed.append(p.name)
@@ -345,6 +350,9 @@ def _petsc_reason(exc: Exception) -> str:
     opts = " ".join(f"-{k} {v}".rstrip() for k, v in sorted(PETSc.Options().getAll().items()))
     line = petsc_error_line(exc)
     meaning = PETSC_ERRORS.get(code, "see the PETSc manual")
+    if "must have at least two fields" in line:  # -pc_type fieldsplit, no fields given
+        meaning = ("the stiffness matrix names no fields: -pc_fieldsplit_block_size 2 "
+                   "splits it into the x and y displacements, interleaved per node")
     detail = f"{line} ({meaning})" if line and not line.startswith("error code") else \
         f"error {code} ({meaning})"
     return f"PETSc: {detail}; check the PETSc options in force: {opts}"

@@ -54,14 +54,19 @@ def start_petsc(petsc_args: list[str]) -> str | None:
     """Initialise PETSc (petsc4py) with `petsc_args`. Returns None, or the one-line
     reason (without `error: `) why PETSc refused them; then PETSc is not usable and the
     caller exits with status 2."""
-    problem = _history_problem(petsc_args)
-    if problem:
-        return problem
+    from app.output import startup_signals
+
+    # PETSc opens -history's file on rank 0 only (PetscOpenHistoryFile): rank 0 judges.
+    # Before, every rank did: one whose folders differ (a relative name, ranks started in
+    # other folders or on other nodes) refused alone, silently, and the job was aborted.
+    if startup_signals.launcher_rank() == 0:
+        problem = _history_problem(petsc_args)
+        if problem:
+            return problem
     import petsc4py
 
     sys.stdout.flush()
     sys.stderr.flush()
-    from app.output import startup_signals
 
     with startup_signals.held():  # its line is not to go into the capture below
         return _start_captured(petsc4py, petsc_args)

@@ -33,7 +33,13 @@ from petsc4py import PETSc
 from app import hard_stop
 from app.errors import InputError, SolveError
 from app.output import startup_signals, status
-from app.output.out_owner import copied_runs, earlier_study, foreign_files, foreign_message
+from app.output.out_owner import (
+    copied_runs,
+    earlier_study,
+    foreign_files,
+    foreign_message,
+    planted_links,
+)
 from app.startup.early_failure import study_head
 
 OUTSIDE_A_STEP = ("interrupted by SIGINT outside a load step; what completed before it is "
@@ -122,6 +128,8 @@ class BatchStatus:
                 raise InputError(foreign_message(out, foreign))
             clear_earlier_study(out)
             status.clear_files(out)
+            for link in planted_links(out):  # a study's names: not written through
+                link.unlink(missing_ok=True)
             self._lock = lock
             return copied_runs(out)
 
