@@ -607,3 +607,28 @@ def test_a_hole_longer_than_its_pin_where_they_touch_is_no_penetration(f, deg):
     ends = mesh.curves["hole_inner"][[0, -1], [0, 1]]
     for q in _both_discretisations(mesh, "hole_inner", "pin_outer", False):
         np.testing.assert_allclose(q.g0[np.isin(q.slave, ends)], 0.0, atol=1e-12)
+
+
+@pytest.mark.parametrize("deg", [0.0, 30.0])
+@pytest.mark.parametrize("slope", [0.1, 0.5])
+def test_mortar_leaves_a_slave_corner_beside_a_block_corner_without_a_row_as_node_to_segment(
+        slope, deg):
+    """The scene of the test above with mortar: the corner lies 0.002 below the end line,
+    its edge meets the master at that line (slope 0.1) or clears it (0.5), so it faces
+    no overlap. Mortar refused it as a penetration of 0.002 (its nodal gap) and with
+    `interference` kept its row with g0 -0.002 to -0.00205 (a push); now it applies
+    node-to-segment's rule (`end_overlaps`): no row, nothing refused, no negative gap,
+    and where every slave node is in reach (slope 0.1) both read the same lengths."""
+    low = block(np.linspace(0.0, 1.0, 5), np.linspace(-0.5, 0.0, 3))
+    pts, quads, curves = block(-0.02 + 0.2 * np.arange(6), np.linspace(0.0, 0.5, 3))
+    pts = pts.copy()
+    bottom = pts[:, 1] == 0.0
+    pts[bottom, 1] = -0.002 + slope * (pts[bottom, 0] + 0.02)
+    mesh, _ = rotate(scene({"low": low, "up": (pts, quads, curves)}), deg)
+    corner = low[0].shape[0]
+    for interference in (False, True):
+        p, c = _both_discretisations(mesh, "up_bottom", "low_top", interference)
+        assert corner not in c.slave and corner not in p.slave
+        assert c.g0.min() >= 0.0
+        if slope == 0.1:
+            np.testing.assert_allclose(c.length.sum(), p.length.sum(), atol=1e-12)

@@ -48,6 +48,7 @@ from app.contact.pairs import (
     _curve_edges,
     closest_segments,
     continued_end_gaps,
+    end_overlaps,
     master_segments,
     no_slave_error,
     refuse_penetration,
@@ -658,6 +659,7 @@ def _covered_weights(geo: SlaveGeometry, itf, sd: float, basis: MasterBasis,
     at = np.searchsorted(nodes, ends)
     geometric = _covered_shares(nodes, ends, s, wq)  # complete for the found nodes
     carrier = found & (geometric >= MIN_COVER * (1 - COVER_RTOL) * geo.d_len)
+    carrier &= ~_end_overlap_refused(geo, sd)
     # a node without a row that faces the master (or lies beyond a free end of it) gives
     # its covered share to the nearest carrier along the slave curve
     beyond = _beyond_master_end(geo, float(sd + ls_max(xs1, xs2)))
@@ -744,6 +746,24 @@ def _covered_shares(nodes: np.ndarray, ends: np.ndarray, s: np.ndarray,
 def ls_max(xs1: np.ndarray, xs2: np.ndarray) -> float:
     """The longest of the segments xs1 -> xs2 ((k, 2) each; length)."""
     return float(np.linalg.norm(xs2 - xs1, axis=1).max(initial=0.0))
+
+
+def _end_overlap_refused(geo: SlaveGeometry, sd: float) -> np.ndarray:
+    """(q,) bool: the found slave nodes beyond a free master end (`SlaveGeometry.beyond`)
+    below the master continued by more than geo.tol (nodal gap) whose slave edges do not
+    overlap the master at the line through its end, or face it there over less than
+    MIN_COVER of their support: node-to-segment's rule (`end_overlaps`), so such a node
+    has no row in either discretisation (its share goes to its neighbour). A slave corner
+    0.02 beside a block corner and 0.002 below its top's line, its edge touching the
+    corner or clearing it, was refused as a penetration of 0.002 (with `interference`:
+    its row pushed it out by 0.002) where node-to-segment had no pair."""
+    m_edges, pts = geo.m_edges, geo.pts
+    seg_len = np.linalg.norm(pts[m_edges[:, 1]] - pts[m_edges[:, 0]], axis=1)
+    m_degree = np.bincount(m_edges.ravel(), minlength=pts.shape[0])
+    over = geo.beyond & (geo.g_node < -geo.tol)
+    ok = end_overlaps(pts, geo.s_edges, geo.nodes, m_edges, seg_len, m_degree, sd,
+                      geo.g_node, geo.tol, geo.beyond)
+    return over & ~ok
 
 
 def _beyond_master_end(geo: SlaveGeometry, reach: float) -> np.ndarray:
