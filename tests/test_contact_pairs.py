@@ -632,3 +632,38 @@ def test_mortar_leaves_a_slave_corner_beside_a_block_corner_without_a_row_as_nod
         assert c.g0.min() >= 0.0
         if slope == 0.1:
             np.testing.assert_allclose(c.length.sum(), p.length.sum(), atol=1e-12)
+
+
+@pytest.mark.parametrize("turn_deg", [10.0, 29.0, 31.0, 90.0])
+def test_the_master_is_continued_along_its_circle_below_a_30_degree_turn_else_its_line(
+        turn_deg):
+    """`continued_end_gaps` on a master of two edges of 0.1, turning by turn_deg at their
+    joint (convex): a point 0.01 past the end lies on the circle through the three nodes
+    (gap 0) where the turn is at most END_CURVE_TURN = 30 deg (a polygon of a curve), and
+    is measured to the end segment's line beyond that (a corner: the circle would turn the
+    continued boundary by more than the edge's own turn)."""
+    from app.contact.pairs import continued_end_gaps
+
+    t = np.radians(turn_deg)
+    # nodes P -> O -> E, the body on the left, turning left (convex) by t at O
+    pts = np.array([[-0.1, 0.0], [0.0, 0.0], [0.1 * np.cos(t), 0.1 * np.sin(t)]])
+    m_edges = np.array([[0, 1], [1, 2]])
+    seg_len = np.full(2, 0.1)
+    m_degree = np.array([1, 2, 1])
+    c, r = circle_through(pts)
+    a = np.arctan2(*(pts[2] - c)[::-1]) + 0.01 / r  # 0.01 of arc past E
+    x = (c + r * np.array([np.cos(a), np.sin(a)]))[None]
+    xr = np.array([(x[0] - pts[1]) @ (pts[2] - pts[1]) / 0.01])
+    line = np.array([np.cross(pts[2] - pts[1], x[0] - pts[1]) / -0.1])  # open > 0
+    g, beyond = continued_end_gaps(x, np.array([1]), xr, line, pts, m_edges, seg_len,
+                                   m_degree)
+    assert beyond.all() and line[0] < -1e-4
+    np.testing.assert_allclose(g, 0.0 if turn_deg < 30.0 else line, atol=1e-15)
+
+
+def circle_through(p: np.ndarray) -> tuple[np.ndarray, float]:
+    """Centre (2,) and radius of the circle through the three points p (3, 2)."""
+    a = 2.0 * (p[1:] - p[0])
+    b = np.sum(p[1:] ** 2 - p[0] ** 2, axis=1)
+    c = np.linalg.solve(a, b)
+    return c, float(np.linalg.norm(p[0] - c))

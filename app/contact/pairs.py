@@ -541,7 +541,7 @@ def continued_end_gaps(x: np.ndarray, sg: np.ndarray, xr: np.ndarray, g_line: np
     it, open > 0), the end segment's line where the master is straight there, has one
     segment, or turns there by more than END_CURVE_TURN. On a curved master the line
     reads a node on the continued curve a (a + h) / (2 R) inside (outside on a concave
-    master): a pin's arc longer than its hole's by 0.05 of an edge of 0.1 was refused as
+    master): a hole's arc longer than its pin's by 0.05 of an edge of 0.1 was refused as
     a penetration of 2.6e-4 where it touched. Also returns those points' mask (q,)."""
     g = np.array(g_line, dtype=float)
     a_end = (xr < -XI_EPS) & (m_degree[m_edges[sg, 0]] == 1)
