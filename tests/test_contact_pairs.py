@@ -536,3 +536,134 @@ def test_slave_end_below_the_end_line_whose_edge_clears_the_master_stays_unpaire
         assert p.g0.min() >= 0.0
         if slope == 0.1:  # the slave's length over the master, x in [0, 0.98]
             np.testing.assert_allclose(p.length.sum(), 0.98 * np.hypot(1.0, slope), atol=1e-12)
+
+
+def ring(r0: float, r1: float, th: np.ndarray) -> tuple[np.ndarray, np.ndarray, dict]:
+    """A strip of quads between radii r0 < r1 over the angles th (increasing); curves
+    'inner' (r0) and 'outer' (r1)."""
+    r = np.array([r0, r1])
+    pts = np.column_stack([(r[:, None] * np.cos(th)).ravel(),
+                           (r[:, None] * np.sin(th)).ravel()])
+    idx = np.arange(2 * th.size).reshape(2, th.size)
+    quads = np.column_stack([idx[0, :-1], idx[0, 1:], idx[1, 1:], idx[1, :-1]])
+    return pts, quads, {"inner": np.column_stack([idx[0, :-1], idx[0, 1:]]),
+                        "outer": np.column_stack([idx[1, :-1], idx[1, 1:]])}
+
+
+def pin_and_hole(f: float, d: float, pin_longer: bool) -> Mesh:
+    """A pin (strip 0.8 .. 1 of the unit circle) in a hole (strip 1 - d .. 1.2: d a radial
+    overlap) over +-0.6 rad around the bottom, 12 edges each; one of the two arcs is
+    longer by f of an edge at both ends (the pin's if pin_longer, else the hole's)."""
+    base = -np.pi / 2 + np.linspace(-0.6, 0.6, 13)
+    long = -np.pi / 2 + np.linspace(-0.6 - 0.1 * f, 0.6 + 0.1 * f, 13)
+    pin = ring(0.8, 1.0, long if pin_longer else base)
+    hole = ring(1.0 - d, 1.2, base if pin_longer else long)
+    return scene({"pin": pin, "hole": hole})
+
+
+def _both_discretisations(mesh: Mesh, slave: str, master: str, interference: bool
+                          ) -> tuple[ContactPairs, ContactPairs]:
+    """The node-to-segment and mortar pairs of one interface (search_distance 0.1)."""
+    from types import SimpleNamespace
+
+    from app.contact.mortar import mortar_constraints
+    itf = SimpleNamespace(name="c", slave=slave, master=master, search_distance=0.1,
+                          penetration_tol=None, interference=interference)
+    return (contact_pairs(mesh, slave, master, 0.1, interference=interference),
+            mortar_constraints(mesh, itf, 0).pairs)
+
+
+@pytest.mark.parametrize("deg", [0.0, 30.0])
+@pytest.mark.parametrize("f", [0.05, 0.2, 0.28])
+@pytest.mark.parametrize("d", [0.0, 1e-3])
+@pytest.mark.parametrize("pin_longer", [False, True])
+def test_an_arc_end_beyond_a_curved_master_end_reads_its_depth_below_the_curve(
+        pin_longer, d, f, deg):
+    """A slave arc longer than its master arc (same circle, edges of 0.1 rad) by f of an
+    edge: its end node lies on the master's circle continued (d = 0) or d inside it, and
+    reads that depth with node-to-segment and mortar, on a convex master (the hole's arc
+    as slave of the pin) and a concave one (the pin's arc as slave of the hole). The end
+    segment's line read it a (a + h) / 2 = 2.6e-4 to 1.8e-3 deep on the pin (a = f h),
+    and with `interference` pushed it out by that much more than d; on the hole,
+    a (a + h) / 2 less than d. (Interference throughout: the pin's polygon, its nodes
+    between the hole's, overlaps the hole's chords by up to 2e-4 inside the arcs.)"""
+    mesh, _ = rotate(pin_and_hole(f, d, pin_longer), deg)
+    slave, master = ("pin_outer", "hole_inner") if pin_longer else ("hole_inner", "pin_outer")
+    ends = mesh.curves[slave][[0, -1], [0, 1]]  # the slave arc's end nodes
+    for q in _both_discretisations(mesh, slave, master, True):
+        at = np.isin(q.slave, ends)
+        assert at.sum() == 2 or (d == 0.0 or f == 0.28) and q.n_pairs == 11
+        np.testing.assert_allclose(q.g0[at], -d, rtol=1e-9, atol=1e-12)
+
+
+@pytest.mark.parametrize("deg", [0.0, 30.0])
+@pytest.mark.parametrize("f", [0.05, 0.28])
+def test_a_hole_longer_than_its_pin_where_they_touch_is_no_penetration(f, deg):
+    """The hole's arc, touching the pin, longer than the pin's arc by f of an edge: no
+    overlap anywhere, so nothing is refused (before, both discretisations refused its end
+    nodes as penetrations of a (a + h) / 2 = 2.6e-4 and 1.8e-3, their depths below the
+    pin's end segment's line) and no row pushes: every gap >= 0 at the end nodes."""
+    mesh, _ = rotate(pin_and_hole(f, 0.0, False), deg)
+    ends = mesh.curves["hole_inner"][[0, -1], [0, 1]]
+    for q in _both_discretisations(mesh, "hole_inner", "pin_outer", False):
+        np.testing.assert_allclose(q.g0[np.isin(q.slave, ends)], 0.0, atol=1e-12)
+
+
+@pytest.mark.parametrize("deg", [0.0, 30.0])
+@pytest.mark.parametrize("slope", [0.1, 0.5])
+def test_mortar_leaves_a_slave_corner_beside_a_block_corner_without_a_row_as_node_to_segment(
+        slope, deg):
+    """The scene of the test above with mortar: the corner lies 0.002 below the end line,
+    its edge meets the master at that line (slope 0.1) or clears it (0.5), so it faces
+    no overlap. Mortar refused it as a penetration of 0.002 (its nodal gap) and with
+    `interference` kept its row with g0 -0.002 to -0.00205 (a push); now it applies
+    node-to-segment's rule (`end_overlaps`): no row, nothing refused, no negative gap,
+    and where every slave node is in reach (slope 0.1) both read the same lengths."""
+    low = block(np.linspace(0.0, 1.0, 5), np.linspace(-0.5, 0.0, 3))
+    pts, quads, curves = block(-0.02 + 0.2 * np.arange(6), np.linspace(0.0, 0.5, 3))
+    pts = pts.copy()
+    bottom = pts[:, 1] == 0.0
+    pts[bottom, 1] = -0.002 + slope * (pts[bottom, 0] + 0.02)
+    mesh, _ = rotate(scene({"low": low, "up": (pts, quads, curves)}), deg)
+    corner = low[0].shape[0]
+    for interference in (False, True):
+        p, c = _both_discretisations(mesh, "up_bottom", "low_top", interference)
+        assert corner not in c.slave and corner not in p.slave
+        assert c.g0.min() >= 0.0
+        if slope == 0.1:
+            np.testing.assert_allclose(c.length.sum(), p.length.sum(), atol=1e-12)
+
+
+@pytest.mark.parametrize("turn_deg", [10.0, 29.0, 31.0, 90.0])
+def test_the_master_is_continued_along_its_circle_below_a_30_degree_turn_else_its_line(
+        turn_deg):
+    """`continued_end_gaps` on a master of two edges of 0.1, turning by turn_deg at their
+    joint (convex): a point 0.01 past the end lies on the circle through the three nodes
+    (gap 0) where the turn is at most END_CURVE_TURN = 30 deg (a polygon of a curve), and
+    is measured to the end segment's line beyond that (a corner: the circle would turn the
+    continued boundary by more than the edge's own turn)."""
+    from app.contact.pairs import continued_end_gaps
+
+    t = np.radians(turn_deg)
+    # nodes P -> O -> E, the body on the left, turning left (convex) by t at O
+    pts = np.array([[-0.1, 0.0], [0.0, 0.0], [0.1 * np.cos(t), 0.1 * np.sin(t)]])
+    m_edges = np.array([[0, 1], [1, 2]])
+    seg_len = np.full(2, 0.1)
+    m_degree = np.array([1, 2, 1])
+    c, r = circle_through(pts)
+    a = np.arctan2(*(pts[2] - c)[::-1]) + 0.01 / r  # 0.01 of arc past E
+    x = (c + r * np.array([np.cos(a), np.sin(a)]))[None]
+    xr = np.array([(x[0] - pts[1]) @ (pts[2] - pts[1]) / 0.01])
+    line = np.array([np.cross(pts[2] - pts[1], x[0] - pts[1]) / -0.1])  # open > 0
+    g, beyond = continued_end_gaps(x, np.array([1]), xr, line, pts, m_edges, seg_len,
+                                   m_degree)
+    assert beyond.all() and line[0] < -1e-4
+    np.testing.assert_allclose(g, 0.0 if turn_deg < 30.0 else line, atol=1e-15)
+
+
+def circle_through(p: np.ndarray) -> tuple[np.ndarray, float]:
+    """Centre (2,) and radius of the circle through the three points p (3, 2)."""
+    a = 2.0 * (p[1:] - p[0])
+    b = np.sum(p[1:] ** 2 - p[0] ** 2, axis=1)
+    c = np.linalg.solve(a, b)
+    return c, float(np.linalg.norm(p[0] - c))

@@ -281,3 +281,52 @@ def test_a_graded_slave_node_just_inside_a_master_end_reads_p_uniform(tmp_path):
         if disc == "mortar":  # the node: one row (on 'b'), none on 'a'
             at = np.abs(c["position"][:, 0] - x[j + 1]) < 1e-9
             assert at.sum() == 1, c["position"][at]
+
+
+def corner_past_a_joint(overlap: float) -> str:
+    """An upper block [0.22, 1.02] x 0.4 (edges 0.2, slave of both interfaces) on lower
+    blocks [0, 1] and [1, 2] (edges 0.25, clamped bases) overlapping them by `overlap`
+    (an interference fit), pressed by 10 on its top: its right corner lies 0.1 of an
+    edge past the joint, over the right block, node-to-segment (search_distance 0.05:
+    the corner lies within it of the left master's end)."""
+    text = '[analysis]\nplane = "strain"\nmethod = "cs-fem"\nsd = 4\n[mesh]\nsize = 0.25\n'
+    for name, a in (("left", 0.0), ("right", 1.0)):
+        text += rectangle_body(name, (a, 0.0), 1.0, 1.0,
+                               {"bottom": f"{name}_base", "top": f"{name}_top"})
+        text += f'[[support]]\non = "{name}_base"\nux = 0.0\nuy = 0.0\n'
+    text += rectangle_body("upper", (0.22, 1.0 - overlap), 0.8, 0.4,
+                           {"bottom": "upper_bottom", "top": "upper_top"},
+                           extra="size = 0.2\n")
+    text += '[[load]]\non = "upper_top"\npressure = 10.0\n'
+    for name, master in (("a", "left_top"), ("b", "right_top")):
+        text += (f'[[interface]]\nname = "{name}"\nslave = "upper_bottom"\n'
+                 f'master = "{master}"\nmu = 0.3\nsearch_distance = 0.05\n'
+                 'discretisation = "node-to-segment"\ninterference = true\n')
+    return text
+
+
+def test_a_slave_corner_just_past_a_joint_is_paired_once_on_the_master_it_lies_over(
+        tmp_path):
+    """The corner overlaps the left master's end line and faces it over 0.9 of its half
+    edge, so its interface pairs it at the end (`end_overlaps`); it lies over the right
+    master, whose interface pairs it too. Before, the run stopped with the error of two
+    slave curves sharing a corner node (there is one curve); now the corner keeps its
+    right pair with both lengths (0.08 + 0.02), every node is paired once, the lengths
+    add up to the block's 0.8 and the contact carries the load, 8, to round-off."""
+    import h5py
+
+    cfg = tmp_path / "joint.toml"
+    cfg.write_text(corner_past_a_joint(0.002))
+    out = tmp_path / "out"
+    res = run_cli(["run", str(cfg), "--out", str(out), "--quiet"])
+    assert res.returncode == 0, res.stderr
+    with h5py.File(out / "step_0001.h5") as f:
+        c = {k: f["contact"][k][()] for k in ("p", "position", "length", "slave")}
+    assert np.unique(c["slave"]).size == c["slave"].size == 5
+    np.testing.assert_allclose(c["length"].sum(), 0.8, rtol=1e-9)  # mesh round-off
+    corner = np.isclose(c["position"][:, 0], 1.02)
+    np.testing.assert_allclose(c["length"][corner], 0.1, rtol=1e-9)
+    step = read_summary(out)["steps"][-1]
+    assert [step["interfaces"][k]["n_pairs"] for k in "ab"] == [4, 1]
+    upper = step["balance"]["bodies"]["upper"]
+    np.testing.assert_allclose(upper["contact"][1], 8.0, rtol=1e-10)

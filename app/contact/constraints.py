@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from app.contact.pairs import ContactPairs
+from app.contact.pairs import XI_EPS, ContactPairs
 from app.errors import InputError
 
 
@@ -83,3 +83,31 @@ class ContactConstraints:
                           shape=(2 * m, 2 * n_nodes))
         g.eliminate_zeros()
         return g
+
+    def one_pair_per_node(self, points: np.ndarray) -> ContactConstraints:
+        """These rows with a slave node paired in two interfaces once beyond a free end of
+        one master (its end pair: the node projects past the end segment by more than
+        XI_EPS, `app.contact.pairs.end_overlaps`) and once inside another (two masters
+        meeting end to end, a slave corner just past their joint) kept once: the inside
+        pair, its length the two pairs' lengths (their sum is the node's covered length),
+        so the lengths still add up. points (n, 2) mesh coordinates. Other nodes paired
+        twice are left for the caller to refuse."""
+        pr = self.pairs
+        if pr.n_pairs == 0:
+            return self
+        xa, xb = points[pr.master[:, 0]], points[pr.master[:, 1]]
+        ab = xb - xa
+        xr = np.einsum("ij,ij->i", pr.position - xa, ab) / np.einsum("ij,ij->i", ab, ab)
+        end = (xr < -XI_EPS) | (xr > 1.0 + XI_EPS)
+        _, inv, counts = np.unique(pr.slave, return_inverse=True, return_counts=True)
+        inside = np.bincount(inv, weights=~end, minlength=counts.size)[inv]
+        shared = (counts[inv] > 1) & (inside == 1)
+        drop = shared & end
+        if not drop.any():
+            return self
+        moved = np.bincount(inv, weights=np.where(drop, pr.length, 0.0), minlength=counts.size)
+        keep = ~drop
+        pairs = pr.select(keep)
+        pairs.length = np.where(shared & ~end, pr.length + moved[inv], pr.length)[keep]
+        return ContactConstraints(pairs, self.cols[keep], self.g_normal[keep],
+                                  self.g_tangent[keep], self.master_interpolation)

@@ -47,6 +47,8 @@ from app.contact.pairs import (
     _beyond_free_end,
     _curve_edges,
     closest_segments,
+    continued_end_gaps,
+    end_overlaps,
     master_segments,
     no_slave_error,
     refuse_penetration,
@@ -349,7 +351,9 @@ class SlaveGeometry:
     oriented with its body on the left; tol the penetration tolerance (length); per slave
     node (q,): nodes its id, d_len its tributary length D_j, found (a master segment
     within search_distance), sg that segment's index (0 if not found), xi its parameter
-    in [0, 1], g_node the nodal gap (length, open > 0), near (`nearest_slave_nodes`);
+    in [0, 1], g_node the nodal gap (length, open > 0; beyond a free master end, below
+    the master continued, `continued_end_gaps`), near (`nearest_slave_nodes`), beyond
+    (found, beyond a free master end by more than XI_EPS);
     normal (n, 2) the contact normals (master -> slave) at the slave nodes, zero elsewhere.
     """
 
@@ -365,6 +369,7 @@ class SlaveGeometry:
     normal: np.ndarray
     g_node: np.ndarray
     near: np.ndarray
+    beyond: np.ndarray
 
     def master_basis_args(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """(pts, m_edges, facing, slave_length): the arguments of a master-basis factory
@@ -385,9 +390,17 @@ def slave_geometry(mesh: Mesh, itf: InterfaceSpec, normal_rule: NormalRule | Non
     found, sg, xi, normal = _slave_normals(pts, s_edges, m_edges, nodes, sd, rule)
     xa, xb = pts[m_edges[:, 0]], pts[m_edges[:, 1]]
     g_node = _nodal_gap(pts[nodes], xa[sg], xb[sg], xi)
+    # beyond a free master end: the depth below the master continued beyond it, as
+    # node-to-segment (its line read a touching pin a (a + h) / (2 R) into a hole's end)
+    seg_len = np.linalg.norm(xb - xa, axis=1)
+    ab = (xb - xa)[sg]
+    xr = np.einsum("ij,ij->i", pts[nodes] - xa[sg], ab) / seg_len[sg] ** 2
+    g_node, beyond = continued_end_gaps(pts[nodes], sg, np.where(found, xr, 0.5), g_node,
+                                        pts, m_edges, seg_len,
+                                        np.bincount(m_edges.ravel(), minlength=pts.shape[0]))
     near = nearest_slave_nodes(found, g_node, sd)
     return SlaveGeometry(pts, s_edges, m_edges, tol, nodes, d_len, found, sg, xi, normal,
-                         g_node, near)
+                         g_node, near, found & beyond)
 
 
 def mortar_constraints(mesh: Mesh, itf: InterfaceSpec, index: int,
@@ -425,6 +438,11 @@ def mortar_rows(geo: SlaveGeometry, itf: InterfaceSpec, index: int,
     basis = linear_where_slave_ends(factory(*geo.master_basis_args()), geo)
     w, cover, covered = _covered_weights(geo, itf, sd, basis, multipliers)
     g0 = _initial_gaps(geo, itf, sd, w, basis, multipliers)
+    # beyond a free master end the weighted gap extrapolates the covered part's gap to
+    # the node, through the end segment's line: on a curve a (a + h) / (2 R) off its
+    # depth below the master continued (pushing a touching hole's end node off a pin by
+    # 2.6e-4 with interference), so the row takes the node's depth, node-to-segment's g0
+    g0 = np.where(geo.beyond, geo.g_node, g0)
     keep = geo.found & covered & (g0 <= sd)
     if not keep.any():
         raise _none_kept_error(itf, sd, geo.found, covered)
@@ -641,6 +659,7 @@ def _covered_weights(geo: SlaveGeometry, itf, sd: float, basis: MasterBasis,
     at = np.searchsorted(nodes, ends)
     geometric = _covered_shares(nodes, ends, s, wq)  # complete for the found nodes
     carrier = found & (geometric >= MIN_COVER * (1 - COVER_RTOL) * geo.d_len)
+    carrier &= ~_end_overlap_refused(geo, sd)
     # a node without a row that faces the master (or lies beyond a free end of it) gives
     # its covered share to the nearest carrier along the slave curve
     beyond = _beyond_master_end(geo, float(sd + ls_max(xs1, xs2)))
@@ -727,6 +746,24 @@ def _covered_shares(nodes: np.ndarray, ends: np.ndarray, s: np.ndarray,
 def ls_max(xs1: np.ndarray, xs2: np.ndarray) -> float:
     """The longest of the segments xs1 -> xs2 ((k, 2) each; length)."""
     return float(np.linalg.norm(xs2 - xs1, axis=1).max(initial=0.0))
+
+
+def _end_overlap_refused(geo: SlaveGeometry, sd: float) -> np.ndarray:
+    """(q,) bool: the found slave nodes beyond a free master end (`SlaveGeometry.beyond`)
+    below the master continued by more than geo.tol (nodal gap) whose slave edges do not
+    overlap the master at the line through its end, or face it there over less than
+    MIN_COVER of their support: node-to-segment's rule (`end_overlaps`), so such a node
+    has no row in either discretisation (its share goes to its neighbour). A slave corner
+    0.02 beside a block corner and 0.002 below its top's line, its edge touching the
+    corner or clearing it, was refused as a penetration of 0.002 (with `interference`:
+    its row pushed it out by 0.002) where node-to-segment had no pair."""
+    m_edges, pts = geo.m_edges, geo.pts
+    seg_len = np.linalg.norm(pts[m_edges[:, 1]] - pts[m_edges[:, 0]], axis=1)
+    m_degree = np.bincount(m_edges.ravel(), minlength=pts.shape[0])
+    over = geo.beyond & (geo.g_node < -geo.tol)
+    ok = end_overlaps(pts, geo.s_edges, geo.nodes, m_edges, seg_len, m_degree, sd,
+                      geo.g_node, geo.tol, geo.beyond)
+    return over & ~ok
 
 
 def _beyond_master_end(geo: SlaveGeometry, reach: float) -> np.ndarray:

@@ -52,8 +52,11 @@ class ContactSetup:
             described[itf.name] = {"discretisation": itf.discretisation or DEFAULT,
                                    "master_interpolation": found[-1].master_interpolation,
                                    "n_pairs": found[-1].n_pairs, "pairs_on": slave}
-        rows = ContactConstraints.concatenate(found)
+        # a slave corner just past two masters' joint: once, on the master it lies over
+        rows = ContactConstraints.concatenate(found).one_pair_per_node(mesh.points)
         pairs = rows.pairs
+        for i, itf in enumerate(cfg.interfaces):
+            described[itf.name]["n_pairs"] = int(np.sum(pairs.interface == i))
         dup, counts = np.unique(pairs.slave, return_counts=True)
         if np.any(counts > 1):
             raise InputError(_shared_slave_message(mesh, cfg, pairs, int(dup[counts > 1][0])))
