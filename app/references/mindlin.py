@@ -31,6 +31,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from app.closed_form import (
+    GROSS_SLIP_TOL,
     INTERPOLATED_L2_RANGE,
     _edges_from_states,
     cattaneo_traction,
@@ -40,10 +41,6 @@ from app.closed_form import (
 )
 from app.references.base import Reference, RunFigures
 from app.references.hertz import pressure_errors, pressure_overlay
-
-GROSS_SLIP_TOL = 1e-8
-"""|Q| within this fraction of mu P is gross slip (the run's |Q| never exceeds mu P but by
-round-off, to either side)."""
 
 Terms = tuple[tuple[float, float], ...]
 """A traction as a sum of Cattaneo terms: q(x) = sum over (k, Q) of k q_L(x; Q)."""
