@@ -1,5 +1,6 @@
 """Pictures of a result folder: the deformed mesh coloured by von Mises stress, and p(x),
-q(x) along each interface with the closed form overlaid where the config names one.
+q(x) along each interface with the closed form overlaid where the config names one (first
+interface, last step only: summary.json's `reference` is the last step's).
 
     .venv/bin/python scripts/plot_results.py out/hertz [--step K] [--zoom X0 X1 Y0 Y1]
         [--scale S] [--prefix NAME]
