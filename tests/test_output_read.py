@@ -63,7 +63,7 @@ def test_read_pairs_by_name_and_wrong_interfaces(tmp_path: Path) -> None:
         {"contact_interfaces": {"lower": {}, "upper": {}}}))
     np.testing.assert_array_equal(read_pairs(path, "upper")["x"], [-0.1, 0.5])
     np.testing.assert_array_equal(read_pairs(path, np.int64(0))["x"], [-0.2, 0.1, 0.3])
-    for bad in ("contact", -1, 1.0, True):
+    for bad in ("contact", -1, 1.0, True, 2):
         with pytest.raises(ValueError, match="interface"):
             read_pairs(path, bad)
     with pytest.raises(ValueError, match=r"no /contact dataset \['q'\]"):

@@ -45,22 +45,25 @@ def read_pairs(path: Path, interface: int | str = 0, keys: tuple[str, ...] | Non
 
 def _interface_index(path: Path, interface: int | str) -> int:
     """The 0-based index of `interface` (an index, or a name in the summary.json beside
-    `path`: its `contact_interfaces` are in config order)."""
+    `path`: its `contact_interfaces` are in config order; an index past them is refused)."""
+    try:
+        names = list(json.loads((path.parent / "summary.json").read_text())
+                     ["contact_interfaces"])
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        names, why = None, exc
     if isinstance(interface, str):
-        try:
-            names = list(json.loads((path.parent / "summary.json").read_text())
-                         ["contact_interfaces"])
-        except (OSError, ValueError, KeyError, TypeError) as exc:
+        if names is None:
             raise ValueError(f"interface {interface!r}: no interface names beside {path} "
-                             f"(summary.json: {exc}); pass its 0-based index in config "
-                             "order") from None
+                             f"(summary.json: {why}); pass its 0-based index in config "
+                             "order")
         if interface not in names:
             raise ValueError(f"interface {interface!r} is not one of {names}")
         return names.index(interface)
     if isinstance(interface, bool) or not isinstance(interface, int | np.integer) \
-            or interface < 0:
+            or interface < 0 or (names is not None and interface >= len(names)):
         raise ValueError(f"interface {interface!r}: pass a name or the 0-based index of the "
-                         "[[interface]] in config order")
+                         "[[interface]] in config order"
+                         + (f" ({len(names)} interfaces: {names})" if names else ""))
     return int(interface)
 
 
