@@ -123,3 +123,20 @@ def test_timoshenko_load_is_per_unit_thickness_like_the_configs_loads(thickness)
                                            "D": 1.0, "point": "tip"}, run)
     assert out["tip_deflection_rel_error"] < 1e-12
     assert out["strain_energy_rel_error"] < 1e-12
+
+
+def test_a_hertz_reference_on_an_interface_along_y_is_an_input_error():
+    """The hertz scene turned by 90 deg: p is a function of y, and x is the distance from
+    the flat across it (0 to 0.05 on the arc's pairs), so center_x = 0 lay on the
+    interface and p(x) was compared with Hertz at the wrong coordinate, without a word."""
+    from app.references.hertz import pressure_errors
+
+    fig = _figures(0.0)
+    c = fig.contact
+    s = c.x  # the pairs' positions along the flat, now along y
+    c.x, c.y = 1.0 - np.sqrt(1.0 - s**2), s  # the arc turned: x across, from 0 to 0.02
+    with pytest.raises(InputError, match="runs along y"):
+        pressure_errors({"radius": 1.0, "center_x": 0.0}, fig)
+    c.x, c.y = s, c.x  # as shipped: along x
+    assert pressure_errors({"radius": 1.0, "center_x": 0.0}, fig)["hertz"][
+        "p_max_rel_error"] < 1e-3
