@@ -12,9 +12,12 @@ from numpy.typing import ArrayLike
 
 
 def effective_moduli(E: float, nu: float, plane: str) -> tuple[float, float]:
-    """(E, nu) to use in plane-stress formulas for the given plane condition."""
+    """(E, nu) to use in plane-stress formulas for plane "strain" or "stress" (another
+    name, e.g. "plane_strain", is a ValueError: it read as plane stress before)."""
     if plane == "strain":
         return E / (1.0 - nu**2), nu / (1.0 - nu)
+    if plane != "stress":
+        raise ValueError(f"plane = {plane!r}: use 'strain' or 'stress'")
     return E, nu
 
 

@@ -9,10 +9,12 @@ import pytest
 from app.closed_form import (
     cattaneo_errors,
     cattaneo_traction,
+    effective_moduli,
     hertz_cylinder,
     hertz_errors,
     hertz_pressure,
     interpolated_l2_rel_error,
+    timoshenko_cantilever,
 )
 
 
@@ -112,3 +114,17 @@ def test_cattaneo_errors_above_mu_p_has_no_closed_form():
     assert math.isnan(e["stick_half_width_exact"])
     assert math.isnan(e["traction_l2_rel_error"])
     assert "mu P" in e["note"]
+
+
+def test_plane_names_other_than_strain_and_stress_are_refused():
+    """effective_moduli (and timoshenko_cantilever through it) took any name but "strain"
+    as plane stress: plane="plane_strain" gave the tip deflection 9.8% too large."""
+    assert effective_moduli(1e3, 0.3, "stress") == (1e3, 0.3)
+    e, n = effective_moduli(1e3, 0.3, "strain")
+    assert e == pytest.approx(1e3 / 0.91) and n == pytest.approx(0.3 / 0.7)
+    for bad in ("plane_strain", "Strain", "", None):
+        with pytest.raises(ValueError, match="use 'strain' or 'stress'"):
+            effective_moduli(1e3, 0.3, bad)
+    with pytest.raises(ValueError, match="plane = 'plane_strain'"):
+        timoshenko_cantilever(10.0, 0.0, P=1.0, L=10.0, D=1.0, E=1e3, nu=0.3,
+                              plane="plane_strain")
