@@ -208,7 +208,7 @@ def mindlin_errors(x: ArrayLike, q: ArrayLike, length: ArrayLike, *, Q_path: np.
     if stick is not None and terms[-1]:
         c_exact = stick_half_width(a, min(slip[-1] / mu_P, 1.0))
         left, right = _edges_from_states(x, np.asarray(stick))
-        half = 0.5 * (right - left)
+        half = 0.5 * (right - left) if np.any(stick) else 0.0  # no pair sticks: width 0
         out = {"stick_half_width": half, "stick_half_width_exact": c_exact,
                "stick_edges": [left + x0, right + x0],
                "stick_half_width_rel_error": abs(half - c_exact) / c_exact if c_exact > 0
