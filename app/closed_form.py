@@ -12,9 +12,12 @@ from numpy.typing import ArrayLike
 
 
 def effective_moduli(E: float, nu: float, plane: str) -> tuple[float, float]:
-    """(E, nu) to use in plane-stress formulas for the given plane condition."""
+    """(E, nu) to use in plane-stress formulas for plane "strain" or "stress" (another
+    name, e.g. "plane_strain", is a ValueError: it read as plane stress before)."""
     if plane == "strain":
         return E / (1.0 - nu**2), nu / (1.0 - nu)
+    if plane != "stress":
+        raise ValueError(f"plane = {plane!r}: use 'strain' or 'stress'")
     return E, nu
 
 
@@ -71,18 +74,24 @@ def cattaneo_traction(x: ArrayLike, a: float, p0: float, mu: float,
     """Cattaneo-Mindlin tangential traction magnitude for a tangential load Q < mu P.
 
     Stick half-width c = a sqrt(1 - Q / (mu P)); q(x) = mu p0 [sqrt(1 - x^2/a^2)
-    - (c/a) sqrt(1 - x^2/c^2)] in |x| < c and mu p(x) in c <= |x| < a.
+    - (c/a) sqrt(1 - x^2/c^2)] in |x| < c and mu p(x) in c <= |x| < a (everywhere, c = 0,
+    for Q >= mu P).
     """
     x = np.asarray(x, dtype=float)
-    c = a * np.sqrt(1.0 - Q_over_muP)
+    c = stick_half_width(a, Q_over_muP)
     outer = mu * hertz_pressure(x, a, p0)
     inner = mu * p0 * (c / a) * np.sqrt(np.clip(1.0 - (x / c) ** 2, 0.0, None)) if c > 0 else 0
     return outer - inner
 
 
 def stick_half_width(a: float, Q_over_muP: float) -> float:
-    """Cattaneo-Mindlin stick-zone half-width c = a sqrt(1 - Q / (mu P))."""
-    return float(a * np.sqrt(1.0 - Q_over_muP))
+    """Cattaneo-Mindlin stick-zone half-width c = a sqrt(1 - Q / (mu P)); 0 for Q >= mu P."""
+    return float(a * np.sqrt(max(1.0 - Q_over_muP, 0.0)))
+
+
+GROSS_SLIP_TOL = 1e-8
+"""|Q| within this fraction of mu P is gross slip (the run's |Q| never exceeds mu P but by
+round-off, to either side)."""
 
 
 def _edges_from_states(x: np.ndarray, inside: np.ndarray) -> tuple[float, float]:
@@ -165,7 +174,10 @@ def cattaneo_errors(x: ArrayLike, p: ArrayLike, q: ArrayLike, length: ArrayLike,
                     E_star: float, x0: float = 0.0, thickness: float = 1.0) -> dict:
     """Compare the stick zone and q(x) with Cattaneo-Mindlin (|q| is compared).
 
-    stick: (m,) bool, pairs in contact that did not slip in the last step.
+    stick: (m,) bool, pairs in contact that did not slip in the last step (none: a stick
+    half-width of 0). |Q| within GROSS_SLIP_TOL of mu P is gross slip: c = 0, q = mu p, and
+    the stick zone's relative error is NaN (against 0); |Q| above mu P (a bond's strength
+    adds to friction) has no closed form: NaN errors and a `note`.
     `traction_l2_rel_error` is weighted by tributary lengths over |x| < a;
     `traction_l2_interp_rel_error` is the interpolated one (`interpolated_l2_rel_error`).
     """
@@ -174,17 +186,27 @@ def cattaneo_errors(x: ArrayLike, p: ArrayLike, q: ArrayLike, length: ArrayLike,
     stick = np.asarray(stick)[o]
     a, p0 = hertz_contact(P / thickness, R, E_star)
     ratio = abs(Q) / (mu * P)
-    c_exact = stick_half_width(a, ratio)
+    nan = float("nan")
+    if ratio > 1.0 + GROSS_SLIP_TOL:
+        return {"P": P, "Q": Q, "Q_over_muP": ratio, "a_hertz": a, "stick_half_width": nan,
+                "stick_half_width_exact": nan, "stick_half_width_rel_error": nan,
+                "stick_edges": [nan, nan], "traction_l2_rel_error": nan,
+                "traction_l2_interp_rel_error": nan,
+                "note": f"|Q| / (mu P) = {ratio:.6g} > 1: more than friction holds the "
+                        "contact (a bond's strength?), no Cattaneo-Mindlin closed form"}
+    r = 1.0 if ratio >= 1.0 - GROSS_SLIP_TOL else ratio  # round-off about mu P: gross slip
+    c_exact = stick_half_width(a, r)
     left, right = _edges_from_states(x, stick)
-    half = 0.5 * (right - left)
+    half = 0.5 * (right - left) if stick.any() else 0.0
     zone = np.abs(x) < a
-    qc = cattaneo_traction(x, a, p0, mu, ratio)
+    qc = cattaneo_traction(x, a, p0, mu, r)
     l2 = np.sqrt(np.sum(length[zone] * (np.abs(q[zone]) - qc[zone]) ** 2)
                  / np.sum(length[zone] * qc[zone] ** 2))
     return {"P": P, "Q": Q, "Q_over_muP": ratio, "a_hertz": a,
             "stick_half_width": half, "stick_half_width_exact": c_exact,
-            "stick_half_width_rel_error": float(abs(half - c_exact) / c_exact),
+            "stick_half_width_rel_error": float(abs(half - c_exact) / c_exact)
+            if c_exact > 0 else nan,
             "stick_edges": [left + x0, right + x0], "traction_l2_rel_error": float(l2),
             "traction_l2_interp_rel_error": interpolated_l2_rel_error(
-                x, np.abs(q), lambda s: cattaneo_traction(s, a, p0, mu, ratio),
+                x, np.abs(q), lambda s: cattaneo_traction(s, a, p0, mu, r),
                 INTERPOLATED_L2_RANGE * a)}

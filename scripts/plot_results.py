@@ -1,5 +1,6 @@
 """Pictures of a result folder: the deformed mesh coloured by von Mises stress, and p(x),
-q(x) along each interface with the closed form overlaid where the config names one.
+q(x) along each interface with the closed form overlaid where the config names one (first
+interface, last step only: summary.json's `reference` is the last step's).
 
     .venv/bin/python scripts/plot_results.py out/hertz [--step K] [--zoom X0 X1 Y0 Y1]
         [--scale S] [--prefix NAME]
@@ -43,6 +44,12 @@ def deformed_mesh(out: Path, step: int, zoom, scale: float | None, prefix: str) 
         c = xy[quads].mean(axis=1)
         keep = (c[:, 0] > zoom[0]) & (c[:, 0] < zoom[1]) & (c[:, 1] > zoom[2]) & (
             c[:, 1] < zoom[3])
+        if not keep.any():  # an empty picture, before
+            lo, hi = c.min(axis=0), c.max(axis=0)
+            raise SystemExit(f"error: --zoom {' '.join(f'{z:g}' for z in zoom)}: no element "
+                             f"of step {step} has its deformed centre in the box "
+                             f"(displacements x {scale:.3g}: the centres span x "
+                             f"{lo[0]:.4g}..{hi[0]:.4g}, y {lo[1]:.4g}..{hi[1]:.4g})")
     fig, ax = plt.subplots(figsize=(8, 5))
     pc = PolyCollection(xy[quads[keep]], array=vm[keep], cmap="viridis",
                         edgecolors="k", linewidths=0.05 if keep.sum() > 5000 else 0.2)
@@ -137,6 +144,18 @@ def check_step(out: Path, step: int | None) -> tuple[dict, int]:
     return summary, step
 
 
+def check_view(zoom: list[float] | None, scale: float | None) -> None:
+    """SystemExit(2) with one line for a --zoom box or --scale that cannot draw anything
+    (before: NaN, inf or an inverted box drew an empty picture, exit 0)."""
+    if scale is not None and not (np.isfinite(scale) and scale >= 0):
+        raise SystemExit(f"error: --scale {scale:g}: a finite magnification >= 0 "
+                         "(0 draws the undeformed mesh)")
+    if zoom is not None and not (np.isfinite(zoom).all() and zoom[0] < zoom[1]
+                                 and zoom[2] < zoom[3]):
+        raise SystemExit(f"error: --zoom {' '.join(f'{z:g}' for z in zoom)}: X0 < X1 and "
+                         "Y0 < Y1, finite")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=" ".join(__doc__.split("\n\n")[0].split()))
     ap.add_argument("out", type=Path)
@@ -148,6 +167,7 @@ def main() -> None:
                          "drawn as 5%% of the model's size)")
     ap.add_argument("--prefix", default="", help="put before every file name written")
     args = ap.parse_args()
+    check_view(args.zoom, args.scale)
     summary, step = check_step(args.out, args.step)
     try:
         paths = [deformed_mesh(args.out, step, args.zoom, args.scale, args.prefix)]

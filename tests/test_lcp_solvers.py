@@ -39,3 +39,33 @@ def test_unknown_solver_stops_before_meshing(tmp_path):
     assert res.returncode == 2 and res.stderr.count("\n") == 1
     assert "analysis.lcp_solver = 'pgs'" in res.stderr
     assert not (tmp_path / "o" / "mesh.h5").exists()
+
+
+def _readme_solver_signature() -> list[str]:
+    """The keyword names README "Extension points" gives a new LCP solver's function."""
+    import re
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parents[1] / "README.md").read_text(encoding="utf-8")
+    row = next(line for line in text.splitlines() if line.startswith("| LCP solver |"))
+    sig = re.search(r"\(M, q, \*, ([^)]*)\) -> LCPResult", row)
+    assert sig, row
+    return [name.strip() for name in sig.group(1).split(",")]
+
+
+def test_a_solver_with_the_documented_signature_runs_in_the_contact_lcp():
+    """A solver written to README's signature, and nothing more, is one the contact LCP can
+    call (before: README gave (M, q, *, basis, max_pivots, cold_start) and ContactLCP's
+    call with cache= was a TypeError that failed the run)."""
+    names = _readme_solver_signature()
+    namespace = {"lemke": lemke}
+    params = ", ".join(f"{n}=None" for n in names)
+    forward = ", ".join(f"{n}={n}" for n in names)
+    exec(f"def documented(M, q, *, {params}):\n"  # noqa: S102 (the README's own signature)
+         f"    return lemke(M, q, {forward})", namespace)
+    c = np.diag([2e-3, 2e-3, 5e-3, 5e-3])
+    lcp = ContactLCP(c, np.full(2, 0.3), np.ones(2, bool), solver=namespace["documented"])
+    sol = lcp.solve(np.array([-1e-3, 1e-3]), np.zeros(2), np.zeros(2), np.zeros(2),
+                    np.zeros(2), np.full(2, 0.3), np.zeros(0))
+    assert sol.status == "solved"
+    np.testing.assert_allclose(sol.p, [0.5, 0.0], atol=1e-12)

@@ -205,3 +205,16 @@ def test_stick_edges_are_positions_on_the_interface_as_cattaneos():
     left, right = out["stick_edges"]
     assert left == pytest.approx(x0 - c, abs=2e-3 * A)
     assert right == pytest.approx(x0 + c, abs=2e-3 * A)
+
+
+def test_an_empty_stick_zone_is_a_full_error():
+    """No pair sticks where the branch has a stick zone: half-width 0, relative error 1.0
+    (NaN before, which reads as 'no reference' in a study's table)."""
+    x = np.linspace(-1.5 * A, 1.5 * A, 3001)
+    length = np.full_like(x, x[1] - x[0])
+    Q_path = np.array([0.25, 0.5]) * MUP
+    q = cattaneo_traction(x, A, P0, MU, 0.5)
+    m = mindlin_errors(x, q, length, Q_path=Q_path, P=P, mu=MU, R=1.0, E_star=ES,
+                       stick=np.zeros(x.size, bool))
+    assert m["stick_half_width"] == 0.0 and m["stick_half_width_exact"] > 0
+    assert m["stick_half_width_rel_error"] == pytest.approx(1.0)

@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import h5py
 import numpy as np
+import pytest
 
 from app.output.read import last_step_file, read_pairs
 
@@ -46,3 +48,23 @@ def test_last_step_file_counts_past_step_9999(tmp_path: Path) -> None:
         (tmp_path / f"step_{k:04d}.h5").touch()
     (tmp_path / "step_99999.h5.tmp").touch()  # a write in progress is no step
     assert last_step_file(tmp_path).name == "step_10001.h5"
+
+
+def test_read_pairs_by_name_and_wrong_interfaces(tmp_path: Path) -> None:
+    """An interface by its name (summary.json beside the file, config order); a name, a
+    negative index or a float without a match, or a key the file lacks, is a ValueError
+    naming what there is (before: a name or -1 read 0 pairs, silently; a key, h5py's
+    KeyError 'Unable to open object')."""
+    path = tmp_path / "step_0002.h5"
+    _write(path)
+    with pytest.raises(ValueError, match="no interface names beside"):
+        read_pairs(path, "upper")
+    (tmp_path / "summary.json").write_text(json.dumps(
+        {"contact_interfaces": {"lower": {}, "upper": {}}}))
+    np.testing.assert_array_equal(read_pairs(path, "upper")["x"], [-0.1, 0.5])
+    np.testing.assert_array_equal(read_pairs(path, np.int64(0))["x"], [-0.2, 0.1, 0.3])
+    for bad in ("contact", -1, 1.0, True, 2):
+        with pytest.raises(ValueError, match="interface"):
+            read_pairs(path, bad)
+    with pytest.raises(ValueError, match=r"no /contact dataset \['q'\]"):
+        read_pairs(path, 0, ("x", "q"))

@@ -123,3 +123,46 @@ def test_timoshenko_load_is_per_unit_thickness_like_the_configs_loads(thickness)
                                            "D": 1.0, "point": "tip"}, run)
     assert out["tip_deflection_rel_error"] < 1e-12
     assert out["strain_energy_rel_error"] < 1e-12
+
+
+def test_a_hertz_reference_on_an_interface_along_y_is_an_input_error():
+    """The hertz scene turned by 90 deg: p is a function of y, and x is the distance from
+    the flat across it (0 to 0.05 on the arc's pairs), so center_x = 0 lay on the
+    interface and p(x) was compared with Hertz at the wrong coordinate, without a word."""
+    from app.references.hertz import pressure_errors
+
+    fig = _figures(0.0)
+    c = fig.contact
+    s = c.x  # the pairs' positions along the flat, now along y
+    c.x, c.y = 1.0 - np.sqrt(1.0 - s**2), s  # the arc turned: x across, from 0 to 0.02
+    with pytest.raises(InputError, match="runs along y"):
+        pressure_errors({"radius": 1.0, "center_x": 0.0}, fig)
+    c.x, c.y = s, c.x  # as shipped: along x
+    assert pressure_errors({"radius": 1.0, "center_x": 0.0}, fig)["hertz"][
+        "p_max_rel_error"] < 1e-3
+
+
+def test_timoshenko_compares_the_point_where_it_is():
+    """[points] tip = [5, 0.5] (mid-span, top fibre): its uy is compared with the closed
+    form's uy there (before: with the tip's, a 69% error on a right answer); a point off
+    the beam is a one-line InputError."""
+    from app.closed_form import timoshenko_cantilever
+
+    kw = dict(P=1.0, L=10.0, D=1.0, E=1e3, nu=0.3)
+    mid = timoshenko_cantilever(5.0, 0.5, **kw)
+    energy = mid["strain_energy"]
+    table = {"type": "timoshenko", "P": 1.0, "L": 10.0, "D": 1.0, "point": "tip"}
+
+    def compare(x, y, uy):
+        run = RunFigures(E=1e3, nu=0.3, plane="strain", thickness=1.0, strain_energy=energy,
+                         point_values={"tip": {"x": x, "y": y, "ux": 0.0, "uy": uy}})
+        return reference("timoshenko").compare(table, run)
+
+    out = compare(5.0, 0.5, float(mid["uy"]))
+    assert out["tip_deflection_rel_error"] < 1e-12
+    assert out["tip_deflection_exact"] == pytest.approx(float(mid["uy"]), rel=1e-15)
+    tip = timoshenko_cantilever(10.0, 0.0, **kw)["tip_deflection"]
+    assert compare(10.0, 0.0, tip)["tip_deflection_rel_error"] < 1e-12
+    for x, y in ((12.0, 0.0), (5.0, 0.6), (-1.0, 0.0)):
+        with pytest.raises(InputError, match="is not on the beam"):
+            compare(x, y, tip)

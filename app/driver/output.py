@@ -272,7 +272,8 @@ def _contact_profile(cfg: Config, disc: Discretisation, mesh: Mesh, contact,
         x=data["x"][sel], p=data["p"][sel], q=data["q"][sel], length=data["length"][sel],
         p_force=data["p_force"][sel], q_force=data["q_force"][sel],
         stick=(data["state"][sel] == STICK) & (data["p"][sel] > 0),
-        mu=cfg.interfaces[0].mu, E_star=float(e_star), interface=cfg.interfaces[0].name)
+        mu=cfg.interfaces[0].mu, E_star=float(e_star), interface=cfg.interfaces[0].name,
+        y=data["y"][sel])
 
 
 def _cell_fields(mesh: Mesh, gathered) -> dict[str, np.ndarray]:

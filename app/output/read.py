@@ -6,6 +6,7 @@ of one interface at one step, sorted by x.
 
 from __future__ import annotations
 
+import json
 import re
 from pathlib import Path
 
@@ -21,18 +22,49 @@ def last_step_file(out: Path) -> Path | None:
     return max(files, key=lambda p: int(p.stem[5:]), default=None)
 
 
-def read_pairs(path: Path, interface: int = 0, keys: tuple[str, ...] | None = None
+def read_pairs(path: Path, interface: int | str = 0, keys: tuple[str, ...] | None = None
                ) -> dict[str, np.ndarray]:
-    """{name: (m,) or (m, k) array} of the pairs of interface number `interface` in step
-    file `path`, sorted by x. keys: the arrays to read (default every per-pair array)."""
+    """{name: (m,) or (m, k) array} of the pairs of interface `interface` in step file
+    `path`, sorted by x. interface: the 0-based index of its [[interface]] in config order,
+    or its name (looked up in the summary.json beside `path`). keys: the arrays to read
+    (default every per-pair array). ValueError for an interface or key the file does not
+    have (before, a name or a negative index read 0 pairs, and a key h5py's KeyError)."""
+    index = _interface_index(Path(path), interface)
     with h5py.File(path) as f:
         c = f["contact"]
-        sel = c["interface"][()] == interface
+        sel = c["interface"][()] == index
         names = keys if keys is not None else tuple(c)
+        missing = sorted(set(names) - set(c))
+        if missing:
+            raise ValueError(f"{path}: no /contact dataset {missing}; it has {sorted(c)}")
         data = {k: c[k][()] for k in names}
     data = {k: v[sel] for k, v in data.items() if v.shape[:1] == sel.shape}
     order = np.argsort(data["x"]) if "x" in data else np.arange(int(sel.sum()))
     return {k: v[order] for k, v in data.items()}
+
+
+def _interface_index(path: Path, interface: int | str) -> int:
+    """The 0-based index of `interface` (an index, or a name in the summary.json beside
+    `path`: its `contact_interfaces` are in config order; an index past them is refused)."""
+    try:
+        names = list(json.loads((path.parent / "summary.json").read_text())
+                     ["contact_interfaces"])
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        names, why = None, exc
+    if isinstance(interface, str):
+        if names is None:
+            raise ValueError(f"interface {interface!r}: no interface names beside {path} "
+                             f"(summary.json: {why}); pass its 0-based index in config "
+                             "order")
+        if interface not in names:
+            raise ValueError(f"interface {interface!r} is not one of {names}")
+        return names.index(interface)
+    if isinstance(interface, bool) or not isinstance(interface, int | np.integer) \
+            or interface < 0 or (names is not None and interface >= len(names)):
+        raise ValueError(f"interface {interface!r}: pass a name or the 0-based index of the "
+                         "[[interface]] in config order"
+                         + (f" ({len(names)} interfaces: {names})" if names else ""))
+    return int(interface)
 
 
 def step_datasets(path: Path) -> dict[str, np.ndarray]:

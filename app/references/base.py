@@ -17,7 +17,8 @@ class ContactProfile:
     x: (m,) slave positions along the interface (length); p, q: (m,) tractions;
     length: (m,) tributary lengths; p_force, q_force: (m,) pair forces; stick: (m,) bool,
     pairs in contact that did not slip; mu: the interface's friction coefficient;
-    E_star: the effective modulus of the two bodies (plane strain or stress).
+    E_star: the effective modulus of the two bodies (plane strain or stress); y: (m,) the
+    slave positions across (None: not known), to tell an interface that runs along y.
     """
 
     x: np.ndarray
@@ -30,6 +31,7 @@ class ContactProfile:
     mu: float
     E_star: float
     interface: str
+    y: np.ndarray | None = None
 
 
 @dataclass

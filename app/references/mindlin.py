@@ -31,6 +31,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from app.closed_form import (
+    GROSS_SLIP_TOL,
     INTERPOLATED_L2_RANGE,
     _edges_from_states,
     cattaneo_traction,
@@ -40,10 +41,6 @@ from app.closed_form import (
 )
 from app.references.base import Reference, RunFigures
 from app.references.hertz import pressure_errors, pressure_overlay
-
-GROSS_SLIP_TOL = 1e-8
-"""|Q| within this fraction of mu P is gross slip (the run's |Q| never exceeds mu P but by
-round-off, to either side)."""
 
 Terms = tuple[tuple[float, float], ...]
 """A traction as a sum of Cattaneo terms: q(x) = sum over (k, Q) of k q_L(x; Q)."""
@@ -211,7 +208,7 @@ def mindlin_errors(x: ArrayLike, q: ArrayLike, length: ArrayLike, *, Q_path: np.
     if stick is not None and terms[-1]:
         c_exact = stick_half_width(a, min(slip[-1] / mu_P, 1.0))
         left, right = _edges_from_states(x, np.asarray(stick))
-        half = 0.5 * (right - left)
+        half = 0.5 * (right - left) if np.any(stick) else 0.0  # no pair sticks: width 0
         out = {"stick_half_width": half, "stick_half_width_exact": c_exact,
                "stick_edges": [left + x0, right + x0],
                "stick_half_width_rel_error": abs(half - c_exact) / c_exact if c_exact > 0

@@ -15,10 +15,17 @@ def _errors(params: dict, run: RunFigures) -> dict:
     # P is per unit thickness, like a [[load]]'s traction or total_force (which the run
     # multiplies by the thickness); the closed form takes the total (before, thickness 2
     # halved the exact tip deflection and energy: 98% and 295% errors on a right answer)
-    exact = timoshenko_cantilever(params["L"], 0.0, P=params["P"] * run.thickness,
-                                  L=params["L"], D=params["D"], E=run.E, nu=run.nu,
-                                  plane=run.plane, thickness=run.thickness)
-    tip, u_ex = point["uy"], exact["tip_deflection"]
+    # the closed form's uy where the point is (the tip (L, 0) in cantilever.toml; before,
+    # a point elsewhere was compared with the tip's deflection, without a word)
+    L, D = params["L"], params["D"]
+    xp, yp = float(point.get("x", L)), float(point.get("y", 0.0))
+    if not (-1e-9 * L <= xp <= L * (1 + 1e-9) and abs(yp) <= 0.5 * D * (1 + 1e-9)):
+        raise InputError(f"[reference] type 'timoshenko': point '{params['point']}' at "
+                         f"({xp:g}, {yp:g}) is not on the beam 0 <= x <= L = {L:g}, "
+                         f"|y| <= D/2 = {0.5 * D:g} (clamped at x = 0, centreline y = 0)")
+    exact = timoshenko_cantilever(xp, yp, P=params["P"] * run.thickness, L=L, D=D, E=run.E,
+                                  nu=run.nu, plane=run.plane, thickness=run.thickness)
+    tip, u_ex = point["uy"], float(exact["uy"])
     e_ex = exact["strain_energy"]
     return {"tip_deflection": tip, "tip_deflection_exact": u_ex,
             "tip_deflection_rel_error": abs(tip - u_ex) / abs(u_ex),
