@@ -369,8 +369,9 @@ def test_a_slave_corner_overlapping_a_master_end_keeps_that_pair_over_an_open_on
     and dropped the overlap (reviewer `review18`): the node was free to stay 0.002 inside
     the top's corner, and its length read 0.18 with the side (0.08 + 0.1, more than the
     node's tributary 0.1: the block's lengths summed to 0.88). Now the deepest pair is
-    kept, its length at most the node's tributary: the corner is paired on 'a' with g0
-    -0.002, the lengths add up to 0.8, and the contact carries the load, 8."""
+    kept with the lengths of the pairs as deep: the corner is paired on 'a' with g0
+    -0.002 and its length there, 0.08, as without 'b' (the lengths 0.78), and the
+    contact carries the load, 8."""
     import h5py
 
     cfg = tmp_path / "corner.toml"
@@ -385,8 +386,8 @@ def test_a_slave_corner_overlapping_a_master_end_keeps_that_pair_over_an_open_on
     corner = np.isclose(c["position"][:, 0], 1.02)
     assert c["interface"][corner].tolist() == [0]
     np.testing.assert_allclose(c["g0"][corner], -0.002, rtol=1e-9)
-    np.testing.assert_allclose(c["length"].sum(), 0.8, rtol=1e-9)
-    np.testing.assert_allclose(c["length"][corner], 0.1, rtol=1e-9)
+    np.testing.assert_allclose(c["length"].sum(), 0.78, rtol=1e-9)
+    np.testing.assert_allclose(c["length"][corner], 0.08, rtol=1e-9)
     step = read_summary(out)["steps"][-1]
     assert [step["interfaces"][k]["n_pairs"] for k in "ab"] == [5, 0]
     np.testing.assert_allclose(step["balance"]["bodies"]["upper"]["contact"][1], 8.0,

@@ -91,14 +91,14 @@ class ContactConstraints:
         XI_EPS, `app.contact.pairs.end_overlaps`) and once inside another (two masters
         meeting end to end, a slave corner just past their joint) kept once: the deepest
         of its pairs (smallest g0; the inside one unless an end pair is deeper by more
-        than 1e-9 of the node's lengths), its length the pairs' lengths summed (their sum
-        is the node's covered length where the masters meet end to end) and at most the
-        node's tributary length. points (n, 2) mesh coordinates; tributary (n,) the
-        slave nodes' tributary lengths (None: no cap). Keeping the inside pair always
-        (reviewer `review18`) dropped a corner's overlap of 0.002 at a block's top end
-        for an open pair on the block's side (gap 0.02) or on a block stepped down, and
-        summed 0.08 + 0.1 on the side. Other nodes paired twice are left for the caller
-        to refuse."""
+        than 1e-9 of the node's lengths), its length the summed lengths of its pairs as
+        deep as that one (within the same 1e-9: the node's covered length where the
+        masters meet end to end), at most the node's tributary length. points (n, 2)
+        mesh coordinates; tributary (n,) the slave nodes' tributary lengths (None: no
+        cap). Keeping the inside pair always (reviewer `review18`) dropped a corner's
+        overlap of 0.002 at a block's top end for an open pair on the block's side (gap
+        0.02) or on a block stepped down, and gave it 0.08 + 0.1 on the side. Other
+        nodes paired twice are left for the caller to refuse."""
         pr = self.pairs
         if pr.n_pairs == 0:
             return self
@@ -127,7 +127,11 @@ class ContactConstraints:
         kept_at[inv[ends[first]]] = np.where(deeper_end[inv[ends[first]]], ends[first],
                                              kept_at[inv[ends[first]]])
         keep = ~shared | (idx == kept_at[inv])
-        length = np.where(shared, total[inv], pr.length)
+        # the lengths of the node's pairs as deep as the kept one (masters end to end)
+        g_kept = np.where(deeper_end, g_end, g_in)
+        level = shared & (pr.g0 <= g_kept[inv] + 1e-9 * total[inv])
+        length = np.where(shared, np.bincount(inv, weights=np.where(level, pr.length, 0.0),
+                                              minlength=n)[inv], pr.length)
         if tributary is not None:
             length = np.where(shared, np.minimum(length, tributary[pr.slave]), length)
         pairs = pr.select(keep)
