@@ -330,3 +330,65 @@ def test_a_slave_corner_just_past_a_joint_is_paired_once_on_the_master_it_lies_o
     assert [step["interfaces"][k]["n_pairs"] for k in "ab"] == [4, 1]
     upper = step["balance"]["bodies"]["upper"]
     np.testing.assert_allclose(upper["contact"][1], 8.0, rtol=1e-10)
+
+
+def corner_past_a_master_corner(second: str, overlap: float = 0.002) -> str:
+    """The upper block of `corner_past_a_joint` on one lower block [0, 1] (interface 'a' on
+    its top) whose corner it overhangs by 0.02, overlapping the top by `overlap`
+    (interference fit), interface 'b' on a second master the corner lies over but does
+    not touch: the block's right side ('side', an L: the corner 0.02 outside it) or a
+    block [1, 2] stepped 0.1 down ('step', search_distance 0.12 to reach it)."""
+    text = '[analysis]\nplane = "strain"\nmethod = "cs-fem"\nsd = 4\n[mesh]\nsize = 0.25\n'
+    text += rectangle_body("left", (0.0, 0.0), 1.0, 1.0, {"bottom": "left_base",
+                                                           "top": "left_top",
+                                                           "right": "left_right"})
+    text += '[[support]]\non = "left_base"\nux = 0.0\nuy = 0.0\n'
+    if second == "step":
+        text += rectangle_body("right", (1.0, 0.0), 1.0, 0.9,
+                               {"bottom": "right_base", "top": "right_top"})
+        text += '[[support]]\non = "right_base"\nux = 0.0\nuy = 0.0\n'
+    text += rectangle_body("upper", (0.22, 1.0 - overlap), 0.8, 0.4,
+                           {"bottom": "upper_bottom", "top": "upper_top",
+                            "left": "upper_left"}, extra="size = 0.2\n")
+    text += '[[load]]\non = "upper_top"\npressure = 10.0\n'
+    text += '[[support]]\non = "upper_left"\nux = 0.0\n'
+    masters = {"a": "left_top", "b": "left_right" if second == "side" else "right_top"}
+    for name, master in masters.items():
+        text += (f'[[interface]]\nname = "{name}"\nslave = "upper_bottom"\n'
+                 f'master = "{master}"\nmu = 0.3\nsearch_distance = 0.12\n'
+                 'discretisation = "node-to-segment"\ninterference = true\n')
+    return text
+
+
+@pytest.mark.parametrize("second", ["side", "step"])
+def test_a_slave_corner_overlapping_a_master_end_keeps_that_pair_over_an_open_one(
+        tmp_path, second):
+    """The corner overlaps the top's end line by 0.002 (its end pair, `end_overlaps`) and
+    lies within reach of a second master it does not touch (gap 0.02 to the block's side,
+    0.098 to a stepped block). `one_pair_per_node` kept the second master's pair, open,
+    and dropped the overlap (reviewer `review18`): the node was free to stay 0.002 inside
+    the top's corner, and its length read 0.18 with the side (0.08 + 0.1, more than the
+    node's tributary 0.1: the block's lengths summed to 0.88). Now the deepest pair is
+    kept with the lengths of the pairs as deep: the corner is paired on 'a' with g0
+    -0.002 and its length there, 0.08, as without 'b' (the lengths 0.78), and the
+    contact carries the load, 8."""
+    import h5py
+
+    cfg = tmp_path / "corner.toml"
+    cfg.write_text(corner_past_a_master_corner(second))
+    out = tmp_path / "out"
+    res = run_cli(["run", str(cfg), "--out", str(out), "--quiet"])
+    assert res.returncode == 0, res.stderr
+    with h5py.File(out / "step_0001.h5") as f:
+        c = {k: f["contact"][k][()] for k in ("position", "length", "slave", "interface",
+                                              "g0")}
+    assert np.unique(c["slave"]).size == c["slave"].size == 5
+    corner = np.isclose(c["position"][:, 0], 1.02)
+    assert c["interface"][corner].tolist() == [0]
+    np.testing.assert_allclose(c["g0"][corner], -0.002, rtol=1e-9)
+    np.testing.assert_allclose(c["length"].sum(), 0.78, rtol=1e-9)
+    np.testing.assert_allclose(c["length"][corner], 0.08, rtol=1e-9)
+    step = read_summary(out)["steps"][-1]
+    assert [step["interfaces"][k]["n_pairs"] for k in "ab"] == [5, 0]
+    np.testing.assert_allclose(step["balance"]["bodies"]["upper"]["contact"][1], 8.0,
+                               rtol=1e-10)

@@ -10,7 +10,7 @@ import scipy.sparse as sp
 from app.config import Config
 from app.contact.constraints import ContactConstraints
 from app.contact.discretisation import DEFAULT, contact_discretisation
-from app.contact.pairs import ContactPairs, constraint_matrix
+from app.contact.pairs import ContactPairs, constraint_matrix, tributary_length
 from app.contact.unpaired import paired_sides
 from app.errors import InputError
 from app.interface.floating import FloatingModes
@@ -52,8 +52,9 @@ class ContactSetup:
             described[itf.name] = {"discretisation": itf.discretisation or DEFAULT,
                                    "master_interpolation": found[-1].master_interpolation,
                                    "n_pairs": found[-1].n_pairs, "pairs_on": slave}
-        # a slave corner just past two masters' joint: once, on the master it lies over
-        rows = ContactConstraints.concatenate(found).one_pair_per_node(mesh.points)
+        # a slave corner just past two masters' joint: once, on the deepest of its pairs
+        rows = ContactConstraints.concatenate(found).one_pair_per_node(
+            mesh.points, _slave_tributaries(mesh, cfg))
         pairs = rows.pairs
         for i, itf in enumerate(cfg.interfaces):
             described[itf.name]["n_pairs"] = int(np.sum(pairs.interface == i))
@@ -107,6 +108,19 @@ class ContactSetup:
         """The rank-0 `ContactStepper` of these pairs over the load steps (c_mat: the
         (2m, 2m) compliance; see `ContactStepper`)."""
         return ContactStepper(self, c_mat, cases, unit, rhs, floating)
+
+
+def _slave_tributaries(mesh: Mesh, cfg: Config) -> np.ndarray:
+    """(n_nodes,) each slave-curve node's tributary length (half its curve edges, the
+    largest over the interfaces' slave curves; 0 elsewhere): what a node's pairs may
+    cover at most (`ContactConstraints.one_pair_per_node`). The builders checked the
+    curves exist."""
+    out = np.zeros(mesh.n_nodes)
+    for itf in cfg.interfaces:
+        nodes, length = tributary_length(np.asarray(mesh.points, dtype=float),
+                                         np.asarray(mesh.curves[itf.slave]))
+        out[nodes] = np.maximum(out[nodes], length)
+    return out
 
 
 def _shared_slave_message(mesh: Mesh, cfg: Config, pairs: ContactPairs, node: int) -> str:
