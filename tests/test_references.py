@@ -166,3 +166,24 @@ def test_timoshenko_compares_the_point_where_it_is():
     for x, y in ((12.0, 0.0), (5.0, 0.6), (-1.0, 0.0)):
         with pytest.raises(InputError, match="is not on the beam"):
             compare(x, y, tip)
+
+
+def test_cattaneo_overlay_left_out_where_the_errors_have_no_closed_form():
+    """|Q| > mu P (a bond's strength added to friction): the errors are NaN with a `note`
+    (no Cattaneo-Mindlin closed form), and the picture draws no Cattaneo q either (it drew
+    mu p as "Cattaneo-Mindlin" before); at gross slip up to round-off it draws mu p."""
+    import dataclasses
+
+    fig = _figures(0.2)
+    for scale, drawn in ((1.3, False), (1.0 + 1e-12, True)):
+        c = fig.contact
+        prof = dataclasses.replace(c, q=scale * 0.2 * c.p, q_force=scale * 0.2 * c.p_force)
+        out = reference("cattaneo").compare({"type": "cattaneo", "radius": 1.0},
+                                            dataclasses.replace(fig, contact=prof))
+        assert ("note" in out["cattaneo"]) is not drawn
+        curves = REFERENCES["cattaneo"].overlay(out, 0.2)
+        assert ("q" in curves) is drawn, scale
+        if drawn:
+            h = out["hertz"]
+            np.testing.assert_allclose(curves["q"][1](c.x),
+                                       0.2 * hertz_pressure(c.x, h["a_hertz"], h["p0_hertz"]))
