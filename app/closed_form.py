@@ -192,7 +192,7 @@ def cattaneo_errors(x: ArrayLike, p: ArrayLike, q: ArrayLike, length: ArrayLike,
                 "stick_half_width_exact": nan, "stick_half_width_rel_error": nan,
                 "stick_edges": [nan, nan], "traction_l2_rel_error": nan,
                 "traction_l2_interp_rel_error": nan,
-                "note": f"|Q| / (mu P) = {ratio:.6g} > 1: more than friction holds the "
+                "note": f"|Q| / (mu P) = 1 + {ratio - 1.0:.3g}: more than friction holds the "
                         "contact (a bond's strength?), no Cattaneo-Mindlin closed form"}
     r = 1.0 if ratio >= 1.0 - GROSS_SLIP_TOL else ratio  # round-off about mu P: gross slip
     c_exact = stick_half_width(a, r)

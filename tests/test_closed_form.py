@@ -114,6 +114,8 @@ def test_cattaneo_errors_above_mu_p_has_no_closed_form():
     assert math.isnan(e["stick_half_width_exact"])
     assert math.isnan(e["traction_l2_rel_error"])
     assert "mu P" in e["note"]
+    # just past the gross-slip band: the note shows by how much (it read "= 1 > 1")
+    assert "|Q| / (mu P) = 1 + 2e-08:" in _cattaneo_case(1.0 + 2e-8, stick_all=True)["note"]
 
 
 def test_plane_names_other_than_strain_and_stress_are_refused():

@@ -175,6 +175,10 @@ def test_a_path_beyond_mu_p_is_refused_with_a_note():
     m = mindlin_errors(x, 0 * x, np.full_like(x, x[1] - x[0]), Q_path=np.array([1.2 * MUP]),
                        P=P, mu=MU, R=1.0, E_star=ES)
     assert math.isnan(m["traction_l2_rel_error"]) and "not held" in m["note"]
+    # just past the gross-slip band: the note shows by how much (it read "= 1 > 1")
+    m = mindlin_errors(x, 0 * x, np.full_like(x, x[1] - x[0]),
+                       Q_path=np.array([(1.0 + 2e-8) * MUP]), P=P, mu=MU, R=1.0, E_star=ES)
+    assert "max |Q| / (mu P) = 1 + 2e-08 with P" in m["note"]
 
 
 def test_p_variation_counts_the_start_of_a_step_that_applies_q():

@@ -166,3 +166,38 @@ def test_timoshenko_compares_the_point_where_it_is():
     for x, y in ((12.0, 0.0), (5.0, 0.6), (-1.0, 0.0)):
         with pytest.raises(InputError, match="is not on the beam"):
             compare(x, y, tip)
+
+
+def test_cattaneo_overlay_left_out_where_the_errors_have_no_closed_form():
+    """|Q| > mu P (a bond's strength added to friction): the errors are NaN with a `note`
+    (no Cattaneo-Mindlin closed form), and the picture draws no Cattaneo q either (it drew
+    mu p as "Cattaneo-Mindlin" before); at gross slip up to round-off it draws mu p."""
+    import dataclasses
+
+    fig = _figures(0.2)
+    for scale, drawn in ((1.3, False), (1.0 + 1e-12, True)):
+        c = fig.contact
+        prof = dataclasses.replace(c, q=scale * 0.2 * c.p, q_force=scale * 0.2 * c.p_force)
+        out = reference("cattaneo").compare({"type": "cattaneo", "radius": 1.0},
+                                            dataclasses.replace(fig, contact=prof))
+        assert ("note" in out["cattaneo"]) is not drawn
+        curves = REFERENCES["cattaneo"].overlay(out, 0.2)
+        assert ("q" in curves) is drawn, scale
+        if drawn:
+            h = out["hertz"]
+            np.testing.assert_allclose(curves["q"][1](c.x),
+                                       0.2 * hertz_pressure(c.x, h["a_hertz"], h["p0_hertz"]))
+
+
+def test_an_interface_along_y_is_named_before_a_centre_off_its_x_span():
+    """The scene turned by 90 deg and moved to x = 5: center_x = 0 is off the pairs' x span
+    (5 to 5.02), but the cause is that the contact runs along y: that is the message (it
+    said "the contact centre must be on the interface", and center_x = 5 then met the
+    along-y error)."""
+    from app.references.hertz import pressure_errors
+
+    fig = _figures(0.0)
+    c = fig.contact
+    c.x, c.y = 5.0 + 1.0 - np.sqrt(1.0 - c.x**2), c.x.copy()
+    with pytest.raises(InputError, match="runs along y"):
+        pressure_errors({"radius": 1.0, "center_x": 0.0}, fig)

@@ -28,8 +28,11 @@ def read_pairs(path: Path, interface: int | str = 0, keys: tuple[str, ...] | Non
     `path`, sorted by x. interface: the 0-based index of its [[interface]] in config order,
     or its name (looked up in the summary.json beside `path`). keys: the arrays to read
     (default every per-pair array). ValueError for an interface or key the file does not
-    have (before, a name or a negative index read 0 pairs, and a key h5py's KeyError)."""
-    index = _interface_index(Path(path), interface)
+    have (before, a name or a negative index read 0 pairs, and a key h5py's KeyError).
+    An index that selects pairs reads the step file alone (the summary, which grows with
+    every step, is parsed for a name or for an index without pairs)."""
+    path = Path(path)
+    index = _interface_index(path, interface)
     with h5py.File(path) as f:
         c = f["contact"]
         sel = c["interface"][()] == index
@@ -38,20 +41,35 @@ def read_pairs(path: Path, interface: int | str = 0, keys: tuple[str, ...] | Non
         if missing:
             raise ValueError(f"{path}: no /contact dataset {missing}; it has {sorted(c)}")
         data = {k: c[k][()] for k in names}
+    if not sel.any():  # an interface without pairs at this step, or one past them all?
+        known, _ = _summary_names(path)
+        if known is not None and index >= len(known):
+            raise ValueError(_bad_index(interface, known))
     data = {k: v[sel] for k, v in data.items() if v.shape[:1] == sel.shape}
     order = np.argsort(data["x"]) if "x" in data else np.arange(int(sel.sum()))
     return {k: v[order] for k, v in data.items()}
 
 
-def _interface_index(path: Path, interface: int | str) -> int:
-    """The 0-based index of `interface` (an index, or a name in the summary.json beside
-    `path`: its `contact_interfaces` are in config order; an index past them is refused)."""
+def _summary_names(path: Path) -> tuple[list[str] | None, Exception | None]:
+    """The interface names of the summary.json beside `path` in config order (its
+    `contact_interfaces`), or None and why not."""
     try:
-        names = list(json.loads((path.parent / "summary.json").read_text())
-                     ["contact_interfaces"])
+        return list(json.loads((path.parent / "summary.json").read_text())
+                    ["contact_interfaces"]), None
     except (OSError, ValueError, KeyError, TypeError) as exc:
-        names, why = None, exc
+        return None, exc
+
+
+def _bad_index(interface: object, names: list[str] | None) -> str:
+    return (f"interface {interface!r}: pass a name or the 0-based index of the [[interface]]"
+            " in config order" + (f" ({len(names)} interfaces: {names})" if names else ""))
+
+
+def _interface_index(path: Path, interface: int | str) -> int:
+    """The 0-based index of `interface`: an index >= 0, or a name in the summary.json beside
+    `path` (its `contact_interfaces` are in config order)."""
     if isinstance(interface, str):
+        names, why = _summary_names(path)
         if names is None:
             raise ValueError(f"interface {interface!r}: no interface names beside {path} "
                              f"(summary.json: {why}); pass its 0-based index in config "
@@ -60,10 +78,8 @@ def _interface_index(path: Path, interface: int | str) -> int:
             raise ValueError(f"interface {interface!r} is not one of {names}")
         return names.index(interface)
     if isinstance(interface, bool) or not isinstance(interface, int | np.integer) \
-            or interface < 0 or (names is not None and interface >= len(names)):
-        raise ValueError(f"interface {interface!r}: pass a name or the 0-based index of the "
-                         "[[interface]] in config order"
-                         + (f" ({len(names)} interfaces: {names})" if names else ""))
+            or interface < 0:
+        raise ValueError(_bad_index(interface, _summary_names(path)[0]))
     return int(interface)
 
 

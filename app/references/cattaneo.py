@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from app.closed_form import cattaneo_errors, cattaneo_traction
+from app.closed_form import GROSS_SLIP_TOL, cattaneo_errors, cattaneo_traction
 from app.references.base import Reference, RunFigures
 from app.references.hertz import pressure_errors, pressure_overlay
 
@@ -30,7 +30,8 @@ def _errors(params: dict, run: RunFigures) -> dict:
 def _overlay(ref: dict, mu: float) -> dict:
     curves = pressure_overlay(ref, mu)
     h, ca = ref["hertz"], ref["cattaneo"]
-    if math.isfinite(ca.get("Q_over_muP", math.nan)):
+    # |Q| above mu P (a bond's strength added): no closed form, as in the errors' `note`
+    if ca.get("Q_over_muP", math.nan) <= 1.0 + GROSS_SLIP_TOL:
         sign = float(np.sign(ca["Q"])) or 1.0
         x0 = ref.get("center_x", 0.0)
         curves["q"] = ("Cattaneo-Mindlin", lambda x: sign * cattaneo_traction(

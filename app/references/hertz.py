@@ -13,6 +13,12 @@ def pressure_errors(params: dict, run: RunFigures) -> dict:
     """The `hertz` entry: p(x) of the first interface against Hertz at its total force."""
     c = run.contact
     x0 = params["center_x"]
+    # the along-y check first: it is the cause when center_x is off the x span, too
+    if c.y is not None and len(c.x) > 1 and float(np.ptp(c.y)) > float(np.ptp(c.x)):
+        raise InputError(f"[reference] measures p along x, but interface '{c.interface}' runs "
+                         f"along y (its pairs span x = {np.min(c.x):.4g} to {np.max(c.x):.4g}, "
+                         f"y = {np.min(c.y):.4g} to {np.max(c.y):.4g}): lay the contact along "
+                         "x, or leave [reference] out")
     # round-off of the pair coordinates is inside (one pair at x = -1.8e-16 and x0 = 0 failed
     # the run after its last step); 1e308 overflowed the contact edges to -inf before
     tol = 1e-9 * max(float(np.ptp(c.x)), float(np.abs(c.x).max()), params["radius"]) \
@@ -21,11 +27,6 @@ def pressure_errors(params: dict, run: RunFigures) -> dict:
         raise InputError(f"reference.center_x = {x0:g} lies outside interface "
                          f"'{c.interface}', whose pairs span x = {np.min(c.x):.4g} to "
                          f"{np.max(c.x):.4g}: the contact centre must be on the interface")
-    if c.y is not None and len(c.x) > 1 and float(np.ptp(c.y)) > float(np.ptp(c.x)):
-        raise InputError(f"[reference] measures p along x, but interface '{c.interface}' runs "
-                         f"along y (its pairs span x = {np.min(c.x):.4g} to {np.max(c.x):.4g}, "
-                         f"y = {np.min(c.y):.4g} to {np.max(c.y):.4g}): lay the contact along "
-                         "x, or leave [reference] out")
     return {"interface": c.interface, "center_x": params["center_x"],
             "hertz": hertz_errors(c.x, c.p, c.length, P=float(c.p_force.sum()),
                                   R=params["radius"], E_star=c.E_star,

@@ -185,8 +185,9 @@ def mindlin_errors(x: ArrayLike, q: ArrayLike, length: ArrayLike, *, Q_path: np.
     if r_max > 1.0 + GROSS_SLIP_TOL:
         return {"Q_over_muP": r_max, "traction_l2_rel_error": nan,
                 "traction_l2_interp_rel_error": nan, "stick_half_width_rel_error": nan,
-                "dissipation_exact": nan, "note": f"max |Q| / (mu P) = {r_max:.6g} > 1 with P "
-                "of the last step: P was not held, no closed form"}
+                "dissipation_exact": nan,
+                "note": f"max |Q| / (mu P) = 1 + {r_max - 1.0:.3g} with P of the last step: "
+                "P was not held, no closed form"}
     gross = np.flatnonzero(np.abs(Q_path) >= mu_P * (1.0 - GROSS_SLIP_TOL))
     Q_path = np.clip(Q_path, -mu_P, mu_P)  # round-off above mu P is mu P
     terms, work, slip = masing_path(Q_path, lambda s: float(
