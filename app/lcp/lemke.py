@@ -43,6 +43,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 import scipy.linalg as sla
+import scipy.sparse as sp
 
 from app.lcp.check_product import CheckProduct
 from app.lcp.crash import (
@@ -121,9 +122,14 @@ def _validate(M, q, sample: bool = False, cache: MatrixCache | None = None
     0 x inf and 0 x nan are nan), else by this function without sample, before any
     answer is returned or Lemke pivots. cache: M's `MatrixCache` (the probe and M's
     finiteness are kept; q is checked every time)."""
+    if np.iscomplexobj(M) or np.iscomplexobj(q):  # (float() would drop the imaginary part)
+        raise ValueError("M and q must be real (got complex entries)")
     if cache is None or M is not cache.M:  # (cache.M is float64: no new view of it)
         M = np.asarray(M, dtype=float)
-    q = np.asarray(q, dtype=float).reshape(-1)
+    q = np.asarray(q, dtype=float)
+    if q.ndim != 1 and not (q.ndim == 2 and q.shape[1] == 1):
+        raise ValueError(f"q must be 1-D, shape (n,) or (n, 1), got shape {q.shape}")
+    q = q.reshape(-1)
     n = q.size
     if M.shape != (n, n):
         raise ValueError(f"M must be ({n}, {n}) to match q of length {n}, got {M.shape}")
@@ -417,8 +423,13 @@ def _checked_knobs(tol: float | None, max_pivots: int | None, n: int) -> tuple[f
 
 
 def _given_basis(basis, n: int) -> np.ndarray:
-    """The warm-start basis as (n,) bool; ValueError on another shape."""
-    B0 = np.asarray(basis, dtype=bool).reshape(-1)
+    """The warm-start basis as (n,) bool; ValueError on another shape, or on entries
+    other than True/False (or 1/0)."""
+    raw = np.asarray(basis)
+    if raw.dtype != bool and not (raw.dtype.kind in "iuf" and np.isin(raw, (0, 1)).all()):
+        raise ValueError("basis must be an (n,) bool array (True where z_i is basic), got "
+                         f"dtype {raw.dtype} with entries other than True/False")
+    B0 = raw.astype(bool).reshape(-1)
     if B0.shape != (n,):
         raise ValueError(f"basis must have shape ({n},), got {B0.shape}")
     return B0
@@ -547,6 +558,12 @@ def _solve(core, M, q, max_pivots, tol, basis, cold_start, crash,
     of `app.lcp.recovery.recover` (restart from the final basis, the balanced LCP, the
     basis repair; the first result stands when every one fails). cache: `lemke`'s (it
     serves every run on the caller's M, none on a balanced copy)."""
+    if sp.issparse(M):  # a dense solver: densified once here
+        M = M.toarray()
+    if max_pivots is not None and (isinstance(max_pivots, bool | np.bool_)
+                                   or not isinstance(max_pivots, int | np.integer)
+                                   or max_pivots < 0):
+        raise ValueError(f"max_pivots must be an integer >= 0 or None, got {max_pivots!r}")
     if cache is not None and cache.M is not M:
         raise ValueError("cache: this MatrixCache was made for another matrix (pass the "
                          "array it was made for, or a new MatrixCache(M))")
@@ -578,9 +595,11 @@ def lemke(
 ) -> LCPResult:
     """Solve LCP(M, q): z >= 0, w = M z + q >= 0, z.w = 0, by Lemke's method.
 
-    M: (n, n) float array (need not be symmetric); q: (n,).
-    max_pivots: pivot budget, default `default_max_pivots(n)` (50 n + 100 + 2^min(n, 20));
-        when it is used up the status is "pivot limit" and z, w are the last iterate.
+    M: (n, n) real array (need not be symmetric; a scipy.sparse matrix is densified);
+        q: (n,) or (n, 1), real. Another shape, complex or non-finite entries: ValueError.
+    max_pivots: an integer >= 0 (else ValueError), the pivot budget, default
+        `default_max_pivots(n)` (50 n + 100 + 2^min(n, 20)); when it is used up the
+        status is "pivot limit" and z, w are the last iterate.
     tol: relative tolerance of the final check, default 1e-9 (positive and finite, else
         ValueError). With the row sizes
         s_i = |q_i| + sum_j |M_ij| z_j (the size of the terms that make w_i), a returned
@@ -591,9 +610,10 @@ def lemke(
         diagonal scaling's units, so that a row whose terms cancel at round-off level
         passes; a q_i that small against the rest of the scaled LCP (e.g. 1e-15 x the
         others where M_ii differs by 1e30) may so be left violated. z and w are finite.
-    basis: optional (n,) bool warm start, True where z_i is guessed basic (for example
-        `LCPResult.basis` of a previous call with the same M and a nearby q). If the
-        complementary basis it names is feasible (z_B = -M_BB^-1 q_B >= 0, w >= 0, checked)
+    basis: optional (n,) bool warm start (0/1 accepted, other values a ValueError), True
+        where z_i is guessed basic (for example `LCPResult.basis` of a previous call with
+        the same M and a nearby q). If the complementary basis it names is feasible
+        (z_B = -M_BB^-1 q_B >= 0, w >= 0, checked)
         the answer comes back with 0 pivots. Otherwise Lemke runs from that basis (the
         principal pivot transform of the LCP on B, covering vector 1 in transformed
         variables); if that fails (singular M_BB, secondary ray, pivot limit) a cold start

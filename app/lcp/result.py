@@ -6,10 +6,18 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["STATUSES", "DEFAULT_TOL", "LCPResult", "default_max_pivots"]
+__all__ = ["STATUSES", "WARM_STARTS", "DEFAULT_TOL", "LCPResult", "default_max_pivots"]
 
-STATUSES = ("solved", "secondary ray", "pivot limit", "inaccurate")
-"""Possible `LCPResult.status` values ("inaccurate": a candidate failed the final check)."""
+STATUSES = ("solved", "secondary ray", "pivot limit", "inaccurate", "warm start failed")
+"""Possible `LCPResult.status` values ("inaccurate": a candidate failed the final check;
+"warm start failed": a basis with cold_start=False that did not solve the LCP)."""
+
+WARM_STARTS = ("none", "accepted", "crash", "crash+lemke", "lemke", "cold", "qp", "failed")
+"""Possible `LCPResult.warm_start` values: "none" (q >= 0, or the textbook start without a
+basis), "accepted" (the given basis solved it), "crash" (the crash guess, or block pivoting
+from the given basis, solved it), "crash+lemke" (Lemke pivoted from the crash guess),
+"lemke" (Lemke pivoted from the given basis), "cold" (a textbook start followed a failed
+start), "qp" (the recovery's start from the convex QP), "failed" (cold_start=False)."""
 
 DEFAULT_TOL = 1e-9
 """Default relative tolerance of the final check (see `lemke`)."""
@@ -33,7 +41,8 @@ class LCPResult:
     including a failed warm start). status: one of `STATUSES`. complementarity: max_i
     |z_i w_i| of the returned pair. basis: (n,) bool, True where z_i is basic at the end;
     pass it as ``basis=`` to a later call with the same M. message: human readable summary.
-    warm_start: what happened to a given ``basis`` ("none", "accepted", "lemke", "cold").
+    warm_start: how the answer was started, one of `WARM_STARTS` ("none", "accepted",
+    "crash", "crash+lemke", "lemke", "cold", "qp", "failed").
     """
 
     z: np.ndarray
