@@ -19,6 +19,7 @@ import numpy as np
 from petsc4py import PETSc
 
 from app import exit_sync, hard_stop
+from app.assembly.loads import check_groups_before_meshing
 from app.config import _override_value, load_config
 from app.errors import InputError, SolveError
 from app.output.batch_guard import BatchGuard
@@ -232,6 +233,7 @@ def _try_combination(sweep: Sweep, ro: RunOptions, params: dict) -> dict | None:
     try:
         cfg = load_config(sweep.config, ro.overrides)
         report_step(sweep.at_step, cfg.n_steps)
+        check_groups_before_meshing(cfg)  # this run's names (app/cli.py checks no base's)
         return run(cfg, ro)
     except (InputError, SolveError) as exc:
         if not exit_sync.failed_together():
