@@ -295,3 +295,21 @@ def test_a_sweep_over_a_supports_group_checks_each_runs_name(tmp_path):
     # rejected before its run, as a value the config checks reject: no run_001 (before
     # this check, the run meshed and failed there, leaving run_001/summary.json)
     assert not (tmp_path / "run_001").exists() and (tmp_path / "run_000").is_dir()
+
+
+def test_a_sweep_of_a_scene_without_interfaces_has_a_row_per_run(tmp_path):
+    """sweep.csv has one row per combination and interface: a scene without [[interface]]
+    (cantilever.toml) had none, so its completed runs left an empty sweep.csv and a
+    summary.json of `rows` 0, and an interrupted sweep would have counted them as not
+    run. Now each completed run has its row (no interface: its DOFs and seconds)."""
+    res = run_cli(["study", str(CONFIGS / "cantilever.toml"), "--sweep",
+                   "body.beam.E=1000.0,2000.0", "--mesh-size", "1.0", "--out", str(tmp_path),
+                   "--quiet"])
+    assert res.returncode == 0, res.stderr
+    rows = read_csv(tmp_path / "sweep.csv")
+    assert [(r["body.beam.E"], r["status"], r["interface"]) for r in rows] == [
+        ("1000.0", "completed", ""), ("2000.0", "completed", "")]
+    n_dofs = read_summary(tmp_path / "run_000")["n_dofs"]
+    assert [int(r["n_dofs"]) for r in rows] == [n_dofs, n_dofs] and n_dofs > 0
+    assert read_summary(tmp_path)["rows"] == 2
+    assert not list(tmp_path.glob("*.png"))  # no contact figures: no empty panels drawn

@@ -282,7 +282,9 @@ def _record_run(s: dict, params: dict, at_step: int, rows: list[dict],
     and sweep_steps.csv into `out` (rank 0; None elsewhere)."""
     steps = step_rows(s)
     all_steps.extend({**params, **r} for r in steps)
-    for name in dict.fromkeys(r["interface"] for r in steps):
+    # a scene without [[interface]]: one row all the same (before, none: its completed
+    # runs were missing from sweep.csv, and an interrupted sweep counted them not run)
+    for name in dict.fromkeys(r["interface"] for r in steps) or [""]:
         mine = [r for r in steps if r["interface"] == name]
         rows.append({**params, "status": "completed", "interface": name,
                      "n_dofs": s["n_dofs"], "t_total": s["timings"]["total"],
@@ -333,7 +335,8 @@ def plot_sweep(rows: list[dict], keys: list[str], out: Path, at_step: int = 0) -
     = quantity, line style = interface and combination of the other keys."""
     plt = pyplot()
 
-    ok = [r for r in rows if r.get("status") == "completed"]
+    # (a run without interfaces has a row, and no contact figures to draw)
+    ok = [r for r in rows if r.get("status") == "completed" and r.get("interface")]
     when = report_label(ok, at_step)
     paths = []
     for key in keys:
