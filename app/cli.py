@@ -317,7 +317,10 @@ def _study_rows(args, batch) -> tuple[list[dict], Path]:
                          "method at --refine; set analysis.method / analysis.sd with --set)")
     finest = (args.refine if args.sweep
               else args.first_level + args.levels - 1 + args.reference_levels)
-    scale = check_run_input(cfg, args, finest, _study_runs(args, finest))
+    # a sweep's runs are checked each for its groups (app/studies/sweep.py): the swept
+    # key may replace the base config's name in every run (a template's placeholder)
+    scale = check_run_input(cfg, args, finest, _study_runs(args, finest),
+                            groups=not args.sweep)
     if args.sweep:
         from app.studies.sweep import parse_sweeps, run_sweep
 
@@ -420,16 +423,18 @@ def _print_bracket(b: dict | None) -> None:
               "relative", file=sys.stderr)
 
 
-def check_run_input(cfg, args, finest_level: int = 0, runs: list[float] | None = None
-                    ) -> float:
+def check_run_input(cfg, args, finest_level: int = 0, runs: list[float] | None = None,
+                    groups: bool = True) -> float:
     """Checks of the command line against the config before any work; returns the mesh
     size scale (--mesh-size / mesh.size). Raises InputError (one line). `runs`: a
-    study's runs, each as its DOFs over the finest level's (the disk check)."""
+    study's runs, each as its DOFs over the finest level's (the disk check). groups:
+    whether the supports' and loads' groups are checked (False: a sweep's, run by run)."""
     from app.assembly.loads import check_groups_before_meshing
     from app.parallel import rank0_call
     from app.petsc_options import check_log_view_file, check_solver_options
 
-    check_groups_before_meshing(cfg)  # (the config's own: alike on every rank)
+    if groups:
+        check_groups_before_meshing(cfg)  # (the config's own: alike on every rank)
     check_solver_options(cfg.petsc)
     check_log_view_file(cfg.petsc)  # (collective: rank 0 judges, all drop a bad -log_view)
     return rank0_call(_judged_run_input, cfg, args, finest_level, runs)

@@ -168,3 +168,10 @@ def test_a_study_removes_links_under_its_names_instead_of_writing_through(tmp_pa
     assert sorted(str(p.relative_to(elsewhere)) for p in elsewhere.rglob("*")) == ["mc", "r0"]
     assert not any(p.is_symlink() for p in out.iterdir())
     assert json.loads((out / "run_000" / "summary.json").read_text())["status"] == "completed"
+    # a link the user may have made on purpose (run_000 or mesh_cache on another disk) is
+    # not removed silently: a warning names each link and its target (before, none)
+    line = f"mesh_cache -> {elsewhere / 'mc'}, run_000 -> {elsewhere / 'r0'}"
+    assert res.stderr.count("warning: removed the links ") == 1
+    assert line in res.stderr and "--out" in res.stderr.split("warning: removed")[1]
+    warned = json.loads((out / "summary.json").read_text()).get("warnings", [])
+    assert [w for w in warned if w.startswith("removed the links ") and line in w]

@@ -275,3 +275,41 @@ def test_a_value_swept_twice_is_an_error_naming_it():
         with pytest.raises(InputError, match=re.escape(same)):
             parse_sweeps([item])
     assert parse_sweeps(['k="1",1']) == [("k", ['"1"', "1"])]  # text and number differ
+
+
+def test_a_sweep_over_a_supports_group_checks_each_runs_name(tmp_path):
+    """The config's support names are checked before meshing (app/assembly/loads.py
+    check_groups_before_meshing): for a sweep, each run's, not the base config's, which
+    the swept key replaces in every run (a template's placeholder; before, the whole sweep
+    was refused: `error: support on 'PLACEHOLDER': unknown group`). A swept name that is
+    no group fails its run alone, before its mesh."""
+    res = run_cli(["study", str(CONFIGS / "patch.toml"), "--set",
+                   'support.0.on="PLACEHOLDER"', "--sweep",
+                   'support.0.on="lower_base","nope"', "--mesh-size", "1.0", "--out",
+                   str(tmp_path), "--quiet"])
+    assert res.returncode == 0, res.stderr
+    rows = read_csv(tmp_path / "sweep.csv")
+    assert [(r["support.0.on"], r["status"]) for r in rows] == [("lower_base", "completed"),
+                                                                ("nope", "failed")]
+    assert rows[1]["error"].startswith("support on 'nope': unknown group 'nope' (curves: [")
+    # rejected before its run, as a value the config checks reject: no run_001 (before
+    # this check, the run meshed and failed there, leaving run_001/summary.json)
+    assert not (tmp_path / "run_001").exists() and (tmp_path / "run_000").is_dir()
+
+
+def test_a_sweep_of_a_scene_without_interfaces_has_a_row_per_run(tmp_path):
+    """sweep.csv has one row per combination and interface: a scene without [[interface]]
+    (cantilever.toml) had none, so its completed runs left an empty sweep.csv and a
+    summary.json of `rows` 0, and an interrupted sweep would have counted them as not
+    run. Now each completed run has its row (no interface: its DOFs and seconds)."""
+    res = run_cli(["study", str(CONFIGS / "cantilever.toml"), "--sweep",
+                   "body.beam.E=1000.0,2000.0", "--mesh-size", "1.0", "--out", str(tmp_path),
+                   "--quiet"])
+    assert res.returncode == 0, res.stderr
+    rows = read_csv(tmp_path / "sweep.csv")
+    assert [(r["body.beam.E"], r["status"], r["interface"]) for r in rows] == [
+        ("1000.0", "completed", ""), ("2000.0", "completed", "")]
+    n_dofs = read_summary(tmp_path / "run_000")["n_dofs"]
+    assert [int(r["n_dofs"]) for r in rows] == [n_dofs, n_dofs] and n_dofs > 0
+    assert read_summary(tmp_path)["rows"] == 2
+    assert not list(tmp_path.glob("*.png"))  # no contact figures: no empty panels drawn

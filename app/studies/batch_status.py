@@ -21,8 +21,10 @@ app/cli.py with this summary's first keys): it writes `interrupted` and stops at
 
 from __future__ import annotations
 
+import contextlib
 import datetime
 import json
+import os
 import sys
 import time
 from collections.abc import Callable
@@ -85,6 +87,17 @@ def kept_line(kept: list[Path]) -> str:
             "folder does)")
 
 
+def removed_links_line(out: Path, removed: list[str]) -> str:
+    """The warning for the links under a study's names that it removed from OUT
+    (`NAME -> TARGET` each; out_owner.planted_links): a user may have made one on purpose
+    (run_000 or mesh_cache on another disk), and it went without a word before."""
+    shown = ", ".join(removed[:5]) + (f" and {len(removed) - 5} more" if len(removed) > 5
+                                      else "")
+    return (f"removed the links {shown} from {out} (their targets are untouched): a study "
+            "writes its files, run folders and mesh_cache inside OUT, never through a "
+            "link; to put a study on another disk, give --out there")
+
+
 class BatchStatus:
     """Context manager around a `study` command: its summary.json in OUT on every exit.
 
@@ -128,23 +141,30 @@ class BatchStatus:
                 raise InputError(foreign_message(out, foreign))
             clear_earlier_study(out)
             status.clear_files(out)
+            removed = []
             for link in planted_links(out):  # a study's names: not written through
-                link.unlink(missing_ok=True)
+                with contextlib.suppress(OSError):
+                    target = os.readlink(link)
+                    link.unlink()
+                    removed.append(f"{link.name} -> {target}")
             self._lock = lock
-            return copied_runs(out)
+            return copied_runs(out), removed
 
         try:
-            kept = collective(take)
+            kept, removed = collective(take)
         except InputError:  # every rank: no failed summary.json over the holder's
             self._refused = True
             raise
         self.summary = {**self.head(), "provenance": provenance(
             cfg.raw, self.overrides, PETSc.COMM_WORLD.getSize()),
             "timings": shared_start(self.launched, self.started, time.perf_counter())}
-        if kept:
-            self.summary["warnings"] = [kept_line(kept)]
+        warnings = ([kept_line(kept)] if kept else []) + \
+            ([removed_links_line(out, removed)] if removed else [])
+        if warnings:
+            self.summary["warnings"] = warnings
             if self.rank == 0:
-                print(f"warning: {kept_line(kept)}", file=sys.stderr)
+                for line in warnings:
+                    print(f"warning: {line}", file=sys.stderr)
         self.out = out
         status.on_stop(self._stopped)
         hard_stop.add_extra(self._hard_stop_text)

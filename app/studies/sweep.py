@@ -19,6 +19,7 @@ import numpy as np
 from petsc4py import PETSc
 
 from app import exit_sync, hard_stop
+from app.assembly.loads import check_groups_before_meshing
 from app.config import _override_value, load_config
 from app.errors import InputError, SolveError
 from app.output.batch_guard import BatchGuard
@@ -232,6 +233,7 @@ def _try_combination(sweep: Sweep, ro: RunOptions, params: dict) -> dict | None:
     try:
         cfg = load_config(sweep.config, ro.overrides)
         report_step(sweep.at_step, cfg.n_steps)
+        check_groups_before_meshing(cfg)  # this run's names (app/cli.py checks no base's)
         return run(cfg, ro)
     except (InputError, SolveError) as exc:
         if not exit_sync.failed_together():
@@ -280,7 +282,9 @@ def _record_run(s: dict, params: dict, at_step: int, rows: list[dict],
     and sweep_steps.csv into `out` (rank 0; None elsewhere)."""
     steps = step_rows(s)
     all_steps.extend({**params, **r} for r in steps)
-    for name in dict.fromkeys(r["interface"] for r in steps):
+    # a scene without [[interface]]: one row all the same (before, none: its completed
+    # runs were missing from sweep.csv, and an interrupted sweep counted them not run)
+    for name in dict.fromkeys(r["interface"] for r in steps) or [""]:
         mine = [r for r in steps if r["interface"] == name]
         rows.append({**params, "status": "completed", "interface": name,
                      "n_dofs": s["n_dofs"], "t_total": s["timings"]["total"],
@@ -331,7 +335,8 @@ def plot_sweep(rows: list[dict], keys: list[str], out: Path, at_step: int = 0) -
     = quantity, line style = interface and combination of the other keys."""
     plt = pyplot()
 
-    ok = [r for r in rows if r.get("status") == "completed"]
+    # (a run without interfaces has a row, and no contact figures to draw)
+    ok = [r for r in rows if r.get("status") == "completed" and r.get("interface")]
     when = report_label(ok, at_step)
     paths = []
     for key in keys:
