@@ -619,9 +619,9 @@ def _config_text(data: bytes, p: Path) -> str:
     return data.decode("utf-8-sig")
 
 
-def load_config(path: str | Path, overrides: list[str] | None = None) -> Config:
-    """Read and check a TOML scene file; `overrides` are `--set KEY=VALUE` strings."""
-    p = Path(path)
+def _read_config_text(p: Path) -> str:
+    """The config file's text, checked (a regular file, at most MAX_CONFIG_BYTES, UTF-8);
+    InputError (one line) if not."""
     kind = path_kind(p, "config file")
     if kind is None:
         raise InputError(f"config file '{p}' does not exist")
@@ -633,19 +633,45 @@ def load_config(path: str | Path, overrides: list[str] | None = None) -> Config:
         if len(data) > MAX_CONFIG_BYTES:
             raise InputError(f"config file '{p}' is larger than {MAX_CONFIG_BYTES >> 20} MB: "
                              "a scene needs far less (a mesh goes in mesh.file)")
-        raw = tomllib.loads(_config_text(data, p))
-    except tomllib.TOMLDecodeError as exc:
-        raise InputError(f"config file '{p}' is not valid TOML: {exc}") from None
+        return _config_text(data, p)
     except UnicodeDecodeError as exc:
         raise InputError(f"config file '{p}' is not UTF-8 text (byte {exc.start}): save it "
                          "as UTF-8") from None
+    except OSError as exc:
+        raise InputError(f"config file '{p}' cannot be read: {exc.strerror}") from None
+
+
+def shared_config_text(p: Path) -> str:
+    """_read_config_text on rank 0, its text (or InputError) every rank's once PETSc has
+    started (app.parallel.rank0_call); read here otherwise (a script, a test). Before,
+    every rank read the file itself: with ranks whose file systems differ (nodes without a
+    shared one, ranks started in other folders: a relative path), the rank that did not
+    find it refused alone while rank 0 ran, and the job ended 35 s later with
+    OUT/summary.json still `running` (tests/test_input_checks_ranks.py). Every rank parses the
+    same text, so `--set` and the checks see the same scene."""
+    import sys
+
+    if "petsc4py.PETSc" not in sys.modules:  # (importing it would start PETSc)
+        return _read_config_text(p)
+    from app.parallel import rank0_call
+
+    return rank0_call(_read_config_text, p)
+
+
+def load_config(path: str | Path, overrides: list[str] | None = None) -> Config:
+    """Read and check a TOML scene file; `overrides` are `--set KEY=VALUE` strings. The
+    file is read on rank 0 (shared_config_text)."""
+    p = Path(path)
+    text = shared_config_text(p)
+    try:
+        raw = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(f"config file '{p}' is not valid TOML: {exc}") from None
     except ValueError:  # int(): more than 4300 digits (sys.get_int_max_str_digits)
         raise InputError(f"config file '{p}' has an integer of more than "
                          f"{INT64_DIGITS} digits: TOML integers are 64-bit") from None
     except RecursionError:  # tomllib recurses per nested array or inline table
         raise InputError(f"config file '{p}' nests arrays or tables too deeply") from None
-    except OSError as exc:
-        raise InputError(f"config file '{p}' cannot be read: {exc.strerror}") from None
     check_values(raw, f"config file '{p}': ")
     check_config_file_petsc(raw.get("petsc"), p)  # the file's own table, before --set
     if overrides:

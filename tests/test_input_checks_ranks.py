@@ -127,3 +127,30 @@ def test_history_file_is_judged_by_rank_0(tmp_path):
     assert res.returncode == 0, res.stderr
     assert read_summary(out)["status"] == "completed"
     assert (a / "sub" / "h.txt").stat().st_size > 0 and list(b.iterdir()) == []
+
+
+def test_the_config_file_is_read_by_rank_0(tmp_path):
+    """A relative config path with the file only where rank 0 starts (nodes without a
+    shared file system): before, rank 1 refused alone (`config file 'c.toml' does not
+    exist (rank 1; the other ranks did not fail)`) and the job ended 35 s later, exit 2,
+    with OUT/summary.json still `running`. Rank 0 reads it and every rank parses its
+    text; without it on rank 0, one line, exit 2, summary.json `failed`."""
+    from support import CONFIGS
+
+    a, b = tmp_path / "a", tmp_path / "b"
+    a.mkdir()
+    b.mkdir()
+    (a / "c.toml").write_text((CONFIGS / "patch.toml").read_text())
+    args = ["run", "c.toml", "--out", "o", "--quiet", "--mesh-size", "0.5",
+            "--set", "analysis.steps=1"]
+    res = _mpmd([a, b], args)
+    assert res.returncode == 0, res.stderr
+    summary = read_summary(a / "o")
+    assert summary["status"] == "completed" and len(summary["steps"]) == 1
+    assert list(b.iterdir()) == []
+    res = _mpmd([b, a], args)  # now rank 0 has no c.toml: refused, once, recorded
+    assert res.returncode == 2
+    errors = [ln for ln in res.stderr.splitlines() if ln.startswith("error:")]
+    assert errors == ["error: config file 'c.toml' does not exist"], res.stderr
+    summary = read_summary(b / "o")
+    assert summary["status"] == "failed" and "c.toml" in summary["error"]
