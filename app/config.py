@@ -146,8 +146,8 @@ def _tables(raw: dict, key: str) -> list[dict]:
 MAX_ENTRIES = {"body": 1000, "interface": 1000, "support": 2000, "load": 2000}
 """Most [[body]], [[interface]], [[support]] and [[load]] entries: the set-up, meshing
 and each step's output grow with them (5000 bodies, supports and loads took 47 s before a
-support's unknown group was reported; 1000 bodies with a support and a load each run in
-16 s, README "Input checks"). The shipped scenes have at most 5 bodies and 11 supports."""
+support's unknown group was reported; 1000 bodies at the bound run, README "Input checks"
+gives the measured time). The shipped scenes have at most 5 bodies and 11 supports."""
 
 
 def _check_counts(raw: dict) -> None:
@@ -612,10 +612,13 @@ polygon about 400 kB. Before, a config's size had no bound: a 4.4 MB file listin
 def _config_text(data: bytes, p: Path) -> str:
     """The file's text: UTF-8, a leading UTF-8 byte order mark dropped (Windows editors
     write one; before, it read as `not valid TOML: Invalid statement (at line 1, column
-    1)`); a UTF-16 one is named (UnicodeDecodeError otherwise)."""
-    if data.startswith((b"\xff\xfe", b"\xfe\xff")):
-        raise InputError(f"config file '{p}' is UTF-16 text (it starts with a UTF-16 byte "
-                         "order mark): save it as UTF-8")
+    1)`); a UTF-16 or UTF-32 one is named (UnicodeDecodeError otherwise; UTF-32 LE's mark
+    starts with UTF-16 LE's, so it is tested first)."""
+    for name, marks in (("UTF-32", (b"\xff\xfe\x00\x00", b"\x00\x00\xfe\xff")),
+                        ("UTF-16", (b"\xff\xfe", b"\xfe\xff"))):
+        if data.startswith(marks):
+            raise InputError(f"config file '{p}' is {name} text (it starts with a {name} "
+                             "byte order mark): save it as UTF-8")
     return data.decode("utf-8-sig")
 
 

@@ -146,9 +146,9 @@ def test_too_many_bodies_in_a_run_fails_with_a_summary(tmp_path):
     assert read_summary(out)["status"] == "failed"
 
 
-def test_a_utf8_byte_order_mark_is_read_and_utf16_is_named(tmp_path):
+def test_a_utf8_byte_order_mark_is_read_and_utf16_and_utf32_are_named(tmp_path):
     """Before: a UTF-8 BOM (Windows editors) read as `not valid TOML: Invalid statement
-    (at line 1, column 1)`, and UTF-16 as `not UTF-8 text (byte 0)`."""
+    (at line 1, column 1)`, and UTF-16 as `not UTF-8 text (byte 0)`; UTF-32 LE then read as UTF-16."""
     cfg = tmp_path / "bom.toml"
     cfg.write_bytes(b"\xef\xbb\xbf" + PATCH.encode())
     assert load_config(cfg).body_names == ["lower", "upper"]
@@ -161,5 +161,11 @@ def test_a_utf8_byte_order_mark_is_read_and_utf16_is_named(tmp_path):
         text = PATCH.encode(encoding)
         cfg.write_bytes(text if encoding == "utf-16" else b"\xfe\xff" + text)
         with pytest.raises(InputError, match=r"is UTF-16 text \(it starts with a UTF-16 "
+                                             r"byte order mark\): save it as UTF-8$"):
+            load_config(cfg)
+    for encoding in ("utf-32", "utf-32-be"):  # UTF-32 LE's mark starts as UTF-16 LE's
+        text = PATCH.encode(encoding)
+        cfg.write_bytes(text if encoding == "utf-32" else b"\x00\x00\xfe\xff" + text)
+        with pytest.raises(InputError, match=r"is UTF-32 text \(it starts with a UTF-32 "
                                              r"byte order mark\): save it as UTF-8$"):
             load_config(cfg)

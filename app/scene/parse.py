@@ -255,7 +255,7 @@ def _body(b: dict, i: int, size: float, need_shapes: bool, named: dict[str, np.n
     return spec
 
 
-def _listed(names: list[str], most: int = 12) -> str:
+def listed(names: list[str], most: int = 12) -> str:
     """The names, comma-separated; of more than `most`, the first ones and the last (a
     10,000-corner polygon's error line listed all its sides, 119 kB)."""
     if len(names) <= most:
@@ -270,7 +270,7 @@ def _check_curves(curves: dict, valid: list[str], kind: str, name: str, where: s
         if side not in valid:
             raise InputError(
                 f"{where}curves.{side} is not a side of a {kind}"
-                f"{suggestion(side, valid)} (sides: {_listed(valid)})"
+                f"{suggestion(side, valid)} (sides: {listed(valid)})"
             )
         if not isinstance(cname, str) or not cname:
             raise InputError(f"{where}curves.{side} must be a curve name (got {cname!r})")
