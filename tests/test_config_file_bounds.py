@@ -148,7 +148,8 @@ def test_too_many_bodies_in_a_run_fails_with_a_summary(tmp_path):
 
 def test_a_utf8_byte_order_mark_is_read_and_utf16_and_utf32_are_named(tmp_path):
     """Before: a UTF-8 BOM (Windows editors) read as `not valid TOML: Invalid statement
-    (at line 1, column 1)`, and UTF-16 as `not UTF-8 text (byte 0)`; UTF-32 LE then read as UTF-16."""
+    (at line 1, column 1)`, and UTF-16 as `not UTF-8 text (byte 0)`; then UTF-32 LE read as
+    UTF-16."""
     cfg = tmp_path / "bom.toml"
     cfg.write_bytes(b"\xef\xbb\xbf" + PATCH.encode())
     assert load_config(cfg).body_names == ["lower", "upper"]
