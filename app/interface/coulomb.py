@@ -684,8 +684,10 @@ class ContactLCP:
         judged beyond its own round-off, 4 eps max(|tau|, |tau_prev|), too. A floating
         body's T alpha is its whole slide (alpha is not the step's): with tau_free -
         tau_prev one term, the step's rigid motion, and 4 eps |T| |alpha| in that
-        round-off (one slid 1e4 hid a gap or motion of 1e-7, reviewer `review19`); q's
-        `_q_reach` keeps it a term (H times its round-off reaches beyond 1 / C_tt,ii).
+        round-off (one slid 1e4 hid a gap or motion of 1e-7, reviewer `review19`); q,
+        H times the LCP's constant less T alpha, carries |H| times that round-off beside
+        `_q_reach` of the step's motion (T alpha a term of it hid a sticking q 1e-4 over
+        its bound at 1e4).
         Round-off of the condensed LCP (`_polished`); elsewhere Lemke's answer is kept
         as it is."""
         m, f = self.m, self.fric
@@ -709,8 +711,10 @@ class ContactLCP:
         tol_t = tol + round_t
         bound = c + mu * sol.p
         forces = np.abs(c) + np.abs(mu * sol.p) + np.abs(sol.q)
-        # (q's round-off, H times the LCP's constant terms, is of T alpha's size too)
-        reach = self._q_reach(motion_size(*gap_terms, *tau_terms))
+        reach = self._q_reach(motion)
+        if self.r and f.size:  # q = H (tau_prev - tau_free - T alpha ...): H times their
+            # round-off, |H| |that of T alpha|, in the units POLISH_GATE judges forces in
+            reach[f] += np.abs(self.h) @ round_t[f] / POLISH_GATE
         over = np.abs(sol.q) - bound > POLISH_GATE * (forces + reach)
         closed = basis[:m]
         return bool((closed & (np.abs(sol.gap) > tol)).any() or
