@@ -728,6 +728,66 @@ def test_the_gate_judges_gaps_and_motion_against_the_steps_motion_not_the_slide_
         assert lcp._off_basis(bad, basis, tau_prev, free, a, np.full(m, mu)) is fired
 
 
+@pytest.mark.parametrize("field", ["gap", "tau"])
+@pytest.mark.parametrize("shift", [0.0, 1e2, 1e4])
+def test_the_gate_judges_a_floating_bodys_gaps_and_motion_against_the_steps_motion(
+        field, shift):
+    """As above, with the pairs on a floating body (one tangential mode, T = 1, N = 0,
+    held by friction under a load e0): its amplitude alpha is its whole motion, so T alpha
+    holds the slide so far (shift) as tau_prev does, and with tau_free - tau_prev adds up
+    to the step's motion. A closed gap or a sticking motion of 1e-9 (1e-6 of the step's
+    motion terms) fires the gate at every shift; 1e-14 and the answer itself do not.
+    Before (reviewer `review19`), T alpha counted as a motion term of its own: at shift
+    1e2 a gap or motion of 1e-9 was hidden, at 1e4 one of 1e-7."""
+    import dataclasses
+
+    m, mu, a = 5, 0.3, np.zeros(5)
+    block = np.eye(m) + 0.1 * np.ones((m, m))
+    c = np.block([[CN * block, np.zeros((m, m))], [np.zeros((m, m)), CT * block]])
+    lcp = ContactLCP(c, np.full(m, mu), np.ones(m, bool), np.zeros((m, 1)), np.ones((m, 1)))
+    gap_free, tau_prev = np.full(m, -1e-3), np.full(m, shift)
+    tau_free = np.array([1e-5, 2e-6, -2e-6, 1e-6, 0.0])
+    sol = lcp.solve(gap_free, tau_free, tau_prev, a, a, np.full(m, mu), np.array([-1e-3]))
+    basis = np.asarray(sol.basis, bool)
+    free = lcp._free_motion(gap_free, tau_free, tau_prev)
+    assert basis[:m].all() and not basis[lcp.edges[1]: lcp.edges[3]].any()  # all stick
+    assert sol.alpha[0] == pytest.approx(shift, abs=1e-5)
+    assert not lcp._off_basis(sol, basis, tau_prev, free, a, np.full(m, mu))
+    base = {"gap": 0.0, "tau": tau_prev[0]}[field]
+    for off, fired in ((1e-9, True), (1e-7, True), (1e-14, False)):
+        moved = getattr(sol, field).copy()
+        moved[0] = base + off
+        bad = dataclasses.replace(sol, **{field: moved})
+        assert lcp._off_basis(bad, basis, tau_prev, free, a, np.full(m, mu)) is fired, off
+
+
+@pytest.mark.parametrize("shift", [0.0, 1e2, 1e4])
+def test_the_gate_judges_a_floating_bodys_q_against_the_steps_motion(shift):
+    """The scene above: a sticking q over its bound mu p by 1e-6 of it (~1.5e-8) fires
+    the gate wherever the body has slid to (T alpha = shift), 1e-9 (round-off: |H| times
+    that of T alpha, 1e-8 at 1e4) not at 1e4. Before (reviewer `review19`), `_q_reach`
+    took T alpha as a motion term of the step: at shift 1e2 q 1e-6 over was hidden, at 1e4
+    1e-4 over (q = H (... - T alpha): its round-off is H times eps |T alpha|, not
+    POLISH_GATE of it)."""
+    import dataclasses
+
+    m, mu, a = 5, 0.3, np.zeros(5)
+    block = np.eye(m) + 0.1 * np.ones((m, m))
+    c = np.block([[CN * block, np.zeros((m, m))], [np.zeros((m, m)), CT * block]])
+    lcp = ContactLCP(c, np.full(m, mu), np.ones(m, bool), np.zeros((m, 1)), np.ones((m, 1)))
+    gap_free, tau_prev = np.full(m, -1e-3), np.full(m, shift)
+    tau_free = np.array([1e-5, 2e-6, -2e-6, 1e-6, 0.0])
+    sol = lcp.solve(gap_free, tau_free, tau_prev, a, a, np.full(m, mu), np.array([-1e-3]))
+    basis = np.asarray(sol.basis, bool)
+    free = lcp._free_motion(gap_free, tau_free, tau_prev)
+    assert not lcp._off_basis(sol, basis, tau_prev, free, a, np.full(m, mu))
+    for over, fired in ((1e-4, True), (1e-6, True), (1e-9, shift < 1e4)):
+        q = sol.q.copy()
+        q[0] = mu * sol.p[0] * (1 + over)
+        bad = dataclasses.replace(sol, q=q)
+        assert lcp._off_basis(bad, basis, tau_prev, free, a, np.full(m, mu)) is fired, over
+
+
 @pytest.mark.parametrize("rel, kept", [(1e-6, True), (1e-15, False)])
 def test_a_re_solve_that_keeps_the_law_worse_than_lemkes_answer_is_not_taken(rel, kept):
     """The gate fires and the re-solve settles on p off Lemke's (accurate) answer by rel:

@@ -681,23 +681,40 @@ class ContactLCP:
         tau_free: a pair slid 1e2 before the step read a sticking q 1e-6 over its bound as
         round-off (reviewer `review15`), and a pair slid 1e4 a closed gap or a sticking
         motion 1e-4 of the step's motion (session 30); the motion tau - tau_prev is
-        judged beyond its own round-off, 4 eps max(|tau|, |tau_prev|), too.
+        judged beyond its own round-off, 4 eps max(|tau|, |tau_prev|), too. A floating
+        body's T alpha is its whole slide (alpha is not the step's): with tau_free -
+        tau_prev one term, the step's rigid motion, and 4 eps |T| |alpha| in that
+        round-off (one slid 1e4 hid a gap or motion of 1e-7, reviewer `review19`); q,
+        H times the LCP's constant less T alpha, carries |H| times that round-off beside
+        `_q_reach` of the step's motion (T alpha a term of it hid a sticking q 1e-4 over
+        its bound at 1e4).
         Round-off of the condensed LCP (`_polished`); elsewhere Lemke's answer is kept
         as it is."""
         m, f = self.m, self.fric
         _, _, gap_terms, tau_terms = self._kinematics(sol.p, sol.q, sol.alpha, free[0],
                                                       -free[1])
-        motion = motion_size(*gap_terms, *tau_terms)  # the step's, not the slide so far
+        # the step's, not the slide so far: a floating body's T alpha holds its slide so
+        # far (alpha is its whole motion) as tau_prev does, and with tau_free - tau_prev
+        # adds up to the step's rigid motion (one term)
+        rigid = tau_terms[0] + tau_terms[2] if self.r else tau_terms[0]
+        motion = motion_size(*gap_terms, rigid, tau_terms[1])
         tol = POLISH_GATE * motion
         _, plus, minus = self._basis_states(basis)
         stick = np.zeros(m, dtype=bool)
         stick[f] = ~plus[f] & ~minus[f]
         moved = sol.tau - tau_prev
-        # (tau and tau_prev hold the slide so far: their difference its round-off)
-        tol_t = tol + 4 * np.finfo(float).eps * np.maximum(np.abs(sol.tau), np.abs(tau_prev))
+        # (tau, tau_prev and T alpha hold the slide so far: moved carries its round-off)
+        slid = np.maximum(np.abs(sol.tau), np.abs(tau_prev))
+        if self.r:
+            slid = np.maximum(slid, np.abs(self.tm_all) @ np.abs(sol.alpha))
+        round_t = 4 * np.finfo(float).eps * slid
+        tol_t = tol + round_t
         bound = c + mu * sol.p
         forces = np.abs(c) + np.abs(mu * sol.p) + np.abs(sol.q)
         reach = self._q_reach(motion)
+        if self.r and f.size:  # q = H (tau_prev - tau_free - T alpha ...): H times their
+            # round-off, |H| |that of T alpha|, in the units POLISH_GATE judges forces in
+            reach[f] += np.abs(self.h) @ round_t[f] / POLISH_GATE
         over = np.abs(sol.q) - bound > POLISH_GATE * (forces + reach)
         closed = basis[:m]
         return bool((closed & (np.abs(sol.gap) > tol)).any() or
