@@ -59,11 +59,31 @@ def _run(raw: dict, mesh, angle: float, folder: Path) -> dict:
     return json.loads((folder / "out" / "summary.json").read_text())["reference"]
 
 
+def _plots_along_the_contact(tmp_path: Path, refs: dict) -> None:
+    """scripts/plot_results.py draws the turned runs' p against center_x + s along the
+    contact, the unturned run's x (before: x or y, and the closed form off the contact)."""
+    import h5py
+    from plot_results import contact_coordinate
+
+    coords = {}
+    for a, ref in refs.items():
+        out = tmp_path / f"a{a:g}" / "out"
+        last = max(out.glob("step_*.h5"))
+        with h5py.File(last) as f:
+            c = {k: f["contact"][k][()] for k in f["contact"]}
+        coord, label = contact_coordinate(c, c["interface"] == 0, ref, "contact")
+        assert label == ("x" if a == 0 else "center_x + distance along the contact")
+        coords[a] = np.sort(coord)
+    for a in (30.0, 90.0):
+        np.testing.assert_allclose(coords[a], coords[0.0], atol=1e-12 * np.ptp(coords[0.0]))
+
+
 @pytest.mark.parametrize("name", ["hertz", "cattaneo"])
 def test_turned_scene_reads_the_unturned_reference_errors(tmp_path: Path, name: str) -> None:
     raw = _scene(name)
     mesh = build_mesh(parse_scene(raw), 2.0, base_dir=ROOT / "configs")
     refs = {a: _run(raw, mesh, a, tmp_path / f"a{a:g}") for a in (0.0, 30.0, 90.0)}
+    _plots_along_the_contact(tmp_path, refs)
     for part in ("hertz",) + (("cattaneo",) if name == "cattaneo" else ()):
         base = np.array([refs[0.0][part][k] for k in KEYS[part]])
         assert np.all(np.isfinite(base)) and np.all(base > 0), base

@@ -91,7 +91,9 @@ def pressure_errors(params: dict, run: RunFigures) -> dict:
     h = hertz_errors(s, c.p, c.length, P=float(c.p_force.sum()), R=params["radius"],
                      E_star=c.E_star, thickness=run.thickness)
     h["contact_edges"] = [e + x0 for e in h["contact_edges"]]
-    return {"interface": c.interface, "center_x": x0, "hertz": h}
+    # center_y only when given: the plots' coordinate along a tilted contact needs it
+    cy = {} if params.get("center_y") is None else {"center_y": params["center_y"]}
+    return {"interface": c.interface, "center_x": x0} | cy | {"hertz": h}
 
 
 def pressure_overlay(ref: dict, mu: float) -> dict:
