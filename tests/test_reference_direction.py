@@ -1,6 +1,7 @@
 """Hertz and Cattaneo measure p and q along the contact's own direction: the same scene
-turned by 30 and 90 deg (scripts/check_invariance.py's machinery, [reference] kept with
-its centre turned) gives the reference errors of the unturned one. Before, a turn of 30
+turned by 30 and 90 deg, or mirrored and turned by 90 (scripts/check_invariance.py's
+machinery, [reference] kept with its centre moved) gives the reference errors of the
+unturned one. Before, a turn of 30
 deg read p along x (half-width error 0.50 against 0.42) and one of 90 was refused."""
 
 from __future__ import annotations
@@ -42,11 +43,12 @@ def _scene(name: str) -> dict:
     return raw
 
 
-def _run(raw: dict, mesh, angle: float, folder: Path) -> dict:
-    tf = Transform(f"angle={angle:g}" if angle else "")
+def _run(raw: dict, mesh, angle: float, folder: Path, mirror: bool = False) -> dict:
+    tf = Transform(",".join(([f"angle={angle:g}"] if angle else [])
+                            + (["mirror=1"] if mirror else [])))
     cfg = transformed_config(raw, tf)
     cfg["reference"] = copy.deepcopy(raw["reference"])
-    if angle:  # the centre (center_x, 0) turned: only its part along the contact counts
+    if angle or mirror:  # the centre (center_x, 0) moved: only its part along t counts
         c = tf.point([raw["reference"].get("center_x", 0.0), 0.0])
         cfg["reference"] |= {"center_x": float(c[0]), "center_y": float(c[1])}
     folder.mkdir(parents=True, exist_ok=True)
@@ -84,10 +86,11 @@ def test_turned_scene_reads_the_unturned_reference_errors(tmp_path: Path, name: 
     mesh = build_mesh(parse_scene(raw), 2.0, base_dir=ROOT / "configs")
     refs = {a: _run(raw, mesh, a, tmp_path / f"a{a:g}") for a in (0.0, 30.0, 90.0)}
     _plots_along_the_contact(tmp_path, refs)
+    refs["mirror"] = _run(raw, mesh, 90.0, tmp_path / "mirror", mirror=True)
     for part in ("hertz",) + (("cattaneo",) if name == "cattaneo" else ()):
         base = np.array([refs[0.0][part][k] for k in KEYS[part]])
         assert np.all(np.isfinite(base)) and np.all(base > 0), base
-        for a in (30.0, 90.0):
+        for a in (30.0, 90.0, "mirror"):
             got = np.array([refs[a][part][k] for k in KEYS[part]])
             np.testing.assert_allclose(got, base, rtol=1e-9, err_msg=f"{name} {part} {a}")
 
