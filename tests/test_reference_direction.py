@@ -190,3 +190,22 @@ def test_the_study_compares_p_along_the_contact() -> None:
         got[angle] = rows[0]["ref_pressure_l2"]
     assert got[0.0] > 0.01
     assert got[30.0] == pytest.approx(got[0.0], rel=1e-10)
+
+
+def test_edges_read_along_x_whichever_side_the_master_is() -> None:
+    """Pair tangents along -x (master below) or +x (master above): the same contact
+    edges in x (the closed forms are even in s; t points towards +x either way)."""
+    from app.references import REFERENCES, RunFigures
+
+    edges = []
+    for sign in (1.0, -1.0):
+        c = _profile(0.0)
+        c.tangent = sign * c.tangent
+        c.p = c.p * (c.x > -0.05)  # an uneven contact: its edges tell a mirrored s
+        run = RunFigures(E=2e5, nu=0.3, plane="strain", thickness=1.0, strain_energy=1.0,
+                         point_values={}, contact=c)
+        edges.append(REFERENCES["hertz"].compare({"type": "hertz", "radius": 1.0,
+                                                  "center_x": 0.01}, run)
+                     ["hertz"]["contact_edges"])
+    assert edges[0] == edges[1]
+    assert edges[0][0] == pytest.approx(-0.045) and edges[0][1] == pytest.approx(0.105)
