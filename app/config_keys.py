@@ -97,6 +97,7 @@ ALLOWED_KEYS: dict[str, tuple[str, ...]] = {
         "type",
         "radius",
         "center_x",
+        "center_y",
         "P",
         "L",
         "D",

@@ -20,9 +20,11 @@ from pathlib import Path
 import h5py
 import numpy as np
 
+from app.errors import InputError
 from app.output import plot_mark
 from app.plotting import pyplot
-from app.references import REFERENCES
+from app.references import REFERENCES, ContactProfile
+from app.references.hertz import along_contact, contact_direction
 
 plt = pyplot()  # Agg, without the warning of a second (Debian) matplotlib on the path
 from matplotlib.collections import PolyCollection  # noqa: E402
@@ -68,6 +70,31 @@ def deformed_mesh(out: Path, step: int, zoom, scale: float | None, prefix: str) 
     return path
 
 
+def contact_coordinate(c: dict, sel: np.ndarray, ref: dict, name: str
+                       ) -> tuple[np.ndarray, str]:
+    """The pairs' coordinate along an interface and its axis label: with a contact
+    reference (its `center_x`, `center_y`), center_x + s along the contact's own direction
+    as the reference measures it (`app.references.hertz.along_contact`; x on an untilted
+    scene), so that the closed form overlays a tilted contact; else x, or y for an
+    interface that spans more in y."""
+    x, y = c["x"][sel], c["y"][sel]
+    if ref.get("type") in REFERENCES and "center_x" in ref and "tangent" in c and x.size:
+        prof = ContactProfile(
+            x=x, y=y, p=c["p"][sel], q=c["q"][sel], length=c["length"][sel],
+            p_force=c["p_force"][sel], q_force=c["q_force"][sel],
+            stick=np.zeros(x.size, bool), mu=0.0, E_star=1.0, interface=name,
+            tangent=c["tangent"][sel])
+        try:
+            t = contact_direction(prof)
+            s = along_contact({"center_x": ref["center_x"],
+                               "center_y": ref.get("center_y")}, prof)
+        except InputError:  # the run would have failed: not drawn against the contact
+            t = None
+        if t is not None and not (t[0] == 1.0 and t[1] == 0.0):
+            return ref["center_x"] + s, "center_x + distance along the contact"
+    return (x, "x") if np.ptp(x) >= np.ptp(y) else (y, "y")
+
+
 def contact_plots(out: Path, step: int, summary: dict, prefix: str) -> list[Path]:
     with h5py.File(out / f"step_{step:04d}.h5") as f:
         if "contact" not in f:
@@ -78,8 +105,7 @@ def contact_plots(out: Path, step: int, summary: dict, prefix: str) -> list[Path
     paths = []
     for i, name in enumerate(names):
         sel = c["interface"] == i
-        x, y = c["x"][sel], c["y"][sel]
-        coord, label = (x, "x") if np.ptp(x) >= np.ptp(y) else (y, "y")
+        coord, label = contact_coordinate(c, sel, ref if i == 0 else {}, name)
         o = np.argsort(coord)
         fig, axes = plt.subplots(2, 1, figsize=(7, 5.5), sharex=True)
         axes[0].plot(coord[o], c["p"][sel][o], "o-", ms=3, label="p (computed)")

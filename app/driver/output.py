@@ -273,7 +273,7 @@ def _contact_profile(cfg: Config, disc: Discretisation, mesh: Mesh, contact,
         p_force=data["p_force"][sel], q_force=data["q_force"][sel],
         stick=(data["state"][sel] == STICK) & (data["p"][sel] > 0),
         mu=cfg.interfaces[0].mu, E_star=float(e_star), interface=cfg.interfaces[0].name,
-        y=data["y"][sel])
+        y=data["y"][sel], tangent=data["tangent"][sel])
 
 
 def _cell_fields(mesh: Mesh, gathered) -> dict[str, np.ndarray]:

@@ -18,7 +18,8 @@ class ContactProfile:
     length: (m,) tributary lengths; p_force, q_force: (m,) pair forces; stick: (m,) bool,
     pairs in contact that did not slip; mu: the interface's friction coefficient;
     E_star: the effective modulus of the two bodies (plane strain or stress); y: (m,) the
-    slave positions across (None: not known), to tell an interface that runs along y.
+    slave positions across (None: not known); tangent: (m, 2) the pairs' unit tangents
+    (global axes; None: not known, p is then measured along x), the contact's direction.
     """
 
     x: np.ndarray
@@ -32,6 +33,7 @@ class ContactProfile:
     E_star: float
     interface: str
     y: np.ndarray | None = None
+    tangent: np.ndarray | None = None
 
 
 @dataclass
@@ -59,7 +61,8 @@ class Reference:
     columns: (summary path, study column) pairs of the errors a study reports;
     overlay(summary_reference, mu) -> {"p": (label, f(x)), "q": (label, f(x))}, the
     closed-form curves for the contact plots (an empty dict when there are none);
-    positive, nonzero: numeric keys that must be > 0 or != 0 (every number is finite).
+    positive, nonzero: numeric keys that must be > 0 or != 0 (every number is finite);
+    optional: keys that may be left out (None in `params`).
     """
 
     name: str
@@ -71,6 +74,7 @@ class Reference:
     needs_contact: bool = False
     positive: tuple[str, ...] = ()
     nonzero: tuple[str, ...] = ()
+    optional: tuple[str, ...] = ()
 
     def params(self, table: dict) -> dict:
         """The [reference] table checked: unknown keys and missing required ones are
@@ -82,6 +86,9 @@ class Reference:
         out = {}
         for key, default in self.keys.items():
             value = table.get(key, default)
+            if value is None and key in self.optional:
+                out[key] = None
+                continue
             if value is None:
                 raise InputError(f"[reference] type '{self.name}' needs {key}")
             if isinstance(default, str) and (not isinstance(value, str) or not value):

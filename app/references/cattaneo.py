@@ -8,12 +8,13 @@ import numpy as np
 
 from app.closed_form import GROSS_SLIP_TOL, cattaneo_errors, cattaneo_traction
 from app.references.base import Reference, RunFigures
-from app.references.hertz import pressure_errors, pressure_overlay
+from app.references.hertz import along_contact, pressure_errors, pressure_overlay
 
 
 def _errors(params: dict, run: RunFigures) -> dict:
     out = pressure_errors(params, run)
     c = run.contact
+    # the pairs' normal and tangential forces: the resultants in the contact's frame
     P, Q = float(c.p_force.sum()), float(c.q_force.sum())
     if c.mu <= 0.0 or P <= 0.0:  # no friction bound to compare with
         out["cattaneo"] = {"P": P, "Q": Q, "Q_over_muP": math.nan,
@@ -21,9 +22,13 @@ def _errors(params: dict, run: RunFigures) -> dict:
                            "traction_l2_rel_error": math.nan,
                            "traction_l2_interp_rel_error": math.nan}
         return out
-    out["cattaneo"] = cattaneo_errors(c.x, c.p, c.q, c.length, c.stick, P=P, Q=Q, mu=c.mu,
-                                      R=params["radius"], E_star=c.E_star,
-                                      x0=params["center_x"], thickness=run.thickness)
+    # along the contact's own direction, as p (q is signed along the pairs' tangents)
+    ca = cattaneo_errors(along_contact(params, c), c.p, c.q, c.length, c.stick, P=P, Q=Q,
+                         mu=c.mu, R=params["radius"], E_star=c.E_star,
+                         thickness=run.thickness)
+    if "stick_edges" in ca:
+        ca["stick_edges"] = [e + params["center_x"] for e in ca["stick_edges"]]
+    out["cattaneo"] = ca
     return out
 
 
@@ -41,8 +46,9 @@ def _overlay(ref: dict, mu: float) -> dict:
 
 REFERENCE = Reference(
     name="cattaneo",
-    keys={"radius": None, "center_x": 0.0},
+    keys={"radius": None, "center_x": 0.0, "center_y": None},
     positive=("radius",),
+    optional=("center_y",),
     errors=_errors,
     columns=((("hertz", "p_max_rel_error"), "peak_pressure"),
              (("hertz", "pressure_l2_rel_error"), "pressure_l2"),

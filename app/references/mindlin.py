@@ -40,7 +40,7 @@ from app.closed_form import (
     stick_half_width,
 )
 from app.references.base import Reference, RunFigures
-from app.references.hertz import pressure_errors, pressure_overlay
+from app.references.hertz import along_contact, pressure_errors, pressure_overlay
 
 Terms = tuple[tuple[float, float], ...]
 """A traction as a sum of Cattaneo terms: q(x) = sum over (k, Q) of k q_L(x; Q)."""
@@ -245,8 +245,9 @@ def _errors(params: dict, run: RunFigures) -> dict:
                           "note": f"no tangential closed form: mu = {c.mu:g}, P = {P:.6g}, "
                           f"{Q_path.size} steps"}
         return out
-    o = np.argsort(c.x)
-    m = mindlin_errors(c.x[o] - params["center_x"], c.q[o], c.length[o], Q_path=Q_path, P=P,
+    s = along_contact(params, c)  # along the contact's own direction, as p
+    o = np.argsort(s)
+    m = mindlin_errors(s[o], c.q[o], c.length[o], Q_path=Q_path, P=P,
                        mu=c.mu, R=params["radius"], E_star=c.E_star,
                        thickness=run.thickness, stick=c.stick[o], x0=params["center_x"])
     d_run = float(diss.sum())
@@ -275,8 +276,9 @@ def _overlay(ref: dict, mu: float) -> dict:
 
 REFERENCE = Reference(
     name="mindlin",
-    keys={"radius": None, "center_x": 0.0},
+    keys={"radius": None, "center_x": 0.0, "center_y": None},
     positive=("radius",),
+    optional=("center_y",),
     errors=_errors,
     columns=((("hertz", "p_max_rel_error"), "peak_pressure"),
              (("hertz", "pressure_l2_interp_rel_error"), "pressure_l2_interp"),

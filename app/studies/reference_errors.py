@@ -8,7 +8,9 @@ tractions q(x) (last step, first interface), strain energy, peak pressure and na
 displacement are compared with every other run:
   ref_energy      |U - U_ref| / |U_ref|
   ref_p_max       |max p - max p_ref| / max p_ref
-  ref_pressure_l2 ||p_h - p_ref|| / ||p_ref||, p_h interpolated linearly between its pairs
+  ref_pressure_l2 ||p_h - p_ref|| / ||p_ref||, along the reference's contact direction t
+                  (its loaded pairs' mean tangent, x on an untilted scene; none when the
+                  contact is not near-straight), p_h interpolated linearly between its pairs
                   onto the reference pairs within 1.5 x the reference contact half-width of
                   the contact centre (trapezoidal rule); ref_traction_l2 the same for q;
                   ref_pressure_l2_core the same within 0.8 x the half-width (without the
@@ -30,6 +32,7 @@ import numpy as np
 from app.output.read import read_pairs
 from app.output.xdmf import atomic_write_bytes
 from app.plotting import pyplot
+from app.references.hertz import STRAIGHT_SINE, line_direction
 
 WINDOW = 1.5  # L2 window, in reference contact half-widths around the contact centre
 CORE = 0.8  # ref_pressure_l2_core: the window without the contact edges (same units)
@@ -37,15 +40,39 @@ CORE = 0.8  # ref_pressure_l2_core: the window without the contact edges (same u
 
 def profile(summary: dict, run_out: Path) -> dict:
     """What the reference comparison needs from one run (rank 0): energy, peak pressure,
-    point displacements and the last step's (x, p, q) of interface 0 sorted by x."""
+    point displacements and the last step's pairs of interface 0: positions X (m, 2), p,
+    q, and the contact's own direction t (2,) with the largest sine of a loaded pair's
+    tangent against it (`app.references.hertz.line_direction`)."""
     out = {"energy": summary["strain_energy"], "n_dofs": summary["n_dofs"],
            "points": {k: v["uy"] for k, v in summary.get("point_values", {}).items()}}
     steps = summary.get("steps") or []
     path = Path(run_out) / f"step_{len(steps):04d}.h5"
     if steps and "max_contact_pressure" in steps[-1] and path.is_file():
-        pairs = read_pairs(path, 0, ("x", "p", "q"))
-        out |= {**pairs, "p_max": float(pairs["p"].max(initial=0.0))}
+        pairs = read_pairs(path, 0, ("x", "y", "p", "q", "tangent", "length"))
+        out |= {"X": np.column_stack((pairs["x"], pairs["y"])), "p": pairs["p"],
+                "q": pairs["q"], "p_max": float(pairs["p"].max(initial=0.0))}
+        if pairs["p"].size:
+            out["t"], out["turn"] = line_direction(pairs["tangent"], pairs["length"],
+                                                   pairs["p"])
     return out
+
+
+def _with_positions(pr: dict) -> dict:
+    """pr with positions X and a direction t: a profile given along x only (x, p, q) lies
+    on y = 0 along t = (1, 0)."""
+    if "X" in pr or "x" not in pr:
+        return pr
+    x = np.asarray(pr["x"], dtype=float)
+    return pr | {"X": np.column_stack((x, np.zeros_like(x))), "t": np.array([1.0, 0.0]),
+                 "turn": 0.0}
+
+
+def along(pr: dict, t: np.ndarray) -> dict:
+    """pr's pairs along direction t (the reference's): x = X.t (x itself on an untilted
+    scene, t = (1, 0)), with p and q, sorted by it."""
+    x = pr["X"] @ t
+    o = np.argsort(x, kind="stable")
+    return {"x": x[o], "p": pr["p"][o], "q": pr["q"][o]}
 
 
 def l2_against(x: np.ndarray, f: np.ndarray, xr: np.ndarray, fr: np.ndarray,
@@ -81,6 +108,7 @@ def add_reference_errors(rows: list[dict], profiles: dict, ref_label: str,
     levels = [r["level"] for r in rows if r["method"] == ref_label]
     if not levels:
         return "no reference (the reference method has no completed run)"
+    profiles = {k: _with_positions(v) for k, v in profiles.items()}
     ref = dict(profiles[(max(levels), ref_label)])
     note = f"reference: level {max(levels)} of {ref_label} ({ref['n_dofs']} DOFs)"
     if scalars:
@@ -90,16 +118,25 @@ def add_reference_errors(rows: list[dict], profiles: dict, ref_label: str,
             f"u_y({k})" for k in ref["points"] if k in scalars]  # what this scene has
         note = (f"reference: Richardson limits of {ref_label} for {', '.join(names)}" + (
             f"; level {max(levels)} of {ref_label} ({ref['n_dofs']} DOFs) for p(x), q(x)"
-            if "x" in ref else ""))
-    win = contact_window(ref["x"], ref["p"]) if "x" in ref else None
-    core = contact_window(ref["x"], ref["p"], CORE) if "x" in ref else None
+            if "X" in ref else ""))
+    fields_ok = "t" in ref and ref["turn"] <= STRAIGHT_SINE
+    if "t" in ref and not fields_ok:
+        note += (f"; no p(x), q(x) errors: the contact is not near-straight (a loaded "
+                 f"pair's tangent {np.degrees(np.arcsin(min(ref['turn'], 1.0))):.3g} deg "
+                 "from the mean)")
+    if fields_ok:  # p and q along the reference's contact direction, in every run
+        ref |= along(ref, ref["t"])
+    win = contact_window(ref["x"], ref["p"]) if fields_ok else None
+    core = contact_window(ref["x"], ref["p"], CORE) if fields_ok else None
     has_q = "q" in ref and np.abs(ref["q"]).max(initial=0.0) > 1e-12 * ref.get("p_max", 1)
     for r in rows:
         pr = profiles[(r["level"], r["method"])]
         is_ref = r["level"] == max(levels) and r["method"] == ref_label
         vals = {"ref_energy": relative_error(pr["energy"], ref["energy"])}
-        if win is not None and "x" in pr:
+        if "X" in ref and "X" in pr:
             vals["ref_p_max"] = relative_error(pr["p_max"], ref["p_max"])
+        if win is not None and "X" in pr:
+            pr = pr | along(pr, ref["t"])
             vals["ref_pressure_l2"] = l2_against(pr["x"], pr["p"], ref["x"], ref["p"], win)
             vals["ref_pressure_l2_core"] = l2_against(pr["x"], pr["p"], ref["x"], ref["p"],
                                                       core)
