@@ -229,3 +229,29 @@ def test_edges_read_along_x_whichever_side_the_master_is() -> None:
     assert edges[0] == edges[1]
     assert edges[0][0] == pytest.approx(-0.045) and edges[0][1] == pytest.approx(0.105)
 
+
+def test_an_unloaded_contact_on_a_curved_master_reads_no_errors(tmp_path: Path) -> None:
+    """hertz.toml swapped (the arc the master, node-to-segment: the pairs carry its
+    tangents) held where it touches, no load: no pair loaded, NaN errors, completed as
+    before session 30. Before, every pair's tangent was judged: the arc's within the
+    search distance turn by 17 deg, and the run failed `... not near-straight where it is
+    loaded`."""
+    r = subprocess.run(
+        [sys.executable, "-m", "app", "run", "configs/hertz.toml", "--quiet",
+         "--set", 'interface.0.slave="block_top"', "--set", 'interface.0.master="cyl_arc"',
+         "--set", 'interface.0.discretisation="node-to-segment"', "--set", "support.1.uy=0.0",
+         "--set", "load.0.total_force=[0.0,0.0]", "--out", str(tmp_path / "out")],
+        cwd=ROOT, capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr[-2000:]
+    h = json.loads((tmp_path / "out" / "summary.json").read_text())["reference"]["hertz"]
+    assert h["P"] == 0.0 and np.isnan(h["p_max_rel_error"])
+    # the same along a bent profile without load: measured (NaN), not refused
+    from app.references import REFERENCES, RunFigures
+
+    c = _profile(0.0, bend=60.0)
+    c.p, c.p_force = 0.0 * c.p, 0.0 * c.p_force
+    run = RunFigures(E=2e5, nu=0.3, plane="strain", thickness=1.0, strain_energy=1.0,
+                     point_values={}, contact=c)
+    assert np.isnan(REFERENCES["hertz"].compare({"type": "hertz", "radius": 1.0},
+                                                run)["hertz"]["p_max_rel_error"])
+
