@@ -255,3 +255,23 @@ def test_an_unloaded_contact_on_a_curved_master_reads_no_errors(tmp_path: Path) 
     assert np.isnan(REFERENCES["hertz"].compare({"type": "hertz", "radius": 1.0},
                                                 run)["hertz"]["p_max_rel_error"])
 
+
+def test_an_untilted_contact_whose_mean_tangent_is_off_by_round_off_is_drawn_along_x() -> None:
+    """hard/cylinder_on_cylinder.toml (two arcs) reads t = (1, 2.2e-13): its contact plot
+    is drawn against x, labelled x, as before session 30 (before: `center_x + distance
+    along the contact`, the coordinate 6e-15 off x); a contact turned by 1 deg is not."""
+    from plot_results import contact_coordinate
+
+    for tilt, label in ((1e-13, "x"), (1.0, "center_x + distance along the contact")):
+        pc = _profile(0.0, bend=2.0)
+        th = np.radians(tilt)
+        rot = np.array([[np.cos(th), np.sin(th)], [-np.sin(th), np.cos(th)]])
+        X = np.column_stack((pc.x, pc.y)) @ rot
+        c = {"x": X[:, 0], "y": X[:, 1], "p": pc.p, "q": pc.q, "length": pc.length,
+             "p_force": pc.p_force, "q_force": pc.q_force, "tangent": pc.tangent @ rot}
+        coord, got = contact_coordinate(c, np.ones(pc.x.size, bool),
+                                        {"type": "hertz", "radius": 1.0, "center_x": 0.0},
+                                        "contact")
+        assert got == label
+        if label == "x":
+            assert np.array_equal(coord, c["x"])
