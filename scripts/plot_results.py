@@ -74,8 +74,9 @@ def contact_coordinate(c: dict, sel: np.ndarray, ref: dict, name: str
                        ) -> tuple[np.ndarray, str]:
     """The pairs' coordinate along an interface and its axis label: with a contact
     reference (its `center_x`, `center_y`), center_x + s along the contact's own direction
-    as the reference measures it (`app.references.hertz.along_contact`; x on an untilted
-    scene), so that the closed form overlays a tilted contact; else x, or y for an
+    as the reference measures it (`app.references.hertz.along_contact`; x where they agree
+    to 1e-6 of the span, an untilted scene), so that the closed form overlays a tilted
+    contact; else x, or y for an
     interface that spans more in y."""
     x, y = c["x"][sel], c["y"][sel]
     if ref.get("type") in REFERENCES and "center_x" in ref and "tangent" in c and x.size:
@@ -90,8 +91,12 @@ def contact_coordinate(c: dict, sel: np.ndarray, ref: dict, name: str
                                "center_y": ref.get("center_y")}, prof)
         except InputError:  # the run would have failed: not drawn against the contact
             t = None
-        if t is not None and not (t[0] == 1.0 and t[1] == 0.0):
-            return ref["center_x"] + s, "center_x + distance along the contact"
+        # x where the two agree to 1e-6 of the span (or |x|), invisible: an untilted scene whose
+        # mean tangent is off by round-off (two arcs: t = (1, 2.2e-13)) is drawn along x
+        along = None if t is None else ref["center_x"] + s
+        span = max(float(np.ptp(x)), float(np.ptp(y)), float(np.abs(x).max()))
+        if along is not None and not np.allclose(along, x, rtol=0.0, atol=1e-6 * span):
+            return along, "center_x + distance along the contact"
     return (x, "x") if np.ptp(x) >= np.ptp(y) else (y, "y")
 
 

@@ -145,12 +145,31 @@ def test_a_contact_that_is_not_straight_is_refused() -> None:
     from app.references import REFERENCES, RunFigures
 
     run = RunFigures(E=2e5, nu=0.3, plane="strain", thickness=1.0, strain_energy=1.0,
-                     point_values={}, contact=_profile(0.0, bend=20.0))
+                     point_values={}, contact=_profile(0.0, bend=40.0))  # +-18 deg loaded
     with pytest.raises(InputError, match="not near-straight"):
         REFERENCES["hertz"].compare({"type": "hertz", "radius": 1.0}, run)
-    run.contact = _profile(0.0, bend=2.0)  # a Hertz contact on a cylinder: measured
-    assert np.isfinite(REFERENCES["hertz"].compare(
-        {"type": "hertz", "radius": 1.0}, run)["hertz"]["p_max_rel_error"])
+    # a Hertz contact on a cylinder, +-0.9 deg and +-7.2 deg loaded (a/R = 0.125 on a
+    # curved master): measured
+    for bend in (2.0, 16.0):
+        run.contact = _profile(0.0, bend=bend)
+        assert np.isfinite(REFERENCES["hertz"].compare(
+            {"type": "hertz", "radius": 1.0}, run)["hertz"]["p_max_rel_error"])
+
+
+def test_a_hertz_contact_on_a_curved_master_is_measured(tmp_path: Path) -> None:
+    """hertz.toml swapped (the arc the master) with node-to-segment, whose pairs carry the
+    master's tangents, at P = 1000 (a/R = 0.108): the loaded pairs' tangents turn by 6.2
+    deg, the arc's own at the contact edge. Before, refused above 5.7 deg (asin 0.1, the
+    shipped a/R): `error: ... not near-straight`, exit 2; before session 30 measured."""
+    r = subprocess.run(
+        [sys.executable, "-m", "app", "run", "configs/hertz.toml", "--quiet",
+         "--set", 'interface.0.slave="block_top"', "--set", 'interface.0.master="cyl_arc"',
+         "--set", 'interface.0.discretisation="node-to-segment"',
+         "--set", "load.0.total_force=[0.0,-1000.0]", "--out", str(tmp_path / "out")],
+        cwd=ROOT, capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr[-2000:]
+    h = json.loads((tmp_path / "out" / "summary.json").read_text())["reference"]["hertz"]
+    assert h["half_width_rel_error"] < 0.1 and h["pressure_l2_rel_error"] < 0.2
 
 
 def test_a_contact_along_y_needs_center_y() -> None:
@@ -209,3 +228,50 @@ def test_edges_read_along_x_whichever_side_the_master_is() -> None:
                      ["hertz"]["contact_edges"])
     assert edges[0] == edges[1]
     assert edges[0][0] == pytest.approx(-0.045) and edges[0][1] == pytest.approx(0.105)
+
+
+def test_an_unloaded_contact_on_a_curved_master_reads_no_errors(tmp_path: Path) -> None:
+    """hertz.toml swapped (the arc the master, node-to-segment: the pairs carry its
+    tangents) held where it touches, no load: no pair loaded, NaN errors, completed as
+    before session 30. Before, every pair's tangent was judged: the arc's within the
+    search distance turn by 17 deg, and the run failed `... not near-straight where it is
+    loaded`."""
+    r = subprocess.run(
+        [sys.executable, "-m", "app", "run", "configs/hertz.toml", "--quiet",
+         "--set", 'interface.0.slave="block_top"', "--set", 'interface.0.master="cyl_arc"',
+         "--set", 'interface.0.discretisation="node-to-segment"', "--set", "support.1.uy=0.0",
+         "--set", "load.0.total_force=[0.0,0.0]", "--out", str(tmp_path / "out")],
+        cwd=ROOT, capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr[-2000:]
+    h = json.loads((tmp_path / "out" / "summary.json").read_text())["reference"]["hertz"]
+    assert h["P"] == 0.0 and np.isnan(h["p_max_rel_error"])
+    # the same along a bent profile without load: measured (NaN), not refused
+    from app.references import REFERENCES, RunFigures
+
+    c = _profile(0.0, bend=60.0)
+    c.p, c.p_force = 0.0 * c.p, 0.0 * c.p_force
+    run = RunFigures(E=2e5, nu=0.3, plane="strain", thickness=1.0, strain_energy=1.0,
+                     point_values={}, contact=c)
+    assert np.isnan(REFERENCES["hertz"].compare({"type": "hertz", "radius": 1.0},
+                                                run)["hertz"]["p_max_rel_error"])
+
+
+def test_an_untilted_contact_whose_mean_tangent_is_off_by_round_off_is_drawn_along_x() -> None:
+    """hard/cylinder_on_cylinder.toml (two arcs) reads t = (1, 2.2e-13): its contact plot
+    is drawn against x, labelled x, as before session 30 (before: `center_x + distance
+    along the contact`, the coordinate 6e-15 off x); a contact turned by 1 deg is not."""
+    from plot_results import contact_coordinate
+
+    for tilt, label in ((1e-13, "x"), (1.0, "center_x + distance along the contact")):
+        pc = _profile(0.0, bend=2.0)
+        th = np.radians(tilt)
+        rot = np.array([[np.cos(th), np.sin(th)], [-np.sin(th), np.cos(th)]])
+        X = np.column_stack((pc.x, pc.y)) @ rot
+        c = {"x": X[:, 0], "y": X[:, 1], "p": pc.p, "q": pc.q, "length": pc.length,
+             "p_force": pc.p_force, "q_force": pc.q_force, "tangent": pc.tangent @ rot}
+        coord, got = contact_coordinate(c, np.ones(pc.x.size, bool),
+                                        {"type": "hertz", "radius": 1.0, "center_x": 0.0},
+                                        "contact")
+        assert got == label
+        if label == "x":
+            assert np.array_equal(coord, c["x"])
