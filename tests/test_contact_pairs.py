@@ -514,6 +514,19 @@ def test_overlap_beyond_a_master_end_without_interference_is_refused_naming_the_
         contact_pairs(mesh, "up_bottom", "low_top", 0.1, name="c")
 
 
+def _slave_corner_beside_a_block_corner(slope: float, deg: float):
+    """A block [0, 1] x [-0.5, 0] and an upper block whose bottom corner lies 0.02 beyond
+    the lower one's end and 0.002 below its top's line, the bottom rising with `slope`;
+    the scene turned by `deg`: the mesh and the slave corner's node (the upper block's first)."""
+    low = block(np.linspace(0.0, 1.0, 5), np.linspace(-0.5, 0.0, 3))
+    pts, quads, curves = block(-0.02 + 0.2 * np.arange(6), np.linspace(0.0, 0.5, 3))
+    pts = pts.copy()
+    bottom = pts[:, 1] == 0.0
+    pts[bottom, 1] = -0.002 + slope * (pts[bottom, 0] + 0.02)
+    mesh, _ = rotate(scene({"low": low, "up": (pts, quads, curves)}), deg)
+    return mesh, low[0].shape[0]
+
+
 @pytest.mark.parametrize("deg", [0.0, 30.0])
 @pytest.mark.parametrize("slope", [0.1, 0.5])
 def test_slave_end_below_the_end_line_whose_edge_clears_the_master_stays_unpaired(slope, deg):
@@ -523,13 +536,7 @@ def test_slave_end_below_the_end_line_whose_edge_clears_the_master_stays_unpaire
     the corner lies beside the master body, not in it, and no part of the slave overlaps
     it, so it gets no pair and nothing is refused (before: paired with g0 = -0.002,
     refused as a penetration, and with interference pushed out by 0.002)."""
-    low = block(np.linspace(0.0, 1.0, 5), np.linspace(-0.5, 0.0, 3))
-    pts, quads, curves = block(-0.02 + 0.2 * np.arange(6), np.linspace(0.0, 0.5, 3))
-    pts = pts.copy()
-    bottom = pts[:, 1] == 0.0
-    pts[bottom, 1] = -0.002 + slope * (pts[bottom, 0] + 0.02)
-    mesh, _ = rotate(scene({"low": low, "up": (pts, quads, curves)}), deg)
-    corner = low[0].shape[0]
+    mesh, corner = _slave_corner_beside_a_block_corner(slope, deg)
     for interference in (False, True):
         p = contact_pairs(mesh, "up_bottom", "low_top", 0.1, interference=interference)
         assert corner not in p.slave
@@ -619,13 +626,7 @@ def test_mortar_leaves_a_slave_corner_beside_a_block_corner_without_a_row_as_nod
     `interference` kept its row with g0 -0.002 to -0.00205 (a push); now it applies
     node-to-segment's rule (`end_overlaps`): no row, nothing refused, no negative gap,
     and where every slave node is in reach (slope 0.1) both read the same lengths."""
-    low = block(np.linspace(0.0, 1.0, 5), np.linspace(-0.5, 0.0, 3))
-    pts, quads, curves = block(-0.02 + 0.2 * np.arange(6), np.linspace(0.0, 0.5, 3))
-    pts = pts.copy()
-    bottom = pts[:, 1] == 0.0
-    pts[bottom, 1] = -0.002 + slope * (pts[bottom, 0] + 0.02)
-    mesh, _ = rotate(scene({"low": low, "up": (pts, quads, curves)}), deg)
-    corner = low[0].shape[0]
+    mesh, corner = _slave_corner_beside_a_block_corner(slope, deg)
     for interference in (False, True):
         p, c = _both_discretisations(mesh, "up_bottom", "low_top", interference)
         assert corner not in c.slave and corner not in p.slave

@@ -668,6 +668,20 @@ def test_the_gate_judges_an_open_unbonded_pairs_q_against_its_motions_force(rel,
     assert lcp._off_basis(bad, basis, tau_prev, free, cc, np.full(m, mu)) is fired
 
 
+def _five_pairs_slid(shift: float):
+    """Five closed pairs (one sticking) after a slide `shift` before the step and a step's
+    motion of ~1e-5: the LCP, Lemke's answer, its basis, tau_prev and the free motion."""
+    m, mu, a = 5, 0.3, np.zeros(5)
+    block = np.eye(m) + 0.1 * np.ones((m, m))
+    c = np.block([[CN * block, np.zeros((m, m))], [np.zeros((m, m)), CT * block]])
+    lcp = ContactLCP(c, np.full(m, mu), np.ones(m, bool), None, None)
+    gap_free, tau_prev = np.full(m, -1e-3), np.full(m, shift)
+    tau_free = tau_prev + np.array([1e-5, 2e-6, -2e-6, 1e-6, 0.0])
+    sol = lcp.solve(gap_free, tau_free, tau_prev, a, a, np.full(m, mu), np.zeros(0))
+    return lcp, sol, np.asarray(sol.basis, bool), tau_prev, lcp._free_motion(
+        gap_free, tau_free, tau_prev)
+
+
 @pytest.mark.parametrize("shift", [0.0, 1e2, 1e4])
 def test_the_gate_judges_q_against_the_steps_motion_not_the_slide_so_far(shift):
     """A sticking pair with |q| over its bound c + mu p by 1e-6 of it fires the gate
@@ -679,15 +693,8 @@ def test_the_gate_judges_q_against_the_steps_motion_not_the_slide_so_far(shift):
     alone (reviewer `review15`)."""
     import dataclasses
 
+    lcp, sol, basis, tau_prev, free = _five_pairs_slid(shift)
     m, mu, a = 5, 0.3, np.zeros(5)
-    block = np.eye(m) + 0.1 * np.ones((m, m))
-    c = np.block([[CN * block, np.zeros((m, m))], [np.zeros((m, m)), CT * block]])
-    lcp = ContactLCP(c, np.full(m, mu), np.ones(m, bool), None, None)
-    gap_free, tau_prev = np.full(m, -1e-3), np.full(m, shift)
-    tau_free = tau_prev + np.array([1e-5, 2e-6, -2e-6, 1e-6, 0.0])
-    sol = lcp.solve(gap_free, tau_free, tau_prev, a, a, np.full(m, mu), np.zeros(0))
-    basis = np.asarray(sol.basis, bool)
-    free = lcp._free_motion(gap_free, tau_free, tau_prev)
     assert not basis[lcp.edges[1]] and not basis[lcp.edges[2]]  # pair 0 sticks
     assert not lcp._off_basis(sol, basis, tau_prev, free, a, np.full(m, mu))
     for rel, fired in ((1e-6, True), (1e-16, False)):
@@ -709,15 +716,8 @@ def test_the_gate_judges_gaps_and_motion_against_the_steps_motion_not_the_slide_
     the absolute tau_free: 1e-8 at shift 1e2 and 1e-6 at 1e4 hid such a gap or motion."""
     import dataclasses
 
+    lcp, sol, basis, tau_prev, free = _five_pairs_slid(shift)
     m, mu, a = 5, 0.3, np.zeros(5)
-    block = np.eye(m) + 0.1 * np.ones((m, m))
-    c = np.block([[CN * block, np.zeros((m, m))], [np.zeros((m, m)), CT * block]])
-    lcp = ContactLCP(c, np.full(m, mu), np.ones(m, bool), None, None)
-    gap_free, tau_prev = np.full(m, -1e-3), np.full(m, shift)
-    tau_free = tau_prev + np.array([1e-5, 2e-6, -2e-6, 1e-6, 0.0])
-    sol = lcp.solve(gap_free, tau_free, tau_prev, a, a, np.full(m, mu), np.zeros(0))
-    basis = np.asarray(sol.basis, bool)
-    free = lcp._free_motion(gap_free, tau_free, tau_prev)
     assert basis[0] and not basis[lcp.edges[1]] and not basis[lcp.edges[2]]  # 0 sticks
     assert not lcp._off_basis(sol, basis, tau_prev, free, a, np.full(m, mu))
     base = {"gap": 0.0, "tau": tau_prev[0]}[field]
