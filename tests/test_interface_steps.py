@@ -668,16 +668,21 @@ def test_the_gate_judges_an_open_unbonded_pairs_q_against_its_motions_force(rel,
     assert lcp._off_basis(bad, basis, tau_prev, free, cc, np.full(m, mu)) is fired
 
 
-def _five_pairs_slid(shift: float):
+def _five_pairs_slid(shift: float, floating: bool = False):
     """Five closed pairs (one sticking) after a slide `shift` before the step and a step's
-    motion of ~1e-5: the LCP, Lemke's answer, its basis, tau_prev and the free motion."""
+    motion of ~1e-5: the LCP, Lemke's answer, its basis, tau_prev and the free motion.
+    `floating`: the pairs on a floating body (one tangential mode, T = 1, N = 0, under a
+    load e0 = -1e-3) whose amplitude holds the slide, tau_free only the step's motion."""
     m, mu, a = 5, 0.3, np.zeros(5)
     block = np.eye(m) + 0.1 * np.ones((m, m))
     c = np.block([[CN * block, np.zeros((m, m))], [np.zeros((m, m)), CT * block]])
-    lcp = ContactLCP(c, np.full(m, mu), np.ones(m, bool), None, None)
+    modes = (np.zeros((m, 1)), np.ones((m, 1))) if floating else (None, None)
+    lcp = ContactLCP(c, np.full(m, mu), np.ones(m, bool), *modes)
     gap_free, tau_prev = np.full(m, -1e-3), np.full(m, shift)
-    tau_free = tau_prev + np.array([1e-5, 2e-6, -2e-6, 1e-6, 0.0])
-    sol = lcp.solve(gap_free, tau_free, tau_prev, a, a, np.full(m, mu), np.zeros(0))
+    step = np.array([1e-5, 2e-6, -2e-6, 1e-6, 0.0])
+    tau_free = step if floating else tau_prev + step
+    e0 = np.array([-1e-3]) if floating else np.zeros(0)
+    sol = lcp.solve(gap_free, tau_free, tau_prev, a, a, np.full(m, mu), e0)
     return lcp, sol, np.asarray(sol.basis, bool), tau_prev, lcp._free_motion(
         gap_free, tau_free, tau_prev)
 
@@ -741,15 +746,8 @@ def test_the_gate_judges_a_floating_bodys_gaps_and_motion_against_the_steps_moti
     1e2 a gap or motion of 1e-9 was hidden, at 1e4 one of 1e-7."""
     import dataclasses
 
+    lcp, sol, basis, tau_prev, free = _five_pairs_slid(shift, floating=True)
     m, mu, a = 5, 0.3, np.zeros(5)
-    block = np.eye(m) + 0.1 * np.ones((m, m))
-    c = np.block([[CN * block, np.zeros((m, m))], [np.zeros((m, m)), CT * block]])
-    lcp = ContactLCP(c, np.full(m, mu), np.ones(m, bool), np.zeros((m, 1)), np.ones((m, 1)))
-    gap_free, tau_prev = np.full(m, -1e-3), np.full(m, shift)
-    tau_free = np.array([1e-5, 2e-6, -2e-6, 1e-6, 0.0])
-    sol = lcp.solve(gap_free, tau_free, tau_prev, a, a, np.full(m, mu), np.array([-1e-3]))
-    basis = np.asarray(sol.basis, bool)
-    free = lcp._free_motion(gap_free, tau_free, tau_prev)
     assert basis[:m].all() and not basis[lcp.edges[1]: lcp.edges[3]].any()  # all stick
     assert sol.alpha[0] == pytest.approx(shift, abs=1e-5)
     assert not lcp._off_basis(sol, basis, tau_prev, free, a, np.full(m, mu))
@@ -771,15 +769,8 @@ def test_the_gate_judges_a_floating_bodys_q_against_the_steps_motion(shift):
     POLISH_GATE of it)."""
     import dataclasses
 
+    lcp, sol, basis, tau_prev, free = _five_pairs_slid(shift, floating=True)
     m, mu, a = 5, 0.3, np.zeros(5)
-    block = np.eye(m) + 0.1 * np.ones((m, m))
-    c = np.block([[CN * block, np.zeros((m, m))], [np.zeros((m, m)), CT * block]])
-    lcp = ContactLCP(c, np.full(m, mu), np.ones(m, bool), np.zeros((m, 1)), np.ones((m, 1)))
-    gap_free, tau_prev = np.full(m, -1e-3), np.full(m, shift)
-    tau_free = np.array([1e-5, 2e-6, -2e-6, 1e-6, 0.0])
-    sol = lcp.solve(gap_free, tau_free, tau_prev, a, a, np.full(m, mu), np.array([-1e-3]))
-    basis = np.asarray(sol.basis, bool)
-    free = lcp._free_motion(gap_free, tau_free, tau_prev)
     assert not lcp._off_basis(sol, basis, tau_prev, free, a, np.full(m, mu))
     for over, fired in ((1e-4, True), (1e-6, True), (1e-9, shift < 1e4)):
         q = sol.q.copy()
