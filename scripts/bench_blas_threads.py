@@ -1,14 +1,17 @@
-"""Benchmark: OpenBLAS threads left to the app's default vs one thread, in turn.
+"""Benchmark: OpenBLAS threads, one a core against one, in turn, end to end.
 
-Runs `python -m app run CONFIG` (under `mpiexec -n RANKS` for more than one rank) once
-with each setting in turn, `--repeat` times, and prints one JSON line per case: the
-medians of summary.json's `total` and `lcp` seconds for each setting, their ratios
-(one thread over default) and the BLAS threads each run recorded (`blas_threads`).
-"default": none of OPENBLAS_NUM_THREADS / OMP_NUM_THREADS / MKL_NUM_THREADS set, so
-the app picks (app/startup/blas_threads.py); "1": OPENBLAS_NUM_THREADS=1 set by the user.
-`--raw-default` also sets CSFEM_BLAS_RAW=1 on the default runs... (see --help).
+Runs `python -m app run CONFIG` (under `mpiexec -n RANKS`, with `--bind-to none` for the
+`_unbound` cases: every rank may use every core, as under a launcher that does not bind)
+once with each setting in turn, `--repeat` rounds, and prints one JSON line per case: for
+each setting the medians of summary.json's `total` and `lcp` seconds, every run's total,
+and the BLAS threads the runs recorded (`provenance.blas_threads.threads`), then the
+ratios of the medians against the first setting. Settings: `cores`
+(OPENBLAS_NUM_THREADS = os.cpu_count(): what OpenBLAS starts when nothing is set, on one
+rank or unbound), `1` (one thread), `default` (none of OPENBLAS_NUM_THREADS /
+OMP_NUM_THREADS / MKL_NUM_THREADS set: the app's choice, app/blas_threads.py).
 
-    .venv/bin/python scripts/bench_blas_threads.py [--repeat 3] [--only cattaneo_1]
+    PYTHONPATH=. .venv/bin/python scripts/bench_blas_threads.py [--repeat 3]
+        [--only cattaneo_1 hertz_0.125_2_unbound] [--settings cores 1 default]
 """
 
 from __future__ import annotations
