@@ -1,7 +1,10 @@
 import sys
 
-from app.output import startup_signals
-from app.output.closed_pipes import drop_closed_pipes
+from app.blas_threads import choose
+
+choose()  # BLAS threads: before numpy loads (several ranks on a node: cores // ranks)
+from app.output import startup_signals  # noqa: E402
+from app.output.closed_pipes import drop_closed_pipes  # noqa: E402
 
 drop_closed_pipes()  # a closed stdout / stderr pipe does not end the run
 startup_signals.arm(None, "", act=False)  # a signal while the modules load is recorded

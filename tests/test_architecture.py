@@ -19,7 +19,7 @@ APP = Path(__file__).resolve().parents[1] / "app"
 
 FOUNDATIONS = ("errors", "config", "config_keys", "scene", "closed_form", "references",
                "petsc_lib", "parallel", "exit_sync", "expressions", "petsc_options", "hard_stop",
-               "petsc_config_guard", "user_paths", "plotting")
+               "petsc_config_guard", "user_paths", "plotting", "blas_threads")
 STAGES = ("mesh", "discretisation", "assembly", "contact", "condensation", "lcp",
           "interface", "output")
 DRIVER = ("driver", "run", "startup", "studies", "cli", "__main__")

@@ -92,8 +92,10 @@ def test_the_documented_sub_keys_are_written(hertz_run):
     s = d["steps"][0]
     want = {
         "provenance": (d["provenance"], "start_time ranks argv overrides config_resolved "
-                       "petsc_options version host out"),
+                       "petsc_options version host out blas_threads"),
         "provenance.version": (d["provenance"]["version"], "app git python petsc"),
+        "provenance.blas_threads": (d["provenance"]["blas_threads"], "threads libraries "
+                                    "set_by variables ranks_on_node"),
         "timings": (d["timings"], "startup launch mesh setup floating_modes assembly "
                     "boundary_conditions factorization solve output reference "
                     "energy_bracket total pair_search compliance lcp recovery"),

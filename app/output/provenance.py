@@ -12,6 +12,8 @@ from typing import Any
 
 from petsc4py import PETSc
 
+from app.blas_threads import record as blas_record
+
 ROOT = Path(__file__).resolve().parents[2]
 """The checkout holding the code (app/output/provenance.py -> the project folder)."""
 
@@ -56,7 +58,8 @@ def jsonable(value: Any) -> Any:
 
 def provenance(raw: dict, overrides: list[str], ranks: int) -> dict:
     """The resolved config (after --set), the overrides, the PETSc options in force, the
-    project version, the start time (UTC, ISO 8601) and the number of ranks."""
+    project version, the start time (UTC, ISO 8601), the number of ranks and the BLAS
+    threads (`blas_threads`: app/blas_threads.py)."""
     return {
         "start_time": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
         "ranks": ranks,
@@ -69,4 +72,5 @@ def provenance(raw: dict, overrides: list[str], ranks: int) -> dict:
                     "python": platform.python_version(),
                     "petsc": ".".join(map(str, PETSc.Sys.getVersion()))},
         "host": platform.node(),
+        "blas_threads": blas_record(),
     }
