@@ -66,8 +66,9 @@ def loaded_openblas_threads() -> dict[str, int]:
     (openblas_get_num_threads); {} where /proc/self/maps is not there."""
     try:
         with open("/proc/self/maps") as maps:
-            paths = {line.split()[-1] for line in maps
-                     if "openblas" in os.path.basename(line.split()[-1]).lower()}
+            fields = (line.rstrip("\n").split(maxsplit=5) for line in maps)
+            paths = {f[5] for f in fields  # (the path: the 6th field, spaces and all)
+                     if len(f) == 6 and "openblas" in os.path.basename(f[5]).lower()}
     except OSError:
         return {}
     counts = {}

@@ -92,3 +92,30 @@ def test_one_rank_run_records_the_library_default(tmp_path):
     if sys.platform == "linux":
         assert 1 <= record["threads"] <= len(os.sched_getaffinity(0))  # one a core, capped
         # by the library's build (numpy's wheel: MAX_THREADS)
+
+
+@pytest.mark.skipif(not os.path.exists("/proc/self/maps"), reason="needs /proc/self/maps")
+def test_an_openblas_under_a_path_with_spaces_is_recorded(tmp_path):
+    """/proc/self/maps ends a line with the path, which may hold spaces (a venv under
+    "/home/a b/"): the whole path is read, not its last word (before: the library was
+    silently left out of `libraries`)."""
+    import numpy  # noqa: F401  (loads numpy's OpenBLAS: the library copied below)
+
+    from app.blas_threads import loaded_openblas_threads
+    with open("/proc/self/maps") as maps:
+        found = sorted({line.split(maxsplit=5)[-1].strip() for line in maps
+                        if "libopenblas" in line and "/" in line})
+    if not found:
+        pytest.skip("numpy has no OpenBLAS of its own here")
+    spaced = tmp_path / "a b" / "libopenblas_spaced.so"
+    spaced.parent.mkdir()
+    shutil.copy(found[0], spaced)
+    code = ("import ctypes, sys\nimport numpy\nctypes.CDLL(sys.argv[1])\n"  # (numpy: its
+            # libgfortran, which the copy needs)
+            "from app.blas_threads import loaded_openblas_threads as f\nprint(f())")
+    res = subprocess.run([sys.executable, "-c", code, str(spaced)], cwd=ROOT,
+                         capture_output=True, text=True, timeout=60,
+                         env=os.environ | {"OPENBLAS_NUM_THREADS": "1"})
+    assert res.returncode == 0, res.stderr[-2000:]
+    assert "'libopenblas_spaced.so': 1" in res.stdout, res.stdout
+    assert loaded_openblas_threads()  # this process's own libraries still read
