@@ -493,7 +493,7 @@ def _judged_out_folder(args, default: Path) -> Callable[[], Path] | None:
 
     if rank0_call(lambda: _out_folder(args, default) is None):
         return None
-    return lambda: rank0_call(output_folder, args.out, default)
+    return lambda: _judged_output_folder(args.out, default)
 
 
 def output_folder(text: str | None, default: Path, what: str = "--out") -> Path:

@@ -377,6 +377,13 @@ class SlaveGeometry:
         return self.pts, self.m_edges, self.sg[self.near], self.d_len[self.near]
 
 
+def _master_measures(pts: np.ndarray, m_edges: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(seg_len (k,), m_degree (n,)): the master edges' lengths and each node's number of
+    master edges (1 at a free end), as `_beyond_free_end` and `end_overlaps` take them."""
+    seg_len = np.linalg.norm(pts[m_edges[:, 1]] - pts[m_edges[:, 0]], axis=1)
+    return seg_len, np.bincount(m_edges.ravel(), minlength=pts.shape[0])
+
+
 def slave_geometry(mesh: Mesh, itf: InterfaceSpec, normal_rule: NormalRule | None = None
                    ) -> SlaveGeometry:
     """The `SlaveGeometry` of one interface (itf and normal_rule as `mortar_constraints`):
@@ -392,12 +399,11 @@ def slave_geometry(mesh: Mesh, itf: InterfaceSpec, normal_rule: NormalRule | Non
     g_node = _nodal_gap(pts[nodes], xa[sg], xb[sg], xi)
     # beyond a free master end: the depth below the master continued beyond it, as
     # node-to-segment (its line read a touching pin a (a + h) / (2 R) into a hole's end)
-    seg_len = np.linalg.norm(xb - xa, axis=1)
+    seg_len, m_degree = _master_measures(pts, m_edges)
     ab = (xb - xa)[sg]
     xr = np.einsum("ij,ij->i", pts[nodes] - xa[sg], ab) / seg_len[sg] ** 2
     g_node, beyond = continued_end_gaps(pts[nodes], sg, np.where(found, xr, 0.5), g_node,
-                                        pts, m_edges, seg_len,
-                                        np.bincount(m_edges.ravel(), minlength=pts.shape[0]))
+                                        pts, m_edges, seg_len, m_degree)
     near = nearest_slave_nodes(found, g_node, sd)
     return SlaveGeometry(pts, s_edges, m_edges, tol, nodes, d_len, found, sg, xi, normal,
                          g_node, near, found & beyond)
@@ -758,8 +764,7 @@ def _end_overlap_refused(geo: SlaveGeometry, sd: float) -> np.ndarray:
     corner or clearing it, was refused as a penetration of 0.002 (with `interference`:
     its row pushed it out by 0.002) where node-to-segment had no pair."""
     m_edges, pts = geo.m_edges, geo.pts
-    seg_len = np.linalg.norm(pts[m_edges[:, 1]] - pts[m_edges[:, 0]], axis=1)
-    m_degree = np.bincount(m_edges.ravel(), minlength=pts.shape[0])
+    seg_len, m_degree = _master_measures(pts, m_edges)
     over = geo.beyond & (geo.g_node < -geo.tol)
     ok = end_overlaps(pts, geo.s_edges, geo.nodes, m_edges, seg_len, m_degree, sd,
                       geo.g_node, geo.tol, geo.beyond)
@@ -775,8 +780,7 @@ def _beyond_master_end(geo: SlaveGeometry, reach: float) -> np.ndarray:
     0.3 beyond and 0.1 over the master; 37% off p for a slave straddling two masters whose
     joint lay 1e-6 of an edge before a slave node)."""
     m_edges = geo.m_edges
-    seg_len = np.linalg.norm(geo.pts[m_edges[:, 1]] - geo.pts[m_edges[:, 0]], axis=1)
-    m_degree = np.bincount(m_edges.ravel(), minlength=geo.pts.shape[0])
+    seg_len, m_degree = _master_measures(geo.pts, m_edges)
     out, _, _ = _beyond_free_end(geo.pts[geo.nodes], (), geo.pts, m_edges, seg_len,
                                  m_degree, reach, eps=-XI_EPS)
     beyond = np.zeros(geo.nodes.size, dtype=bool)
